@@ -1,0 +1,1 @@
+//! Render passes: shadow map, irradiance gathering, final shading, tone mapping, capture.

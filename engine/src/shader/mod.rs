@@ -1,0 +1,1 @@
+//! Embedded SPIR-V (compiled by `build.rs` with glslc) and its reflection (spirq).

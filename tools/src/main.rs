@@ -1,0 +1,2 @@
+//! `translucent`: the command line (DESIGN section 8).
+fn main() {}
