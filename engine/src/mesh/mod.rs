@@ -43,3 +43,16 @@ impl TriMesh {
         self.normals = normals.into_iter().map(|n| n.normalize_or_zero()).collect();
     }
 }
+
+/// A closed solid the bake and the solvers can query: inside/outside, ray hits and bounds.
+/// Implemented exactly by [`shapes::Shape`] and, for triangle meshes, with the generalized winding
+/// number over a bounding volume hierarchy (robust to holes and inside-out winding).
+pub trait Solid: Sync {
+    /// Whether `p` lies inside the solid.
+    fn contains(&self, p: DVec3) -> bool;
+    /// The first crossing of the boundary along `origin + t * dir` (`dir` unit length) with
+    /// `0 < t <= t_max`: the distance `t` and the boundary's outward unit normal there.
+    fn ray_hit(&self, origin: DVec3, dir: DVec3, t_max: f64) -> Option<(f64, DVec3)>;
+    /// Axis-aligned bounds (min, max) in mm.
+    fn bounds(&self) -> (DVec3, DVec3);
+}
