@@ -27,7 +27,8 @@ pub struct LinearImage {
 
 /// Narkowicz's fit of the ACES filmic curve: maps [0, inf) to [0, 1), keeps mid-tones near linear.
 fn tone_map(x: f32) -> f32 {
-    let x = x.max(0.0);
+    // Beyond 1e6 the curve is at its asymptote (2.51/2.43, clamped to 1); avoids inf/inf.
+    let x = x.clamp(0.0, 1e6);
     ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
 }
 

@@ -40,7 +40,7 @@
 pub mod barrier;
 pub mod capture;
 mod context;
-mod device;
+pub(crate) mod device;
 mod memory;
 mod profiler;
 
