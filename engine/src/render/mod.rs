@@ -1,5 +1,9 @@
 //! Render passes: shadow map, irradiance gathering, final shading, tone mapping, capture.
 
+mod laplace;
+
+pub use laplace::{JacobiPush, LaplaceJacobiPass};
+
 /// Bad scene or frame description, or a failing pass.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {

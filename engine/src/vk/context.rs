@@ -60,6 +60,17 @@ impl std::fmt::Display for ValidationMessage {
     }
 }
 
+/// Shared access to the collected validation messages.
+#[derive(Clone)]
+pub struct ValidationLog(Arc<Mutex<Vec<ValidationMessage>>>);
+
+impl ValidationLog {
+    /// Takes the messages collected so far.
+    pub fn take(&self) -> Vec<ValidationMessage> {
+        std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+}
+
 /// Vulkan objects a host lends us. There is deliberately no way to destroy them through this type.
 pub struct HostVulkan {
     entry: ash::Entry,
@@ -582,6 +593,12 @@ impl Context {
                 .get_physical_device_format_properties(self.device.physical, format)
         };
         props.optimal_tiling_features.contains(features)
+    }
+
+    /// A handle on the collected messages that outlives the context (so messages emitted while
+    /// the device and instance are destroyed, such as leaked objects, can still be checked).
+    pub fn validation_log(&self) -> ValidationLog {
+        ValidationLog(self.device.messages.clone())
     }
 
     /// Takes the validation messages collected so far (warnings and errors only).

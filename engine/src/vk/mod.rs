@@ -47,7 +47,8 @@ mod profiler;
 pub use barrier::Access;
 pub use capture::{ImageReadback, LinearImage};
 pub use context::{
-    Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationMessage,
+    Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationLog,
+    ValidationMessage,
 };
 pub use memory::{Buffer, BufferDesc, Image, ImageDesc, MemoryUse};
 pub use profiler::{FrameTimings, GpuProfiler, ScopeTiming};
