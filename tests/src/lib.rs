@@ -80,6 +80,10 @@ impl GpuTest {
     pub fn finish(self) {
         let log = self.log.clone();
         drop(self);
+        assert!(
+            !log.device_alive(),
+            "a resource outlived the context (leak): the device was not destroyed"
+        );
         let messages = log.take();
         assert!(
             messages.is_empty(),

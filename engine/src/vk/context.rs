@@ -62,9 +62,15 @@ impl std::fmt::Display for ValidationMessage {
 
 /// Shared access to the collected validation messages.
 #[derive(Clone)]
-pub struct ValidationLog(Arc<Mutex<Vec<ValidationMessage>>>);
+pub struct ValidationLog(Arc<Mutex<Vec<ValidationMessage>>>, std::sync::Weak<Device>);
 
 impl ValidationLog {
+    /// Whether the device still exists: after the context is dropped, `true` means some
+    /// resource (which holds the device) outlived it, i.e. a leak.
+    pub fn device_alive(&self) -> bool {
+        self.1.strong_count() > 0
+    }
+
     /// Takes the messages collected so far.
     pub fn take(&self) -> Vec<ValidationMessage> {
         std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()))
@@ -598,7 +604,7 @@ impl Context {
     /// A handle on the collected messages that outlives the context (so messages emitted while
     /// the device and instance are destroyed, such as leaked objects, can still be checked).
     pub fn validation_log(&self) -> ValidationLog {
-        ValidationLog(self.device.messages.clone())
+        ValidationLog(self.device.messages.clone(), Arc::downgrade(&self.device))
     }
 
     /// Takes the validation messages collected so far (warnings and errors only).
