@@ -38,6 +38,10 @@ pub enum Error {
     Material(#[from] material::MaterialError),
     #[error(transparent)]
     Solver(#[from] solver::SolverError),
+    #[error(transparent)]
+    Shader(#[from] shader::ShaderError),
+    #[error(transparent)]
+    Render(#[from] render::RenderError),
 }
 
 /// Result with the crate's [`Error`].

@@ -1,7 +1,9 @@
 //! `translucent`: the command line (DESIGN section 8). Each subcommand is a thin layer over the
-//! library, in its own module.
+//! library, in its own module; shared scene options live in `scene_args`.
 
 use clap::{Parser, Subcommand};
+
+mod info;
 
 #[derive(Parser)]
 #[command(
@@ -18,18 +20,6 @@ struct Cli {
 enum Command {
     /// The Vulkan device, driver and the features used.
     Info(info::InfoArgs),
-}
-
-mod info {
-    #[derive(clap::Args)]
-    pub struct InfoArgs {
-        /// Print one JSON object.
-        #[arg(long)]
-        pub json: bool,
-    }
-    pub fn run(_args: &InfoArgs) -> anyhow::Result<()> {
-        anyhow::bail!("not built yet")
-    }
 }
 
 fn main() -> std::process::ExitCode {

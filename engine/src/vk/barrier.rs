@@ -1,0 +1,169 @@
+//! Barriers through synchronization2, from named states.
+//!
+//! A barrier is a pair of [`Access`] states: everything the GPU did to a resource in the `from`
+//! state must be finished (and its writes visible) before it is used in the `to` state. Each
+//! state fixes its pipeline stage, access mask and (for images) layout, so a call site reads as
+//! `Access::ComputeWrite -> Access::ComputeRead` and carries one `// why:` naming the hazard.
+//!
+//! ```no_run
+//! # use translucent::vk::{barrier, Access, Context, Image};
+//! # unsafe fn f(ctx: &Context, cb: ash::vk::CommandBuffer, color: &Image) {
+//! // why: the copy reads what the color attachment wrote (RAW) and needs TRANSFER_SRC layout.
+//! unsafe { barrier::image(ctx, cb, color, Access::ColorAttachmentWrite, Access::TransferSrc) };
+//! # }
+//! ```
+
+use ash::vk;
+
+use super::memory::full_range;
+use super::{Context, Image};
+
+/// A named way the GPU uses a resource.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    // why: contents are discarded; only valid as a `from` state (first use of an image).
+    Undefined,
+    // why: storage images stay in GENERAL so a ping-pong loop needs memory barriers only, no layout changes.
+    ComputeRead,
+    // why: compute shader storage writes; GENERAL as above.
+    ComputeWrite,
+    // why: a dispatch that both reads and writes (or a later one that may do either).
+    ComputeReadWrite,
+    // why: color attachment written by a dynamic-rendering pass (load op clear/load counts as write).
+    ColorAttachmentWrite,
+    // why: depth tests read and write the attachment in early and late fragment tests.
+    DepthAttachmentWrite,
+    // why: a finished depth map sampled by fragment shaders (shadow lookups).
+    DepthSampledFragment,
+    // why: a color image sampled by fragment shaders.
+    FragmentSampled,
+    // why: source of a copy (capture read-back).
+    TransferSrc,
+    // why: destination of a copy, clear or vkCmdUpdateBuffer.
+    TransferDst,
+    // why: a uniform buffer read by the vertex and fragment stages.
+    GraphicsUniformRead,
+    // why: vertex and index fetch of draws.
+    VertexInput,
+    // why: the CPU reads memory after the fence; makes GPU writes host-visible.
+    HostRead,
+}
+
+impl Access {
+    /// (stage, access, layout) of this state.
+    pub fn info(self) -> (vk::PipelineStageFlags2, vk::AccessFlags2, vk::ImageLayout) {
+        use vk::AccessFlags2 as A;
+        use vk::ImageLayout as L;
+        use vk::PipelineStageFlags2 as S;
+        match self {
+            Access::Undefined => (S::NONE, A::NONE, L::UNDEFINED),
+            Access::ComputeRead => (S::COMPUTE_SHADER, A::SHADER_STORAGE_READ, L::GENERAL),
+            Access::ComputeWrite => (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE, L::GENERAL),
+            Access::ComputeReadWrite => (
+                S::COMPUTE_SHADER,
+                A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                L::GENERAL,
+            ),
+            Access::ColorAttachmentWrite => (
+                S::COLOR_ATTACHMENT_OUTPUT,
+                A::COLOR_ATTACHMENT_WRITE | A::COLOR_ATTACHMENT_READ,
+                L::COLOR_ATTACHMENT_OPTIMAL,
+            ),
+            Access::DepthAttachmentWrite => (
+                S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS,
+                A::DEPTH_STENCIL_ATTACHMENT_READ | A::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                L::DEPTH_ATTACHMENT_OPTIMAL,
+            ),
+            Access::DepthSampledFragment => (
+                S::FRAGMENT_SHADER,
+                A::SHADER_SAMPLED_READ,
+                L::DEPTH_READ_ONLY_OPTIMAL,
+            ),
+            Access::FragmentSampled => (
+                S::FRAGMENT_SHADER,
+                A::SHADER_SAMPLED_READ,
+                L::SHADER_READ_ONLY_OPTIMAL,
+            ),
+            Access::TransferSrc => (S::COPY, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL),
+            Access::TransferDst => (
+                S::COPY | S::CLEAR,
+                A::TRANSFER_WRITE,
+                L::TRANSFER_DST_OPTIMAL,
+            ),
+            Access::GraphicsUniformRead => (
+                S::VERTEX_SHADER | S::FRAGMENT_SHADER,
+                A::UNIFORM_READ,
+                L::UNDEFINED,
+            ),
+            Access::VertexInput => (
+                S::VERTEX_INPUT,
+                A::VERTEX_ATTRIBUTE_READ | A::INDEX_READ,
+                L::UNDEFINED,
+            ),
+            Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
+        }
+    }
+}
+
+/// An image barrier from `from` to `to` on the whole image.
+pub fn image_barrier(image: &Image, from: Access, to: Access) -> vk::ImageMemoryBarrier2<'static> {
+    let (src_stage, src_access, old_layout) = from.info();
+    let (dst_stage, dst_access, new_layout) = to.info();
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(src_stage)
+        .src_access_mask(src_access)
+        .dst_stage_mask(dst_stage)
+        .dst_access_mask(dst_access)
+        .old_layout(old_layout)
+        .new_layout(new_layout)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image.raw)
+        .subresource_range(full_range(image.format))
+}
+
+/// A global memory barrier from `from` to `to` (no layout change).
+pub fn memory_barrier(from: Access, to: Access) -> vk::MemoryBarrier2<'static> {
+    let (src_stage, src_access, _) = from.info();
+    let (dst_stage, dst_access, _) = to.info();
+    vk::MemoryBarrier2::default()
+        .src_stage_mask(src_stage)
+        .src_access_mask(src_access)
+        .dst_stage_mask(dst_stage)
+        .dst_access_mask(dst_access)
+}
+
+/// Records the given barriers in one `vkCmdPipelineBarrier2`.
+///
+/// # Safety
+/// `cb` must be recording, outside a rendering scope, and the images alive until it completes.
+pub unsafe fn record(
+    ctx: &Context,
+    cb: vk::CommandBuffer,
+    memory: &[vk::MemoryBarrier2],
+    images: &[vk::ImageMemoryBarrier2],
+) {
+    let dep = vk::DependencyInfo::default()
+        .memory_barriers(memory)
+        .image_memory_barriers(images);
+    // SAFETY: the caller guarantees `cb` is recording; the barrier structs are complete.
+    unsafe { ctx.raw().cmd_pipeline_barrier2(cb, &dep) };
+}
+
+/// One image barrier `from -> to`.
+///
+/// # Safety
+/// As [`record`].
+pub unsafe fn image(ctx: &Context, cb: vk::CommandBuffer, image: &Image, from: Access, to: Access) {
+    // SAFETY: forwarded contract.
+    unsafe { record(ctx, cb, &[], &[image_barrier(image, from, to)]) };
+}
+
+/// One global memory barrier `from -> to`.
+///
+/// # Safety
+/// As [`record`].
+pub unsafe fn memory(ctx: &Context, cb: vk::CommandBuffer, from: Access, to: Access) {
+    // SAFETY: forwarded contract.
+    unsafe { record(ctx, cb, &[memory_barrier(from, to)], &[]) };
+}

@@ -1,0 +1,305 @@
+//! [`Buffer`] and [`Image`]: each owns its gpu-allocator allocation; dropping one queues it for
+//! release after the frame being recorded completes.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::Allocation;
+use gpu_allocator::MemoryLocation;
+
+use super::device::{Device, Retired};
+use super::{Context, VkError};
+
+/// Where a resource's memory lives, by how the CPU uses it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MemoryUse {
+    /// Device-local, no CPU access.
+    GpuOnly,
+    /// CPU writes, GPU reads (uploads, per-frame constants, small vertex buffers).
+    Upload,
+    /// GPU writes, CPU reads (captures, query copies).
+    Readback,
+}
+
+impl MemoryUse {
+    fn location(self) -> MemoryLocation {
+        match self {
+            MemoryUse::GpuOnly => MemoryLocation::GpuOnly,
+            MemoryUse::Upload => MemoryLocation::CpuToGpu,
+            MemoryUse::Readback => MemoryLocation::GpuToCpu,
+        }
+    }
+}
+
+/// How to create a [`Buffer`].
+#[derive(Clone, Debug)]
+pub struct BufferDesc {
+    pub name: &'static str,
+    pub size: u64,
+    pub usage: vk::BufferUsageFlags,
+    pub memory: MemoryUse,
+}
+
+/// A buffer and its memory.
+pub struct Buffer {
+    pub raw: vk::Buffer,
+    pub size: u64,
+    pub name: &'static str,
+    allocation: Option<Allocation>,
+    device: Arc<Device>,
+}
+
+impl Buffer {
+    pub fn new(ctx: &Context, desc: &BufferDesc) -> Result<Buffer, VkError> {
+        if desc.size == 0 {
+            return Err(VkError::invalid(desc.name, "buffer size is 0"));
+        }
+        let device = ctx.device.clone();
+        let info = vk::BufferCreateInfo::default()
+            .size(desc.size)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { device.raw().create_buffer(&info, None) }
+            .map_err(VkError::call("vkCreateBuffer"))?;
+        // SAFETY: `raw` was just created.
+        let requirements = unsafe { device.raw().get_buffer_memory_requirements(raw) };
+        let allocation =
+            match device.allocate(desc.name, requirements, desc.memory.location(), true) {
+                Ok(a) => a,
+                Err(e) => {
+                    // SAFETY: never used.
+                    unsafe { device.raw().destroy_buffer(raw, None) };
+                    return Err(e);
+                }
+            };
+        // SAFETY: the allocation satisfies `requirements` and is not bound elsewhere.
+        if let Err(result) = unsafe {
+            device
+                .raw()
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        } {
+            device.retire(Retired::Buffer(raw, allocation));
+            return Err(VkError::Call {
+                call: "vkBindBufferMemory",
+                result,
+            });
+        }
+        device.set_name(raw, desc.name);
+        Ok(Buffer {
+            raw,
+            size: desc.size,
+            name: desc.name,
+            allocation: Some(allocation),
+            device,
+        })
+    }
+
+    /// A host-visible buffer holding `data`.
+    pub fn with_data<T: bytemuck::Pod>(
+        ctx: &Context,
+        name: &'static str,
+        usage: vk::BufferUsageFlags,
+        data: &[T],
+    ) -> Result<Buffer, VkError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let mut buffer = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name,
+                size: bytes.len() as u64,
+                usage,
+                memory: MemoryUse::Upload,
+            },
+        )?;
+        buffer.write_bytes(0, bytes)?;
+        Ok(buffer)
+    }
+
+    /// Writes into a host-visible buffer (the caller orders it against GPU use).
+    pub fn write_bytes(&mut self, offset: usize, bytes: &[u8]) -> Result<(), VkError> {
+        let name = self.name;
+        let slice = self
+            .allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .ok_or_else(|| VkError::invalid(name, "buffer is not host-visible"))?;
+        let end = offset
+            .checked_add(bytes.len())
+            .filter(|&e| e <= slice.len());
+        let end = end.ok_or_else(|| {
+            VkError::invalid(
+                name,
+                format!("write of {} bytes at {offset} overflows", bytes.len()),
+            )
+        })?;
+        slice[offset..end].copy_from_slice(bytes);
+        Ok(())
+    }
+
+    /// The contents of a host-visible buffer (the caller has waited for the GPU writes).
+    pub fn read_bytes(&self) -> Result<&[u8], VkError> {
+        let slice = self.allocation.as_ref().and_then(|a| a.mapped_slice());
+        let slice =
+            slice.ok_or_else(|| VkError::invalid(self.name, "buffer is not host-visible"))?;
+        Ok(&slice[..self.size as usize])
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        if let Some(allocation) = self.allocation.take() {
+            self.device.retire(Retired::Buffer(self.raw, allocation));
+        }
+    }
+}
+
+/// How to create an [`Image`] (2D, one mip, one layer, optimal tiling).
+#[derive(Clone, Debug)]
+pub struct ImageDesc {
+    pub name: &'static str,
+    pub width: u32,
+    pub height: u32,
+    pub format: vk::Format,
+    pub usage: vk::ImageUsageFlags,
+}
+
+/// A 2D image, its memory and a view of the whole image.
+pub struct Image {
+    pub raw: vk::Image,
+    pub view: vk::ImageView,
+    pub format: vk::Format,
+    pub width: u32,
+    pub height: u32,
+    pub name: &'static str,
+    allocation: Option<Allocation>,
+    device: Arc<Device>,
+}
+
+/// The aspect a format's view and barriers use.
+pub fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
+    match format {
+        vk::Format::D16_UNORM | vk::Format::D32_SFLOAT | vk::Format::X8_D24_UNORM_PACK32 => {
+            vk::ImageAspectFlags::DEPTH
+        }
+        vk::Format::D24_UNORM_S8_UINT
+        | vk::Format::D32_SFLOAT_S8_UINT
+        | vk::Format::D16_UNORM_S8_UINT => {
+            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
+        }
+        _ => vk::ImageAspectFlags::COLOR,
+    }
+}
+
+impl Image {
+    pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image, VkError> {
+        let limit = ctx.limits().max_image_dimension2_d;
+        if desc.width == 0 || desc.height == 0 || desc.width > limit || desc.height > limit {
+            return Err(VkError::invalid(
+                desc.name,
+                format!(
+                    "image size {}x{} outside 1..={limit}",
+                    desc.width, desc.height
+                ),
+            ));
+        }
+        let device = ctx.device.clone();
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(desc.format)
+            .extent(vk::Extent3D {
+                width: desc.width,
+                height: desc.height,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { device.raw().create_image(&info, None) }
+            .map_err(VkError::call("vkCreateImage"))?;
+        // SAFETY: `raw` was just created.
+        let requirements = unsafe { device.raw().get_image_memory_requirements(raw) };
+        let allocation =
+            match device.allocate(desc.name, requirements, MemoryLocation::GpuOnly, false) {
+                Ok(a) => a,
+                Err(e) => {
+                    // SAFETY: never used.
+                    unsafe { device.raw().destroy_image(raw, None) };
+                    return Err(e);
+                }
+            };
+        // SAFETY: the allocation satisfies `requirements`.
+        if let Err(result) = unsafe {
+            device
+                .raw()
+                .bind_image_memory(raw, allocation.memory(), allocation.offset())
+        } {
+            device.retire(Retired::Image(raw, vk::ImageView::null(), allocation));
+            return Err(VkError::Call {
+                call: "vkBindImageMemory",
+                result,
+            });
+        }
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(desc.format)
+            .subresource_range(full_range(desc.format));
+        // SAFETY: `raw` is bound to memory; the range covers its only mip and layer.
+        let view = match unsafe { device.raw().create_image_view(&view_info, None) } {
+            Ok(v) => v,
+            Err(result) => {
+                device.retire(Retired::Image(raw, vk::ImageView::null(), allocation));
+                return Err(VkError::Call {
+                    call: "vkCreateImageView",
+                    result,
+                });
+            }
+        };
+        device.set_name(raw, desc.name);
+        device.set_name(view, desc.name);
+        Ok(Image {
+            raw,
+            view,
+            format: desc.format,
+            width: desc.width,
+            height: desc.height,
+            name: desc.name,
+            allocation: Some(allocation),
+            device,
+        })
+    }
+
+    pub fn extent(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.width,
+            height: self.height,
+        }
+    }
+
+    pub fn aspect(&self) -> vk::ImageAspectFlags {
+        aspect_of(self.format)
+    }
+}
+
+/// The whole (one mip, one layer) subresource range of an image of `format`.
+pub fn full_range(format: vk::Format) -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange::default()
+        .aspect_mask(aspect_of(format))
+        .level_count(1)
+        .layer_count(1)
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        if let Some(allocation) = self.allocation.take() {
+            self.device
+                .retire(Retired::Image(self.raw, self.view, allocation));
+        }
+    }
+}

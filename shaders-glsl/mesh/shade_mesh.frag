@@ -1,0 +1,64 @@
+#version 460
+// Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) J+ / (pi eta^2) (physical) or
+// F_t J+ / pi (paper Eq. 4), plus optional Cook-Torrance specular of one light, shadowed by the
+// light's depth map.
+#include "optics.glsl"
+
+layout(location = 0) in vec3 v_position;
+layout(location = 1) in vec3 v_normal;
+layout(location = 2) in vec3 v_exitance;
+
+layout(set = 0, binding = 0) uniform ShadeUniforms {
+    mat4 view_proj;
+    mat4 light_view_proj;
+    vec4 camera_pos;
+    vec4 light_dir;
+    vec4 light_irradiance;
+} frame;
+layout(set = 0, binding = 1) uniform sampler2DShadow shadow_map;
+
+layout(push_constant) uniform ShadePush {
+    float eta;
+    uint radiance_mode; // 0: physical, 1: paper
+    float roughness;    // GGX alpha = roughness^2
+    uint specular;      // 1: add Cook-Torrance specular
+} pc;
+
+layout(location = 0) out vec4 out_radiance;
+
+float ggx_g1(float n_x, float a2) {
+    return 2.0 * n_x / (n_x + sqrt(a2 + (1.0 - a2) * n_x * n_x));
+}
+
+void main() {
+    vec3 n = normalize(v_normal);
+    vec3 v = normalize(frame.camera_pos.xyz - v_position);
+    float n_v = dot(n, v);
+    if (n_v < 0.0) {
+        // Interpolated normals can face away at silhouettes: treat as grazing.
+        n_v = 0.0;
+    }
+    float f_t = fresnel_transmittance(pc.eta, n_v);
+    float scale = pc.radiance_mode == 0u ? 1.0 / (PI * pc.eta * pc.eta) : 1.0 / PI;
+    vec3 radiance = f_t * max(v_exitance, vec3(0.0)) * scale;
+
+    if (pc.specular == 1u && frame.light_dir.w > 0.0) {
+        vec3 l = -frame.light_dir.xyz;
+        float n_l = dot(n, l);
+        if (n_l > 0.0 && n_v > 0.0) {
+            vec4 lp = frame.light_view_proj * vec4(v_position, 1.0);
+            vec3 uvz = vec3(lp.xy / lp.w * 0.5 + 0.5, lp.z / lp.w);
+            // A small bias keeps surfaces from shadowing themselves.
+            float visible = texture(shadow_map, vec3(uvz.xy, uvz.z - 0.002));
+            vec3 h = normalize(l + v);
+            float a = max(pc.roughness * pc.roughness, 1e-3);
+            float a2 = a * a;
+            float n_h = max(dot(n, h), 0.0);
+            float d = a2 / (PI * pow(n_h * n_h * (a2 - 1.0) + 1.0, 2.0));
+            float g = ggx_g1(n_l, a2) * ggx_g1(n_v, a2);
+            float f = fresnel_reflectance(pc.eta, max(dot(v, h), 0.0));
+            radiance += visible * d * g * f / (4.0 * n_l * n_v) * frame.light_irradiance.rgb * n_l;
+        }
+    }
+    out_radiance = vec4(radiance, 1.0);
+}

@@ -1,0 +1,24 @@
+#version 460
+// Final shading, vertex stage: world position, normal and the per-vertex exitance J+.
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+layout(location = 2) in vec3 exitance;
+
+layout(set = 0, binding = 0) uniform ShadeUniforms {
+    mat4 view_proj;
+    mat4 light_view_proj;
+    vec4 camera_pos;
+    vec4 light_dir;        // xyz: direction the light travels (unit); w: 1 if there is a light
+    vec4 light_irradiance; // rgb: irradiance on a surface facing the light
+} frame;
+
+layout(location = 0) out vec3 v_position;
+layout(location = 1) out vec3 v_normal;
+layout(location = 2) out vec3 v_exitance;
+
+void main() {
+    v_position = position;
+    v_normal = normal;
+    v_exitance = exitance;
+    gl_Position = frame.view_proj * vec4(position, 1.0);
+}
