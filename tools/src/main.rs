@@ -6,11 +6,7 @@ use clap::{Parser, Subcommand};
 mod info;
 
 #[derive(Parser)]
-#[command(
-    name = "translucent",
-    version,
-    about = "Real-time heterogeneous translucency on Vulkan"
-)]
+#[command(name = "translucent", version, about = "Real-time heterogeneous translucency on Vulkan")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
