@@ -9,3 +9,4 @@ pub struct TetMesh {
     /// Four vertex indices per tetrahedron.
     pub tets: Vec<[u32; 4]>,
 }
+pub mod structured;
