@@ -10,9 +10,9 @@
 //!
 //! ```
 //! use glam::DVec3;
-//! use translucent::{tet::TetMesh, GraphLevel};
+//! use translucent::{tet::{structured::signed_volume, TetMesh}, GraphLevel};
 //! let tets = TetMesh::bcc_box(DVec3::ZERO, DVec3::new(4.0, 2.0, 2.0), [4, 2, 2]);
-//! let volume: f64 = (0..tets.tets.len()).map(|t| tets.volume(t)).sum();
+//! let volume: f64 = (0..tets.tets.len()).map(|t| signed_volume(&tets, t)).sum();
 //! assert!((volume - 16.0).abs() < 1e-9);
 //! // Surface nodes at the face centroids: exact for a box.
 //! let level = GraphLevel::from_tets(tets, 1.0, |c, n| (c, n));
@@ -25,13 +25,13 @@ use rayon::prelude::*;
 use super::TetMesh;
 use crate::quadgraph::graph::{GraphLevel, ShepardLinks, NO_NODE};
 
-impl TetMesh {
-    /// Signed volume of tetrahedron `t` (positive for a positively oriented one).
-    pub fn volume(&self, t: usize) -> f64 {
-        let [a, b, c, d] = self.tets[t].map(|v| self.vertices[v as usize]);
-        (b - a).dot((c - a).cross(d - a)) / 6.0
-    }
+/// Signed volume of tetrahedron `t` of `mesh` (positive for a positively oriented one).
+pub fn signed_volume(mesh: &TetMesh, t: usize) -> f64 {
+    let [a, b, c, d] = mesh.tets[t].map(|v| mesh.vertices[v as usize]);
+    (b - a).dot((c - a).cross(d - a)) / 6.0
+}
 
+impl TetMesh {
     /// Box `[min, max]` cut into `n` cells per axis, each split into 6 Kuhn tetrahedra.
     pub fn structured_box(min: DVec3, max: DVec3, n: [usize; 3]) -> TetMesh {
         let n = n.map(|k| k.max(1));
@@ -147,7 +147,7 @@ impl TetMesh {
     fn push_oriented(&mut self, mut tet: [u32; 4]) {
         self.tets.push(tet);
         let t = self.tets.len() - 1;
-        if self.volume(t) < 0.0 {
+        if signed_volume(self, t) < 0.0 {
             tet.swap(2, 3);
             self.tets[t] = tet;
         }
@@ -217,7 +217,7 @@ mod tests {
     fn check_box(mesh: &TetMesh, volume: f64, boundary_area: f64) {
         let mut total = 0.0;
         for t in 0..mesh.tets.len() {
-            let v = mesh.volume(t);
+            let v = signed_volume(mesh, t);
             assert!(v > 0.0, "tet {t} is not positively oriented");
             total += v;
         }
