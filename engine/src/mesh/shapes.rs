@@ -10,14 +10,9 @@ use super::TriMesh;
 /// A procedural solid centred at the origin (millimetres).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
-    Sphere {
-        radius: f64,
-    },
+    Sphere { radius: f64 },
     /// Ring in the XZ plane: `major` radius of the ring, `minor` radius of the tube.
-    Torus {
-        major: f64,
-        minor: f64,
-    },
+    Torus { major: f64, minor: f64 },
 }
 
 impl Shape {
@@ -45,11 +40,7 @@ impl Shape {
                     let theta = PI * r as f64 / rings as f64;
                     for s in 0..sectors {
                         let phi = TAU * s as f64 / sectors as f64;
-                        let d = DVec3::new(
-                            theta.sin() * phi.cos(),
-                            theta.cos(),
-                            -theta.sin() * phi.sin(),
-                        );
+                        let d = DVec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
                         mesh.positions.push(d * radius);
                     }
                 }
@@ -58,17 +49,11 @@ impl Shape {
                 let south = mesh.positions.len() as u32 - 1;
                 for s in 0..sectors {
                     mesh.indices.push([0, ring(1, s), ring(1, s + 1)]);
-                    mesh.indices
-                        .push([south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
+                    mesh.indices.push([south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
                 }
                 for r in 1..rings - 1 {
                     for s in 0..sectors {
-                        let (a, b, c, d) = (
-                            ring(r, s),
-                            ring(r, s + 1),
-                            ring(r + 1, s),
-                            ring(r + 1, s + 1),
-                        );
+                        let (a, b, c, d) = (ring(r, s), ring(r, s + 1), ring(r + 1, s), ring(r + 1, s + 1));
                         mesh.indices.push([a, c, d]);
                         mesh.indices.push([a, d, b]);
                     }
@@ -121,10 +106,7 @@ mod tests {
     #[test]
     fn triangulations_are_closed_outward_and_converge_to_the_exact_volume() {
         let sphere = Shape::Sphere { radius: 10.0 };
-        let torus = Shape::Torus {
-            major: 10.0,
-            minor: 4.0,
-        };
+        let torus = Shape::Torus { major: 10.0, minor: 4.0 };
         for (shape, exact) in [
             (sphere, 4.0 / 3.0 * PI * 1000.0),
             (torus, 2.0 * PI * PI * 10.0 * 16.0),
@@ -132,14 +114,8 @@ mod tests {
             let coarse = (signed_volume(&shape.triangulate(16)) - exact).abs();
             let fine = signed_volume(&shape.triangulate(64));
             assert!(fine > 0.0, "{shape:?} winds inward");
-            assert!(
-                (fine - exact).abs() < 0.01 * exact,
-                "{shape:?}: {fine} vs {exact}"
-            );
-            assert!(
-                (fine - exact).abs() < coarse / 4.0,
-                "{shape:?} does not converge"
-            );
+            assert!((fine - exact).abs() < 0.01 * exact, "{shape:?}: {fine} vs {exact}");
+            assert!((fine - exact).abs() < coarse / 4.0, "{shape:?} does not converge");
             for p in &shape.triangulate(16).positions {
                 assert!(shape.signed_distance(*p).abs() < 1e-9);
             }
