@@ -4,7 +4,11 @@
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "translucent", version, about = "Real-time heterogeneous translucency on Vulkan")]
+#[command(
+    name = "translucent",
+    version,
+    about = "Real-time heterogeneous translucency on Vulkan"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

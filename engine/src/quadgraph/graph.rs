@@ -78,7 +78,9 @@ pub struct QuadGraph {
 impl QuadGraph {
     /// The finest (full-resolution) level.
     pub fn finest(&self) -> &GraphLevel {
-        self.levels.last().expect("a QuadGraph has at least one level")
+        self.levels
+            .last()
+            .expect("a QuadGraph has at least one level")
     }
 }
 
