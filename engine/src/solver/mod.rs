@@ -1,8 +1,61 @@
-//! The diffusion solvers: f64 CPU reference and (later) the GPU frame.
+//! The diffusion solvers: the f64 CPU reference (this module) and, later, the GPU frame.
+//!
+//! - [`analytic`]: closed-form solutions (sphere, slab, semi-infinite medium), the oracles.
+//! - [`operator`]: the assembled linear system of one level (`fv` or `paper` scheme).
+//! - [`krylov`]: exact solves (PCG, BiCGSTAB) of that system.
+//! - [`scene`]: lights and environments, irradiance q at surface nodes.
+//! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
+//!   outgoing current J+, radiance, energy balance.
 
-/// Solver failures.
+pub mod analytic;
+pub mod cpu;
+pub mod krylov;
+pub mod operator;
+pub mod scene;
+
+pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, RadianceMode};
+pub use operator::Scheme;
+pub use scene::{Environment, Light, Scene};
+
+/// Solver failures: bad graphs, materials, scenes or parameters, each naming the problem.
 #[derive(Debug, thiserror::Error)]
 pub enum SolverError {
     #[error("solver: {0}")]
     Invalid(String),
+    #[error("solver: the QuadGraph has no levels")]
+    EmptyGraph,
+    #[error("solver: level {level}: {problem}")]
+    BadGraph { level: usize, problem: String },
+    #[error("solver: level {level}, node {node}: degenerate geometry: {problem}")]
+    DegenerateGeometry {
+        level: usize,
+        node: usize,
+        problem: String,
+    },
+    #[error("solver: material at node {node} ({position}): {source}")]
+    BadMaterialAt {
+        node: usize,
+        position: glam::DVec3,
+        #[source]
+        source: crate::material::MaterialError,
+    },
+    #[error("solver: {what}: {problem}")]
+    BadScene { what: String, problem: String },
+    #[error("solver: parameter {name}: {problem}")]
+    BadParameter { name: &'static str, problem: String },
+    #[error("solver: level {level} has no Shepard links from the coarser level (the bake must provide them for multi-level solves)")]
+    MissingLinks { level: usize },
+    #[error("solver: {what} is not finite")]
+    NonFinite { what: String },
+}
+
+impl SolverError {
+    /// Fills in the level of a per-level error.
+    pub(crate) fn at_level(mut self, at: usize) -> Self {
+        match &mut self {
+            Self::BadGraph { level, .. } | Self::DegenerateGeometry { level, .. } => *level = at,
+            _ => {}
+        }
+        self
+    }
 }

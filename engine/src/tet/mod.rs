@@ -22,6 +22,7 @@
 
 pub mod lattice;
 pub mod stuffing;
+pub mod structured;
 
 use glam::DVec3;
 

@@ -1,0 +1,109 @@
+//! Fresnel terms of a smooth dielectric boundary (DESIGN section 2).
+//!
+//! `eta = n_inside / n_outside`. All angles are measured outside the object (the side of the light
+//! or the viewer); transmittance is the same for the reciprocal direction, so one function serves
+//! both the incoming light (q) and the outgoing radiance (L_o).
+//!
+//! ```
+//! use translucent::material::fresnel;
+//! let f_dr = fresnel::diffuse_reflectance(1.3);
+//! assert!((f_dr - 0.4448).abs() < 1e-4);
+//! assert!((fresnel::transmittance(1.0, 0.3) - 1.0).abs() < 1e-12); // index-matched: no reflection
+//! ```
+
+/// Internal diffuse Fresnel reflectance F_dr(eta) (the polynomial fit of Jensen et al. 2001, as in
+/// DESIGN section 2; 0.4448 at eta = 1.3).
+pub fn diffuse_reflectance(eta: f64) -> f64 {
+    -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+}
+
+/// The boundary constant A = (1 + F_dr) / (1 - F_dr) of the Robin condition (paper Eq. 2).
+pub fn boundary_a(eta: f64) -> f64 {
+    let f = diffuse_reflectance(eta);
+    (1.0 + f) / (1.0 - f)
+}
+
+/// External diffuse reflectance by reciprocity: F_dr,ext = 1 - eta^2 (1 - F_dr) (about 0.06 at 1.3).
+pub fn external_diffuse_reflectance(eta: f64) -> f64 {
+    1.0 - eta * eta * (1.0 - diffuse_reflectance(eta))
+}
+
+/// Fresnel reflectance of an unpolarized ray arriving from outside at `cos_outside` (cosine to the
+/// normal, clamped to [0, 1]). Total internal reflection (possible when eta < 1) gives 1.
+pub fn reflectance(eta: f64, cos_outside: f64) -> f64 {
+    let cos_i = cos_outside.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r = 0.5 * (rs * rs + rp * rp);
+    // Grazing incidence with eta = 1 gives 0/0 above; an index-matched boundary reflects nothing.
+    if r.is_finite() {
+        r.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Fresnel transmittance F_t(eta, theta) = 1 - reflectance.
+pub fn transmittance(eta: f64, cos_outside: f64) -> f64 {
+    1.0 - reflectance(eta, cos_outside)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normal_incidence_matches_closed_form() {
+        for eta in [0.7f64, 1.0, 1.3, 1.5, 2.4] {
+            let r0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+            assert!((reflectance(eta, 1.0) - r0).abs() < 1e-14, "eta {eta}");
+        }
+    }
+
+    #[test]
+    fn grazing_and_total_internal_reflection() {
+        assert!((reflectance(1.3, 0.0) - 1.0).abs() < 1e-12);
+        // eta = 0.5: critical angle 30 degrees from the normal; beyond it everything reflects.
+        let beyond = (60f64).to_radians().cos();
+        assert_eq!(reflectance(0.5, beyond), 1.0);
+        assert!(reflectance(0.5, 1.0) < 1.0);
+        for i in 0..=100 {
+            let c = i as f64 / 100.0;
+            for eta in [0.5, 1.0, 1.3] {
+                let t = transmittance(eta, c);
+                assert!(
+                    (0.0..=1.0).contains(&t) && t.is_finite(),
+                    "eta {eta} cos {c}: {t}"
+                );
+            }
+        }
+    }
+
+    /// The polynomial F_dr approximates the cosine-weighted hemispherical average of the Fresnel
+    /// reflectance seen from inside; for eta > 1 inside-to-outside that is
+    /// 1 - (1/eta^2) * 2 * integral of F_t(eta, mu) mu dmu (reciprocity); check within the fit's error.
+    #[test]
+    fn diffuse_reflectance_agrees_with_the_integral() {
+        let eta = 1.3;
+        let n = 20000;
+        let mut t = 0.0;
+        for i in 0..n {
+            let mu = (i as f64 + 0.5) / n as f64;
+            t += transmittance(eta, mu) * mu / n as f64;
+        }
+        let f_dr_integral = 1.0 - 2.0 * t / (eta * eta);
+        assert!(
+            (diffuse_reflectance(eta) - f_dr_integral).abs() < 0.01,
+            "{f_dr_integral}"
+        );
+        assert!((diffuse_reflectance(1.3) - 0.4448).abs() < 1e-4);
+        assert!(
+            (external_diffuse_reflectance(1.3) - (1.0 - 1.69 * (1.0 - 0.444_762_840))).abs() < 1e-8
+        );
+    }
+}

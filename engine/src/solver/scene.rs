@@ -1,0 +1,438 @@
+//! Lights and environments, and the irradiance q they transmit into the object at its surface
+//! nodes (DESIGN section 2): q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility.
+//!
+//! Lights parse from the command-line syntax of DESIGN section 8:
+//!
+//! ```
+//! use translucent::solver::scene::{Environment, Light, Scene};
+//! let key: Light = "dir:0,-1,0:3,3,3".parse()?;          // irradiance 3 arriving straight down
+//! let fill: Light = "point:0,40,40:5000,5000,5000".parse()?; // intensity (W/sr-like units)
+//! let rim: Light = "spot:0,0,-50:0,0,1:2000,1800,1500:15,25".parse()?;
+//! let scene = Scene { lights: vec![key, fill, rim], environment: Environment::Constant([0.1; 3]) };
+//! scene.validate()?;
+//! assert!("dir:0,0,0:1,1,1".parse::<Light>().is_err()); // no direction
+//! # Ok::<(), translucent::solver::SolverError>(())
+//! ```
+//!
+//! Environments carry no visibility: exact for a convex object (nothing of itself hides the sky),
+//! an over-estimate in the concavities of a non-convex one (no ambient occlusion).
+
+use std::str::FromStr;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::SolverError;
+use crate::material::fresnel;
+use crate::mesh::Solid;
+use crate::quadgraph::graph::GraphLevel;
+
+/// A light. Colours are linear RGB; positions and directions in mm in the object frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Parallel light: `irradiance` arriving on a surface facing it, travelling along `direction`.
+    Directional {
+        direction: DVec3,
+        irradiance: [f64; 3],
+    },
+    /// Isotropic point light: irradiance `intensity / r^2` on a surface facing it.
+    Point {
+        position: DVec3,
+        intensity: [f64; 3],
+    },
+    /// Point light restricted to a cone around `direction` (where it points); full intensity inside
+    /// `inner_deg` of the axis, smooth (smoothstep in cos) falloff to zero at `outer_deg`.
+    Spot {
+        position: DVec3,
+        direction: DVec3,
+        intensity: [f64; 3],
+        inner_deg: f64,
+        outer_deg: f64,
+    },
+}
+
+/// Light arriving from every direction.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Environment {
+    #[default]
+    None,
+    /// Constant radiance L: q = pi L (1 - F_dr,ext).
+    Constant([f64; 3]),
+    /// Radiance as real spherical harmonics up to order 2, 9 coefficients per channel, ordered
+    /// (l, m) = (0,0), (1,-1), (1,0), (1,1), (2,-2), (2,-1), (2,0), (2,1), (2,2), in the basis of
+    /// Ramamoorthi and Hanrahan 2001 written in our object frame (Y_1-1 ~ y, Y_10 ~ z, Y_11 ~ x).
+    SphericalHarmonics([[f64; 3]; 9]),
+}
+
+/// Everything that lights the object.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Scene {
+    pub lights: Vec<Light>,
+    pub environment: Environment,
+}
+
+fn bad(what: &str, problem: impl Into<String>) -> SolverError {
+    SolverError::BadScene {
+        what: what.to_string(),
+        problem: problem.into(),
+    }
+}
+
+fn check_colour(what: &str, c: [f64; 3]) -> Result<(), SolverError> {
+    if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        Ok(())
+    } else {
+        Err(bad(what, format!("colour {c:?} must be finite and >= 0")))
+    }
+}
+
+fn check_direction(what: &str, d: DVec3) -> Result<(), SolverError> {
+    if d.is_finite() && d.length() > 0.0 {
+        Ok(())
+    } else {
+        Err(bad(
+            what,
+            format!("direction {d} must be finite and non-zero"),
+        ))
+    }
+}
+
+impl Light {
+    /// Checks finiteness, non-negative colours, non-zero directions and cone angles.
+    pub fn validate(&self) -> Result<(), SolverError> {
+        match *self {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                check_direction("directional light", direction)?;
+                check_colour("directional light", irradiance)
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                if !position.is_finite() {
+                    return Err(bad(
+                        "point light",
+                        format!("position {position} is not finite"),
+                    ));
+                }
+                check_colour("point light", intensity)
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            } => {
+                if !position.is_finite() {
+                    return Err(bad(
+                        "spot light",
+                        format!("position {position} is not finite"),
+                    ));
+                }
+                check_direction("spot light", direction)?;
+                check_colour("spot light", intensity)?;
+                if !(inner_deg.is_finite()
+                    && outer_deg.is_finite()
+                    && 0.0 <= inner_deg
+                    && inner_deg <= outer_deg
+                    && outer_deg <= 180.0)
+                {
+                    return Err(bad(
+                        "spot light",
+                        format!("cone angles {inner_deg}, {outer_deg}: need 0 <= inner <= outer <= 180 degrees"),
+                    ));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Irradiance arriving at `p` (before the cosine and Fresnel factors), the unit direction
+    /// towards the light and the distance to it (infinite for a directional light).
+    pub fn arriving(&self, p: DVec3) -> ([f64; 3], DVec3, f64) {
+        match *self {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => (irradiance, -direction.normalize(), f64::INFINITY),
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let (l, r) = towards(position, p);
+                (intensity.map(|i| i / (r * r)), l, r)
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            } => {
+                let (l, r) = towards(position, p);
+                let cos_axis = (-l).dot(direction.normalize());
+                let (ci, co) = (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
+                let falloff = if ci - co > 1e-12 {
+                    let t = ((cos_axis - co) / (ci - co)).clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                } else if cos_axis >= co {
+                    1.0
+                } else {
+                    0.0
+                };
+                (intensity.map(|i| i * falloff / (r * r)), l, r)
+            }
+        }
+    }
+}
+
+fn towards(light: DVec3, p: DVec3) -> (DVec3, f64) {
+    let v = light - p;
+    // A light sitting exactly on a node would divide by zero; keep r away from 0.
+    let r = v.length().max(1e-9);
+    (v / r, r)
+}
+
+fn parse_vec(s: &str, what: &str) -> Result<DVec3, SolverError> {
+    let v = parse_floats::<3>(s, what)?;
+    Ok(DVec3::from_array(v))
+}
+
+fn parse_floats<const N: usize>(s: &str, what: &str) -> Result<[f64; N], SolverError> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != N {
+        return Err(bad(
+            what,
+            format!("'{s}' should be {N} comma-separated numbers"),
+        ));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .map_err(|e| bad(what, format!("'{p}': {e}")))?;
+        if !o.is_finite() {
+            return Err(bad(what, format!("'{p}' is not finite")));
+        }
+    }
+    Ok(out)
+}
+
+impl FromStr for Light {
+    type Err = SolverError;
+
+    /// `dir:X,Y,Z:R,G,B`, `point:X,Y,Z:R,G,B` or `spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER_DEG,OUTER_DEG`.
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        let parts: Vec<&str> = s.split(':').collect();
+        let light = match parts.as_slice() {
+            ["dir", d, c] => Light::Directional {
+                direction: parse_vec(d, "directional light")?,
+                irradiance: parse_floats(c, "directional light")?,
+            },
+            ["point", p, c] => Light::Point {
+                position: parse_vec(p, "point light")?,
+                intensity: parse_floats(c, "point light")?,
+            },
+            ["spot", p, d, c, a] => {
+                let [inner_deg, outer_deg] = parse_floats(a, "spot light")?;
+                Light::Spot {
+                    position: parse_vec(p, "spot light")?,
+                    direction: parse_vec(d, "spot light")?,
+                    intensity: parse_floats(c, "spot light")?,
+                    inner_deg,
+                    outer_deg,
+                }
+            }
+            _ => {
+                return Err(bad(
+                    "light",
+                    format!(
+                        "'{s}': expected dir:X,Y,Z:R,G,B, point:X,Y,Z:R,G,B or \
+                         spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER_DEG,OUTER_DEG"
+                    ),
+                ))
+            }
+        };
+        light.validate()?;
+        Ok(light)
+    }
+}
+
+impl Environment {
+    pub fn validate(&self) -> Result<(), SolverError> {
+        match self {
+            Environment::None => Ok(()),
+            Environment::Constant(l) => check_colour("constant environment", *l),
+            Environment::SphericalHarmonics(c) => {
+                if c.iter().flatten().all(|v| v.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(bad("SH environment", "coefficients must be finite"))
+                }
+            }
+        }
+    }
+
+    /// Irradiance E(n) arriving on a surface with outward normal `n`, before Fresnel transmission.
+    /// For SH: Ramamoorthi and Hanrahan 2001, Eq. 13 (clamped at 0: a truncated expansion can dip
+    /// below zero where the environment is dark).
+    pub fn irradiance(&self, n: DVec3) -> [f64; 3] {
+        match self {
+            Environment::None => [0.0; 3],
+            Environment::Constant(l) => l.map(|v| std::f64::consts::PI * v),
+            Environment::SphericalHarmonics(c) => {
+                const C1: f64 = 0.429043;
+                const C2: f64 = 0.511664;
+                const C3: f64 = 0.743125;
+                const C4: f64 = 0.886227;
+                const C5: f64 = 0.247708;
+                let (x, y, z) = (n.x, n.y, n.z);
+                std::array::from_fn(|ch| {
+                    let l = |i: usize| c[i][ch];
+                    let e = C1 * l(8) * (x * x - y * y) + C3 * l(6) * z * z + C4 * l(0) - C5 * l(6)
+                        + 2.0 * C1 * (l(4) * x * y + l(7) * x * z + l(5) * y * z)
+                        + 2.0 * C2 * (l(3) * x + l(1) * y + l(2) * z);
+                    e.max(0.0)
+                })
+            }
+        }
+    }
+}
+
+impl Scene {
+    pub fn validate(&self) -> Result<(), SolverError> {
+        self.lights.iter().try_for_each(Light::validate)?;
+        self.environment.validate()
+    }
+
+    /// Transmitted irradiance q at one surface point with outward unit normal `n`. Lights are shadowed
+    /// by `occluder` (a ray from `p + offset n` towards the light) when one is given.
+    pub fn irradiance_at(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        eta: f64,
+        occluder: Option<&dyn Solid>,
+        offset: f64,
+    ) -> [f64; 3] {
+        let mut q = [0.0; 3];
+        for light in &self.lights {
+            let (e, l, dist) = light.arriving(p);
+            let cos = n.dot(l);
+            if cos <= 0.0 || e.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            if let Some(solid) = occluder {
+                let origin = p + n * offset;
+                if solid.ray_hit(origin, l, dist).is_some() {
+                    continue;
+                }
+            }
+            let t = cos * fresnel::transmittance(eta, cos);
+            for c in 0..3 {
+                q[c] += e[c] * t;
+            }
+        }
+        let env = self.environment.irradiance(n);
+        let t_env = 1.0 - fresnel::external_diffuse_reflectance(eta);
+        for c in 0..3 {
+            q[c] += env[c] * t_env;
+        }
+        q
+    }
+
+    /// q at every surface node of a level (indexed by surface index `s`).
+    pub fn surface_irradiance(
+        &self,
+        level: &GraphLevel,
+        eta: f64,
+        occluder: Option<&dyn Solid>,
+    ) -> Vec<[f64; 3]> {
+        let inner = level.inner_count();
+        // Far enough off the surface to miss it under f64 round-off, far below the lattice scale.
+        let offset = 1e-4 * level.spacing.max(1e-6);
+        (0..level.surface_count())
+            .into_par_iter()
+            .map(|s| {
+                self.irradiance_at(
+                    level.positions[inner + s],
+                    level.surface_normals[s],
+                    eta,
+                    occluder,
+                    offset,
+                )
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn sh_irradiance_is_exact_for_constant_and_linear_radiance() {
+        // L(w) = a + b w_y: E(n) = pi a + (2 pi / 3) b n_y.
+        let (a, b) = (0.7, 0.3);
+        let mut c = [[0.0; 3]; 9];
+        c[0] = [a * 2.0 * PI.sqrt(); 3];
+        c[1] = [b / 0.488603; 3];
+        let env = Environment::SphericalHarmonics(c);
+        for n in [
+            DVec3::Y,
+            -DVec3::Y,
+            DVec3::X,
+            DVec3::new(0.3, 0.5, -0.2).normalize(),
+        ] {
+            let e = env.irradiance(n)[1];
+            let exact = PI * a + 2.0 * PI / 3.0 * b * n.y;
+            assert!((e - exact).abs() < 1e-5 * exact, "{n}: {e} vs {exact}");
+        }
+        let constant = Environment::Constant([a; 3]).irradiance(DVec3::Z)[0];
+        let sh_const = Environment::SphericalHarmonics({
+            let mut c = [[0.0; 3]; 9];
+            c[0] = [a * 2.0 * PI.sqrt(); 3];
+            c
+        })
+        .irradiance(DVec3::Z)[0];
+        assert!((constant - sh_const).abs() < 1e-6);
+    }
+
+    #[test]
+    fn lights_parse_and_fall_off() {
+        let l: Light = "point:0,10,0:100,100,100".parse().unwrap();
+        let (e, dir, r) = l.arriving(DVec3::ZERO);
+        assert!(
+            (e[0] - 1.0).abs() < 1e-12
+                && (dir - DVec3::Y).length() < 1e-12
+                && (r - 10.0).abs() < 1e-12
+        );
+        let spot: Light = "spot:0,10,0:0,-1,0:100,100,100:10,20".parse().unwrap();
+        let at = |deg: f64| {
+            spot.arriving(DVec3::new(10.0 * deg.to_radians().tan(), 0.0, 0.0))
+                .0[0]
+        };
+        assert!(
+            at(5.0) > 0.0
+                && (at(5.0) * (10.0 / 5f64.to_radians().cos()).powi(2) - 100.0).abs() < 1e-9
+        );
+        assert!(at(15.0) > 0.0 && at(15.0) < at(5.0));
+        assert_eq!(at(25.0), 0.0);
+        for s in [
+            "dir:0,0,0:1,1,1",
+            "dir:0,-1,0:1,1",
+            "point:0,0,0:-1,0,0",
+            "spot:0,0,0:0,1,0:1,1,1:30,20",
+            "sun:0,1,0:1,1,1",
+            "dir:0,nan,0:1,1,1",
+        ] {
+            assert!(s.parse::<Light>().is_err(), "{s} parsed");
+        }
+    }
+}
