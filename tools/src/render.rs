@@ -6,7 +6,8 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context as _};
 use translucent::render::{HeadlessRenderer, Scene};
-use translucent::vk::{Context, ContextDesc};
+use translucent::vk::capture::write_atomically;
+use translucent::vk::{Context, ContextDesc, FrameTimings};
 
 use crate::scene_args::SceneArgs;
 
@@ -26,6 +27,9 @@ pub struct RenderArgs {
     /// Print one JSON object: device, per-frame pass timings.
     #[arg(long)]
     pub json: bool,
+    /// Write the GPU timestamp scopes of all frames as a Chrome trace (chrome://tracing, Perfetto).
+    #[arg(long)]
+    pub trace: Option<PathBuf>,
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
@@ -58,11 +62,20 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     })?;
     let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
     let mut frames = Vec::new();
+    let mut timings = Vec::new();
     let mut last = None;
     for _ in 0..args.frames {
         let captured = renderer.render_frame(&ctx)?;
         frames.push(serde_json::json!({ "frame": captured.frame, "passes": captured.passes }));
+        timings.extend(captured.timings.clone());
         last = Some(captured);
+    }
+    if let Some(path) = &args.trace {
+        let trace = FrameTimings::chrome_trace(&timings).to_string();
+        write_atomically(path, |tmp| {
+            std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
+        })
+        .with_context(|| format!("--trace {}", path.display()))?;
     }
     let last = last.context("no frame rendered")?;
     last.image

@@ -10,7 +10,7 @@ use super::scene::{Camera, FrameDesc, RadianceMode, Scene};
 use super::shadow_pass::ShadowPass;
 use super::target::OffscreenTarget;
 use super::RenderError;
-use crate::vk::{Context, GpuProfiler, ImageReadback, LinearImage};
+use crate::vk::{Context, FrameTimings, GpuProfiler, ImageReadback, LinearImage};
 
 // Only the specular term reads it; 512 keeps lavapipe (CI) fast.
 const SHADOW_RESOLUTION: u32 = 512;
@@ -22,6 +22,8 @@ pub struct Captured {
     pub image: LinearImage,
     /// GPU milliseconds per pass of this frame (absent: skipped, or no timestamps on the device).
     pub passes: BTreeMap<String, f64>,
+    /// The frame's timestamp scopes (for [`crate::vk::FrameTimings::chrome_trace`]).
+    pub timings: Option<FrameTimings>,
     pub frame: u64,
 }
 
@@ -144,16 +146,13 @@ impl HeadlessRenderer {
         let frame = submission.frame();
         submission.wait()?;
         self.profiler.frame_completed(frame);
-        let passes = self
-            .profiler
-            .latest()
-            .filter(|t| t.frame == frame)
-            .map(|t| t.passes())
-            .unwrap_or_default();
+        let timings = self.profiler.latest().filter(|t| t.frame == frame).cloned();
+        let passes = timings.as_ref().map(|t| t.passes()).unwrap_or_default();
         let image = self.readback.read()?;
         Ok(Captured {
             image,
             passes,
+            timings,
             frame,
         })
     }

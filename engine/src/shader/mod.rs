@@ -18,7 +18,11 @@
 //!     bindings: &["src", "dst"],
 //!     max_sets: 2,
 //! })?;
-//! let a_to_b = pipeline.allocate_set(&[DescriptorWrite::storage_image("src", a), DescriptorWrite::storage_image("dst", b)])?;
+//! let a_to_b = pipeline.allocate_set(
+//!     ctx,
+//!     &[DescriptorWrite::storage_image("src", a), DescriptorWrite::storage_image("dst", b)],
+//! )?;
+//! // Recording: `unsafe { pipeline.dispatch(ctx, cb, a_to_b, &JacobiPush { size: [64, 64] }, [64, 64, 1]) }`
 //! # Ok(()) }
 //! ```
 
