@@ -10,7 +10,7 @@ use super::target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 use super::RenderError;
 use crate::mesh::TriMesh;
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
+use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse, Sampler};
 
 /// One vertex as the shaders read it (f32; the mesh is f64 on the CPU).
 #[repr(C)]
@@ -151,19 +151,6 @@ pub struct MeshPass {
     set: vk::DescriptorSet,
 }
 
-/// A sampler released through the context like every other object.
-struct Sampler {
-    raw: vk::Sampler,
-    device: std::sync::Arc<crate::vk::device::Device>,
-}
-
-impl Drop for Sampler {
-    fn drop(&mut self) {
-        self.device
-            .retire(crate::vk::device::Retired::Sampler(self.raw));
-    }
-}
-
 impl MeshPass {
     /// The pass, reading `shadow`'s map for the specular term.
     pub fn new(ctx: &Context, shadow: &ShadowPass) -> Result<MeshPass, RenderError> {
@@ -229,14 +216,7 @@ impl MeshPass {
             .compare_enable(true)
             .compare_op(vk::CompareOp::LESS_OR_EQUAL)
             .max_lod(0.0);
-        // SAFETY: valid create info on a live device.
-        let raw = unsafe { ctx.raw().create_sampler(&info, None) }
-            .map_err(crate::vk::VkError::call("vkCreateSampler"))?;
-        ctx.set_name(raw, "shadow sampler");
-        let sampler = Sampler {
-            raw,
-            device: ctx.device.clone(),
-        };
+        let sampler = Sampler::new(ctx, "shadow sampler", &info)?;
         let set = pipeline.allocate_set(
             ctx,
             &[

@@ -396,7 +396,10 @@ mod tests {
         // Normal incidence: ((eta - 1) / (eta + 1))^2.
         assert!((fresnel_reflectance(1.5, 1.0) - 0.04).abs() < 1e-12);
         assert!((fresnel_reflectance(1.3, 0.0) - 1.0).abs() < 1e-12);
-        assert!(fresnel_reflectance(1.0, 0.3) < 1e-15, "no boundary, no reflection");
+        assert!(
+            fresnel_reflectance(1.0, 0.3) < 1e-15,
+            "no boundary, no reflection"
+        );
         assert!(
             (diffuse_fresnel_reflectance(1.3) - 0.4448).abs() < 1e-3,
             "DESIGN: 0.4448 at 1.3"

@@ -303,3 +303,32 @@ impl Drop for Image {
         }
     }
 }
+
+/// A sampler, released through the context like every other object.
+pub struct Sampler {
+    pub raw: vk::Sampler,
+    device: Arc<Device>,
+}
+
+impl Sampler {
+    pub fn new(
+        ctx: &Context,
+        name: &'static str,
+        info: &vk::SamplerCreateInfo<'_>,
+    ) -> Result<Sampler, VkError> {
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { ctx.raw().create_sampler(info, None) }
+            .map_err(VkError::call("vkCreateSampler"))?;
+        ctx.set_name(raw, name);
+        Ok(Sampler {
+            raw,
+            device: ctx.device.clone(),
+        })
+    }
+}
+
+impl Drop for Sampler {
+    fn drop(&mut self) {
+        self.device.retire(Retired::Sampler(self.raw));
+    }
+}
