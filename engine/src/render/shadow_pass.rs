@@ -54,7 +54,10 @@ impl ShadowPass {
                 width: resolution,
                 height: resolution,
                 format: SHADOW_FORMAT,
-                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+                // TRANSFER_SRC: the map can be captured for checks and debugging.
+                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
             },
         )?;
         Ok(ShadowPass {

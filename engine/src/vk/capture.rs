@@ -184,6 +184,12 @@ impl ImageReadback {
                 format!("capture of format {:?} is not supported", image.format),
             )
         })?;
+        if !image.usage.contains(vk::ImageUsageFlags::TRANSFER_SRC) {
+            return Err(VkError::invalid(
+                image.name,
+                "capture needs an image created with TRANSFER_SRC usage",
+            ));
+        }
         let buffer = Buffer::new(
             ctx,
             &BufferDesc {
