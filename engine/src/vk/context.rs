@@ -830,3 +830,55 @@ impl Drop for Context {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_order_is_discrete_integrated_virtual_cpu() {
+        use vk::PhysicalDeviceType as T;
+        let mut types = [
+            T::CPU,
+            T::OTHER,
+            T::INTEGRATED_GPU,
+            T::VIRTUAL_GPU,
+            T::DISCRETE_GPU,
+        ];
+        types.sort_by_key(|t| device_rank(*t));
+        assert_eq!(
+            types,
+            [
+                T::DISCRETE_GPU,
+                T::INTEGRATED_GPU,
+                T::VIRTUAL_GPU,
+                T::CPU,
+                T::OTHER
+            ]
+        );
+    }
+
+    #[test]
+    fn missing_features_and_versions_are_named_in_errors() {
+        let e = VkError::MissingFeature {
+            device: "gpu".into(),
+            feature: "maintenance4",
+        };
+        assert!(e.to_string().contains("`maintenance4`"));
+        assert_eq!(
+            version_string(vk::make_api_version(0, 1, 2, 198)),
+            "1.2.198"
+        );
+        let e = VkError::NoDevice {
+            wanted: Some("nvidia".into()),
+            available: vec!["llvmpipe".into()],
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("\"nvidia\"")
+                && text.contains("llvmpipe")
+                && text.contains("vulkan-validationlayers"),
+            "{text}"
+        );
+    }
+}
