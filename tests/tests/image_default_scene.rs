@@ -192,3 +192,89 @@ fn specular_of_a_light_behind_the_camera_matches_cook_torrance_at_normal_view() 
     }
     gpu.finish();
 }
+
+#[test]
+fn the_shadow_map_removes_the_specular_of_an_occluded_point_only() {
+    // Torus in the XZ plane (major 14 mm, minor 6 mm), light travelling along -X, camera above
+    // +X. The inner face of the far tube at P faces the light (n.l > 0) but the near tube hides
+    // it: no specular there. Q on the outer face of the near tube is lit: its specular matches
+    // Cook-Torrance (roughness 1: D = 1/pi, G = g1(n.l) g1(n.v) with g1(x) = 2x / (x + 1)) within
+    // 5% (the pixel sees a point up to ~0.2 mm from Q, on a 48-segment triangulation).
+    let gpu = GpuTest::new();
+    let eta = 1.3;
+    let irradiance = [100.0; 3];
+    let light = Light::Directional {
+        direction: glam::DVec3::new(-1.0, 0.0, 0.0),
+        irradiance,
+    };
+    let mut scene = Scene::procedural("torus", 40.0, vec![light], eta).expect("scene");
+    scene.exitance = vec![[0.1; 3]; scene.mesh.positions.len()];
+    let eye = glam::DVec3::new(30.0, 60.0, 0.0);
+    let camera = translucent::render::Camera {
+        eye,
+        target: glam::DVec3::new(6.0, 0.0, 0.0),
+        fovy_deg: 50.0,
+    };
+    let size = 256u32;
+    let mut frame = FrameDesc {
+        width: size,
+        height: size,
+        camera: Some(camera),
+        specular: true,
+        roughness: 1.0,
+        ..FrameDesc::default()
+    };
+    let with = render_headless(&gpu.ctx, &scene, &frame)
+        .expect("render")
+        .image;
+    frame.specular = false;
+    let without = render_headless(&gpu.ctx, &scene, &frame)
+        .expect("render")
+        .image;
+
+    let (centre, radius) = scene.bounding_sphere();
+    let view_proj = camera.view_proj(1.0, centre, radius);
+    let specular_at = |p: glam::DVec3| {
+        let clip = view_proj * p.as_vec3().extend(1.0);
+        let ndc = clip.truncate() / clip.w;
+        let (x, y) = (
+            ((ndc.x * 0.5 + 0.5) * size as f32) as u32,
+            ((ndc.y * 0.5 + 0.5) * size as f32) as u32,
+        );
+        assert!(
+            without.pixel(x, y)[0] > 0.0,
+            "{p:?} is not visible at pixel ({x}, {y})"
+        );
+        f64::from(with.pixel(x, y)[0] - without.pixel(x, y)[0])
+    };
+    let cook_torrance = |p: glam::DVec3, n: glam::DVec3| {
+        let l = glam::DVec3::X;
+        let v = (eye - p).normalize();
+        let h = (l + v).normalize();
+        let g1 = |x: f64| 2.0 * x / (x + 1.0);
+        let (n_l, n_v) = (n.dot(l), n.dot(v));
+        fresnel_reflectance(eta, v.dot(h)) * g1(n_l) * g1(n_v)
+            / (std::f64::consts::PI * 4.0 * n_l * n_v)
+            * irradiance[0]
+            * n_l
+    };
+    // Points on the tube circles at angle t above the equator, normal (cos t, sin t, 0).
+    let on_tube = |tube_x: f64, t: f64| {
+        let n = glam::DVec3::new(t.to_radians().cos(), t.to_radians().sin(), 0.0);
+        (glam::DVec3::new(tube_x, 0.0, 0.0) + 6.0 * n, n)
+    };
+    let (q, n_q) = on_tube(14.0, 45.0);
+    let (lit, expected) = (specular_at(q), cook_torrance(q, n_q));
+    assert!(
+        (lit - expected).abs() <= 0.05 * expected,
+        "lit point Q: specular {lit}, Cook-Torrance {expected}"
+    );
+    // P at 30 degrees: the horizontal ray towards the light at y = 3 mm crosses the near tube.
+    let (p, n_p) = on_tube(-14.0, 30.0);
+    let (shadowed, unshadowed) = (specular_at(p), cook_torrance(p, n_p));
+    assert!(
+        shadowed.abs() <= 0.02 * unshadowed,
+        "occluded point P: specular {shadowed} (unshadowed {unshadowed})"
+    );
+    gpu.finish();
+}
