@@ -147,6 +147,7 @@ pub struct ShadePush {
 pub struct MeshPass {
     pipeline: GraphicsPipeline<ShadePush>,
     uniforms: Buffer,
+    #[allow(dead_code, reason = "owned here: the descriptor set refers to it")]
     sampler: Sampler,
     set: vk::DescriptorSet,
 }
@@ -334,6 +335,5 @@ impl MeshPass {
         }
         target.color_state = Access::ColorAttachmentWrite;
         target.depth_state = Access::DepthAttachmentWrite;
-        let _ = &self.sampler;
     }
 }

@@ -235,6 +235,7 @@ impl ImageReadback {
             });
         // SAFETY: the caller's contract; the buffer is large enough for the tightly packed copy.
         unsafe {
+            ctx.begin_label(cb, "capture");
             // why: the copy reads what `state` wrote (RAW) and needs TRANSFER_SRC_OPTIMAL.
             barrier::image(ctx, cb, image, state, Access::TransferSrc);
             ctx.raw().cmd_copy_image_to_buffer(
@@ -255,6 +256,7 @@ impl ImageReadback {
                 )],
                 &[barrier::image_barrier(image, Access::TransferSrc, state)],
             );
+            ctx.end_label(cb);
         }
     }
 

@@ -79,6 +79,10 @@ impl ValidationLog {
 
 /// Vulkan objects a host lends us. There is deliberately no way to destroy them through this type.
 pub struct HostVulkan {
+    #[allow(
+        dead_code,
+        reason = "keeps the Vulkan loader library loaded while we use its functions"
+    )]
     entry: ash::Entry,
     instance: ash::Instance,
     device: ash::Device,
@@ -418,7 +422,6 @@ impl Context {
             instance,
             device,
         };
-        let _ = &host.entry;
         Self::build(
             Handles::Host(host),
             physical,
