@@ -278,3 +278,37 @@ fn the_shadow_map_removes_the_specular_of_an_occluded_point_only() {
     );
     gpu.finish();
 }
+
+#[test]
+fn exitance_supplied_later_replaces_the_old_one() {
+    // As a solver would: new J+ per vertex for the same mesh, here zero with no specular, which
+    // must leave only the black background; a wrong length is refused.
+    let gpu = GpuTest::new();
+    let scene =
+        Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3).expect("scene");
+    let frame = FrameDesc {
+        width: 32,
+        height: 32,
+        specular: false,
+        ..FrameDesc::default()
+    };
+    let mut renderer =
+        translucent::render::HeadlessRenderer::new(&gpu.ctx, &scene, &frame).expect("renderer");
+    let lit = renderer.render_frame(&gpu.ctx).expect("frame 1");
+    assert!(lit.image.pixel(16, 16)[0] > 0.0);
+    let zero = vec![[0.0f32; 3]; scene.mesh.positions.len()];
+    assert!(
+        renderer.set_exitance(&gpu.ctx, &zero[1..]).is_err(),
+        "one value per vertex"
+    );
+    renderer
+        .set_exitance(&gpu.ctx, &zero)
+        .expect("set exitance");
+    let dark = renderer.render_frame(&gpu.ctx).expect("frame 2");
+    assert!(
+        dark.image.pixels.iter().all(|p| p[..3] == [0.0; 3]),
+        "zero J+ gives zero radiance"
+    );
+    drop(renderer);
+    gpu.finish();
+}

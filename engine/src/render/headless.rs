@@ -38,6 +38,8 @@ pub struct HeadlessRenderer {
     uniforms: ShadeUniforms,
     push: ShadePush,
     shadow_light: Option<glam::Mat4>,
+    /// The displayed mesh, kept for [`HeadlessRenderer::set_exitance`].
+    surface: crate::mesh::TriMesh,
 }
 
 impl HeadlessRenderer {
@@ -109,7 +111,19 @@ impl HeadlessRenderer {
             uniforms,
             push,
             shadow_light: light.map(|l| l.0),
+            surface: scene.mesh.clone(),
         })
+    }
+
+    /// Replaces the per-vertex exitance J+ (one per vertex of the scene's mesh), e.g. with a
+    /// solver's output. The old vertex buffer is released once the frames using it completed.
+    pub fn set_exitance(
+        &mut self,
+        ctx: &Context,
+        exitance: &[[f32; 3]],
+    ) -> Result<(), RenderError> {
+        self.mesh = GpuMesh::new(ctx, &self.surface, exitance)?;
+        Ok(())
     }
 
     /// Renders one frame, waits for it and reads it back.
