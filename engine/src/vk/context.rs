@@ -690,7 +690,8 @@ impl Context {
     }
 
     /// Headless only: starts the next frame, records `record` into a fresh command buffer and
-    /// submits it. Wait with [`Submission::wait`] (which reports the frame complete).
+    /// submits it. Wait with [`Submission::wait`] (which reports the frame complete). `record`
+    /// must not submit itself (the command pool is locked while it runs).
     pub fn submit(
         &self,
         name: &str,
