@@ -137,6 +137,22 @@ fn bad_sizes_are_typed_errors() {
         },
     );
     assert!(huge.err().is_some_and(|e| e.to_string().contains("huge")));
+    let storage_only = Image::new(
+        ctx,
+        &ImageDesc {
+            name: "no transfer",
+            width: 4,
+            height: 4,
+            format: vk::Format::R16G16B16A16_SFLOAT,
+            usage: vk::ImageUsageFlags::STORAGE,
+        },
+    )
+    .expect("image");
+    let capture = translucent::vk::ImageReadback::new(ctx, &storage_only);
+    assert!(capture
+        .err()
+        .is_some_and(|e| e.to_string().contains("TRANSFER_SRC")));
+    drop(storage_only);
     let mut small = readback_buffer(ctx, "small");
     assert!(small.write_bytes(4090, &[0; 8]).is_err());
     drop(small);

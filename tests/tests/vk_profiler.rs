@@ -96,3 +96,22 @@ fn a_frame_is_read_when_its_slot_comes_round_without_host_reports() {
     drop(profiler);
     gpu.finish();
 }
+
+#[test]
+fn a_disabled_profiler_records_nothing_and_reports_nothing() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    // The same state `GpuProfiler::new` falls back to where timestampValidBits == 0 or
+    // timestampComputeAndGraphics is false.
+    let mut profiler = GpuProfiler::disabled(ctx, "off").expect("profiler");
+    assert!(!profiler.enabled());
+    let mut pass = LaplaceJacobiPass::new(ctx, 16, 16).expect("pass");
+    pass.upload(ctx, &vec![[0.5; 4]; 16 * 16]).expect("upload");
+    let frame = record_frame(&gpu, &mut profiler, &mut pass);
+    profiler.frame_completed(frame);
+    assert!(profiler.latest().is_none());
+    assert!(profiler.take_results().is_empty());
+    drop(pass);
+    drop(profiler);
+    gpu.finish();
+}

@@ -4,6 +4,8 @@
 use clap::{Parser, Subcommand};
 
 mod info;
+mod render;
+mod scene_args;
 
 #[derive(Parser)]
 #[command(name = "translucent", version, about = "Real-time heterogeneous translucency on Vulkan")]
@@ -16,12 +18,15 @@ struct Cli {
 enum Command {
     /// The Vulkan device, driver and the features used.
     Info(info::InfoArgs),
+    /// Render a scene headless to PNG or EXR.
+    Render(render::RenderArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
+        Command::Render(args) => render::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,8 +1,46 @@
-//! Render passes: shadow map, irradiance gathering, final shading, tone mapping, capture.
+//! Render passes: shadow map, final shading, capture; and headless rendering on top of them.
+//!
+//! A pass owns its pipelines and persistent images and has one `record` method with explicit
+//! inputs and outputs; barriers inside a pass are its own, and each resource carries the
+//! [`crate::vk::Access`] state it was left in for the next user.
+//!
+//! - [`ShadowPass`]: depth-only, the mesh from the first directional light.
+//! - [`MeshPass`]: the final shading of DESIGN section 5 from per-vertex exitance J+.
+//! - [`HeadlessRenderer`] / [`render_headless`]: a whole frame into an [`OffscreenTarget`],
+//!   read back with per-pass GPU times. Until the diffusion solver exists, J+ comes from
+//!   [`lambert_exitance`]; a solver's per-vertex J+ goes into [`Scene::exitance`].
+//! - [`LaplaceJacobiPass`]: the ping-pong compute pattern on a problem with a known solution.
+//!
+//! ```no_run
+//! use translucent::render::{FrameDesc, HeadlessRenderer, Light, Scene};
+//! use translucent::vk::{Context, ContextDesc};
+//! # fn main() -> Result<(), translucent::Error> {
+//! let ctx = Context::headless(&ContextDesc::default())?;
+//! let mut scene = Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3)?;
+//! // scene.exitance = solver_output; // one [r, g, b] J+ per vertex of scene.mesh
+//! let mut renderer = HeadlessRenderer::new(&ctx, &scene, &FrameDesc::default())?;
+//! let frame = renderer.render_frame(&ctx)?;
+//! println!("{:?}", frame.passes); // {"capture": .., "shading": .., "shadow_map": ..}
+//! frame.image.write_exr(std::path::Path::new("sphere.exr"))?;
+//! # Ok(()) }
+//! ```
 
+mod headless;
 mod laplace;
+mod mesh_pass;
+mod scene;
+mod shadow_pass;
+mod target;
 
+pub use headless::{render_headless, Captured, HeadlessRenderer};
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
+pub use mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms, Vertex};
+pub use scene::{
+    diffuse_fresnel_reflectance, fresnel_reflectance, lambert_exitance, Camera, FrameDesc, Light,
+    RadianceMode, Scene,
+};
+pub use shadow_pass::{DepthPush, ShadowPass};
+pub use target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 
 /// Bad scene or frame description, or a failing pass.
 #[derive(Debug, thiserror::Error)]

@@ -20,14 +20,16 @@ pub fn compile_file(
         Some("frag") => shaderc::ShaderKind::Fragment,
         _ => return Err(invalid("extension must be .comp, .vert or .frag".into())),
     };
-    let compiler = shaderc::Compiler::new().ok_or_else(|| invalid("shaderc unavailable".into()))?;
-    let mut options = shaderc::CompileOptions::new()
-        .ok_or_else(|| invalid("shaderc options unavailable".into()))?;
+    let compiler = shaderc::Compiler::new().map_err(|e| invalid(format!("shaderc: {e}")))?;
+    let mut options =
+        shaderc::CompileOptions::new().map_err(|e| invalid(format!("shaderc: {e}")))?;
     options.set_target_env(
         shaderc::TargetEnv::Vulkan,
         shaderc::EnvVersion::Vulkan1_3 as u32,
     );
     options.set_optimization_level(shaderc::OptimizationLevel::Performance);
+    // Reflection looks bindings up by name (as `build.rs` passes `-g`).
+    options.set_generate_debug_info();
     let include_dir = include_dir.to_path_buf();
     options.set_include_callback(move |requested, _, _, _| {
         let full = include_dir.join(requested);

@@ -18,7 +18,11 @@
 //!     bindings: &["src", "dst"],
 //!     max_sets: 2,
 //! })?;
-//! let a_to_b = pipeline.allocate_set(&[DescriptorWrite::storage_image("src", a), DescriptorWrite::storage_image("dst", b)])?;
+//! let a_to_b = pipeline.allocate_set(
+//!     ctx,
+//!     &[DescriptorWrite::storage_image("src", a), DescriptorWrite::storage_image("dst", b)],
+//! )?;
+//! // Recording: `unsafe { pipeline.dispatch(ctx, cb, a_to_b, &JacobiPush { size: [64, 64] }, [64, 64, 1]) }`
 //! # Ok(()) }
 //! ```
 
@@ -69,6 +73,13 @@ pub enum ShaderError {
         name: String,
         declared: String,
         written: String,
+    },
+    #[error("pipeline {pipeline:?}: uniform buffer {name:?} has {rust} bytes, the shader's block {reflected}")]
+    UniformSize {
+        pipeline: &'static str,
+        name: String,
+        rust: u64,
+        reflected: usize,
     },
     #[error("pipeline {pipeline:?}: {message}")]
     Unsupported {
@@ -156,6 +167,13 @@ mod tests {
         assert_eq!(frag.push_constant_size, Some(16));
         assert!(frag.bindings.iter().any(|b| b.name == "shadow_map"
             && b.descriptor_type == ash::vk::DescriptorType::COMBINED_IMAGE_SAMPLER));
+        let uniform = frag
+            .bindings
+            .iter()
+            .find(|b| b.name == "frame")
+            .and_then(|b| b.uniform_size);
+        let rust = std::mem::size_of::<crate::render::ShadeUniforms>();
+        assert_eq!(uniform, Some(rust), "std140 layout of ShadeUniforms");
     }
 
     #[test]

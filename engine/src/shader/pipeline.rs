@@ -272,6 +272,17 @@ impl Interface {
                     written: type_name(w.descriptor_type()),
                 });
             }
+            if let (DescriptorWrite::UniformBuffer { buffer, .. }, Some(size)) = (w, b.uniform_size)
+            {
+                if buffer.size != size as u64 {
+                    return Err(ShaderError::UniformSize {
+                        pipeline: self.name,
+                        name: b.name.clone(),
+                        rust: buffer.size,
+                        reflected: size,
+                    });
+                }
+            }
             slots.push((b.binding, *w));
         }
         if let Some((b, _)) = self

@@ -14,6 +14,8 @@ pub struct BindingInfo {
     pub binding: u32,
     pub descriptor_type: vk::DescriptorType,
     pub count: u32,
+    /// Byte size of a uniform block (`None` for other descriptors).
+    pub uniform_size: Option<usize>,
 }
 
 /// What a pipeline needs to know about a shader stage.
@@ -88,7 +90,7 @@ impl Reflection {
                     desc_bind,
                     desc_ty,
                     nbind,
-                    ..
+                    ty,
                 } => bindings.push(BindingInfo {
                     name: name.clone().ok_or_else(|| {
                         invalid(format!(
@@ -99,6 +101,9 @@ impl Reflection {
                     binding: desc_bind.bind(),
                     descriptor_type: descriptor_type(desc_ty),
                     count: (*nbind).max(1),
+                    uniform_size: matches!(desc_ty, DescriptorType::UniformBuffer())
+                        .then(|| ty.nbyte())
+                        .flatten(),
                 }),
                 Variable::PushConstant { ty, .. } => {
                     push_constant_size =

@@ -184,6 +184,12 @@ impl ImageReadback {
                 format!("capture of format {:?} is not supported", image.format),
             )
         })?;
+        if !image.usage.contains(vk::ImageUsageFlags::TRANSFER_SRC) {
+            return Err(VkError::invalid(
+                image.name,
+                "capture needs an image created with TRANSFER_SRC usage",
+            ));
+        }
         let buffer = Buffer::new(
             ctx,
             &BufferDesc {
@@ -229,6 +235,7 @@ impl ImageReadback {
             });
         // SAFETY: the caller's contract; the buffer is large enough for the tightly packed copy.
         unsafe {
+            ctx.begin_label(cb, "capture");
             // why: the copy reads what `state` wrote (RAW) and needs TRANSFER_SRC_OPTIMAL.
             barrier::image(ctx, cb, image, state, Access::TransferSrc);
             ctx.raw().cmd_copy_image_to_buffer(
@@ -249,6 +256,7 @@ impl ImageReadback {
                 )],
                 &[barrier::image_barrier(image, Access::TransferSrc, state)],
             );
+            ctx.end_label(cb);
         }
     }
 
@@ -324,6 +332,38 @@ mod tests {
             pixels: vec![[0.0, f32::NAN, 1e9, 1.0], [f32::INFINITY, -1.0, 0.0, 1.0]],
         };
         assert_eq!(img.to_srgb8(1.0), vec![0, 0, 255, 255, 0, 0]);
+    }
+
+    #[test]
+    fn exr_round_trips_linear_values_and_png_has_the_right_size() {
+        let dir = std::env::temp_dir().join(format!("translucent-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let pixels: Vec<[f32; 4]> = (0..6)
+            .map(|i| [i as f32 * 0.5, 100.0 + i as f32, 1e-3, 1.0])
+            .collect();
+        let img = LinearImage {
+            width: 3,
+            height: 2,
+            pixels,
+        };
+        let path = dir.join("x.exr");
+        img.write(&path, 1.0).expect("exr");
+        let read = exr::prelude::read_first_rgba_layer_from_file(
+            &path,
+            |res, _| vec![[0.0f32; 3]; res.width() * res.height()],
+            |buf, pos, (r, g, b, _a): (f32, f32, f32, f32)| buf[pos.y() * 3 + pos.x()] = [r, g, b],
+        )
+        .expect("read back");
+        for (got, want) in read.layer_data.channel_data.pixels.iter().zip(&img.pixels) {
+            assert_eq!(got[..], want[..3]);
+        }
+        let png = dir.join("x.png");
+        img.write(&png, 2.0).expect("png");
+        let decoded = image::open(&png).expect("png decodes").to_rgb8();
+        assert_eq!(decoded.dimensions(), (3, 2));
+        assert_eq!(decoded.as_raw(), &img.to_srgb8(2.0));
+        assert!(img.write(&dir.join("x.jpg"), 1.0).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -79,6 +79,10 @@ impl ValidationLog {
 
 /// Vulkan objects a host lends us. There is deliberately no way to destroy them through this type.
 pub struct HostVulkan {
+    #[allow(
+        dead_code,
+        reason = "keeps the Vulkan loader library loaded while we use its functions"
+    )]
     entry: ash::Entry,
     instance: ash::Instance,
     device: ash::Device,
@@ -418,7 +422,6 @@ impl Context {
             instance,
             device,
         };
-        let _ = &host.entry;
         Self::build(
             Handles::Host(host),
             physical,
@@ -687,7 +690,8 @@ impl Context {
     }
 
     /// Headless only: starts the next frame, records `record` into a fresh command buffer and
-    /// submits it. Wait with [`Submission::wait`] (which reports the frame complete).
+    /// submits it. Wait with [`Submission::wait`] (which reports the frame complete). `record`
+    /// must not submit itself (the command pool is locked while it runs).
     pub fn submit(
         &self,
         name: &str,
@@ -828,5 +832,57 @@ impl Drop for Context {
             // SAFETY: every `Submission` borrows the context, so none is pending now.
             unsafe { self.raw().destroy_command_pool(pool, None) };
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_order_is_discrete_integrated_virtual_cpu() {
+        use vk::PhysicalDeviceType as T;
+        let mut types = [
+            T::CPU,
+            T::OTHER,
+            T::INTEGRATED_GPU,
+            T::VIRTUAL_GPU,
+            T::DISCRETE_GPU,
+        ];
+        types.sort_by_key(|t| device_rank(*t));
+        assert_eq!(
+            types,
+            [
+                T::DISCRETE_GPU,
+                T::INTEGRATED_GPU,
+                T::VIRTUAL_GPU,
+                T::CPU,
+                T::OTHER
+            ]
+        );
+    }
+
+    #[test]
+    fn missing_features_and_versions_are_named_in_errors() {
+        let e = VkError::MissingFeature {
+            device: "gpu".into(),
+            feature: "maintenance4",
+        };
+        assert!(e.to_string().contains("`maintenance4`"));
+        assert_eq!(
+            version_string(vk::make_api_version(0, 1, 2, 198)),
+            "1.2.198"
+        );
+        let e = VkError::NoDevice {
+            wanted: Some("nvidia".into()),
+            available: vec!["llvmpipe".into()],
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("\"nvidia\"")
+                && text.contains("llvmpipe")
+                && text.contains("vulkan-validationlayers"),
+            "{text}"
+        );
     }
 }

@@ -11,6 +11,10 @@ use super::VkError;
 
 /// Instance and device we created: destroyed when the last resource is gone.
 pub(crate) struct OwnedVulkan {
+    #[allow(
+        dead_code,
+        reason = "keeps the Vulkan loader library loaded until the instance is destroyed"
+    )]
     pub entry: ash::Entry,
     pub instance: ash::Instance,
     pub device: ash::Device,
@@ -224,7 +228,6 @@ impl Drop for Device {
                 }
                 o.instance.destroy_instance(None);
             }
-            let _ = &o.entry;
         }
     }
 }

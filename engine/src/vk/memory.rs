@@ -171,6 +171,7 @@ pub struct Image {
     pub format: vk::Format,
     pub width: u32,
     pub height: u32,
+    pub usage: vk::ImageUsageFlags,
     pub name: &'static str,
     allocation: Option<Allocation>,
     device: Arc<Device>,
@@ -269,6 +270,7 @@ impl Image {
             format: desc.format,
             width: desc.width,
             height: desc.height,
+            usage: desc.usage,
             name: desc.name,
             allocation: Some(allocation),
             device,
@@ -301,5 +303,34 @@ impl Drop for Image {
             self.device
                 .retire(Retired::Image(self.raw, self.view, allocation));
         }
+    }
+}
+
+/// A sampler, released through the context like every other object.
+pub struct Sampler {
+    pub raw: vk::Sampler,
+    device: Arc<Device>,
+}
+
+impl Sampler {
+    pub fn new(
+        ctx: &Context,
+        name: &'static str,
+        info: &vk::SamplerCreateInfo<'_>,
+    ) -> Result<Sampler, VkError> {
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { ctx.raw().create_sampler(info, None) }
+            .map_err(VkError::call("vkCreateSampler"))?;
+        ctx.set_name(raw, name);
+        Ok(Sampler {
+            raw,
+            device: ctx.device.clone(),
+        })
+    }
+}
+
+impl Drop for Sampler {
+    fn drop(&mut self) {
+        self.device.retire(Retired::Sampler(self.raw));
     }
 }

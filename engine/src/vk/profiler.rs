@@ -111,6 +111,21 @@ pub struct GpuProfiler {
 impl GpuProfiler {
     /// A profiler with room for `max_scopes` scopes per frame, one slot per frame in flight.
     pub fn new(ctx: &Context, name: &'static str, max_scopes: u32) -> Result<GpuProfiler, VkError> {
+        Self::with_timestamps(ctx, name, max_scopes, true)
+    }
+
+    /// A profiler whose calls all do nothing (what [`GpuProfiler::new`] gives on a device without
+    /// timestamps); for hosts that want no queries.
+    pub fn disabled(ctx: &Context, name: &'static str) -> Result<GpuProfiler, VkError> {
+        Self::with_timestamps(ctx, name, 1, false)
+    }
+
+    fn with_timestamps(
+        ctx: &Context,
+        name: &'static str,
+        max_scopes: u32,
+        wanted: bool,
+    ) -> Result<GpuProfiler, VkError> {
         let slots = ctx.frames_in_flight() as usize;
         let queries_per_slot = max_scopes.max(1) * 2;
         let (family, _) = ctx.queue();
@@ -124,7 +139,7 @@ impl GpuProfiler {
         let valid_bits = families
             .get(family as usize)
             .map_or(0, |f| f.timestamp_valid_bits);
-        let enabled = ctx.info().timestamps && valid_bits > 0;
+        let enabled = wanted && ctx.info().timestamps && valid_bits > 0;
         let mut pool = vk::QueryPool::null();
         if enabled {
             let info = vk::QueryPoolCreateInfo::default()

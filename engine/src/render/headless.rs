@@ -1,0 +1,191 @@
+//! Headless rendering: [`HeadlessRenderer`] records shadow map, shading and capture into one
+//! command buffer per frame, submits, waits and returns the linear image and per-pass GPU times.
+
+use std::collections::BTreeMap;
+
+use glam::Vec3;
+
+use super::mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms};
+use super::scene::{Camera, FrameDesc, RadianceMode, Scene};
+use super::shadow_pass::ShadowPass;
+use super::target::OffscreenTarget;
+use super::RenderError;
+use crate::vk::{Context, FrameTimings, GpuProfiler, ImageReadback, LinearImage};
+
+// Only the specular term reads it; 512 keeps lavapipe (CI) fast.
+const SHADOW_RESOLUTION: u32 = 512;
+
+/// One rendered frame.
+#[derive(Clone, Debug)]
+pub struct Captured {
+    /// Linear radiance, row 0 at the top; background 0.
+    pub image: LinearImage,
+    /// GPU milliseconds per pass of this frame (absent: skipped, or no timestamps on the device).
+    pub passes: BTreeMap<String, f64>,
+    /// The frame's timestamp scopes (for [`crate::vk::FrameTimings::chrome_trace`]).
+    pub timings: Option<FrameTimings>,
+    pub frame: u64,
+}
+
+/// Persistent passes and target for rendering a [`Scene`] repeatedly, as a host would.
+pub struct HeadlessRenderer {
+    mesh: GpuMesh,
+    shadow: ShadowPass,
+    shading: MeshPass,
+    target: OffscreenTarget,
+    readback: ImageReadback,
+    profiler: GpuProfiler,
+    uniforms: ShadeUniforms,
+    push: ShadePush,
+    shadow_light: Option<glam::Mat4>,
+    /// The displayed mesh, kept for [`HeadlessRenderer::set_exitance`].
+    surface: crate::mesh::TriMesh,
+}
+
+impl HeadlessRenderer {
+    pub fn new(
+        ctx: &Context,
+        scene: &Scene,
+        frame: &FrameDesc,
+    ) -> Result<HeadlessRenderer, RenderError> {
+        let invalid = |what: &str, problem: String| RenderError::Invalid {
+            what: what.into(),
+            problem,
+        };
+        if !(scene.eta.is_finite() && scene.eta > 0.0) {
+            return Err(invalid(
+                "eta",
+                format!("{} is not a positive index ratio", scene.eta),
+            ));
+        }
+        if !(frame.roughness.is_finite() && frame.roughness > 0.0 && frame.roughness <= 1.0) {
+            return Err(invalid(
+                "roughness",
+                format!("{} is not in (0, 1]", frame.roughness),
+            ));
+        }
+        for light in &scene.lights {
+            light.validate()?;
+        }
+        let aspect = f64::from(frame.width) / f64::from(frame.height.max(1));
+        let (centre, radius) = scene.bounding_sphere();
+        let camera = frame
+            .camera
+            .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
+        camera.validate()?;
+        let target = OffscreenTarget::new(ctx, frame.width, frame.height)?;
+        let mesh = GpuMesh::new(ctx, &scene.mesh, &scene.exitance)?;
+        let shadow = ShadowPass::new(ctx, SHADOW_RESOLUTION)?;
+        let shading = MeshPass::new(ctx, &shadow)?;
+        let readback = ImageReadback::new(ctx, &target.color)?;
+        let profiler = GpuProfiler::new(ctx, "headless frame", 8)?;
+
+        let light = scene.shadow_light().filter(|_| frame.specular);
+        let (light_view_proj, light_dir, irradiance) = match light {
+            Some((m, d, e)) => (m, d.extend(1.0), e),
+            None => (glam::Mat4::IDENTITY, Vec3::ZERO.extend(0.0), [0.0; 3]),
+        };
+        let uniforms = ShadeUniforms {
+            view_proj: camera.view_proj(aspect, centre, radius).to_cols_array(),
+            light_view_proj: light_view_proj.to_cols_array(),
+            camera_pos: camera.eye.as_vec3().extend(1.0).to_array(),
+            light_dir: light_dir.to_array(),
+            light_irradiance: [irradiance[0], irradiance[1], irradiance[2], 0.0],
+        };
+        let push = ShadePush {
+            eta: scene.eta as f32,
+            radiance_mode: match frame.radiance {
+                RadianceMode::Physical => 0,
+                RadianceMode::Paper => 1,
+            },
+            roughness: frame.roughness,
+            specular: u32::from(light.is_some()),
+        };
+        Ok(HeadlessRenderer {
+            mesh,
+            shadow,
+            shading,
+            target,
+            readback,
+            profiler,
+            uniforms,
+            push,
+            shadow_light: light.map(|l| l.0),
+            surface: scene.mesh.clone(),
+        })
+    }
+
+    /// Replaces the per-vertex exitance J+ (one per vertex of the scene's mesh), e.g. with a
+    /// solver's output. The old vertex buffer is released once the frames using it completed.
+    pub fn set_exitance(
+        &mut self,
+        ctx: &Context,
+        exitance: &[[f32; 3]],
+    ) -> Result<(), RenderError> {
+        self.mesh = GpuMesh::new(ctx, &self.surface, exitance)?;
+        Ok(())
+    }
+
+    /// Renders one frame, waits for it and reads it back.
+    pub fn render_frame(&mut self, ctx: &Context) -> Result<Captured, RenderError> {
+        let submission = ctx.submit("headless frame", |cb| {
+            let (frame, _) = ctx.frames();
+            let p = &mut self.profiler;
+            // SAFETY: `cb` is recording; every resource is owned by `self`, which outlives the
+            // waited submission.
+            unsafe {
+                p.begin_frame(cb, frame);
+                match &self.shadow_light {
+                    Some(m) => self.shadow.record(ctx, cb, &self.mesh, m, Some(p)),
+                    // No shadow-casting light: the pass is skipped (and absent from the timings).
+                    None => self.shadow.record_unused(ctx, cb),
+                }
+                self.shading.record(
+                    ctx,
+                    cb,
+                    &self.mesh,
+                    &mut self.target,
+                    &self.shadow,
+                    &self.uniforms,
+                    &self.push,
+                    Some(p),
+                );
+                p.begin_scope(cb, "capture");
+                self.readback
+                    .record(ctx, cb, &self.target.color, self.target.color_state);
+                p.end_scope(cb);
+            }
+            Ok(())
+        })?;
+        let frame = submission.frame();
+        submission.wait()?;
+        self.profiler.frame_completed(frame);
+        let timings = self.profiler.latest().filter(|t| t.frame == frame).cloned();
+        let passes = timings.as_ref().map(|t| t.passes()).unwrap_or_default();
+        let image = self.readback.read()?;
+        Ok(Captured {
+            image,
+            passes,
+            timings,
+            frame,
+        })
+    }
+}
+
+/// Renders `scene` once, headless.
+///
+/// ```no_run
+/// use translucent::render::{render_headless, FrameDesc, Light, Scene};
+/// # fn f(ctx: &translucent::vk::Context) -> Result<(), translucent::render::RenderError> {
+/// let scene = Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3)?;
+/// let captured = render_headless(ctx, &scene, &FrameDesc::default())?;
+/// captured.image.write_png(std::path::Path::new("sphere.png"), 1.0)?;
+/// # Ok(()) }
+/// ```
+pub fn render_headless(
+    ctx: &Context,
+    scene: &Scene,
+    frame: &FrameDesc,
+) -> Result<Captured, RenderError> {
+    HeadlessRenderer::new(ctx, scene, frame)?.render_frame(ctx)
+}

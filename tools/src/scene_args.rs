@@ -1,0 +1,191 @@
+//! Scene and frame options shared by the subcommands that render (DESIGN section 8 syntax).
+//! Other subcommands extend [`SceneArgs`] with `#[command(flatten)]`. Invalid values are errors
+//! naming the option.
+
+use anyhow::{bail, Context as _};
+use glam::DVec3;
+use translucent::render::{Camera, FrameDesc, Light, RadianceMode};
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Procedural shape rendered when no mesh is given.
+    #[arg(long, default_value = "sphere", value_parser = ["sphere", "torus"])]
+    pub shape: String,
+    /// Size of the object in mm (longest side).
+    #[arg(long, default_value_t = 50.0)]
+    pub size_mm: f64,
+    /// Relative index of refraction n_inside / n_outside.
+    #[arg(long, default_value_t = 1.3)]
+    pub eta: f64,
+    /// `dir:X,Y,Z:R,G,B` (direction the light travels, irradiance), `point:X,Y,Z:R,G,B`
+    /// (intensity) or `spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER_DEG,OUTER_DEG`; repeatable.
+    /// Default: dir:1,-1,-1:3,3,3.
+    #[arg(long = "light")]
+    pub lights: Vec<String>,
+    /// `X,Y,Z:TX,TY,TZ:FOVY_DEG`: eye, target, vertical field of view. Default: auto-framed.
+    #[arg(long)]
+    pub camera: Option<String>,
+    #[arg(long, default_value_t = 512)]
+    pub width: u32,
+    #[arg(long, default_value_t = 512)]
+    pub height: u32,
+    /// `physical`: F_t J+ / (pi eta^2); `paper`: F_t J+ / pi (paper Eq. 4).
+    #[arg(long, default_value = "physical", value_parser = ["physical", "paper"])]
+    pub radiance: String,
+    /// No Cook-Torrance specular (and no shadow map pass).
+    #[arg(long)]
+    pub no_specular: bool,
+    /// Exposure multiplier applied before the tone map (PNG only; EXR stays linear).
+    #[arg(long, default_value_t = 1.0)]
+    pub exposure: f32,
+}
+
+fn numbers<const N: usize>(option: &str, text: &str) -> anyhow::Result<[f64; N]> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .with_context(|| format!("{option}: {v:?} is not a number"))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let values: [f64; N] = values.try_into().map_err(|v: Vec<f64>| {
+        anyhow::anyhow!("{option}: expected {N} numbers, got {}", v.len())
+    })?;
+    if values.iter().any(|v| !v.is_finite()) {
+        bail!("{option}: {text:?} has a non-finite value");
+    }
+    Ok(values)
+}
+
+fn vec3(option: &str, text: &str) -> anyhow::Result<DVec3> {
+    Ok(DVec3::from_array(numbers::<3>(option, text)?))
+}
+
+/// Parses one `--light` value.
+pub fn parse_light(text: &str) -> anyhow::Result<Light> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let light = match parts.as_slice() {
+        ["dir", d, e] => Light::Directional { direction: vec3("--light dir direction", d)?, irradiance: numbers("--light dir irradiance", e)? },
+        ["point", p, i] => Light::Point { position: vec3("--light point position", p)?, intensity: numbers("--light point intensity", i)? },
+        ["spot", p, d, i, angles] => {
+            let [inner_deg, outer_deg] = numbers("--light spot angles", angles)?;
+            Light::Spot {
+                position: vec3("--light spot position", p)?,
+                direction: vec3("--light spot direction", d)?,
+                intensity: numbers("--light spot intensity", i)?,
+                inner_deg,
+                outer_deg,
+            }
+        }
+        _ => bail!("--light {text:?}: expected dir:X,Y,Z:R,G,B, point:X,Y,Z:R,G,B or spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER,OUTER"),
+    };
+    light
+        .validate()
+        .with_context(|| format!("--light {text:?}"))?;
+    Ok(light)
+}
+
+/// Parses `--camera X,Y,Z:TX,TY,TZ:FOVY_DEG`.
+pub fn parse_camera(text: &str) -> anyhow::Result<Camera> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let [eye, target, fovy] = parts.as_slice() else {
+        bail!("--camera {text:?}: expected X,Y,Z:TX,TY,TZ:FOVY_DEG");
+    };
+    let [fovy_deg] = numbers("--camera field of view", fovy)?;
+    let camera = Camera {
+        eye: vec3("--camera eye", eye)?,
+        target: vec3("--camera target", target)?,
+        fovy_deg,
+    };
+    camera
+        .validate()
+        .with_context(|| format!("--camera {text:?}"))?;
+    Ok(camera)
+}
+
+impl SceneArgs {
+    pub fn lights(&self) -> anyhow::Result<Vec<Light>> {
+        if self.lights.is_empty() {
+            return Ok(vec![Light::default_light()]);
+        }
+        self.lights.iter().map(|l| parse_light(l)).collect()
+    }
+
+    pub fn frame_desc(&self) -> anyhow::Result<FrameDesc> {
+        for (option, v) in [("--width", self.width), ("--height", self.height)] {
+            if !(1..=16384).contains(&v) {
+                bail!("{option} {v}: must be in 1..=16384");
+            }
+        }
+        if !(self.size_mm.is_finite() && self.size_mm > 0.0) {
+            bail!(
+                "--size-mm {}: must be a positive number of millimetres",
+                self.size_mm
+            );
+        }
+        if !(self.eta.is_finite() && self.eta > 0.0) {
+            bail!("--eta {}: must be a positive number", self.eta);
+        }
+        if !(self.exposure.is_finite() && self.exposure >= 0.0) {
+            bail!(
+                "--exposure {}: must be a finite non-negative number",
+                self.exposure
+            );
+        }
+        Ok(FrameDesc {
+            width: self.width,
+            height: self.height,
+            camera: self.camera.as_deref().map(parse_camera).transpose()?,
+            radiance: if self.radiance == "paper" {
+                RadianceMode::Paper
+            } else {
+                RadianceMode::Physical
+            },
+            specular: !self.no_specular,
+            ..FrameDesc::default()
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lights_and_cameras_parse_and_bad_values_name_the_option() {
+        assert_eq!(
+            parse_light("dir:0,-1,0:1,2,3").expect("dir"),
+            Light::Directional {
+                direction: DVec3::new(0.0, -1.0, 0.0),
+                irradiance: [1.0, 2.0, 3.0]
+            }
+        );
+        assert!(matches!(
+            parse_light("spot:0,50,0:0,-1,0:100,100,100:10,20"),
+            Ok(Light::Spot { .. })
+        ));
+        assert!(matches!(
+            parse_light("point:0,50,0:9,9,9"),
+            Ok(Light::Point { .. })
+        ));
+        for bad in [
+            "dir:0,0,0:1,1,1",
+            "dir:1,2:1,1,1",
+            "sun:1,1,1:1,1,1",
+            "point:0,1,0:1,nan,1",
+            "spot:0,1,0:0,-1,0:1,1,1:30,10",
+        ] {
+            let e = parse_light(bad).expect_err(bad).to_string();
+            assert!(e.contains("--light"), "{e}");
+        }
+        let cam = parse_camera("0,0,100:0,0,0:40").expect("camera");
+        assert_eq!(cam.fovy_deg, 40.0);
+        for bad in ["0,0,100:0,0,0", "0,0,0:0,0,0:40", "0,0,1:0,0,0:200"] {
+            assert!(parse_camera(bad)
+                .expect_err(bad)
+                .to_string()
+                .contains("--camera"));
+        }
+    }
+}
