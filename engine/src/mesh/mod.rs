@@ -85,6 +85,8 @@ pub enum MeshError {
         "non-manifold edge between vertices {a} {pa:?} and {b} {pb:?}: shared by {faces} faces, a solid's \
          edges are shared by exactly 2 (parts touching along an edge, or a fin)"
     )]
+    /// `a` and `b` index the mesh's vertices (for a loaded OBJ: numbered by first use in the faces,
+    /// not by `v` line); `pa` and `pb` are their positions.
     NonManifoldEdge {
         a: u32,
         b: u32,
