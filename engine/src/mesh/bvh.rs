@@ -19,12 +19,12 @@ const BINS: usize = 16;
 /// `beta * radius` (Barill et al. use 2). Measured worst errors away from the surface (bunny, 2000
 /// points, 50 mm): third order, beta 2: 6e-3, beta 3: 9e-4, beta 4: 3e-4; second order, beta 2: 5e-2.
 /// The accurate winding number uses third order at this beta:
-const ACCURATE_BETA: f64 = 4.0;
+pub(crate) const ACCURATE_BETA: f64 = 4.0;
 /// The quick estimate that [`Bvh::inside`] tries first: second order at beta 2, 2x cheaper.
-const QUICK_BETA: f64 = 2.0;
+pub(crate) const QUICK_BETA: f64 = 2.0;
 /// [`Bvh::inside`] trusts the quick estimate when `||w| - 1/2|` exceeds this: 4x its worst error
 /// measured (5e-2; a point can only be misclassified where `|w|` is this close to 1/2).
-const QUICK_MARGIN: f64 = 0.2;
+pub(crate) const QUICK_MARGIN: f64 = 0.2;
 /// Below this depth splits are by median only, so no tree is deeper than `SAH_DEPTH + 32`.
 const SAH_DEPTH: usize = 64;
 /// Traversal stack: a depth-first walk holds at most one pending sibling per level.
@@ -47,14 +47,17 @@ pub(crate) struct Moments {
     pub radius: f64,
     pub dipole: DVec3,
     pub quadrupole: DMat3,
-    /// Third-order moments: `octupole[i] = sum_t (a_t n_t)_i int_t (x - centre)(x - centre)^T dA / a_t`.
-    pub octupole: [DMat3; 3],
 }
+
+/// Third-order moments of a node: `[i] = sum_t (a_t n_t)_i int_t (x - centre)(x - centre)^T dA / a_t`.
+/// Kept apart from [`Moments`] so that the second-order pass does not drag them through the cache.
+pub(crate) type Octupole = [DMat3; 3];
 
 #[derive(Clone, Debug)]
 pub(crate) struct Bvh {
     pub nodes: Vec<Node>,
     pub moments: Vec<Moments>,
+    pub octupoles: Vec<Octupole>,
     /// Triangle corners in BVH order (copied for locality).
     pub tris: Vec<[DVec3; 3]>,
     /// The mesh face of each BVH triangle.
@@ -129,20 +132,21 @@ impl Bvh {
         }
         let sorted: Vec<[DVec3; 3]> = order.iter().map(|&i| tris[i as usize].0).collect();
         let faces = order.iter().map(|&i| tris[i as usize].1).collect();
-        let moments = ranges
+        let (moments, octupoles) = ranges
             .par_iter()
             .map(|&(s, e)| moments_of(&sorted[s..e]))
-            .collect();
+            .unzip();
         Bvh {
             nodes,
             moments,
+            octupoles,
             tris: sorted,
             faces,
         }
     }
 
     /// The generalized winding number at `q` (Jacobson et al. 2013, Eq. 5), with far nodes replaced
-    /// by their second-order expansion (Barill et al. 2018, Eq. 10-11) and near leaves summed exactly.
+    /// by their third-order expansion (Barill et al. 2018, Eq. 10-12) and near leaves summed exactly.
     pub fn winding_number(&self, q: DVec3) -> f64 {
         self.winding_number_with::<true>(q, ACCURATE_BETA)
     }
@@ -164,12 +168,17 @@ impl Bvh {
         let mut sum = 0.0;
         while top > 0 {
             top -= 1;
-            let node = self.nodes[stack[top] as usize];
-            let m = &self.moments[stack[top] as usize];
+            let index = stack[top] as usize;
+            let node = self.nodes[index];
+            let m = &self.moments[index];
             let r = m.centre - q;
             let d2 = r.length_squared();
             if d2 > (beta * m.radius).powi(2) {
-                sum += far_field::<THIRD>(m, r, d2);
+                sum += if THIRD {
+                    far_field_third(m, &self.octupoles[index], r, d2)
+                } else {
+                    far_field_second(m, r, d2)
+                };
             } else if node.count > 0 {
                 let tris = &self.tris[node.first as usize..(node.first + node.count) as usize];
                 sum += tris.iter().map(|t| solid_angle(q, t)).sum::<f64>()
@@ -387,7 +396,7 @@ fn sah_split(order: &mut [u32], centroids: &[DVec3], clo: DVec3, chi: DVec3) -> 
     left
 }
 
-fn moments_of(tris: &[[DVec3; 3]]) -> Moments {
+fn moments_of(tris: &[[DVec3; 3]]) -> (Moments, Octupole) {
     let mut area = 0.0;
     let mut weighted = DVec3::ZERO;
     let mut dipole = DVec3::ZERO;
@@ -423,13 +432,15 @@ fn moments_of(tris: &[[DVec3; 3]]) -> Moments {
             radius = radius.max(p.length());
         }
     }
-    Moments {
-        centre,
-        radius,
-        dipole,
-        quadrupole,
+    (
+        Moments {
+            centre,
+            radius,
+            dipole,
+            quadrupole,
+        },
         octupole,
-    }
+    )
 }
 
 /// Third-order far-field winding number of a node seen from `q`, with `r = centre - q` and
@@ -438,17 +449,14 @@ fn moments_of(tris: &[[DVec3; 3]]) -> Moments {
 /// `f . dipole + sum_ij df_i/dx_j quadrupole_ji + 1/2 sum_ijk d2f_i/dx_j dx_k octupole_i,jk`, where
 /// `4 pi df_i/dx_j = (delta_ij - 3 r_i r_j / d2) / |r|^3` and
 /// `4 pi d2f_i/dx_j dx_k = -3 (delta_ij r_k + delta_ik r_j + delta_jk r_i) / |r|^5 + 15 r_i r_j r_k / |r|^7`.
-fn far_field<const THIRD: bool>(m: &Moments, r: DVec3, d2: f64) -> f64 {
+fn far_field_third(m: &Moments, octupole: &Octupole, r: DVec3, d2: f64) -> f64 {
     let d = d2.sqrt();
     let inv3 = 1.0 / (d2 * d);
     let inv5 = inv3 / d2;
     let c = &m.quadrupole;
     let second = (c.x_axis.x + c.y_axis.y + c.z_axis.z) * inv3 - 3.0 * r.dot(*c * r) * inv5;
-    if !THIRD {
-        return (r.dot(m.dipole) * inv3 + second) / (4.0 * std::f64::consts::PI);
-    }
     let (mut a1, mut a3, mut b) = (0.0, 0.0, 0.0);
-    for (i, t) in m.octupole.iter().enumerate() {
+    for (i, t) in octupole.iter().enumerate() {
         let tr = *t * r;
         a1 += tr[i];
         a3 += r[i] * (t.x_axis.x + t.y_axis.y + t.z_axis.z);
@@ -456,6 +464,15 @@ fn far_field<const THIRD: bool>(m: &Moments, r: DVec3, d2: f64) -> f64 {
     }
     let third = 0.5 * (-3.0 * (2.0 * a1 + a3) * inv5 + 15.0 * b * inv5 / d2);
     (r.dot(m.dipole) * inv3 + second + third) / (4.0 * std::f64::consts::PI)
+}
+
+/// [`far_field_third`] without the third-order term (Barill et al. 2018, Eq. 10-11).
+fn far_field_second(m: &Moments, r: DVec3, d2: f64) -> f64 {
+    let d = d2.sqrt();
+    let inv3 = 1.0 / (d2 * d);
+    let c = &m.quadrupole;
+    let second = (c.x_axis.x + c.y_axis.y + c.z_axis.z) * inv3 - 3.0 * r.dot(*c * r) * inv3 / d2;
+    (r.dot(m.dipole) * inv3 + second) / (4.0 * std::f64::consts::PI)
 }
 
 /// Signed solid angle of triangle `t` seen from `q` (Van Oosterom and Strackee 1983; Jacobson et al.

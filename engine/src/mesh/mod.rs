@@ -110,6 +110,11 @@ pub enum MeshError {
          cannot be told from outside"
     )]
     InconsistentOrientation { edges: usize, a: u32, b: u32 },
+    #[error("invalid shape {shape:?}: {problem}")]
+    InvalidShape {
+        shape: shapes::Shape,
+        problem: &'static str,
+    },
     #[error("mesh size must be a finite number of millimetres > 0, got {0}")]
     InvalidSize(f64),
     #[error("the mesh has zero extent (all its vertices coincide)")]

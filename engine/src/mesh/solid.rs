@@ -18,7 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
-use super::{MeshError, Solid, TriMesh};
+use super::{MeshError, MeshReport, Normalization, Solid, TriMesh, ValidateOptions};
 
 /// A triangle mesh with a bounding volume hierarchy, answering the [`Solid`] queries.
 ///
@@ -85,6 +85,29 @@ impl MeshSolid {
             bounds,
             epsilon,
         })
+    }
+
+    /// The whole input path of DESIGN section 3 in one call: load the OBJ, validate it, normalize
+    /// it to `size_mm` and build the solid. Every error names the file.
+    ///
+    /// ```no_run
+    /// use translucent::mesh::{MeshSolid, ValidateOptions};
+    /// let (solid, report, _transform) =
+    ///     MeshSolid::load("stanford-bunny.obj", 50.0, &ValidateOptions::default())?;
+    /// println!("{}", report.summary());
+    /// # Ok::<(), translucent::mesh::MeshError>(())
+    /// ```
+    pub fn load(
+        path: impl AsRef<std::path::Path>,
+        size_mm: f64,
+        options: &ValidateOptions,
+    ) -> Result<(MeshSolid, MeshReport, Normalization), MeshError> {
+        let path = path.as_ref();
+        let mut mesh = TriMesh::load_obj(path)?;
+        let report = mesh.validate(options).map_err(|e| e.in_file(path))?;
+        let (mesh, transform) = mesh.normalized(size_mm).map_err(|e| e.in_file(path))?;
+        let solid = MeshSolid::new(mesh).map_err(|e| e.in_file(path))?;
+        Ok((solid, report, transform))
     }
 
     /// The mesh this solid was built from.
@@ -355,6 +378,53 @@ mod tests {
                 prop_assert_eq!(solid.contains(p), shape.contains(p));
                 Ok(())
             })?;
+        }
+    }
+
+    /// `contains` trusts the quick second-order estimate when `||w| - 1/2| > QUICK_MARGIN`; its error
+    /// must stay well inside that margin, also near the surface and near a hole.
+    #[test]
+    fn quick_estimate_stays_well_inside_its_margin() {
+        use crate::mesh::bvh::{ACCURATE_BETA, QUICK_BETA, QUICK_MARGIN};
+        let mut holed = Shape::Sphere { radius: 10.0 }.triangulate(32);
+        let positions = holed.positions.clone();
+        holed
+            .indices
+            .retain(|t| t.iter().any(|&i| positions[i as usize].y < 8.0));
+        let meshes = [
+            Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(48),
+            Shape::Capsule {
+                half_length: 10.0,
+                radius: 3.0,
+            }
+            .triangulate(32),
+            holed,
+        ];
+        let mut rng = Rng(9);
+        for mesh in meshes {
+            let solid = MeshSolid::new(mesh).unwrap();
+            let (mut quick_worst, mut accurate_worst) = (0.0f64, 0.0f64);
+            for _ in 0..1500 {
+                let p = rng.in_cube(16.0);
+                let exact = solid.winding_number_exact(p);
+                let quick = solid.bvh.winding_number_with::<false>(p, QUICK_BETA);
+                let accurate = solid.bvh.winding_number_with::<true>(p, ACCURATE_BETA);
+                quick_worst = quick_worst.max((quick - exact).abs());
+                accurate_worst = accurate_worst.max((accurate - exact).abs());
+                assert_eq!(solid.contains(p), exact.abs() > 0.5, "{p}: w = {exact}");
+            }
+            assert!(
+                quick_worst < QUICK_MARGIN / 2.0,
+                "quick estimate off by {quick_worst}"
+            );
+            assert!(
+                accurate_worst < 2e-3,
+                "accurate estimate off by {accurate_worst}"
+            );
         }
     }
 
