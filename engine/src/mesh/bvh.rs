@@ -80,6 +80,10 @@ impl Bvh {
             .iter()
             .map(|(t, _)| (t[0] + t[1] + t[2]) / 3.0)
             .collect();
+        let boxes: Vec<(DVec3, DVec3)> = tris
+            .iter()
+            .map(|(t, _)| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+            .collect();
         let mut order: Vec<u32> = (0..tris.len() as u32).collect();
         let mut nodes = vec![Node {
             lo: DVec3::ZERO,
@@ -110,7 +114,13 @@ impl Bvh {
             } else if depth >= SAH_DEPTH {
                 Some(median_split(&mut order[start..end], &centroids, clo, chi))
             } else {
-                Some(sah_split(&mut order[start..end], &centroids, clo, chi))
+                Some(sah_split(
+                    &mut order[start..end],
+                    &centroids,
+                    &boxes,
+                    clo,
+                    chi,
+                ))
             };
             match split {
                 None => {
@@ -339,7 +349,13 @@ fn median_split(order: &mut [u32], centroids: &[DVec3], clo: DVec3, chi: DVec3) 
 
 /// Partitions `order` (a node's triangles) at the cheapest SAH plane along the longest centroid
 /// axis and returns the size of the left part (both parts are non-empty).
-fn sah_split(order: &mut [u32], centroids: &[DVec3], clo: DVec3, chi: DVec3) -> usize {
+fn sah_split(
+    order: &mut [u32],
+    centroids: &[DVec3],
+    tri_boxes: &[(DVec3, DVec3)],
+    clo: DVec3,
+    chi: DVec3,
+) -> usize {
     let extent = chi - clo;
     let axis = longest_axis(extent);
     if extent[axis] <= 0.0 {
@@ -355,10 +371,9 @@ fn sah_split(order: &mut [u32], centroids: &[DVec3], clo: DVec3, chi: DVec3) -> 
     for &i in order.iter() {
         let b = bin_of(i);
         counts[b] += 1;
-        let c = centroids[i as usize];
-        boxes[b] = (boxes[b].0.min(c), boxes[b].1.max(c));
+        let (lo, hi) = tri_boxes[i as usize];
+        boxes[b] = (boxes[b].0.min(lo), boxes[b].1.max(hi));
     }
-    // Centroid boxes stand in for triangle boxes in the cost: cheaper, and good enough to rank splits.
     let area = |(lo, hi): (DVec3, DVec3)| {
         let e = (hi - lo).max(DVec3::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
