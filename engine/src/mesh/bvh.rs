@@ -574,3 +574,102 @@ pub(crate) fn closest_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
     let denom = 1.0 / (va + vb + vc);
     a + ab * (vb * denom) + ac * (vc * denom)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A soup of `n` random triangles of size ~`size` in a 20 mm cube: overlapping, intersecting,
+    /// unoriented. The hierarchy must answer exactly as a loop over all triangles does.
+    fn soup(n: usize, size: f64, seed: u64) -> Bvh {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            (z ^ (z >> 31)) as f64 / u64::MAX as f64 - 0.5
+        };
+        let tris = (0..n as u32)
+            .map(|f| {
+                let c = DVec3::new(next(), next(), next()) * 20.0;
+                let t = [0, 1, 2].map(|_| c + DVec3::new(next(), next(), next()) * size);
+                (t, f)
+            })
+            .collect();
+        Bvh::build(tris)
+    }
+
+    fn brute_hit(bvh: &Bvh, o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Option<f64> {
+        bvh.tris
+            .iter()
+            .filter_map(|t| ray_triangle(o, d, t).map(|h| h.0))
+            .filter(|&t| t > t_min && t <= t_max)
+            .min_by(f64::total_cmp)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+        #[test]
+        fn rays_agree_with_a_loop_over_all_triangles(
+            ox in -15.0..15.0f64, oy in -15.0..15.0f64, oz in -15.0..15.0f64,
+            dx in -1.0..1.0f64, dy in -1.0..1.0f64, dz in -1.0..1.0f64, t_max in 0.0..40.0f64,
+        ) {
+            thread_local!(static SOUP: Bvh = soup(2000, 3.0, 1));
+            let d = DVec3::new(dx, dy, dz);
+            prop_assume!(d.length() > 1e-3);
+            let (o, d) = (DVec3::new(ox, oy, oz), d.normalize());
+            SOUP.with(|bvh| {
+                let brute = brute_hit(bvh, o, d, 1e-9, t_max);
+                let fast = bvh.intersect(o, d, 1e-9, t_max, false).map(|h| h.t);
+                prop_assert_eq!(fast, brute);
+                prop_assert_eq!(bvh.intersect(o, d, 1e-9, t_max, true).is_some(), brute.is_some());
+                Ok(())
+            })?;
+        }
+
+        #[test]
+        fn closest_points_and_winding_numbers_agree_with_loops(
+            x in -15.0..15.0f64, y in -15.0..15.0f64, z in -15.0..15.0f64,
+        ) {
+            thread_local!(static SOUP: Bvh = soup(500, 2.0, 2));
+            let q = DVec3::new(x, y, z);
+            SOUP.with(|bvh| {
+                let brute = bvh.tris.iter().map(|t| (closest_on_triangle(q, t) - q).length_squared()).fold(f64::INFINITY, f64::min);
+                prop_assert_eq!(bvh.closest_point(q).2, brute);
+                // An open soup: w is far from integers, the expansion must still track it.
+                if brute > 1.0 {
+                    let (fast, exact) = (bvh.winding_number(q), bvh.winding_number_exact(q));
+                    prop_assert!((fast - exact).abs() < 2e-3, "{} vs {}", fast, exact);
+                }
+                Ok(())
+            })?;
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_build_valid_trees() {
+        // Every centroid identical (a fan of triangles around one point): no plane separates them.
+        let fan: Vec<([DVec3; 3], u32)> = (0..100)
+            .map(|i| {
+                let a = i as f64 * 0.0628;
+                let u = DVec3::new(a.cos(), a.sin(), 0.0);
+                ([u, -u, DVec3::Z * if i % 2 == 0 { 1.0 } else { -1.0 }], i)
+            })
+            .collect();
+        let bvh = Bvh::build(fan);
+        let leaves: Vec<&Node> = bvh.nodes.iter().filter(|n| n.count > 0).collect();
+        assert_eq!(leaves.iter().map(|n| n.count).sum::<u32>(), 100);
+        assert!(leaves.iter().all(|n| n.count as usize <= LEAF_SIZE));
+        let mut faces = bvh.faces.clone();
+        faces.sort_unstable();
+        assert_eq!(faces, (0..100).collect::<Vec<_>>());
+        // A single triangle.
+        let one = Bvh::build(vec![([DVec3::ZERO, DVec3::X, DVec3::Y], 7)]);
+        assert_eq!((one.nodes.len(), one.faces[0]), (1, 7));
+        assert!(one
+            .intersect(DVec3::new(0.2, 0.2, 1.0), -DVec3::Z, 0.0, 2.0, false)
+            .is_some());
+    }
+}
