@@ -71,11 +71,25 @@ fn queries(c: &mut Criterion) {
         })
         .collect();
 
+    // Points within 0.5 mm of the surface, as the bake's bisection of cut lattice edges asks.
+    let mut jitter = uniform(6);
+    let near: Vec<DVec3> = (0..points.len())
+        .map(|i| {
+            let tri = solid.mesh().indices[(i * 7) % solid.mesh().indices.len()];
+            let p = tri.map(|v| solid.mesh().positions[v as usize]);
+            let offset = DVec3::new(jitter(), jitter(), jitter()) - DVec3::splat(0.5);
+            (p[0] + p[1] + p[2]) / 3.0 + offset
+        })
+        .collect();
+
     let mut group = c.benchmark_group("mesh/bunny");
     group.sample_size(10);
     group.throughput(Throughput::Elements(points.len() as u64));
     group.bench_function("contains (1 thread)", |b| {
         b.iter(|| points.iter().filter(|p| solid.contains(**p)).count())
+    });
+    group.bench_function("contains near the surface (1 thread)", |b| {
+        b.iter(|| near.iter().filter(|p| solid.contains(**p)).count())
     });
     group.bench_function("contains_many (rayon)", |b| {
         b.iter(|| solid.contains_many(&points))

@@ -1,10 +1,13 @@
 //! Bounding volume hierarchy over the triangles of a mesh, shared by every query of
 //! [`MeshSolid`](super::MeshSolid): ray casts, closest points and the fast generalized winding number.
 //!
-//! Built by binned surface-area heuristic (SAH) on triangle centroids. Every node also stores the
-//! far-field moments of its triangles (Barill et al. 2018, "Fast winding numbers for soups and
-//! clouds", section 3.2): the area-weighted centre, the radius of a ball around it holding all the
-//! triangles, the dipole `sum a_t n_t` and the second-order moment `sum a_t (c_t - centre) n_t^T`.
+//! Built top-down by the binned surface-area heuristic (SAH: centroids binned along the longest
+//! axis, costs from the triangles' bounds). Every node also stores the far-field moments of its
+//! triangles (Barill et al. 2018, "Fast winding numbers for soups and clouds", section 3.2): the
+//! area-weighted centre, the radius of a ball around it holding all the triangles, the dipole
+//! `sum a_t n_t`, the second-order moment `sum a_t (c_t - centre) n_t^T` and the third-order one.
+//! Far nodes are summed through these moments, near leaves exactly (Van Oosterom-Strackee solid
+//! angles), which makes a query cost about logarithmic in the triangle count.
 //! No crate we know of computes fast winding numbers for triangle soups with a quality we could rely
 //! on, so this is written here and tested against the brute-force sum.
 
@@ -25,7 +28,7 @@ pub(crate) const QUICK_BETA: f64 = 2.0;
 /// [`Bvh::inside`] trusts the quick estimate when `||w| - 1/2|` exceeds this: 4x its worst error
 /// measured (5e-2; a point can only be misclassified where `|w|` is this close to 1/2).
 pub(crate) const QUICK_MARGIN: f64 = 0.2;
-/// Below this depth splits are by median only, so no tree is deeper than `SAH_DEPTH + 32`.
+/// From this depth on, splits are by median only, so no tree is deeper than `SAH_DEPTH + 32`.
 const SAH_DEPTH: usize = 64;
 /// Traversal stack: a depth-first walk holds at most one pending sibling per level.
 const STACK: usize = 128;
@@ -650,7 +653,7 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_build_valid_trees() {
-        // Every centroid identical (a fan of triangles around one point): no plane separates them.
+        // A fan around one axis: the centroids sit on two points only, and no plane separates those.
         let fan: Vec<([DVec3; 3], u32)> = (0..100)
             .map(|i| {
                 let a = i as f64 * 0.0628;

@@ -110,6 +110,11 @@ pub enum MeshError {
          cannot be told from outside"
     )]
     InconsistentOrientation { edges: usize, a: u32, b: u32 },
+    #[error(
+        "vertex {vertex} at {position:?} is too far from the origin for the queries (|coordinate| > \
+         1e100, products would overflow): normalize the mesh first"
+    )]
+    CoordinateTooLarge { vertex: usize, position: [f64; 3] },
     #[error("invalid shape {shape:?}: {problem}")]
     InvalidShape {
         shape: shapes::Shape,

@@ -60,9 +60,18 @@ pub struct ClosestPoint {
 
 impl MeshSolid {
     /// Builds the hierarchy over `mesh` (taken as is: normalize first, see [`TriMesh::normalized`]).
-    /// Faces of exactly zero area are left out of the queries (they bound nothing).
+    /// Faces of exactly zero area are left out of the queries (they bound nothing). Coordinates
+    /// beyond 1e100 are refused: the moments multiply up to four of them.
     pub fn new(mesh: TriMesh) -> Result<MeshSolid, MeshError> {
         mesh.check_structure()?;
+        if let Some(vertex) = mesh
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > 1e100)
+        {
+            let position = mesh.positions[vertex].to_array();
+            return Err(MeshError::CoordinateTooLarge { vertex, position });
+        }
         let tris: Vec<([DVec3; 3], u32)> = mesh
             .indices
             .iter()
@@ -608,6 +617,40 @@ mod tests {
                 solid.winding_number(p).is_finite() && solid.winding_number_exact(p).is_finite()
             );
         }
+    }
+
+    #[test]
+    fn tiny_and_huge_meshes_stay_finite_or_are_refused() {
+        let mut rng = Rng(8);
+        for scale in [1e-30, 1e-6, 1e6, 1e30] {
+            let mut mesh = Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(16);
+            for p in &mut mesh.positions {
+                *p *= scale;
+            }
+            let solid = MeshSolid::new(mesh).unwrap();
+            for _ in 0..100 {
+                let p = rng.in_cube(20.0 * scale);
+                let w = solid.winding_number(p);
+                assert!(
+                    w.is_finite() && (w.abs() < 0.01 || (w.abs() - 1.0).abs() < 0.01),
+                    "{scale}: {w}"
+                );
+                if let Some(hit) = solid.closest_hit(p, rng.direction(), 100.0 * scale) {
+                    assert!(hit.t.is_finite() && hit.normal.is_finite());
+                }
+                assert!(solid.closest_point(p).unwrap().distance.is_finite());
+            }
+        }
+        let mut huge = Shape::Sphere { radius: 1.0 }.triangulate(8);
+        huge.positions[3] *= 1e200;
+        assert!(matches!(
+            MeshSolid::new(huge),
+            Err(MeshError::CoordinateTooLarge { vertex: 3, .. })
+        ));
     }
 
     #[test]
