@@ -175,6 +175,14 @@ fn face_indices_out_of_range_name_the_face_and_line() {
 }
 
 #[test]
+fn tabs_crlf_and_faces_before_their_vertices_load() {
+    let text = "f 1 3 2\r\nf 1 2 4\r\nf 1 4 3\r\nf 2 3 4\r\nv\t0 0 0\r\nv 1 0 0\r\nv\t0 1 0\r\nv 0 0 1\r\n";
+    let mut mesh = TriMesh::load_obj(obj("crlf.obj", text)).unwrap();
+    let report = mesh.validate(&ValidateOptions::default()).unwrap();
+    assert_eq!((report.faces, report.boundary_edges), (4, 0));
+}
+
+#[test]
 fn unparsable_obj_is_an_obj_error() {
     let (err, _) = load_err("garbage.obj", "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n");
     assert!(matches!(err, MeshError::Obj { .. }), "{err:?}");

@@ -240,4 +240,9 @@ pub trait Solid: Sync {
     fn ray_hit(&self, origin: DVec3, dir: DVec3, t_max: f64) -> Option<(f64, DVec3)>;
     /// Axis-aligned bounds (min, max) in mm.
     fn bounds(&self) -> (DVec3, DVec3);
+    /// Whether the boundary is crossed anywhere in `0 < t <= t_max` (shadow rays). Same answer as
+    /// `ray_hit(..).is_some()`; implementations may stop at the first crossing found.
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.ray_hit(origin, dir, t_max).is_some()
+    }
 }

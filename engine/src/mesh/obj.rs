@@ -122,7 +122,7 @@ fn prescan(bytes: &[u8]) -> Result<(), MeshError> {
     let text = String::from_utf8_lossy(bytes);
     let total = text
         .lines()
-        .filter(|l| l.trim_start().starts_with("v "))
+        .filter(|l| l.split_whitespace().next() == Some("v"))
         .count();
     let (mut vertices, mut faces) = (0usize, 0usize);
     for (number, line) in text.lines().enumerate() {

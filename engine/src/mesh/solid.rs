@@ -242,6 +242,10 @@ impl Solid for MeshSolid {
     fn bounds(&self) -> (DVec3, DVec3) {
         self.bounds
     }
+
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.any_hit(origin, dir, t_max)
+    }
 }
 
 #[cfg(test)]
@@ -536,6 +540,7 @@ mod tests {
             let t_max = 40.0 * rng.next();
             let any = solid.any_hit(origin, dir, t_max);
             assert_eq!(any, solid.closest_hit(origin, dir, t_max).is_some());
+            assert_eq!(any, solid.occluded(origin, dir, t_max));
             blocked += any as usize;
         }
         assert!(blocked > 300 && blocked < 4700, "{blocked}");
