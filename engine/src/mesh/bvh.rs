@@ -37,7 +37,8 @@ const STACK: usize = 128;
 pub(crate) struct Node {
     pub lo: DVec3,
     pub hi: DVec3,
-    /// Leaf: first triangle (in BVH order). Inner node: the left child; the right one follows it.
+    /// Leaf: first triangle (in BVH order). Inner node: the right child; the left one is the next
+    /// node (depth-first layout: a node, its left subtree, its right subtree).
     pub first: u32,
     /// Triangles of a leaf; 0 marks an inner node.
     pub count: u32,
@@ -80,77 +81,25 @@ impl Bvh {
     /// Builds over `tris` (corners, mesh face index). `tris` must not be empty.
     pub fn build(tris: Vec<([DVec3; 3], u32)>) -> Bvh {
         let centroids: Vec<DVec3> = tris
-            .iter()
+            .par_iter()
             .map(|(t, _)| (t[0] + t[1] + t[2]) / 3.0)
             .collect();
         let boxes: Vec<(DVec3, DVec3)> = tris
-            .iter()
+            .par_iter()
             .map(|(t, _)| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
             .collect();
+        let input = BuildInput {
+            centroids: &centroids,
+            boxes: &boxes,
+        };
         let mut order: Vec<u32> = (0..tris.len() as u32).collect();
-        let mut nodes = vec![Node {
-            lo: DVec3::ZERO,
-            hi: DVec3::ZERO,
-            first: 0,
-            count: 0,
-        }];
-        // Triangle range of every node, for the moments.
-        let mut ranges = vec![(0usize, tris.len())];
-        let mut work = vec![(0usize, 0usize)];
-        while let Some((node, depth)) = work.pop() {
-            let (start, end) = ranges[node];
-            let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-            let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-            for &i in &order[start..end] {
-                for p in tris[i as usize].0 {
-                    lo = lo.min(p);
-                    hi = hi.max(p);
-                }
-                clo = clo.min(centroids[i as usize]);
-                chi = chi.max(centroids[i as usize]);
-            }
-            nodes[node].lo = lo;
-            nodes[node].hi = hi;
-            let count = end - start;
-            let split = if count <= LEAF_SIZE {
-                None
-            } else if depth >= SAH_DEPTH {
-                Some(median_split(&mut order[start..end], &centroids, clo, chi))
-            } else {
-                Some(sah_split(
-                    &mut order[start..end],
-                    &centroids,
-                    &boxes,
-                    clo,
-                    chi,
-                ))
-            };
-            match split {
-                None => {
-                    nodes[node].first = start as u32;
-                    nodes[node].count = count as u32;
-                }
-                Some(mid) => {
-                    let left = nodes.len();
-                    nodes[node].first = left as u32;
-                    nodes[node].count = 0;
-                    nodes.push(nodes[node]);
-                    nodes.push(nodes[node]);
-                    ranges.push((start, start + mid));
-                    ranges.push((start + mid, end));
-                    work.push((left, depth + 1));
-                    work.push((left + 1, depth + 1));
-                }
-            }
-        }
+        let mut tree = Subtree::default();
+        build_into(&input, &mut order, 0, 0, &mut tree);
         let sorted: Vec<[DVec3; 3]> = order.iter().map(|&i| tris[i as usize].0).collect();
         let faces = order.iter().map(|&i| tris[i as usize].1).collect();
-        let (moments, octupoles) = ranges
-            .par_iter()
-            .map(|&(s, e)| moments_of(&sorted[s..e]))
-            .unzip();
+        let (moments, octupoles) = moments_bottom_up(&tree, &sorted);
         Bvh {
-            nodes,
+            nodes: tree.nodes,
             moments,
             octupoles,
             tris: sorted,
@@ -197,12 +146,12 @@ impl Bvh {
                 sum += tris.iter().map(|t| solid_angle(q, t)).sum::<f64>()
                     / (4.0 * std::f64::consts::PI);
             } else if top + 2 <= STACK {
-                stack[top] = node.first;
-                stack[top + 1] = node.first + 1;
+                stack[top] = index as u32 + 1;
+                stack[top + 1] = node.first;
                 top += 2;
             } else {
                 // Unreachable for trees this builder makes; exact fallback rather than a wrong sum.
-                sum += self.exact_range(q, node.first);
+                sum += self.exact_range(q, index as u32);
             }
         }
         sum
@@ -215,7 +164,7 @@ impl Bvh {
             let tris = &self.tris[n.first as usize..(n.first + n.count) as usize];
             tris.iter().map(|t| solid_angle(q, t)).sum::<f64>() / (4.0 * std::f64::consts::PI)
         } else {
-            self.exact_range(q, n.first) + self.exact_range(q, n.first + 1)
+            self.exact_range(q, node + 1) + self.exact_range(q, n.first)
         }
     }
 
@@ -249,7 +198,8 @@ impl Bvh {
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = self.nodes[stack[top] as usize];
+            let index = stack[top];
+            let node = self.nodes[index as usize];
             if node.count > 0 {
                 for k in node.first..node.first + node.count {
                     if let Some((t, u, v)) = ray_triangle(origin, dir, &self.tris[k as usize]) {
@@ -264,7 +214,7 @@ impl Bvh {
                 }
                 continue;
             }
-            let (l, r) = (node.first, node.first + 1);
+            let (l, r) = (index + 1, node.first);
             let tl = slab(&self.nodes[l as usize], origin, inv, t_min, t_best);
             let tr = slab(&self.nodes[r as usize], origin, inv, t_min, t_best);
             // Push the farther child first so the nearer one is searched first and shrinks t_best.
@@ -302,7 +252,8 @@ impl Bvh {
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = self.nodes[stack[top] as usize];
+            let index = stack[top];
+            let node = self.nodes[index as usize];
             if box_distance2(&node, p) >= best.2 {
                 continue;
             }
@@ -316,7 +267,7 @@ impl Bvh {
                 }
                 continue;
             }
-            let (l, r) = (node.first, node.first + 1);
+            let (l, r) = (index + 1, node.first);
             let dl = box_distance2(&self.nodes[l as usize], p);
             let dr = box_distance2(&self.nodes[r as usize], p);
             let (near, far) = if dl <= dr { (l, r) } else { (r, l) };
@@ -327,6 +278,95 @@ impl Bvh {
             }
         }
         best
+    }
+}
+
+/// Subtrees with more triangles than this are built in parallel.
+const PARALLEL_BUILD: usize = 4096;
+
+struct BuildInput<'a> {
+    centroids: &'a [DVec3],
+    boxes: &'a [(DVec3, DVec3)],
+}
+
+/// Nodes in depth-first layout with their triangle ranges (for the moments); child links are
+/// relative to the start of `nodes`.
+#[derive(Default)]
+struct Subtree {
+    nodes: Vec<Node>,
+    ranges: Vec<(usize, usize)>,
+}
+
+impl Subtree {
+    fn append(&mut self, other: Subtree) {
+        let offset = self.nodes.len() as u32;
+        self.nodes.extend(other.nodes.into_iter().map(|mut n| {
+            if n.count == 0 {
+                n.first += offset;
+            }
+            n
+        }));
+        self.ranges.extend(other.ranges);
+    }
+}
+
+/// Appends the subtree over `order` (triangles `start..start + order.len()` of the final order) to
+/// `out`, partitioning `order` in place. Large halves are built on separate threads and appended.
+fn build_into(
+    input: &BuildInput,
+    order: &mut [u32],
+    start: usize,
+    depth: usize,
+    out: &mut Subtree,
+) {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for &i in order.iter() {
+        let (blo, bhi) = input.boxes[i as usize];
+        lo = lo.min(blo);
+        hi = hi.max(bhi);
+        clo = clo.min(input.centroids[i as usize]);
+        chi = chi.max(input.centroids[i as usize]);
+    }
+    let here = out.nodes.len();
+    let count = order.len();
+    out.nodes.push(Node {
+        lo,
+        hi,
+        first: start as u32,
+        count: count as u32,
+    });
+    out.ranges.push((start, start + count));
+    if count <= LEAF_SIZE {
+        return;
+    }
+    let mid = if depth >= SAH_DEPTH {
+        median_split(order, input.centroids, clo, chi)
+    } else {
+        sah_split(order, input.centroids, input.boxes, clo, chi)
+    };
+    out.nodes[here].count = 0;
+    let (left, right) = order.split_at_mut(mid);
+    if count > PARALLEL_BUILD {
+        let (l, r) = rayon::join(
+            || {
+                let mut tree = Subtree::default();
+                build_into(input, left, start, depth + 1, &mut tree);
+                tree
+            },
+            || {
+                let mut tree = Subtree::default();
+                build_into(input, right, start + mid, depth + 1, &mut tree);
+                tree
+            },
+        );
+        out.append(l);
+        out.nodes[here].first = out.nodes.len() as u32;
+        out.append(r);
+    } else {
+        build_into(input, left, start, depth + 1, out);
+        out.nodes[here].first = out.nodes.len() as u32;
+        build_into(input, right, start + mid, depth + 1, out);
     }
 }
 
@@ -412,6 +452,91 @@ fn sah_split(
         }
     }
     left
+}
+
+/// Moments of every node: leaves from their triangles, inner nodes from their children by the
+/// parallel-axis shifts (children follow their parent in the depth-first layout, so a reverse sweep
+/// sees children first). Radii are exact: the farthest corner from each centre.
+fn moments_bottom_up(tree: &Subtree, tris: &[[DVec3; 3]]) -> (Vec<Moments>, Vec<Octupole>) {
+    let n = tree.nodes.len();
+    let mut moments = vec![
+        Moments {
+            centre: DVec3::ZERO,
+            radius: 0.0,
+            dipole: DVec3::ZERO,
+            quadrupole: DMat3::ZERO,
+        };
+        n
+    ];
+    let mut octupoles = vec![[DMat3::ZERO; 3]; n];
+    let mut areas = vec![0.0; n];
+    for index in (0..n).rev() {
+        let node = tree.nodes[index];
+        if node.count > 0 {
+            let (s, e) = tree.ranges[index];
+            (moments[index], octupoles[index]) = moments_of(&tris[s..e]);
+            areas[index] = tris[s..e]
+                .iter()
+                .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
+                .sum();
+            continue;
+        }
+        let children = [index + 1, node.first as usize];
+        let area = areas[children[0]] + areas[children[1]];
+        let centre = if area > 0.0 {
+            children
+                .iter()
+                .map(|&k| moments[k].centre * areas[k])
+                .sum::<DVec3>()
+                / area
+        } else {
+            0.5 * (node.lo + node.hi)
+        };
+        let mut m = Moments {
+            centre,
+            radius: 0.0,
+            dipole: DVec3::ZERO,
+            quadrupole: DMat3::ZERO,
+        };
+        let mut octupole = [DMat3::ZERO; 3];
+        for k in children {
+            let (c, t) = (&moments[k], &octupoles[k]);
+            let delta = c.centre - centre;
+            m.dipole += c.dipole;
+            // Offsets from the new centre are the child's offsets plus delta.
+            m.quadrupole += c.quadrupole + outer(delta, c.dipole);
+            for (i, o) in octupole.iter_mut().enumerate() {
+                let column = c.quadrupole.col(i);
+                *o += t[i]
+                    + outer(column, delta)
+                    + outer(delta, column)
+                    + outer(delta, delta) * c.dipole[i];
+            }
+        }
+        (moments[index], octupoles[index], areas[index]) = (m, octupole, area);
+    }
+    let radii: Vec<f64> = tree
+        .ranges
+        .par_iter()
+        .zip(moments.par_iter())
+        .map(|(&(s, e), m)| {
+            tris[s..e]
+                .iter()
+                .flatten()
+                .map(|p| (*p - m.centre).length_squared())
+                .fold(0.0, f64::max)
+                .sqrt()
+        })
+        .collect();
+    for (m, r) in moments.iter_mut().zip(radii) {
+        m.radius = r;
+    }
+    (moments, octupoles)
+}
+
+/// `u v^T`.
+fn outer(u: DVec3, v: DVec3) -> DMat3 {
+    DMat3::from_cols(u * v.x, u * v.y, u * v.z)
 }
 
 fn moments_of(tris: &[[DVec3; 3]]) -> (Moments, Octupole) {
@@ -619,7 +744,8 @@ mod tests {
             ox in -15.0..15.0f64, oy in -15.0..15.0f64, oz in -15.0..15.0f64,
             dx in -1.0..1.0f64, dy in -1.0..1.0f64, dz in -1.0..1.0f64, t_max in 0.0..40.0f64,
         ) {
-            thread_local!(static SOUP: Bvh = soup(2000, 3.0, 1));
+            // More triangles than PARALLEL_BUILD, so the threaded build is covered too.
+            thread_local!(static SOUP: Bvh = soup(3 * PARALLEL_BUILD, 2.0, 1));
             let d = DVec3::new(dx, dy, dz);
             prop_assume!(d.length() > 1e-3);
             let (o, d) = (DVec3::new(ox, oy, oz), d.normalize());
@@ -648,6 +774,45 @@ mod tests {
                 }
                 Ok(())
             })?;
+        }
+    }
+
+    /// The parallel-axis shifts reproduce the moments summed directly over each node's triangles.
+    #[test]
+    fn shifted_moments_equal_direct_sums() {
+        let bvh = soup(3000, 2.0, 3);
+        let scale = |m: &DMat3| m.to_cols_array().iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let mut ranges = Vec::new();
+        // Recover each node's triangle range from the layout: leaves hold theirs, parents span children.
+        fn span(bvh: &Bvh, index: usize, out: &mut Vec<(usize, usize, usize)>) -> (usize, usize) {
+            let n = bvh.nodes[index];
+            let range = if n.count > 0 {
+                (n.first as usize, (n.first + n.count) as usize)
+            } else {
+                let (a, _) = span(bvh, index + 1, out);
+                let (_, b) = span(bvh, n.first as usize, out);
+                (a, b)
+            };
+            out.push((index, range.0, range.1));
+            range
+        }
+        span(&bvh, 0, &mut ranges);
+        assert_eq!(ranges.len(), bvh.nodes.len());
+        for (index, s, e) in ranges {
+            let (direct, octupole) = moments_of(&bvh.tris[s..e]);
+            let got = &bvh.moments[index];
+            assert!((got.centre - direct.centre).length() < 1e-9, "{index}");
+            assert!((got.radius - direct.radius).abs() < 1e-9);
+            assert!((got.dipole - direct.dipole).length() < 1e-9 * direct.dipole.length().max(1.0));
+            let tol = 1e-9 * scale(&direct.quadrupole).max(1.0);
+            assert!(
+                scale(&(got.quadrupole - direct.quadrupole)) < tol,
+                "{index}"
+            );
+            for (got, direct) in bvh.octupoles[index].iter().zip(&octupole) {
+                let tol = 1e-9 * scale(direct).max(1.0);
+                assert!(scale(&(*got - *direct)) < tol, "{index}");
+            }
         }
     }
 
