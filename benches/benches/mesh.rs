@@ -42,7 +42,15 @@ fn uniform(seed: u64) -> impl FnMut() -> f64 {
 fn build(c: &mut Criterion) {
     let mut group = c.benchmark_group("mesh/build");
     group.sample_size(10);
-    for name in ["spot", "stanford-bunny", "nefertiti"] {
+    for name in [
+        "spot",
+        "fandisk",
+        "homer",
+        "cheburashka",
+        "rocker-arm",
+        "stanford-bunny",
+        "nefertiti",
+    ] {
         let Some(mesh) = load(name) else { continue };
         group.throughput(Throughput::Elements(mesh.indices.len() as u64));
         group.bench_with_input(BenchmarkId::from_parameter(name), &mesh, |b, mesh| {

@@ -73,7 +73,11 @@ pub enum MeshError {
         /// Line in the OBJ file, where the mesh came from one.
         line: Option<usize>,
     },
-    #[error("vertex {vertex} has a non-finite coordinate {position:?}{}", at_line(.line))]
+    #[error(
+        "vertex {vertex} has a non-finite coordinate {position:?}{} (or one beyond the f32 range of OBJ \
+         loading)",
+        at_line(.line)
+    )]
     NonFiniteVertex {
         vertex: usize,
         position: [f64; 3],
