@@ -195,35 +195,41 @@ impl TriMesh {
 
     /// Enclosed volume by the divergence theorem (tetrahedra from the bounding-box centre, which
     /// keeps the sum well conditioned far from the origin): negative iff the faces wind inward.
-    /// Indices must be in range ([`TriMesh::check_structure`]).
+    /// Faces with an index out of range are skipped ([`TriMesh::check_structure`] reports them).
     pub fn signed_volume(&self) -> f64 {
         let (lo, hi) = self.bounds();
         let o = 0.5 * (lo + hi);
-        self.indices
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| self.positions[i as usize] - o);
-                a.dot(b.cross(c)) / 6.0
-            })
+        self.corners()
+            .map(|[a, b, c]| (a - o).dot((b - o).cross(c - o)) / 6.0)
             .sum()
     }
 
-    /// Total surface area. Indices must be in range ([`TriMesh::check_structure`]).
+    /// Total surface area (faces with an index out of range skipped).
     pub fn surface_area(&self) -> f64 {
-        self.indices
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| self.positions[i as usize]);
-                0.5 * (b - a).cross(c - a).length()
-            })
+        self.corners()
+            .map(|[a, b, c]| 0.5 * (b - a).cross(c - a).length())
             .sum()
     }
 
-    /// Recomputes area-weighted per-vertex normals from the faces.
+    /// A face's corners, `None` if an index is out of range.
+    fn face_corners(&self, tri: &[u32; 3]) -> Option<[DVec3; 3]> {
+        let [a, b, c] = tri.map(|i| self.positions.get(i as usize).copied());
+        Some([a?, b?, c?])
+    }
+
+    /// The corners of every face whose indices are all in range.
+    fn corners(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.indices.iter().filter_map(|t| self.face_corners(t))
+    }
+
+    /// Recomputes area-weighted per-vertex normals from the faces (faces with an index out of range
+    /// are skipped).
     pub fn compute_normals(&mut self) {
         let mut normals = vec![DVec3::ZERO; self.positions.len()];
         for tri in &self.indices {
-            let [a, b, c] = tri.map(|i| self.positions[i as usize]);
+            let Some([a, b, c]) = self.face_corners(tri) else {
+                continue;
+            };
             let n = (b - a).cross(c - a);
             for &i in tri {
                 normals[i as usize] += n;
