@@ -255,4 +255,39 @@ pub trait Solid: Sync {
     fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
         self.ray_hit(origin, dir, t_max).is_some()
     }
+    /// A point where `contains` changes along the segment from `inside` (contained) to `outside`
+    /// (not), to within `tolerance` mm: what isosurface stuffing needs on a cut lattice edge.
+    ///
+    /// The default casts one ray along the segment and keeps its first crossing if `contains`
+    /// agrees on both sides of it (`tolerance / 2` away); otherwise (a crossing with no surface to
+    /// hit, as across a bridged hole) it bisects `contains`. One ray and two `contains` instead of
+    /// `log2(length / tolerance)` of them.
+    fn boundary_crossing(&self, inside: DVec3, outside: DVec3, tolerance: f64) -> DVec3 {
+        let (delta, tolerance) = (outside - inside, tolerance.max(0.0));
+        let length = delta.length();
+        if length.is_finite() && length > tolerance {
+            let dir = delta / length;
+            if let Some((t, _)) = self.ray_hit(inside, dir, length) {
+                let half = 0.5 * tolerance;
+                let (before, after) = ((t - half).max(0.0), (t + half).min(length));
+                if self.contains(inside + dir * before) && !self.contains(inside + dir * after) {
+                    return inside + dir * t;
+                }
+            }
+        }
+        let (mut a, mut b) = (inside, outside);
+        // 64 halvings reach any tolerance representable relative to the segment.
+        for _ in 0..64 {
+            if (b - a).length() <= tolerance {
+                break;
+            }
+            let mid = 0.5 * (a + b);
+            if self.contains(mid) {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        0.5 * (a + b)
+    }
 }
