@@ -170,8 +170,9 @@ impl Normalization {
 }
 
 impl TriMesh {
-    /// Checks the mesh against the rules of the module doc, drops degenerate faces (counted in the
-    /// report) and reports what it found. The first problem found is the error.
+    /// Checks the mesh against the rules of the module doc and reports what it found; an accepted
+    /// mesh loses its degenerate faces (counted in the report), a refused one is left unchanged.
+    /// The first problem found is the error.
     pub fn validate(&mut self, options: &ValidateOptions) -> Result<MeshReport, MeshError> {
         self.check_structure()?;
         let (lo, hi) = self.bounds();
