@@ -285,6 +285,16 @@ fn inconsistent_orientation_is_refused() {
         matches!(err, MeshError::InconsistentOrientation { edges: 3, .. }),
         "{err:?}"
     );
+    // Forced, the face is turned back when the solid is built: the winding number is whole again
+    // and ray normals point out.
+    let report = mesh.validate(&ValidateOptions::forced()).unwrap();
+    assert!(report.forced && report.summary().contains("turned to agree"));
+    let solid = MeshSolid::new(mesh).unwrap();
+    assert!((solid.winding_number(DVec3::splat(0.1)) - 1.0).abs() < 1e-9);
+    let (t, n) = solid
+        .ray_hit(DVec3::splat(0.1), DVec3::ONE.normalize(), 10.0)
+        .unwrap();
+    assert!((n - DVec3::ONE.normalize()).length() < 1e-12, "{t} {n}");
 }
 
 #[test]

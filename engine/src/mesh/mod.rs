@@ -21,6 +21,7 @@
 
 mod bvh;
 mod obj;
+mod orient;
 pub mod shapes;
 mod solid;
 mod validate;

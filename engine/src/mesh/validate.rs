@@ -128,7 +128,8 @@ impl MeshReport {
         }
         if self.inconsistent_edges > 0 {
             s += &format!(
-                "; {} inconsistently oriented edges",
+                "; {} inconsistently oriented edges (faces are turned to agree with their \
+                 neighbours when the solid is built)",
                 self.inconsistent_edges
             );
         }
