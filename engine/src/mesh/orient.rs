@@ -38,11 +38,18 @@ pub(crate) fn make_coherent(mesh: &mut TriMesh) -> (Vec<Part>, usize) {
     uses.par_sort_unstable();
     // Neighbours across manifold edges, and whether the two traverse the edge the same way (then
     // one of them winds against the other).
-    let mut neighbours: Vec<Vec<(u32, bool)>> = vec![Vec::new(); faces];
+    // A face has three edges, so at most three manifold neighbours: fixed slots, no allocation.
+    const NONE: (u32, bool) = (u32::MAX, false);
+    let mut neighbours = vec![[NONE; 3]; faces];
+    let mut link = |f: u32, g: u32, against: bool| {
+        if let Some(slot) = neighbours[f as usize].iter_mut().find(|s| s.0 == u32::MAX) {
+            *slot = (g, against);
+        }
+    };
     for run in uses.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
         if let [(_, _, f, fwd_f), (_, _, g, fwd_g)] = run {
-            neighbours[*f as usize].push((*g, fwd_f == fwd_g));
-            neighbours[*g as usize].push((*f, fwd_f == fwd_g));
+            link(*f, *g, fwd_f == fwd_g);
+            link(*g, *f, fwd_f == fwd_g);
         }
     }
     let area = |f: u32| {
@@ -69,7 +76,7 @@ pub(crate) fn make_coherent(mesh: &mut TriMesh) -> (Vec<Part>, usize) {
                 part.largest = f;
             }
             for &(g, against) in &neighbours[f as usize] {
-                if !seen[g as usize] {
+                if g != u32::MAX && !seen[g as usize] {
                     seen[g as usize] = true;
                     turn[g as usize] = turn[f as usize] ^ against;
                     queue.push_back(g);
