@@ -18,19 +18,21 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
-use super::{MeshError, Solid, TriMesh};
+use super::{MeshError, MeshReport, Normalization, Solid, TriMesh, ValidateOptions};
 
 /// A triangle mesh with a bounding volume hierarchy, answering the [`Solid`] queries.
 ///
 /// `contains` is `|w| > 1/2` for the generalized winding number `w` (Jacobson et al. 2013), so a
 /// mesh wound inside-out (`w = -1` inside) is still the solid it bounds, and holes (the Stanford
-/// bunny's base) are bridged smoothly. Ray normals point out of the solid: if the mesh winds
-/// inward (negative signed volume) the face normals are flipped.
+/// bunny's base) are bridged smoothly. Ray normals point out of the solid, face by face (see
+/// [`RayHit::normal`]).
 #[derive(Clone, Debug)]
 pub struct MeshSolid {
     mesh: TriMesh,
     bvh: Bvh,
     inverted: bool,
+    /// Per mesh face: flip its geometric normal to point out of the solid.
+    flips: Vec<bool>,
     bounds: (DVec3, DVec3),
     /// Crossings nearer than this to a ray's origin are the surface the ray starts on.
     epsilon: f64,
@@ -45,7 +47,9 @@ pub struct RayHit {
     pub face: u32,
     /// Barycentric coordinates of the hit for the face's three vertices.
     pub barycentric: DVec3,
-    /// The face's unit normal, pointing out of the solid.
+    /// The face's unit normal, pointing out of the solid: flipped where the face winds inward,
+    /// judged per connected part by the winding number (so inside-out meshes and forced meshes
+    /// with some faces wound against their neighbours get outward normals too).
     pub normal: DVec3,
 }
 
@@ -59,10 +63,22 @@ pub struct ClosestPoint {
 }
 
 impl MeshSolid {
-    /// Builds the hierarchy over `mesh` (taken as is: normalize first, see [`TriMesh::normalized`]).
-    /// Faces of exactly zero area are left out of the queries (they bound nothing).
-    pub fn new(mesh: TriMesh) -> Result<MeshSolid, MeshError> {
+    /// Builds the hierarchy over `mesh` (normalize first, see [`TriMesh::normalized`]). Faces wound
+    /// against their neighbours are turned to agree with them (two corners swapped; they would
+    /// cancel in the winding number): a mesh that [`TriMesh::validate`] accepts without force is
+    /// kept as it is. Faces of exactly zero area are left out of the queries (they bound nothing).
+    /// Coordinates beyond 1e100 are refused: the moments multiply up to four of them.
+    pub fn new(mut mesh: TriMesh) -> Result<MeshSolid, MeshError> {
         mesh.check_structure()?;
+        if let Some(vertex) = mesh
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > 1e100)
+        {
+            let position = mesh.positions[vertex].to_array();
+            return Err(MeshError::CoordinateTooLarge { vertex, position });
+        }
+        let (parts, _turned) = super::orient::make_coherent(&mut mesh);
         let tris: Vec<([DVec3; 3], u32)> = mesh
             .indices
             .iter()
@@ -76,10 +92,12 @@ impl MeshSolid {
             });
         }
         let bvh = Bvh::build(tris);
+        let flips = super::orient::outward_flips(&mesh, &bvh, &parts);
         let bounds = mesh.bounds();
         let epsilon = 1e-9 * (0.5 * (bounds.1 - bounds.0).length()).max(f64::MIN_POSITIVE);
         Ok(MeshSolid {
             inverted: mesh.signed_volume() < 0.0,
+            flips,
             mesh,
             bvh,
             bounds,
@@ -87,12 +105,36 @@ impl MeshSolid {
         })
     }
 
+    /// The whole input path of DESIGN section 3 in one call: load the OBJ, validate it, normalize
+    /// it to `size_mm` and build the solid. Every error names the file.
+    ///
+    /// ```no_run
+    /// use translucent::mesh::{MeshSolid, ValidateOptions};
+    /// let (solid, report, _transform) =
+    ///     MeshSolid::load("stanford-bunny.obj", 50.0, &ValidateOptions::default())?;
+    /// println!("{}", report.summary());
+    /// # Ok::<(), translucent::mesh::MeshError>(())
+    /// ```
+    pub fn load(
+        path: impl AsRef<std::path::Path>,
+        size_mm: f64,
+        options: &ValidateOptions,
+    ) -> Result<(MeshSolid, MeshReport, Normalization), MeshError> {
+        let path = path.as_ref();
+        let mut mesh = TriMesh::load_obj(path)?;
+        let report = mesh.validate(options).map_err(|e| e.in_file(path))?;
+        let (mesh, transform) = mesh.normalized(size_mm).map_err(|e| e.in_file(path))?;
+        let solid = MeshSolid::new(mesh).map_err(|e| e.in_file(path))?;
+        Ok((solid, report, transform))
+    }
+
     /// The mesh this solid was built from.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
     }
 
-    /// Whether the faces wind inward (negative signed volume); ray normals are flipped if so.
+    /// Whether the faces wind inward (negative signed volume). Ray normals point outward either way
+    /// (see [`RayHit::normal`]).
     pub fn is_inverted(&self) -> bool {
         self.inverted
     }
@@ -143,15 +185,16 @@ impl MeshSolid {
         let hit = self.bvh.intersect(origin, dir, self.epsilon, t_max, any)?;
         let [a, b, c] = self.bvh.tris[hit.tri as usize];
         let n = (b - a).cross(c - a).normalize();
+        let face = self.bvh.faces[hit.tri as usize];
         Some(RayHit {
             t: hit.t,
-            face: self.bvh.faces[hit.tri as usize],
+            face,
             barycentric: {
                 // The widened edge test can leave a coordinate at -1e-12.
                 let b = DVec3::new(1.0 - hit.u - hit.v, hit.u, hit.v).max(DVec3::ZERO);
                 b / b.element_sum()
             },
-            normal: if self.inverted { -n } else { n },
+            normal: if self.flips[face as usize] { -n } else { n },
         })
     }
 
@@ -209,6 +252,10 @@ impl Solid for MeshSolid {
 
     fn bounds(&self) -> (DVec3, DVec3) {
         self.bounds
+    }
+
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.any_hit(origin, dir, t_max)
     }
 }
 
@@ -304,6 +351,75 @@ mod tests {
         );
     }
 
+    /// Outward normals for every hit, whatever the winding: a sphere with every other face flipped,
+    /// two spheres wound opposite ways, and a hollow shell whose inner wall faces its cavity.
+    #[test]
+    fn ray_normals_point_out_of_the_solid_whatever_the_winding() {
+        let sphere = |r: f64, centre: DVec3, inward: bool| {
+            let mut m = Shape::Sphere { radius: r }.triangulate(24);
+            for p in &mut m.positions {
+                *p += centre;
+            }
+            if inward {
+                m = flipped(m);
+            }
+            m
+        };
+        let merge = |a: TriMesh, b: TriMesh| {
+            let mut m = a;
+            let base = m.positions.len() as u32;
+            m.positions.extend(b.positions);
+            m.normals.extend(b.normals);
+            m.indices
+                .extend(b.indices.iter().map(|t| t.map(|i| i + base)));
+            m
+        };
+        let mut checker = sphere(10.0, DVec3::ZERO, false);
+        for t in checker.indices.iter_mut().step_by(2) {
+            t.swap(1, 2);
+        }
+        let cases = [
+            ("checkered", checker, vec![(DVec3::ZERO, 1.0)]),
+            (
+                "two ways",
+                merge(
+                    sphere(5.0, DVec3::X * -10.0, false),
+                    sphere(5.0, DVec3::X * 10.0, true),
+                ),
+                vec![(DVec3::X * -10.0, 1.0), (DVec3::X * 10.0, 1.0)],
+            ),
+            (
+                "shell",
+                merge(
+                    sphere(10.0, DVec3::ZERO, false),
+                    sphere(5.0, DVec3::ZERO, true),
+                ),
+                vec![(DVec3::ZERO, 1.0)],
+            ),
+        ];
+        let mut rng = Rng(21);
+        for (name, mesh, centres) in cases {
+            let solid = MeshSolid::new(mesh).unwrap();
+            let mut hits = 0;
+            for _ in 0..300 {
+                // Aimed at the parts (and into the shell's cavity) so that most rays hit.
+                let (centre, _) = centres[hits % centres.len()];
+                let origin = rng.in_cube(30.0);
+                let dir = (centre + rng.in_cube(4.0) - origin).normalize_or(DVec3::X);
+                let Some(hit) = solid.closest_hit(origin, dir, 100.0) else {
+                    continue;
+                };
+                hits += 1;
+                // Outward: a step along the normal leaves the solid, a step against it enters.
+                let at = origin + dir * hit.t;
+                let ahead = solid.contains(at + hit.normal * 1e-3);
+                let behind = solid.contains(at - hit.normal * 1e-3);
+                assert!(!ahead && behind, "{name}: normal {} at {at}", hit.normal);
+            }
+            assert!(hits > 200, "{name}: {hits} hits");
+        }
+    }
+
     #[test]
     fn sphere_with_a_hole_still_contains_its_interior() {
         let r = 10.0;
@@ -355,6 +471,53 @@ mod tests {
                 prop_assert_eq!(solid.contains(p), shape.contains(p));
                 Ok(())
             })?;
+        }
+    }
+
+    /// `contains` trusts the quick second-order estimate when `||w| - 1/2| > QUICK_MARGIN`; its error
+    /// must stay well inside that margin, also near the surface and near a hole.
+    #[test]
+    fn quick_estimate_stays_well_inside_its_margin() {
+        use crate::mesh::bvh::{ACCURATE_BETA, QUICK_MARGIN};
+        let mut holed = Shape::Sphere { radius: 10.0 }.triangulate(32);
+        let positions = holed.positions.clone();
+        holed
+            .indices
+            .retain(|t| t.iter().any(|&i| positions[i as usize].y < 8.0));
+        let meshes = [
+            Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(48),
+            Shape::Capsule {
+                half_length: 10.0,
+                radius: 3.0,
+            }
+            .triangulate(32),
+            holed,
+        ];
+        let mut rng = Rng(9);
+        for mesh in meshes {
+            let solid = MeshSolid::new(mesh).unwrap();
+            let (mut quick_worst, mut accurate_worst) = (0.0f64, 0.0f64);
+            for _ in 0..1500 {
+                let p = rng.in_cube(16.0);
+                let exact = solid.winding_number_exact(p);
+                let quick = solid.bvh.quick_winding_number(p);
+                let accurate = solid.bvh.winding_number_with(p, ACCURATE_BETA);
+                quick_worst = quick_worst.max((quick - exact).abs());
+                accurate_worst = accurate_worst.max((accurate - exact).abs());
+                assert_eq!(solid.contains(p), exact.abs() > 0.5, "{p}: w = {exact}");
+            }
+            assert!(
+                quick_worst < QUICK_MARGIN / 2.0,
+                "quick estimate off by {quick_worst}"
+            );
+            assert!(
+                accurate_worst < 2e-3,
+                "accurate estimate off by {accurate_worst}"
+            );
         }
     }
 
@@ -457,6 +620,7 @@ mod tests {
             let t_max = 40.0 * rng.next();
             let any = solid.any_hit(origin, dir, t_max);
             assert_eq!(any, solid.closest_hit(origin, dir, t_max).is_some());
+            assert_eq!(any, solid.occluded(origin, dir, t_max));
             blocked += any as usize;
         }
         assert!(blocked > 300 && blocked < 4700, "{blocked}");
@@ -538,6 +702,77 @@ mod tests {
                 solid.winding_number(p).is_finite() && solid.winding_number_exact(p).is_finite()
             );
         }
+    }
+
+    #[test]
+    fn tiny_and_huge_meshes_stay_finite_or_are_refused() {
+        let mut rng = Rng(8);
+        for scale in [1e-30, 1e-6, 1e6, 1e30] {
+            let mut mesh = Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(16);
+            for p in &mut mesh.positions {
+                *p *= scale;
+            }
+            let solid = MeshSolid::new(mesh).unwrap();
+            for _ in 0..100 {
+                let p = rng.in_cube(20.0 * scale);
+                let w = solid.winding_number(p);
+                assert!(
+                    w.is_finite() && (w.abs() < 0.01 || (w.abs() - 1.0).abs() < 0.01),
+                    "{scale}: {w}"
+                );
+                if let Some(hit) = solid.closest_hit(p, rng.direction(), 100.0 * scale) {
+                    assert!(hit.t.is_finite() && hit.normal.is_finite());
+                }
+                assert!(solid.closest_point(p).unwrap().distance.is_finite());
+            }
+        }
+        let mut huge = Shape::Sphere { radius: 1.0 }.triangulate(8);
+        huge.positions[3] *= 1e200;
+        assert!(matches!(
+            MeshSolid::new(huge),
+            Err(MeshError::CoordinateTooLarge { vertex: 3, .. })
+        ));
+    }
+
+    #[test]
+    fn boundary_crossings_lie_where_contains_changes() {
+        let mut holed = Shape::Sphere { radius: 10.0 }.triangulate(32);
+        let positions = holed.positions.clone();
+        holed
+            .indices
+            .retain(|t| t.iter().any(|&i| positions[i as usize].y < 8.0));
+        let solid = MeshSolid::new(holed).unwrap();
+        let tolerance = 1e-4;
+        let mut rng = Rng(12);
+        let (mut through_hole, mut on_surface) = (0, 0);
+        for _ in 0..400 {
+            let inside = rng.in_cube(5.0);
+            let outside = rng.direction() * 15.0;
+            assert!(solid.contains(inside) && !solid.contains(outside));
+            let c = solid.boundary_crossing(inside, outside, tolerance);
+            let dir = (outside - inside).normalize();
+            // On the segment, and contains flips within the tolerance around it.
+            assert!(((c - inside).normalize() - dir).length() < 1e-9);
+            assert!(solid.contains(c - dir * tolerance) && !solid.contains(c + dir * tolerance));
+            if solid.closest_point(c).unwrap().distance < 1e-9 {
+                on_surface += 1;
+            } else {
+                through_hole += 1;
+            }
+        }
+        // Both paths are exercised: rays that hit faces, and segments leaving through the hole.
+        assert!(
+            on_surface > 100 && through_hole > 5,
+            "{on_surface} {through_hole}"
+        );
+        // Shapes use the same default, with exact rays.
+        let ball = Shape::Sphere { radius: 10.0 };
+        let c = ball.boundary_crossing(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), 1e-6);
+        assert!((c - DVec3::new(10.0, 0.0, 0.0)).length() < 1e-12, "{c}");
     }
 
     #[test]
