@@ -32,14 +32,14 @@ pub const TET_FACES: [[usize; 3]; 4] = [[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 
 /// Shepard interpolation links from a coarser level into this one: for every node of this level, up to
 /// 8 nodes of the coarser level and their normalized weights (unused slots: [`NO_NODE`], weight 0).
 /// Surface nodes link to coarse surface nodes (node ids), inner nodes to coarse inner nodes.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ShepardLinks {
     pub links: Vec<[u32; 8]>,
     pub weights: Vec<[f64; 8]>,
 }
 
 /// One level of the QuadGraph.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct GraphLevel {
     /// The tetrahedra of this level (after the split of paper Fig. 4), positively oriented, in mm.
     pub tets: TetMesh,
@@ -85,7 +85,7 @@ impl Packing {
 
 /// Per render-mesh vertex, up to 4 surface nodes of the finest level (surface index `s`, not node id)
 /// and normalized weights.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ShadingWeights {
     pub links: Vec<[u32; 4]>,
     pub weights: Vec<[f64; 4]>,
