@@ -64,8 +64,11 @@ pub struct LevelStats {
     pub tetrahedra_split: usize,
     /// Surface nodes whose ray met the input surface (the rest sit at their face centroid).
     pub surface_nodes_on_surface: usize,
+    /// Dihedral angles after the split of paper Fig. 4 (which makes thinner tetrahedra)...
     pub min_dihedral_deg: f64,
     pub max_dihedral_deg: f64,
+    /// ...and of the stuffing alone, before it (not known for a cached graph).
+    pub stuffing_dihedral_deg: (f64, f64),
     pub texture_width: u32,
     pub texture_height: u32,
     pub surface_rows: u32,
@@ -189,7 +192,7 @@ impl QuadGraph {
                 grading: params.k,
                 stuffing: params.stuffing,
             };
-            let (mesh, _) = tetrahedralize(solid, surface, &tet_params);
+            let (mesh, stuffed) = tetrahedralize(solid, surface, &tet_params);
             let (mesh, split) = split_multi_boundary(mesh);
             if mesh.tets.is_empty() {
                 return Err(BakeError::Empty {
@@ -224,6 +227,7 @@ impl QuadGraph {
                 surface_nodes: level.surface_count(),
                 inner_nodes: level.inner_count(),
                 tetrahedra_split: split,
+                stuffing_dihedral_deg: (stuffed.min_dihedral_deg, stuffed.max_dihedral_deg),
                 surface_nodes_on_surface: on_surface,
                 min_dihedral_deg,
                 max_dihedral_deg,
@@ -272,6 +276,7 @@ impl QuadGraph {
         for (s, from_stats) in summary.levels.iter_mut().zip(stats) {
             s.tetrahedra_split = from_stats.tetrahedra_split;
             s.surface_nodes_on_surface = from_stats.surface_nodes_on_surface;
+            s.stuffing_dihedral_deg = from_stats.stuffing_dihedral_deg;
         }
         summary.timings_s = timings;
         Ok((graph, summary))

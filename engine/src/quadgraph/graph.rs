@@ -26,8 +26,10 @@ pub enum NodeKind {
 }
 
 /// Local face `f` of a tetrahedron is the face opposite its local vertex `f`; these are its vertices,
-/// ordered so that their normal `(b - a) x (c - a)` points out of a positively oriented tetrahedron.
-pub const TET_FACES: [[usize; 3]; 4] = [[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 2]];
+/// ordered so that their normal `(b - a) x (c - a)` points out of a positively oriented tetrahedron
+/// (`(v1 - v0) . ((v2 - v0) x (v3 - v0)) > 0`, as [`TetMesh`] requires). The first version of this
+/// table had every face reversed (inward normals); face `f` and its vertex set are unchanged.
+pub const TET_FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
 /// Shepard interpolation links from a coarser level into this one: for every node of this level, up to
 /// 8 nodes of the coarser level and their normalized weights (unused slots: [`NO_NODE`], weight 0).

@@ -59,8 +59,12 @@ fn check_graph(name: &str, shape: Shape, graph: &QuadGraph) {
                 shape.signed_distance(p).abs() < 1e-6 * level.spacing,
                 "{name}: surface node {p} off the surface"
             );
-            let (c, _) = level.face_frame(s);
+            let (c, face_normal) = level.face_frame(s);
             assert!((p - c).length() <= 2.0 * level.spacing);
+            assert!(
+                n.dot(face_normal) > 0.0,
+                "{name}: surface normal against its face's outward normal"
+            );
         }
         for (i, p) in level.positions[..ni].iter().enumerate() {
             assert!(p.is_finite(), "{name}: inner node {i} not finite");
@@ -476,4 +480,20 @@ fn relaxation_keeps_inner_nodes_inside_their_tetrahedra() {
         moved > level.inner_count() / 2,
         "relaxation moved only {moved} nodes"
     );
+}
+
+#[test]
+fn tet_faces_point_out_of_positively_oriented_tetrahedra() {
+    let v = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+    assert!((v[1] - v[0]).dot((v[2] - v[0]).cross(v[3] - v[0])) > 0.0);
+    let centroid = v.iter().sum::<DVec3>() / 4.0;
+    for (f, face) in super::graph::TET_FACES.iter().enumerate() {
+        assert!(!face.contains(&f), "face {f} must be opposite vertex {f}");
+        let [a, b, c] = face.map(|i| v[i]);
+        let n = (b - a).cross(c - a);
+        assert!(
+            n.dot((a + b + c) / 3.0 - centroid) > 0.0,
+            "face {f} points inward"
+        );
+    }
 }
