@@ -36,7 +36,7 @@ impl Default for BakeParams {
     fn default() -> Self {
         Self {
             resolution: 48,
-            k: 0.5,
+            k: 2.0,
             levels: 3,
             relax: false,
             block: 32,
@@ -69,6 +69,8 @@ pub struct LevelStats {
     pub max_dihedral_deg: f64,
     /// ...and of the stuffing alone, before it (not known for a cached graph).
     pub stuffing_dihedral_deg: (f64, f64),
+    /// Cut lattice tetrahedra that were not finest BCC ones (the angle bound does not cover them).
+    pub coarse_cut_tets: usize,
     pub texture_width: u32,
     pub texture_height: u32,
     pub surface_rows: u32,
@@ -228,6 +230,7 @@ impl QuadGraph {
                 inner_nodes: level.inner_count(),
                 tetrahedra_split: split,
                 stuffing_dihedral_deg: (stuffed.min_dihedral_deg, stuffed.max_dihedral_deg),
+                coarse_cut_tets: stuffed.coarse_cut_tets,
                 surface_nodes_on_surface: on_surface,
                 min_dihedral_deg,
                 max_dihedral_deg,
@@ -277,6 +280,7 @@ impl QuadGraph {
             s.tetrahedra_split = from_stats.tetrahedra_split;
             s.surface_nodes_on_surface = from_stats.surface_nodes_on_surface;
             s.stuffing_dihedral_deg = from_stats.stuffing_dihedral_deg;
+            s.coarse_cut_tets = from_stats.coarse_cut_tets;
         }
         summary.timings_s = timings;
         Ok((graph, summary))
