@@ -48,6 +48,34 @@ fn a_good_tetrahedron_loads_and_validates() {
 }
 
 #[test]
+fn file_normals_are_averaged_per_vertex() {
+    // Flat-shaded tetrahedron: one normal per face, so every vertex gets three different ones.
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 -1\nvn 0 -1 0\nvn -1 0 0\nvn 1 1 1\n\
+                f 1//1 3//1 2//1\nf 1//2 2//2 4//2\nf 1//3 4//3 3//3\nf 2//4 3//4 4//4\n";
+    let mesh = TriMesh::load_obj(obj("normals.obj", text)).unwrap();
+    assert_eq!(
+        mesh.positions.len(),
+        4,
+        "vertices are not split at normal seams"
+    );
+    let origin = mesh
+        .positions
+        .iter()
+        .position(|p| *p == DVec3::ZERO)
+        .unwrap();
+    assert!((mesh.normals[origin] - DVec3::splat(-1.0).normalize()).length() < 1e-6);
+    let x = mesh.positions.iter().position(|p| *p == DVec3::X).unwrap();
+    let expected =
+        (DVec3::new(0.0, 0.0, -1.0) + DVec3::new(0.0, -1.0, 0.0) + DVec3::ONE.normalize())
+            .normalize();
+    assert!(
+        (mesh.normals[x] - expected).length() < 1e-6,
+        "{}",
+        mesh.normals[x]
+    );
+}
+
+#[test]
 fn missing_file_is_an_io_error_naming_it() {
     let path = std::env::temp_dir().join("translucent-no-such-mesh.obj");
     let err = TriMesh::load_obj(&path).unwrap_err();
@@ -85,6 +113,12 @@ fn non_finite_coordinates_name_the_vertex_and_line() {
             "v 0 0 0\nv 1e400 0 0\nv 0 1 0\nf 1 2 3\n",
             2,
             2,
+        ),
+        (
+            "beyond-f32.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1e39 0\nf 1 2 3\n",
+            3,
+            3,
         ),
     ] {
         let (err, message) = load_err(name, text);
@@ -172,6 +206,14 @@ fn face_indices_out_of_range_name_the_face_and_line() {
         ),
         "{err:?}"
     );
+}
+
+#[test]
+fn tabs_crlf_and_faces_before_their_vertices_load() {
+    let text = "f 1 3 2\r\nf 1 2 4\r\nf 1 4 3\r\nf 2 3 4\r\nv\t0 0 0\r\nv 1 0 0\r\nv\t0 1 0\r\nv 0 0 1\r\n";
+    let mut mesh = TriMesh::load_obj(obj("crlf.obj", text)).unwrap();
+    let report = mesh.validate(&ValidateOptions::default()).unwrap();
+    assert_eq!((report.faces, report.boundary_edges), (4, 0));
 }
 
 #[test]

@@ -73,7 +73,11 @@ pub enum MeshError {
         /// Line in the OBJ file, where the mesh came from one.
         line: Option<usize>,
     },
-    #[error("vertex {vertex} has a non-finite coordinate {position:?}{}", at_line(.line))]
+    #[error(
+        "vertex {vertex} has a non-finite coordinate {position:?}{} (or one beyond the f32 range of OBJ \
+         loading)",
+        at_line(.line)
+    )]
     NonFiniteVertex {
         vertex: usize,
         position: [f64; 3],
@@ -110,6 +114,16 @@ pub enum MeshError {
          cannot be told from outside"
     )]
     InconsistentOrientation { edges: usize, a: u32, b: u32 },
+    #[error(
+        "vertex {vertex} at {position:?} is too far from the origin for the queries (|coordinate| > \
+         1e100, products would overflow): normalize the mesh first"
+    )]
+    CoordinateTooLarge { vertex: usize, position: [f64; 3] },
+    #[error("invalid shape {shape:?}: {problem}")]
+    InvalidShape {
+        shape: shapes::Shape,
+        problem: &'static str,
+    },
     #[error("mesh size must be a finite number of millimetres > 0, got {0}")]
     InvalidSize(f64),
     #[error("the mesh has zero extent (all its vertices coincide)")]
@@ -230,4 +244,9 @@ pub trait Solid: Sync {
     fn ray_hit(&self, origin: DVec3, dir: DVec3, t_max: f64) -> Option<(f64, DVec3)>;
     /// Axis-aligned bounds (min, max) in mm.
     fn bounds(&self) -> (DVec3, DVec3);
+    /// Whether the boundary is crossed anywhere in `0 < t <= t_max` (shadow rays). Same answer as
+    /// `ray_hit(..).is_some()`; implementations may stop at the first crossing found.
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.ray_hit(origin, dir, t_max).is_some()
+    }
 }

@@ -1,5 +1,5 @@
-//! OBJ input through tobj: every object and group merged into one triangulated, single-indexed
-//! [`TriMesh`]; errors name the file and, where the problem is a line, the line.
+//! OBJ input through tobj: every object and group merged into one triangulated [`TriMesh`] with one
+//! vertex per OBJ position; errors name the file and, where the problem is a line, the line.
 //!
 //! ```no_run
 //! let mesh = translucent::mesh::TriMesh::load_obj("spot.obj")?;
@@ -89,8 +89,10 @@ impl TriMesh {
                     for (k, &v) in tri.iter().enumerate() {
                         let n = 3 * m.normal_indices[3 * face + k] as usize;
                         if let Some(n) = m.normals.get(n..n + 3) {
+                            // Files do not always store unit normals; each corner counts once.
                             normal_sums[v as usize] +=
-                                DVec3::new(n[0].into(), n[1].into(), n[2].into());
+                                DVec3::new(n[0].into(), n[1].into(), n[2].into())
+                                    .normalize_or_zero();
                         }
                     }
                 }
@@ -122,7 +124,7 @@ fn prescan(bytes: &[u8]) -> Result<(), MeshError> {
     let text = String::from_utf8_lossy(bytes);
     let total = text
         .lines()
-        .filter(|l| l.trim_start().starts_with("v "))
+        .filter(|l| l.split_whitespace().next() == Some("v"))
         .count();
     let (mut vertices, mut faces) = (0usize, 0usize);
     for (number, line) in text.lines().enumerate() {
@@ -130,7 +132,8 @@ fn prescan(bytes: &[u8]) -> Result<(), MeshError> {
         match words.next() {
             Some("v") => {
                 let coords: Vec<f64> = words.take(3).filter_map(|w| w.parse().ok()).collect();
-                if coords.iter().any(|c| !c.is_finite()) {
+                // tobj stores f32: a finite f64 beyond its range would load as infinity.
+                if coords.iter().any(|&c| !(c as f32).is_finite()) {
                     let mut position = [f64::NAN; 3];
                     position[..coords.len()].copy_from_slice(&coords);
                     return Err(MeshError::NonFiniteVertex {

@@ -18,7 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
-use super::{MeshError, Solid, TriMesh};
+use super::{MeshError, MeshReport, Normalization, Solid, TriMesh, ValidateOptions};
 
 /// A triangle mesh with a bounding volume hierarchy, answering the [`Solid`] queries.
 ///
@@ -60,9 +60,18 @@ pub struct ClosestPoint {
 
 impl MeshSolid {
     /// Builds the hierarchy over `mesh` (taken as is: normalize first, see [`TriMesh::normalized`]).
-    /// Faces of exactly zero area are left out of the queries (they bound nothing).
+    /// Faces of exactly zero area are left out of the queries (they bound nothing). Coordinates
+    /// beyond 1e100 are refused: the moments multiply up to four of them.
     pub fn new(mesh: TriMesh) -> Result<MeshSolid, MeshError> {
         mesh.check_structure()?;
+        if let Some(vertex) = mesh
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > 1e100)
+        {
+            let position = mesh.positions[vertex].to_array();
+            return Err(MeshError::CoordinateTooLarge { vertex, position });
+        }
         let tris: Vec<([DVec3; 3], u32)> = mesh
             .indices
             .iter()
@@ -85,6 +94,29 @@ impl MeshSolid {
             bounds,
             epsilon,
         })
+    }
+
+    /// The whole input path of DESIGN section 3 in one call: load the OBJ, validate it, normalize
+    /// it to `size_mm` and build the solid. Every error names the file.
+    ///
+    /// ```no_run
+    /// use translucent::mesh::{MeshSolid, ValidateOptions};
+    /// let (solid, report, _transform) =
+    ///     MeshSolid::load("stanford-bunny.obj", 50.0, &ValidateOptions::default())?;
+    /// println!("{}", report.summary());
+    /// # Ok::<(), translucent::mesh::MeshError>(())
+    /// ```
+    pub fn load(
+        path: impl AsRef<std::path::Path>,
+        size_mm: f64,
+        options: &ValidateOptions,
+    ) -> Result<(MeshSolid, MeshReport, Normalization), MeshError> {
+        let path = path.as_ref();
+        let mut mesh = TriMesh::load_obj(path)?;
+        let report = mesh.validate(options).map_err(|e| e.in_file(path))?;
+        let (mesh, transform) = mesh.normalized(size_mm).map_err(|e| e.in_file(path))?;
+        let solid = MeshSolid::new(mesh).map_err(|e| e.in_file(path))?;
+        Ok((solid, report, transform))
     }
 
     /// The mesh this solid was built from.
@@ -209,6 +241,10 @@ impl Solid for MeshSolid {
 
     fn bounds(&self) -> (DVec3, DVec3) {
         self.bounds
+    }
+
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.any_hit(origin, dir, t_max)
     }
 }
 
@@ -358,6 +394,53 @@ mod tests {
         }
     }
 
+    /// `contains` trusts the quick second-order estimate when `||w| - 1/2| > QUICK_MARGIN`; its error
+    /// must stay well inside that margin, also near the surface and near a hole.
+    #[test]
+    fn quick_estimate_stays_well_inside_its_margin() {
+        use crate::mesh::bvh::{ACCURATE_BETA, QUICK_BETA, QUICK_MARGIN};
+        let mut holed = Shape::Sphere { radius: 10.0 }.triangulate(32);
+        let positions = holed.positions.clone();
+        holed
+            .indices
+            .retain(|t| t.iter().any(|&i| positions[i as usize].y < 8.0));
+        let meshes = [
+            Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(48),
+            Shape::Capsule {
+                half_length: 10.0,
+                radius: 3.0,
+            }
+            .triangulate(32),
+            holed,
+        ];
+        let mut rng = Rng(9);
+        for mesh in meshes {
+            let solid = MeshSolid::new(mesh).unwrap();
+            let (mut quick_worst, mut accurate_worst) = (0.0f64, 0.0f64);
+            for _ in 0..1500 {
+                let p = rng.in_cube(16.0);
+                let exact = solid.winding_number_exact(p);
+                let quick = solid.bvh.winding_number_with::<false>(p, QUICK_BETA);
+                let accurate = solid.bvh.winding_number_with::<true>(p, ACCURATE_BETA);
+                quick_worst = quick_worst.max((quick - exact).abs());
+                accurate_worst = accurate_worst.max((accurate - exact).abs());
+                assert_eq!(solid.contains(p), exact.abs() > 0.5, "{p}: w = {exact}");
+            }
+            assert!(
+                quick_worst < QUICK_MARGIN / 2.0,
+                "quick estimate off by {quick_worst}"
+            );
+            assert!(
+                accurate_worst < 2e-3,
+                "accurate estimate off by {accurate_worst}"
+            );
+        }
+    }
+
     #[test]
     fn rays_agree_with_the_analytic_sphere_and_box() {
         let r = 10.0;
@@ -457,6 +540,7 @@ mod tests {
             let t_max = 40.0 * rng.next();
             let any = solid.any_hit(origin, dir, t_max);
             assert_eq!(any, solid.closest_hit(origin, dir, t_max).is_some());
+            assert_eq!(any, solid.occluded(origin, dir, t_max));
             blocked += any as usize;
         }
         assert!(blocked > 300 && blocked < 4700, "{blocked}");
@@ -538,6 +622,40 @@ mod tests {
                 solid.winding_number(p).is_finite() && solid.winding_number_exact(p).is_finite()
             );
         }
+    }
+
+    #[test]
+    fn tiny_and_huge_meshes_stay_finite_or_are_refused() {
+        let mut rng = Rng(8);
+        for scale in [1e-30, 1e-6, 1e6, 1e30] {
+            let mut mesh = Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(16);
+            for p in &mut mesh.positions {
+                *p *= scale;
+            }
+            let solid = MeshSolid::new(mesh).unwrap();
+            for _ in 0..100 {
+                let p = rng.in_cube(20.0 * scale);
+                let w = solid.winding_number(p);
+                assert!(
+                    w.is_finite() && (w.abs() < 0.01 || (w.abs() - 1.0).abs() < 0.01),
+                    "{scale}: {w}"
+                );
+                if let Some(hit) = solid.closest_hit(p, rng.direction(), 100.0 * scale) {
+                    assert!(hit.t.is_finite() && hit.normal.is_finite());
+                }
+                assert!(solid.closest_point(p).unwrap().distance.is_finite());
+            }
+        }
+        let mut huge = Shape::Sphere { radius: 1.0 }.triangulate(8);
+        huge.positions[3] *= 1e200;
+        assert!(matches!(
+            MeshSolid::new(huge),
+            Err(MeshError::CoordinateTooLarge { vertex: 3, .. })
+        ));
     }
 
     #[test]
