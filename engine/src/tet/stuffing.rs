@@ -122,15 +122,7 @@ pub fn stuff(
             if sign[a as usize] == Sign::Out {
                 std::mem::swap(&mut inside, &mut outside);
             }
-            for _ in 0..params.bisection_steps {
-                let mid = (inside + outside) / 2.0;
-                if solid.contains(mid) {
-                    inside = mid;
-                } else {
-                    outside = mid;
-                }
-            }
-            (inside + outside) / 2.0
+            cut_point(solid, inside, outside, params.bisection_steps)
         })
         .collect();
     let cut_index: HashMap<(u32, u32), u32> = cut_edges
@@ -280,12 +272,60 @@ pub fn stuff(
         coarse_cut_tets: coarse_cut,
         ..Default::default()
     };
-    let (lo, hi) = angle_range(&mesh, |_| true);
-    stats.min_dihedral_deg = lo;
-    stats.max_dihedral_deg = hi;
-    stats.boundary_dihedral_deg = angle_range(&mesh, |i| touched[i]);
-    stats.interior_dihedral_deg = angle_range(&mesh, |i| !touched[i]);
+    // One pass over the angles, then three selections of it.
+    let per_tet: Vec<(f64, f64)> = mesh
+        .tets
+        .par_iter()
+        .map(|t| {
+            let [a, b, c, d] = t.map(|v| mesh.vertices[v as usize]);
+            let angles = dihedral_angles(a, b, c, d);
+            angles
+                .iter()
+                .fold((180.0f64, 0.0f64), |(lo, hi), &x| (lo.min(x), hi.max(x)))
+        })
+        .collect();
+    let range = |select: &dyn Fn(usize) -> bool| {
+        per_tet
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| select(*i))
+            .fold((180.0f64, 0.0f64), |(lo, hi), (_, &(a, b))| {
+                (lo.min(a), hi.max(b))
+            })
+    };
+    (stats.min_dihedral_deg, stats.max_dihedral_deg) = range(&|_| true);
+    stats.boundary_dihedral_deg = range(&|i| touched[i]);
+    stats.interior_dihedral_deg = range(&|i| !touched[i]);
     (mesh, stats)
+}
+
+/// Where the edge from `inside` to `outside` leaves the solid. A ray cast usually finds it in one
+/// query; the crossing is accepted only if `contains` agrees just before and after it (near a hole
+/// that the winding number bridges, the mesh is not where inside changes), else bisection finds it.
+fn cut_point(solid: &dyn Solid, mut inside: DVec3, mut outside: DVec3, steps: u32) -> DVec3 {
+    let length = (outside - inside).length();
+    if length > 0.0 {
+        let dir = (outside - inside) / length;
+        if let Some((t, _)) = solid.ray_hit(inside, dir, length) {
+            let eps = length / f64::from(1u32 << steps.min(20));
+            let agrees = t > eps
+                && t < length - eps
+                && solid.contains(inside + dir * (t - eps))
+                && !solid.contains(inside + dir * (t + eps));
+            if agrees {
+                return inside + dir * t;
+            }
+        }
+    }
+    for _ in 0..steps {
+        let mid = (inside + outside) / 2.0;
+        if solid.contains(mid) {
+            inside = mid;
+        } else {
+            outside = mid;
+        }
+    }
+    (inside + outside) / 2.0
 }
 
 /// The six edges of a tetrahedron as local vertex pairs.
