@@ -121,11 +121,13 @@ impl BakeParams {
         if !(1..=8).contains(&self.levels) {
             return bad("levels", self.levels.to_string(), "must be 1 to 8");
         }
-        if !(4..=1024).contains(&self.resolution) {
+        // The lattice keeps a distance grid of about 7 bytes per fine cell: 512 cells across is
+        // about 1 GB for a cube-shaped object.
+        if !(4..=512).contains(&self.resolution) {
             return bad(
                 "resolution",
                 self.resolution.to_string(),
-                "must be 4 to 1024 cells",
+                "must be 4 to 512 cells",
             );
         }
         if self.resolution >> (self.levels - 1) < 4 {

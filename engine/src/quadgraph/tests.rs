@@ -497,3 +497,44 @@ fn tet_faces_point_out_of_positively_oriented_tetrahedra() {
         );
     }
 }
+
+#[test]
+fn tiny_huge_and_too_thin_solids_give_finite_graphs_or_typed_errors() {
+    // Scale invariance: the same sphere at 1 micrometre and at 100 metres.
+    for radius in [1e-3, 1e5] {
+        let shape = Shape::Sphere { radius };
+        let params = BakeParams {
+            resolution: 12,
+            levels: 2,
+            ..Default::default()
+        };
+        let (graph, stats) =
+            QuadGraph::bake(&shape.triangulate(24), &shape, &params, &mut |_| {}).unwrap();
+        check_graph(&format!("sphere r={radius}"), shape, &graph);
+        for level in &graph.levels {
+            let links = level
+                .from_coarser
+                .iter()
+                .flat_map(|l| l.weights.iter().flatten());
+            assert!(links
+                .chain(graph.shading.weights.iter().flatten())
+                .all(|w| w.is_finite()));
+        }
+        assert!(stats.bytes_per_node.is_finite() && stats.min_dihedral_deg > 10.0);
+    }
+    // A sheet much thinner than the lattice has no tetrahedra: a typed error, not a panic.
+    let sheet = Shape::Box {
+        half_extents: DVec3::new(20.0, 0.01, 20.0),
+    };
+    let r = QuadGraph::bake(
+        &sheet.triangulate(8),
+        &sheet,
+        &BakeParams::default(),
+        &mut |_| {},
+    );
+    assert!(
+        matches!(r, Err(BakeError::Empty { .. })),
+        "{:?}",
+        r.map(|_| ())
+    );
+}
