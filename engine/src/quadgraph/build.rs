@@ -21,7 +21,8 @@ pub struct BakeParams {
     /// it each). The default gives about 10^5 nodes on the finest level for compact shapes.
     pub resolution: u32,
     /// Grading `K` (paper section 4.1): 0 keeps the interior lattice uniform, larger values let
-    /// interior tetrahedra grow faster away from the surface.
+    /// interior tetrahedra grow faster away from the surface, up to 1, where cells double in size
+    /// at every step (the octree's 2:1 balance); values above 1 give the same lattice as 1.
     pub k: f64,
     /// Number of levels `L` (coarsest first in [`QuadGraph::levels`]).
     pub levels: u32,
@@ -36,7 +37,7 @@ impl Default for BakeParams {
     fn default() -> Self {
         Self {
             resolution: 48,
-            k: 2.0,
+            k: 1.0,
             levels: 3,
             relax: false,
             block: 32,
