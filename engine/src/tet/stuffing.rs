@@ -36,7 +36,7 @@ pub struct StuffParams {
     pub alpha_long: f64,
     /// Threshold on short (red) edges, which join a cube corner and a cube centre.
     pub alpha_short: f64,
-    /// Bisection steps per cut point (each halves the interval).
+    /// Cut points are found to within the edge length / 2^`bisection_steps`.
     pub bisection_steps: u32,
 }
 
@@ -122,7 +122,11 @@ pub fn stuff(
             if sign[a as usize] == Sign::Out {
                 std::mem::swap(&mut inside, &mut outside);
             }
-            cut_point(solid, inside, outside, params.bisection_steps)
+            // One ray checked by `contains`, else bisection (DESIGN: cut points by bisection on
+            // `contains`; the ray only saves queries where it agrees).
+            let tolerance =
+                (outside - inside).length() / f64::from(1u32 << params.bisection_steps.min(30));
+            solid.boundary_crossing(inside, outside, tolerance)
         })
         .collect();
     let cut_index: HashMap<(u32, u32), u32> = cut_edges
@@ -297,35 +301,6 @@ pub fn stuff(
     stats.boundary_dihedral_deg = range(&|i| touched[i]);
     stats.interior_dihedral_deg = range(&|i| !touched[i]);
     (mesh, stats)
-}
-
-/// Where the edge from `inside` to `outside` leaves the solid. A ray cast usually finds it in one
-/// query; the crossing is accepted only if `contains` agrees just before and after it (near a hole
-/// that the winding number bridges, the mesh is not where inside changes), else bisection finds it.
-fn cut_point(solid: &dyn Solid, mut inside: DVec3, mut outside: DVec3, steps: u32) -> DVec3 {
-    let length = (outside - inside).length();
-    if length > 0.0 {
-        let dir = (outside - inside) / length;
-        if let Some((t, _)) = solid.ray_hit(inside, dir, length) {
-            let eps = length / f64::from(1u32 << steps.min(20));
-            let agrees = t > eps
-                && t < length - eps
-                && solid.contains(inside + dir * (t - eps))
-                && !solid.contains(inside + dir * (t + eps));
-            if agrees {
-                return inside + dir * t;
-            }
-        }
-    }
-    for _ in 0..steps {
-        let mid = (inside + outside) / 2.0;
-        if solid.contains(mid) {
-            inside = mid;
-        } else {
-            outside = mid;
-        }
-    }
-    (inside + outside) / 2.0
 }
 
 /// The six edges of a tetrahedron as local vertex pairs.
