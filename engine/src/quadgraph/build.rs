@@ -158,6 +158,18 @@ impl BakeParams {
 }
 
 impl QuadGraph {
+    /// Bakes the QuadGraph of a closed triangle mesh (already validated and normalized, see
+    /// [`crate::mesh`]): the mesh is both the solid (generalized winding number) and the display
+    /// surface. [`QuadGraph::bake`] takes any [`Solid`] and reports progress.
+    pub fn bake_mesh(mesh: &TriMesh, params: &BakeParams) -> crate::Result<(QuadGraph, BakeStats)> {
+        let mut surface = mesh.clone();
+        if surface.normals.len() != surface.positions.len() {
+            surface.compute_normals();
+        }
+        let solid = crate::mesh::MeshSolid::new(surface.clone())?;
+        Ok(Self::bake(&surface, &solid, params, &mut |_| {})?)
+    }
+
     /// Bakes the QuadGraph of `solid`, whose boundary `surface` triangulates (in mm, normalized as
     /// DESIGN section 3 step 2; `surface` is also what is displayed). `progress` is called as each
     /// stage starts.

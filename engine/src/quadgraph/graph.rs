@@ -75,6 +75,15 @@ pub struct Packing {
 }
 
 impl Packing {
+    /// Row-major linear texel index `v * width + u` of `node` (what the GPU's level links hold), or
+    /// [`NO_NODE`] for [`NO_NODE`].
+    pub fn linear_index(&self, node: u32) -> u32 {
+        match self.texels.get(node as usize) {
+            Some(&[u, v]) => v * self.width + u,
+            None => NO_NODE,
+        }
+    }
+
     /// Per texel (row-major), the node stored there, or [`NO_NODE`] for padding.
     pub fn texel_nodes(&self) -> Vec<u32> {
         let mut out = vec![NO_NODE; self.width as usize * self.height as usize];

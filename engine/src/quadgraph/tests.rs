@@ -538,3 +538,37 @@ fn tiny_huge_and_too_thin_solids_give_finite_graphs_or_typed_errors() {
         r.map(|_| ())
     );
 }
+
+#[test]
+fn bake_mesh_uses_the_mesh_as_solid_and_linear_indices_address_texels() {
+    let shape = Shape::Sphere { radius: 10.0 };
+    let params = BakeParams {
+        resolution: 12,
+        levels: 2,
+        ..Default::default()
+    };
+    let (graph, _) = QuadGraph::bake_mesh(&shape.triangulate(32), &params).unwrap();
+    let (exact, _) = QuadGraph::bake(&shape.triangulate(32), &shape, &params, &mut |_| {}).unwrap();
+    // Same lattice; the stuffing differs where the faceted sphere (chords 0.05 mm inside) does.
+    let (a, b) = (
+        graph.finest().inner_count() as f64,
+        exact.finest().inner_count() as f64,
+    );
+    assert!((a - b).abs() < 0.1 * b, "{a} vs {b} inner nodes");
+    let finest = graph.finest();
+    for s in 0..finest.surface_count() {
+        let r = finest.positions[finest.inner_count() + s].length();
+        assert!(
+            (9.94..=10.0 + 1e-9).contains(&r),
+            "surface node at radius {r}, not on the mesh"
+        );
+    }
+    for level in &graph.levels {
+        let p = &level.packing;
+        let texels = p.texel_nodes();
+        for node in 0..level.node_count() as u32 {
+            assert_eq!(texels[p.linear_index(node) as usize], node);
+        }
+        assert_eq!(p.linear_index(NO_NODE), NO_NODE);
+    }
+}
