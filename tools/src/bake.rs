@@ -29,10 +29,10 @@ pub struct BakeArgs {
     #[arg(long, value_name = "NAME")]
     pub shape: Option<String>,
     /// Longest side of the object in millimetres.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
     pub size_mm: f64,
     /// Grading K: 0 keeps the interior lattice uniform; larger values coarsen it faster.
-    #[arg(short = 'K', default_value_t = BakeParams::default().k)]
+    #[arg(short = 'K', default_value_t = BakeParams::default().k, allow_negative_numbers = true)]
     pub k: f64,
     /// Number of levels (coarsest first; each finer level has about 4x the surface nodes).
     #[arg(long, default_value_t = BakeParams::default().levels)]
