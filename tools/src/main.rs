@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod bake;
 mod info;
 mod render;
 mod scene_args;
@@ -20,6 +21,8 @@ enum Command {
     Info(info::InfoArgs),
     /// Render a scene headless to PNG or EXR.
     Render(render::RenderArgs),
+    /// Bake (or load from the cache) the QuadGraph of a mesh or shape.
+    Bake(bake::BakeArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -27,6 +30,7 @@ fn main() -> std::process::ExitCode {
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
         Command::Render(args) => render::run(args),
+        Command::Bake(args) => bake::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

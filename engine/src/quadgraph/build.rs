@@ -21,7 +21,8 @@ pub struct BakeParams {
     /// it each). The default gives about 10^5 nodes on the finest level for compact shapes.
     pub resolution: u32,
     /// Grading `K` (paper section 4.1): 0 keeps the interior lattice uniform, larger values let
-    /// interior tetrahedra grow faster away from the surface.
+    /// interior tetrahedra grow faster away from the surface, up to 1, where cells double in size
+    /// at every step (the octree's 2:1 balance); values above 1 give the same lattice as 1.
     pub k: f64,
     /// Number of levels `L` (coarsest first in [`QuadGraph::levels`]).
     pub levels: u32,
@@ -36,7 +37,7 @@ impl Default for BakeParams {
     fn default() -> Self {
         Self {
             resolution: 48,
-            k: 0.5,
+            k: 1.0,
             levels: 3,
             relax: false,
             block: 32,
@@ -64,8 +65,13 @@ pub struct LevelStats {
     pub tetrahedra_split: usize,
     /// Surface nodes whose ray met the input surface (the rest sit at their face centroid).
     pub surface_nodes_on_surface: usize,
+    /// Dihedral angles after the split of paper Fig. 4 (which makes thinner tetrahedra)...
     pub min_dihedral_deg: f64,
     pub max_dihedral_deg: f64,
+    /// ...and of the stuffing alone, before it (not known for a cached graph).
+    pub stuffing_dihedral_deg: (f64, f64),
+    /// Cut lattice tetrahedra that were not finest BCC ones (the angle bound does not cover them).
+    pub coarse_cut_tets: usize,
     pub texture_width: u32,
     pub texture_height: u32,
     pub surface_rows: u32,
@@ -116,11 +122,13 @@ impl BakeParams {
         if !(1..=8).contains(&self.levels) {
             return bad("levels", self.levels.to_string(), "must be 1 to 8");
         }
-        if !(4..=1024).contains(&self.resolution) {
+        // The lattice keeps a distance grid of about 7 bytes per fine cell: 512 cells across is
+        // about 1 GB for a cube-shaped object.
+        if !(4..=512).contains(&self.resolution) {
             return bad(
                 "resolution",
                 self.resolution.to_string(),
-                "must be 4 to 1024 cells",
+                "must be 4 to 512 cells",
             );
         }
         if self.resolution >> (self.levels - 1) < 4 {
@@ -150,6 +158,18 @@ impl BakeParams {
 }
 
 impl QuadGraph {
+    /// Bakes the QuadGraph of a closed triangle mesh (already validated and normalized, see
+    /// [`crate::mesh`]): the mesh is both the solid (generalized winding number) and the display
+    /// surface. [`QuadGraph::bake`] takes any [`Solid`] and reports progress.
+    pub fn bake_mesh(mesh: &TriMesh, params: &BakeParams) -> crate::Result<(QuadGraph, BakeStats)> {
+        let mut surface = mesh.clone();
+        if surface.normals.len() != surface.positions.len() {
+            surface.compute_normals();
+        }
+        let solid = crate::mesh::MeshSolid::new(surface.clone())?;
+        Ok(Self::bake(&surface, &solid, params, &mut |_| {})?)
+    }
+
     /// Bakes the QuadGraph of `solid`, whose boundary `surface` triangulates (in mm, normalized as
     /// DESIGN section 3 step 2; `surface` is also what is displayed). `progress` is called as each
     /// stage starts.
@@ -189,7 +209,7 @@ impl QuadGraph {
                 grading: params.k,
                 stuffing: params.stuffing,
             };
-            let (mesh, _) = tetrahedralize(solid, surface, &tet_params);
+            let (mesh, stuffed) = tetrahedralize(solid, surface, &tet_params);
             let (mesh, split) = split_multi_boundary(mesh);
             if mesh.tets.is_empty() {
                 return Err(BakeError::Empty {
@@ -224,6 +244,8 @@ impl QuadGraph {
                 surface_nodes: level.surface_count(),
                 inner_nodes: level.inner_count(),
                 tetrahedra_split: split,
+                stuffing_dihedral_deg: (stuffed.min_dihedral_deg, stuffed.max_dihedral_deg),
+                coarse_cut_tets: stuffed.coarse_cut_tets,
                 surface_nodes_on_surface: on_surface,
                 min_dihedral_deg,
                 max_dihedral_deg,
@@ -272,6 +294,8 @@ impl QuadGraph {
         for (s, from_stats) in summary.levels.iter_mut().zip(stats) {
             s.tetrahedra_split = from_stats.tetrahedra_split;
             s.surface_nodes_on_surface = from_stats.surface_nodes_on_surface;
+            s.stuffing_dihedral_deg = from_stats.stuffing_dihedral_deg;
+            s.coarse_cut_tets = from_stats.coarse_cut_tets;
         }
         summary.timings_s = timings;
         Ok((graph, summary))
