@@ -128,7 +128,8 @@ impl MeshSolid {
         Ok((solid, report, transform))
     }
 
-    /// The mesh this solid was built from.
+    /// The mesh this solid was built from, with faces wound against their neighbours turned (see
+    /// [`MeshSolid::new`]): the surface to display with it.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
     }
