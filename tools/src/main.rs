@@ -4,11 +4,7 @@
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(
-    name = "translucent",
-    version,
-    about = "Real-time heterogeneous translucency on Vulkan"
-)]
+#[command(name = "translucent", version, about = "Real-time heterogeneous translucency on Vulkan")]
 struct Cli {
     #[command(subcommand)]
     command: Command,

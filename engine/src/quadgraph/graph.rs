@@ -9,6 +9,7 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::tet::TetMesh;
 
@@ -54,6 +55,32 @@ pub struct GraphLevel {
     pub spacing: f64,
     /// Links from the next coarser level (`None` on the coarsest level).
     pub from_coarser: Option<ShepardLinks>,
+    /// Where each node lives in the level's 2D textures (paper section 5.1; empty until packed).
+    pub packing: Packing,
+}
+
+/// The texture layout of one level: a `width x height` texture cut into `block x block` blocks,
+/// surface nodes in rows `[0, surface_rows)`, inner nodes in rows `[surface_rows, height)`; both
+/// multiples of `block`. Texels no node maps to are padding.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Packing {
+    pub width: u32,
+    pub height: u32,
+    pub surface_rows: u32,
+    pub block: u32,
+    /// Texel `(u, v)` of each node (node id order).
+    pub texels: Vec<[u32; 2]>,
+}
+
+impl Packing {
+    /// Per texel (row-major), the node stored there, or [`NO_NODE`] for padding.
+    pub fn texel_nodes(&self) -> Vec<u32> {
+        let mut out = vec![NO_NODE; self.width as usize * self.height as usize];
+        for (node, &[u, v]) in self.texels.iter().enumerate() {
+            out[v as usize * self.width as usize + u as usize] = node as u32;
+        }
+        out
+    }
 }
 
 /// Per render-mesh vertex, up to 4 surface nodes of the finest level (surface index `s`, not node id)
@@ -120,6 +147,48 @@ impl GraphLevel {
         spacing: f64,
         mut place_surface_node: impl FnMut(DVec3, DVec3) -> (DVec3, DVec3),
     ) -> Self {
+        let mut level = Self::connect(tets, spacing);
+        let inner = level.inner_count();
+        for s in 0..level.surface_count() {
+            let (c, n) = level.face_frame(s);
+            let (p, nrm) = place_surface_node(c, n);
+            level.positions[inner + s] = p;
+            level.surface_normals[s] = nrm;
+        }
+        level
+    }
+
+    /// [`Self::from_tets`] with the surface nodes placed in parallel.
+    pub fn from_tets_par(
+        tets: TetMesh,
+        spacing: f64,
+        place_surface_node: impl Fn(DVec3, DVec3) -> (DVec3, DVec3) + Sync,
+    ) -> Self {
+        let mut level = Self::connect(tets, spacing);
+        let placed: Vec<(DVec3, DVec3)> = (0..level.surface_count())
+            .into_par_iter()
+            .map(|s| {
+                let (c, n) = level.face_frame(s);
+                place_surface_node(c, n)
+            })
+            .collect();
+        let inner = level.inner_count();
+        for (s, (p, n)) in placed.into_iter().enumerate() {
+            level.positions[inner + s] = p;
+            level.surface_normals[s] = n;
+        }
+        level
+    }
+
+    /// Centroid and outward unit normal of the boundary face of surface node `s`.
+    pub fn face_frame(&self, s: usize) -> (DVec3, DVec3) {
+        let (t, f) = self.surface_faces[s];
+        let [a, b, c] = self.face_vertices(t as usize, f as usize);
+        ((a + b + c) / 3.0, (b - a).cross(c - a).normalize_or_zero())
+    }
+
+    /// Matches faces: neighbours, boundary faces; surface nodes provisionally at face centroids.
+    fn connect(tets: TetMesh, spacing: f64) -> Self {
         let n = tets.tets.len();
         let mut neighbors = vec![[NO_NODE; 4]; n];
         let mut open: HashMap<[u32; 3], (u32, u8)> = HashMap::with_capacity(2 * n);
@@ -146,10 +215,8 @@ impl GraphLevel {
         for (s, &(t, f)) in surface_faces.iter().enumerate() {
             let tet = tets.tets[t as usize];
             let [a, b, c] = TET_FACES[f as usize].map(|l| tets.vertices[tet[l] as usize]);
-            let normal = (b - a).cross(c - a).normalize();
-            let (p, nrm) = place_surface_node((a + b + c) / 3.0, normal);
-            positions.push(p);
-            surface_normals.push(nrm);
+            positions.push((a + b + c) / 3.0);
+            surface_normals.push((b - a).cross(c - a).normalize_or_zero());
             neighbors[t as usize][f as usize] = (n + s) as u32;
         }
         Self {
@@ -160,6 +227,49 @@ impl GraphLevel {
             surface_normals,
             spacing,
             from_coarser: None,
+            packing: Packing::default(),
         }
     }
+}
+
+/// Splits every tetrahedron with 2, 3 or 4 boundary faces at its centroid into 4 (paper Fig. 4), so
+/// that each tetrahedron has at most one boundary face. Orientation is kept.
+pub fn split_multi_boundary(mesh: TetMesh) -> (TetMesh, usize) {
+    let mut count: HashMap<[u32; 3], u8> = HashMap::with_capacity(2 * mesh.tets.len());
+    let key = |t: &[u32; 4], f: usize| {
+        let mut k = TET_FACES[f].map(|l| t[l]);
+        k.sort_unstable();
+        k
+    };
+    for t in &mesh.tets {
+        for f in 0..4 {
+            *count.entry(key(t, f)).or_insert(0) += 1;
+        }
+    }
+    let TetMesh { mut vertices, tets } = mesh;
+    let mut out = Vec::with_capacity(tets.len());
+    let mut split = 0;
+    for t in tets {
+        let boundary = (0..4).filter(|&f| count[&key(&t, f)] == 1).count();
+        if boundary < 2 {
+            out.push(t);
+            continue;
+        }
+        split += 1;
+        let c = vertices.len() as u32;
+        vertices.push(t.iter().map(|&v| vertices[v as usize]).sum::<DVec3>() / 4.0);
+        // Replacing vertex f by the centroid keeps the orientation and leaves face f outside.
+        for f in 0..4 {
+            let mut sub = t;
+            sub[f] = c;
+            out.push(sub);
+        }
+    }
+    (
+        TetMesh {
+            vertices,
+            tets: out,
+        },
+        split,
+    )
 }

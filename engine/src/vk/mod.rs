@@ -4,8 +4,5 @@
 #[derive(Debug, thiserror::Error)]
 pub enum VkError {
     #[error("{call} failed: {result}")]
-    Call {
-        call: &'static str,
-        result: ash::vk::Result,
-    },
+    Call { call: &'static str, result: ash::vk::Result },
 }

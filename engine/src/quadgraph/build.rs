@@ -1,0 +1,403 @@
+//! The bake pipeline: per level tetrahedralize, split (paper Fig. 4), build the graph and place the
+//! surface nodes on the input surface; then Shepard links between levels, shading weights and
+//! texture packing. See [`QuadGraph::bake`].
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::graph::{split_multi_boundary, GraphLevel, QuadGraph, NO_NODE};
+use super::{packing, shepard, BakeError};
+use crate::mesh::{Solid, TriMesh};
+use crate::tet::stuffing::{angle_range, StuffParams};
+use crate::tet::{tetrahedralize, TetParams};
+
+/// Bake parameters. They are part of the cache key.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BakeParams {
+    /// Lattice cells across the longest side of the solid at the finest level (coarser levels halve
+    /// it each). The default gives about 10^5 nodes on the finest level for compact shapes.
+    pub resolution: u32,
+    /// Grading `K` (paper section 4.1): 0 keeps the interior lattice uniform, larger values let
+    /// interior tetrahedra grow faster away from the surface.
+    pub k: f64,
+    /// Number of levels `L` (coarsest first in [`QuadGraph::levels`]).
+    pub levels: u32,
+    /// Relax inner node positions (for the `paper` scheme only; `fv` uses centroids).
+    pub relax: bool,
+    /// Texture block size `r` (paper section 5.1).
+    pub block: u32,
+    pub stuffing: StuffParams,
+}
+
+impl Default for BakeParams {
+    fn default() -> Self {
+        Self {
+            resolution: 48,
+            k: 0.5,
+            levels: 3,
+            relax: false,
+            block: 32,
+            stuffing: StuffParams::default(),
+        }
+    }
+}
+
+/// Reported to the progress callback when a stage starts.
+#[derive(Clone, Copy, Debug)]
+pub struct BakeProgress {
+    /// `"tetrahedralize"`, `"graph"`, `"links"`, `"shading"` or `"packing"`.
+    pub stage: &'static str,
+    /// The level the stage works on (0: coarsest), and the number of levels.
+    pub level: usize,
+    pub levels: usize,
+}
+
+/// Per-level figures of a bake.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct LevelStats {
+    pub spacing_mm: f64,
+    pub surface_nodes: usize,
+    pub inner_nodes: usize,
+    pub tetrahedra_split: usize,
+    /// Surface nodes whose ray met the input surface (the rest sit at their face centroid).
+    pub surface_nodes_on_surface: usize,
+    pub min_dihedral_deg: f64,
+    pub max_dihedral_deg: f64,
+    pub texture_width: u32,
+    pub texture_height: u32,
+    pub surface_rows: u32,
+    /// GPU texture bytes of this level (see [`texel_bytes`]).
+    pub bytes: u64,
+    /// Share of neighbour references within one texel block: our packing, and a random one.
+    pub locality: f64,
+    pub random_locality: f64,
+}
+
+/// Figures of a whole bake.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct BakeStats {
+    pub levels: Vec<LevelStats>,
+    pub total_bytes: u64,
+    /// Texture bytes per node over all levels (the paper: about 90).
+    pub bytes_per_node: f64,
+    pub min_dihedral_deg: f64,
+    pub max_dihedral_deg: f64,
+    /// Wall-clock seconds per stage, in order.
+    pub timings_s: Vec<(String, f64)>,
+}
+
+/// GPU bytes per texel of a level, following DESIGN section 4: phi ping and pong (2x RGBA16F) and
+/// the mixed-precision phi (RGBA32F), q (RGBA16F), material (2x RGBA16F), connectivity
+/// (2x RGBA32UI), fv weights (RGBA32F), positions (RGBA16F, as in the paper), and on every level
+/// but the coarsest the level links (2x RGBA32UI + 2x RGBA16F).
+pub fn texel_bytes(has_links: bool) -> u64 {
+    let phi = 2 * 8 + 16;
+    let q = 8;
+    let material = 2 * 8;
+    let connectivity = 2 * 16;
+    let weights = 16;
+    let positions = 8;
+    let links = if has_links { 2 * 16 + 2 * 8 } else { 0 };
+    phi + q + material + connectivity + weights + positions + links
+}
+
+impl BakeParams {
+    fn validate(&self) -> Result<(), BakeError> {
+        let bad = |name, value: String, reason| {
+            Err(BakeError::Parameter {
+                name,
+                value,
+                reason,
+            })
+        };
+        if !(1..=8).contains(&self.levels) {
+            return bad("levels", self.levels.to_string(), "must be 1 to 8");
+        }
+        if !(4..=1024).contains(&self.resolution) {
+            return bad(
+                "resolution",
+                self.resolution.to_string(),
+                "must be 4 to 1024 cells",
+            );
+        }
+        if self.resolution >> (self.levels - 1) < 4 {
+            return bad(
+                "resolution",
+                self.resolution.to_string(),
+                "the coarsest level would have fewer than 4 cells",
+            );
+        }
+        if !self.k.is_finite() || self.k < 0.0 || self.k > 100.0 {
+            return bad("K", self.k.to_string(), "must be a number from 0 to 100");
+        }
+        if !(1..=256).contains(&self.block) {
+            return bad("block", self.block.to_string(), "must be 1 to 256");
+        }
+        let s = &self.stuffing;
+        if !(s.alpha_long > 0.0 && s.alpha_long < 0.5 && s.alpha_short > 0.0 && s.alpha_short < 0.5)
+        {
+            return bad(
+                "alpha",
+                format!("{}, {}", s.alpha_long, s.alpha_short),
+                "must lie in (0, 0.5)",
+            );
+        }
+        Ok(())
+    }
+}
+
+impl QuadGraph {
+    /// Bakes the QuadGraph of `solid`, whose boundary `surface` triangulates (in mm, normalized as
+    /// DESIGN section 3 step 2; `surface` is also what is displayed). `progress` is called as each
+    /// stage starts.
+    pub fn bake(
+        surface: &TriMesh,
+        solid: &dyn Solid,
+        params: &BakeParams,
+        progress: &mut dyn FnMut(BakeProgress),
+    ) -> Result<(QuadGraph, BakeStats), BakeError> {
+        params.validate()?;
+        let (lo, hi) = solid.bounds();
+        let longest = (hi - lo).max_element();
+        if !(lo.is_finite() && hi.is_finite() && longest > 0.0) {
+            return Err(BakeError::Invalid(format!(
+                "the solid's bounds {lo} .. {hi} are empty or not finite"
+            )));
+        }
+        if surface.indices.is_empty() {
+            return Err(BakeError::Invalid(
+                "the surface mesh has no triangles".into(),
+            ));
+        }
+        let nlevels = params.levels as usize;
+        let mut timings: Vec<(String, f64)> = Vec::new();
+        let mut levels = Vec::with_capacity(nlevels);
+        let mut stats = Vec::with_capacity(nlevels);
+        for l in 0..nlevels {
+            let spacing = longest / (params.resolution >> (nlevels - 1 - l)) as f64;
+            progress(BakeProgress {
+                stage: "tetrahedralize",
+                level: l,
+                levels: nlevels,
+            });
+            let start = Instant::now();
+            let tet_params = TetParams {
+                spacing,
+                grading: params.k,
+                stuffing: params.stuffing,
+            };
+            let (mesh, _) = tetrahedralize(solid, surface, &tet_params);
+            let (mesh, split) = split_multi_boundary(mesh);
+            if mesh.tets.is_empty() {
+                return Err(BakeError::Empty {
+                    level: l,
+                    spacing_mm: spacing,
+                });
+            }
+            timings.push((
+                format!("tetrahedralize[{l}]"),
+                start.elapsed().as_secs_f64(),
+            ));
+            progress(BakeProgress {
+                stage: "graph",
+                level: l,
+                levels: nlevels,
+            });
+            let start = Instant::now();
+            let reach = 2.0 * spacing;
+            let mut level = GraphLevel::from_tets_par(mesh, spacing, |c, n| {
+                place_surface_node(solid, c, n, reach)
+            });
+            let on_surface = (0..level.surface_count())
+                .filter(|&s| level.positions[level.inner_count() + s] != level.face_frame(s).0)
+                .count();
+            if params.relax {
+                relax_inner_nodes(&mut level, 8);
+            }
+            timings.push((format!("graph[{l}]"), start.elapsed().as_secs_f64()));
+            let (min_dihedral_deg, max_dihedral_deg) = angle_range(&level.tets, |_| true);
+            stats.push(LevelStats {
+                spacing_mm: spacing,
+                surface_nodes: level.surface_count(),
+                inner_nodes: level.inner_count(),
+                tetrahedra_split: split,
+                surface_nodes_on_surface: on_surface,
+                min_dihedral_deg,
+                max_dihedral_deg,
+                ..Default::default()
+            });
+            levels.push(level);
+        }
+        let start = Instant::now();
+        for l in 1..nlevels {
+            progress(BakeProgress {
+                stage: "links",
+                level: l,
+                levels: nlevels,
+            });
+            let links = shepard::level_links(&levels[l], &levels[l - 1]);
+            levels[l].from_coarser = Some(links);
+        }
+        timings.push(("links".into(), start.elapsed().as_secs_f64()));
+        progress(BakeProgress {
+            stage: "shading",
+            level: nlevels - 1,
+            levels: nlevels,
+        });
+        let start = Instant::now();
+        let finest = levels
+            .last()
+            .ok_or_else(|| BakeError::Invalid("no levels".into()))?;
+        let shading = shepard::shading_weights(surface, finest);
+        timings.push(("shading".into(), start.elapsed().as_secs_f64()));
+        let start = Instant::now();
+        for (l, level) in levels.iter_mut().enumerate() {
+            progress(BakeProgress {
+                stage: "packing",
+                level: l,
+                levels: nlevels,
+            });
+            level.packing = packing::pack(level, params.block, false);
+        }
+        timings.push(("packing".into(), start.elapsed().as_secs_f64()));
+        let graph = QuadGraph {
+            levels,
+            surface: surface.clone(),
+            shading,
+        };
+        let mut summary = graph.stats();
+        for (s, from_stats) in summary.levels.iter_mut().zip(stats) {
+            s.tetrahedra_split = from_stats.tetrahedra_split;
+            s.surface_nodes_on_surface = from_stats.surface_nodes_on_surface;
+        }
+        summary.timings_s = timings;
+        Ok((graph, summary))
+    }
+
+    /// Figures computable from the graph alone (a cached graph has no timings or split counts).
+    pub fn stats(&self) -> BakeStats {
+        let levels: Vec<LevelStats> = self
+            .levels
+            .iter()
+            .map(|level| {
+                let p = &level.packing;
+                let bytes =
+                    p.width as u64 * p.height as u64 * texel_bytes(level.from_coarser.is_some());
+                let (lo, hi) = angle_range(&level.tets, |_| true);
+                let random = packing::pack(level, p.block.max(1), true);
+                LevelStats {
+                    spacing_mm: level.spacing,
+                    surface_nodes: level.surface_count(),
+                    inner_nodes: level.inner_count(),
+                    min_dihedral_deg: lo,
+                    max_dihedral_deg: hi,
+                    texture_width: p.width,
+                    texture_height: p.height,
+                    surface_rows: p.surface_rows,
+                    bytes,
+                    locality: packing::locality(level, p),
+                    random_locality: packing::locality(level, &random),
+                    ..Default::default()
+                }
+            })
+            .collect();
+        let total_bytes = levels.iter().map(|l| l.bytes).sum();
+        let nodes: usize = levels.iter().map(|l| l.surface_nodes + l.inner_nodes).sum();
+        BakeStats {
+            min_dihedral_deg: levels
+                .iter()
+                .map(|l| l.min_dihedral_deg)
+                .fold(180.0, f64::min),
+            max_dihedral_deg: levels
+                .iter()
+                .map(|l| l.max_dihedral_deg)
+                .fold(0.0, f64::max),
+            bytes_per_node: total_bytes as f64 / nodes.max(1) as f64,
+            total_bytes,
+            levels,
+            timings_s: Vec::new(),
+        }
+    }
+}
+
+/// Where the ray from a boundary face's centroid along its outward normal, or against it (the face
+/// may lie just outside the true surface), first meets the surface within `reach`; the face centroid
+/// and normal when neither does (as at the holes of a scanned mesh). From a centroid inside the solid
+/// the first crossing is the surface nearby; from one outside, a hit whose surface normal faces away
+/// from the face is another sheet of a thin part, and is skipped.
+fn place_surface_node(
+    solid: &dyn Solid,
+    centroid: DVec3,
+    normal: DVec3,
+    reach: f64,
+) -> (DVec3, DVec3) {
+    let mut best: Option<(f64, DVec3, DVec3)> = None;
+    let inside = solid.contains(centroid);
+    for dir in [normal, -normal] {
+        if let Some((t, n)) = solid.ray_hit(centroid, dir, reach) {
+            let p = centroid + dir * t;
+            let usable =
+                t.is_finite() && p.is_finite() && n.is_finite() && (inside || n.dot(normal) > 0.0);
+            if usable && best.is_none_or(|(bt, _, _)| t < bt) {
+                best = Some((t, p, n.normalize()));
+            }
+        }
+    }
+    best.map_or((centroid, normal), |(_, p, n)| (p, n))
+}
+
+/// Moves each inner node toward the mean of its neighbours (a discrete stand-in for the paper's
+/// reaction-diffusion relaxation), never leaving its own tetrahedron: a step that would put the node
+/// closer than 10% (in barycentric terms) to a face is shortened.
+pub fn relax_inner_nodes(level: &mut GraphLevel, iterations: usize) {
+    let ni = level.inner_count();
+    for _ in 0..iterations {
+        let next: Vec<DVec3> = (0..ni)
+            .into_par_iter()
+            .map(|i| {
+                let nb = level.neighbors[i];
+                let valid: Vec<DVec3> = nb
+                    .iter()
+                    .filter(|&&j| j != NO_NODE)
+                    .map(|&j| level.positions[j as usize])
+                    .collect();
+                let current = level.positions[i];
+                if valid.is_empty() {
+                    return current;
+                }
+                let target = valid.iter().sum::<DVec3>() / valid.len() as f64;
+                let [a, b, c, d] = level.tets.tets[i].map(|v| level.tets.vertices[v as usize]);
+                let mut step = 0.5;
+                for _ in 0..6 {
+                    let p = current + (target - current) * step;
+                    if barycentric_min(a, b, c, d, p) >= 0.1 {
+                        return p;
+                    }
+                    step *= 0.5;
+                }
+                current
+            })
+            .collect();
+        level.positions[..ni].copy_from_slice(&next);
+    }
+}
+
+fn barycentric_min(a: DVec3, b: DVec3, c: DVec3, d: DVec3, p: DVec3) -> f64 {
+    let vol = |a: DVec3, b: DVec3, c: DVec3, d: DVec3| (b - a).dot((c - a).cross(d - a));
+    let total = vol(a, b, c, d);
+    if total.abs() < f64::MIN_POSITIVE {
+        return 0.0;
+    }
+    [
+        vol(p, b, c, d),
+        vol(a, p, c, d),
+        vol(a, b, p, d),
+        vol(a, b, c, p),
+    ]
+    .iter()
+    .map(|v| v / total)
+    .fold(1.0, f64::min)
+}
