@@ -7,6 +7,8 @@ use std::time::Instant;
 
 use glam::DVec3;
 use translucent::material::{fresnel, Material, MaterialField};
+use translucent::mesh::shapes::Shape;
+use translucent::quadgraph::BakeParams;
 use translucent::solver::analytic::Homogeneous;
 use translucent::solver::{self, CpuSolveParams, Environment, Scene, Scheme};
 use translucent::tet::TetMesh;
@@ -112,9 +114,68 @@ fn slab() {
     }
 }
 
+fn sphere_graph(resolution: u32, k: f64, levels: u32) -> QuadGraph {
+    let ball = Shape::Sphere { radius: 10.0 };
+    let params = BakeParams {
+        resolution,
+        k,
+        levels,
+        ..Default::default()
+    };
+    QuadGraph::bake(&ball.triangulate(64), &ball, &params, &mut |_| {})
+        .unwrap()
+        .0
+}
+
+fn sphere() {
+    println!(
+        "\n### Sphere: R = 10 mm, constant environment, albedo = exitance / transmitted input\n"
+    );
+    println!("| material | resolution | K | nodes | scheme | albedo R, G, B | exact R, G, B | max rel. error | solve s |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let scene = Scene {
+        lights: vec![],
+        environment: Environment::Constant([1.0; 3]),
+    };
+    for name in ["marble", "skin1"] {
+        let m = Material::preset(name).unwrap();
+        let field = MaterialField::Homogeneous(m);
+        let exact: [f64; 3] =
+            std::array::from_fn(|c| Homogeneous::channel(&m, c).sphere_albedo(10.0));
+        for (resolution, k) in [(12, 0.5), (24, 0.5), (48, 0.5), (48, 0.0)] {
+            let graph = sphere_graph(resolution, k, 1);
+            for scheme in [Scheme::Fv, Scheme::Paper] {
+                let t0 = Instant::now();
+                let params = CpuSolveParams {
+                    scheme,
+                    iterations: vec![0],
+                    ..Default::default()
+                };
+                let sol = solver::solve(&graph, &field, &scene, None, &params).unwrap();
+                let e = sol.energy;
+                let albedo: [f64; 3] =
+                    std::array::from_fn(|c| e.exitance[c] / e.transmitted_input[c]);
+                let err = (0..3)
+                    .map(|c| (albedo[c] / exact[c] - 1.0).abs())
+                    .fold(0.0, f64::max);
+                println!(
+                    "| {name} | {resolution} | {k} | {} | {scheme:?} | {:.4}, {:.4}, {:.4} | {:.4}, {:.4}, {:.4} | {:.2}% | {:.1} |",
+                    graph.finest().node_count(),
+                    albedo[0], albedo[1], albedo[2], exact[0], exact[1], exact[2],
+                    100.0 * err,
+                    t0.elapsed().as_secs_f64()
+                );
+            }
+        }
+    }
+}
+
 fn main() {
     let what = std::env::args().nth(1).unwrap_or_else(|| "all".into());
     if what == "slab" || what == "all" {
         slab();
+    }
+    if what == "sphere" || what == "all" {
+        sphere();
     }
 }
