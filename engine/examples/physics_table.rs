@@ -265,8 +265,8 @@ fn semi_infinite() {
                 if level.surface_normals[s].y > 0.999 && p.x.hypot(p.z) < 1.0 {
                     let a = sol.operator.areas[s];
                     area += a;
-                    for c in 0..3 {
-                        acc[c] += (1.0 - m.f_dr()) * sol.j_plus[s][c] * a / sol.q[s][c];
+                    for (c, r) in acc.iter_mut().enumerate() {
+                        *r += (1.0 - m.f_dr()) * sol.j_plus[s][c] * a / sol.q[s][c];
                     }
                 }
             }

@@ -32,8 +32,8 @@ fn centre_transmittance(graph: &QuadGraph, sol: &CpuSolution, f_dr: f64, q_top: 
         if level.surface_normals[s].y < -0.999 && p.x.hypot(p.z) < 5.0 {
             let a = sol.operator.areas[s];
             area += a;
-            for c in 0..3 {
-                acc[c] += (1.0 - f_dr) * sol.j_plus[s][c] * a / q_top;
+            for (c, t) in acc.iter_mut().enumerate() {
+                *t += (1.0 - f_dr) * sol.j_plus[s][c] * a / q_top;
             }
         }
     }

@@ -58,7 +58,7 @@ fn sphere_albedo_matches_the_closed_form_at_default_resolution() {
             albedo[c] / Homogeneous::channel(&m, c).sphere_albedo(RADIUS) - 1.0
         });
         println!(
-            "{name}: albedo {albedo:.4?}, rel. error per channel {per_channel:.2e?}, max {:.3}% ({} nodes)",
+            "{name}: albedo {albedo:.4?}, rel. error per channel {per_channel:.4?}, max {:.3}% ({} nodes)",
             100.0 * err,
             graph.finest().node_count()
         );
