@@ -14,7 +14,11 @@ struct Cli {
 enum Command {
     /// The Vulkan device, driver and the features used.
     Info(info::InfoArgs),
+    /// Bake (or load from the cache) the QuadGraph of a mesh or shape.
+    Bake(bake::BakeArgs),
 }
+
+mod bake;
 
 mod info {
     #[derive(clap::Args)]
@@ -32,6 +36,7 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Info(args) => info::run(args),
+        Command::Bake(args) => bake::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,6 +1,34 @@
 //! Triangle meshes: OBJ loading (tobj), procedural shapes, validation, inside/outside, ray queries.
+//!
+//! The path of an input mesh into the bake:
+//!
+//! ```no_run
+//! use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
+//!
+//! # fn main() -> Result<(), translucent::mesh::MeshError> {
+//! let mut mesh = TriMesh::load_obj("bunny.obj")?; // every group merged, triangulated
+//! let report = mesh.validate(&ValidateOptions::default())?; // refuses sheets, non-manifold edges
+//! println!("{}", report.summary());
+//! let (mesh, _transform) = mesh.normalized(50.0)?; // bounding-box centre at 0, longest side 50 mm
+//! let solid = MeshSolid::new(mesh)?; // BVH + fast generalized winding number
+//! assert!(!solid.contains(glam::DVec3::splat(1e3)));
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Inside/outside is the generalized winding number `|w| > 1/2` (Jacobson et al. 2013), so holes are
+//! bridged and inside-out meshes are still solids; [`shapes::Shape`] is the exact counterpart.
 
+mod bvh;
+mod obj;
 pub mod shapes;
+mod solid;
+mod validate;
+
+pub use solid::{ClosestPoint, MeshSolid, RayHit};
+pub use validate::{MeshReport, Normalization, ValidateOptions};
+
+use std::path::PathBuf;
 
 use glam::DVec3;
 
@@ -13,11 +41,118 @@ pub struct TriMesh {
     pub indices: Vec<[u32; 3]>,
 }
 
-/// Bad mesh input. Each variant names the problem (and the file, where there is one).
+/// Bad mesh input. Each variant names the problem; errors from a file are wrapped in
+/// [`MeshError::InFile`], which names the file ([`MeshError::root`] unwraps it).
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    #[error("mesh: {0}")]
-    Invalid(String),
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: not a valid OBJ file: {source}", path.display())]
+    Obj {
+        path: PathBuf,
+        #[source]
+        source: tobj::LoadError,
+    },
+    #[error("{}: {source}", path.display())]
+    InFile {
+        path: PathBuf,
+        #[source]
+        source: Box<MeshError>,
+    },
+    #[error("the mesh has no triangles")]
+    Empty,
+    #[error("face {face} refers to vertex {index}, but the mesh has {vertices} vertices{}", at_line(.line))]
+    IndexOutOfRange {
+        face: usize,
+        index: i64,
+        vertices: usize,
+        /// Line in the OBJ file, where the mesh came from one.
+        line: Option<usize>,
+    },
+    #[error(
+        "vertex {vertex} has a non-finite coordinate {position:?}{} (or one beyond the f32 range of OBJ \
+         loading)",
+        at_line(.line)
+    )]
+    NonFiniteVertex {
+        vertex: usize,
+        position: [f64; 3],
+        line: Option<usize>,
+    },
+    #[error("all {faces} faces are degenerate (zero area or a repeated vertex)")]
+    AllDegenerate { faces: usize },
+    #[error(
+        "non-manifold edge between vertices {a} {pa:?} and {b} {pb:?}: shared by {faces} faces, a solid's \
+         edges are shared by exactly 2 (parts touching along an edge, or a fin)"
+    )]
+    /// `a` and `b` index the mesh's vertices (for a loaded OBJ: numbered by first use in the faces,
+    /// not by `v` line); `pa` and `pb` are their positions.
+    NonManifoldEdge {
+        a: u32,
+        b: u32,
+        pa: [f64; 3],
+        pb: [f64; 3],
+        faces: usize,
+    },
+    #[error(
+        "open surface, not a solid: {boundary_edges} boundary edges, boundary length / sqrt(surface area) \
+         = {ratio:.2} > {limit} (small holes are bridged, an open sheet is not); force it to treat it as \
+         a solid anyway (inside = |generalized winding number| > 1/2)"
+    )]
+    OpenSurface {
+        boundary_edges: usize,
+        ratio: f64,
+        limit: f64,
+    },
+    #[error(
+        "inconsistent orientation: {edges} edges (first between vertices {a} and {b}) are traversed in the \
+         same direction by both of their faces, so neighbouring faces wind opposite ways and inside \
+         cannot be told from outside"
+    )]
+    InconsistentOrientation { edges: usize, a: u32, b: u32 },
+    #[error(
+        "vertex {vertex} at {position:?} is too far from the origin for the queries (|coordinate| > \
+         1e100, products would overflow): normalize the mesh first"
+    )]
+    CoordinateTooLarge { vertex: usize, position: [f64; 3] },
+    #[error("invalid shape {shape:?}: {problem}")]
+    InvalidShape {
+        shape: shapes::Shape,
+        problem: &'static str,
+    },
+    #[error("mesh size must be a finite number of millimetres > 0, got {0}")]
+    InvalidSize(f64),
+    #[error("the mesh has zero extent (all its vertices coincide)")]
+    ZeroExtent,
+}
+
+fn at_line(line: &Option<usize>) -> String {
+    line.map(|l| format!(" (line {l})")).unwrap_or_default()
+}
+
+impl MeshError {
+    /// The problem itself, without the [`MeshError::InFile`] layers naming the file.
+    pub fn root(&self) -> &MeshError {
+        match self {
+            MeshError::InFile { source, .. } => source.root(),
+            other => other,
+        }
+    }
+
+    /// Wraps `self` so its message names `path` (I/O and OBJ errors name it already).
+    pub fn in_file(self, path: impl Into<PathBuf>) -> MeshError {
+        match self {
+            e @ (MeshError::Io { .. } | MeshError::Obj { .. } | MeshError::InFile { .. }) => e,
+            e => MeshError::InFile {
+                path: path.into(),
+                source: Box::new(e),
+            },
+        }
+    }
 }
 
 impl TriMesh {
@@ -28,6 +163,60 @@ impl TriMesh {
             return (DVec3::ZERO, DVec3::ZERO);
         };
         it.fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)))
+    }
+
+    /// The structural checks every query needs: faces exist, indices are in range, coordinates
+    /// are finite.
+    pub fn check_structure(&self) -> Result<(), MeshError> {
+        if self.indices.is_empty() || self.positions.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        let vertices = self.positions.len();
+        for (face, tri) in self.indices.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertices) {
+                return Err(MeshError::IndexOutOfRange {
+                    face,
+                    index: index.into(),
+                    vertices,
+                    line: None,
+                });
+            }
+        }
+        if let Some(vertex) = self.positions.iter().position(|p| !p.is_finite()) {
+            let position = self.positions[vertex].to_array();
+            return Err(MeshError::NonFiniteVertex {
+                vertex,
+                position,
+                line: None,
+            });
+        }
+        Ok(())
+    }
+
+    /// Enclosed volume by the divergence theorem (tetrahedra from the bounding-box centre, which
+    /// keeps the sum well conditioned far from the origin): negative iff the faces wind inward.
+    /// Indices must be in range ([`TriMesh::check_structure`]).
+    pub fn signed_volume(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        let o = 0.5 * (lo + hi);
+        self.indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize] - o);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Total surface area. Indices must be in range ([`TriMesh::check_structure`]).
+    pub fn surface_area(&self) -> f64 {
+        self.indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
     }
 
     /// Recomputes area-weighted per-vertex normals from the faces.
@@ -55,4 +244,9 @@ pub trait Solid: Sync {
     fn ray_hit(&self, origin: DVec3, dir: DVec3, t_max: f64) -> Option<(f64, DVec3)>;
     /// Axis-aligned bounds (min, max) in mm.
     fn bounds(&self) -> (DVec3, DVec3);
+    /// Whether the boundary is crossed anywhere in `0 < t <= t_max` (shadow rays). Same answer as
+    /// `ray_hit(..).is_some()`; implementations may stop at the first crossing found.
+    fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        self.ray_hit(origin, dir, t_max).is_some()
+    }
 }

@@ -19,7 +19,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3};
 
-use super::{Solid, TriMesh};
+use super::{MeshError, Solid, TriMesh};
 
 /// A procedural solid centred at the origin (millimetres).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +45,44 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// Checks the parameters: finite, sizes > 0 (a capsule's `half_length` may be 0, a sphere),
+    /// a torus's tube thinner than its ring (else it overlaps itself).
+    pub fn validate(&self) -> Result<(), MeshError> {
+        let problem = match *self {
+            Shape::Sphere { radius } if !(radius.is_finite() && radius > 0.0) => {
+                "radius must be finite and > 0"
+            }
+            Shape::Torus { major, minor }
+                if !(minor.is_finite() && minor > 0.0 && major.is_finite()) =>
+            {
+                "radii must be finite and > 0"
+            }
+            Shape::Torus { major, minor } if minor >= major => {
+                "the tube radius must be less than the ring radius"
+            }
+            Shape::Box { half_extents }
+                if !(half_extents.is_finite() && half_extents.min_element() > 0.0) =>
+            {
+                "half extents must be finite and > 0"
+            }
+            Shape::Capsule {
+                half_length,
+                radius,
+            } if !(half_length.is_finite()
+                && half_length >= 0.0
+                && radius.is_finite()
+                && radius > 0.0) =>
+            {
+                "radius must be finite and > 0, half length finite and >= 0"
+            }
+            _ => return Ok(()),
+        };
+        Err(MeshError::InvalidShape {
+            shape: *self,
+            problem,
+        })
+    }
+
     /// Signed distance in mm, negative inside.
     pub fn signed_distance(&self, p: DVec3) -> f64 {
         match *self {
@@ -575,6 +613,93 @@ mod tests {
             longest <= 5.0 * 2f64.sqrt() + 1e-12,
             "cell diagonal {longest}"
         );
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        for shape in all_shapes() {
+            shape.validate().unwrap();
+        }
+        Shape::Capsule {
+            half_length: 0.0,
+            radius: 1.0,
+        }
+        .validate()
+        .unwrap();
+        for bad in [
+            Shape::Sphere { radius: 0.0 },
+            Shape::Sphere { radius: f64::NAN },
+            Shape::Torus {
+                major: 4.0,
+                minor: 4.0,
+            },
+            Shape::Torus {
+                major: f64::INFINITY,
+                minor: 1.0,
+            },
+            Shape::Box {
+                half_extents: DVec3::new(1.0, -1.0, 1.0),
+            },
+            Shape::Box {
+                half_extents: DVec3::new(1.0, 1.0, f64::NAN),
+            },
+            Shape::Capsule {
+                half_length: -1.0,
+                radius: 1.0,
+            },
+            Shape::Capsule {
+                half_length: 1.0,
+                radius: 0.0,
+            },
+        ] {
+            let err = bad.validate().unwrap_err();
+            // Compared through Debug: NaN parameters are not equal to themselves.
+            assert!(
+                matches!(err, MeshError::InvalidShape { shape, .. } if format!("{shape:?}") == format!("{bad:?}")),
+                "{bad:?}"
+            );
+            assert!(err.to_string().contains("invalid shape"));
+        }
+    }
+
+    /// Tiny and huge objects: every query stays finite and consistent.
+    #[test]
+    fn extreme_scales_stay_finite() {
+        let mut rng = Rng(17);
+        for scale in [1e-6, 1e6] {
+            for shape in all_shapes() {
+                let shape = match shape {
+                    Shape::Sphere { radius } => Shape::Sphere {
+                        radius: radius * scale,
+                    },
+                    Shape::Torus { major, minor } => Shape::Torus {
+                        major: major * scale,
+                        minor: minor * scale,
+                    },
+                    Shape::Box { half_extents } => Shape::Box {
+                        half_extents: half_extents * scale,
+                    },
+                    Shape::Capsule {
+                        half_length,
+                        radius,
+                    } => Shape::Capsule {
+                        half_length: half_length * scale,
+                        radius: radius * scale,
+                    },
+                };
+                for _ in 0..200 {
+                    let origin = rng.in_cube(40.0 * scale);
+                    let dir = rng.direction();
+                    if let Some((t, n)) = shape.ray_hit(origin, dir, 100.0 * scale) {
+                        assert!(t.is_finite() && n.is_finite() && (n.length() - 1.0).abs() < 1e-12);
+                        assert!(
+                            shape.signed_distance(origin + dir * t).abs() < 1e-8 * scale,
+                            "{shape:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -36,7 +36,7 @@ impl Default for BakeParams {
     fn default() -> Self {
         Self {
             resolution: 48,
-            k: 0.5,
+            k: 2.0,
             levels: 3,
             relax: false,
             block: 32,
@@ -64,8 +64,13 @@ pub struct LevelStats {
     pub tetrahedra_split: usize,
     /// Surface nodes whose ray met the input surface (the rest sit at their face centroid).
     pub surface_nodes_on_surface: usize,
+    /// Dihedral angles after the split of paper Fig. 4 (which makes thinner tetrahedra)...
     pub min_dihedral_deg: f64,
     pub max_dihedral_deg: f64,
+    /// ...and of the stuffing alone, before it (not known for a cached graph).
+    pub stuffing_dihedral_deg: (f64, f64),
+    /// Cut lattice tetrahedra that were not finest BCC ones (the angle bound does not cover them).
+    pub coarse_cut_tets: usize,
     pub texture_width: u32,
     pub texture_height: u32,
     pub surface_rows: u32,
@@ -189,7 +194,7 @@ impl QuadGraph {
                 grading: params.k,
                 stuffing: params.stuffing,
             };
-            let (mesh, _) = tetrahedralize(solid, surface, &tet_params);
+            let (mesh, stuffed) = tetrahedralize(solid, surface, &tet_params);
             let (mesh, split) = split_multi_boundary(mesh);
             if mesh.tets.is_empty() {
                 return Err(BakeError::Empty {
@@ -224,6 +229,8 @@ impl QuadGraph {
                 surface_nodes: level.surface_count(),
                 inner_nodes: level.inner_count(),
                 tetrahedra_split: split,
+                stuffing_dihedral_deg: (stuffed.min_dihedral_deg, stuffed.max_dihedral_deg),
+                coarse_cut_tets: stuffed.coarse_cut_tets,
                 surface_nodes_on_surface: on_surface,
                 min_dihedral_deg,
                 max_dihedral_deg,
@@ -272,6 +279,8 @@ impl QuadGraph {
         for (s, from_stats) in summary.levels.iter_mut().zip(stats) {
             s.tetrahedra_split = from_stats.tetrahedra_split;
             s.surface_nodes_on_surface = from_stats.surface_nodes_on_surface;
+            s.stuffing_dihedral_deg = from_stats.stuffing_dihedral_deg;
+            s.coarse_cut_tets = from_stats.coarse_cut_tets;
         }
         summary.timings_s = timings;
         Ok((graph, summary))

@@ -26,20 +26,22 @@ pub enum NodeKind {
 }
 
 /// Local face `f` of a tetrahedron is the face opposite its local vertex `f`; these are its vertices,
-/// ordered so that their normal `(b - a) x (c - a)` points out of a positively oriented tetrahedron.
-pub const TET_FACES: [[usize; 3]; 4] = [[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 2]];
+/// ordered so that their normal `(b - a) x (c - a)` points out of a positively oriented tetrahedron
+/// (`(v1 - v0) . ((v2 - v0) x (v3 - v0)) > 0`, as [`TetMesh`] requires). The first version of this
+/// table had every face reversed (inward normals); face `f` and its vertex set are unchanged.
+pub const TET_FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
 /// Shepard interpolation links from a coarser level into this one: for every node of this level, up to
 /// 8 nodes of the coarser level and their normalized weights (unused slots: [`NO_NODE`], weight 0).
 /// Surface nodes link to coarse surface nodes (node ids), inner nodes to coarse inner nodes.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ShepardLinks {
     pub links: Vec<[u32; 8]>,
     pub weights: Vec<[f64; 8]>,
 }
 
 /// One level of the QuadGraph.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct GraphLevel {
     /// The tetrahedra of this level (after the split of paper Fig. 4), positively oriented, in mm.
     pub tets: TetMesh,
@@ -85,7 +87,7 @@ impl Packing {
 
 /// Per render-mesh vertex, up to 4 surface nodes of the finest level (surface index `s`, not node id)
 /// and normalized weights.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ShadingWeights {
     pub links: Vec<[u32; 4]>,
     pub weights: Vec<[f64; 4]>,

@@ -25,7 +25,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::lattice::{BccLattice, LatticeVertexKind};
+use super::lattice::BccLattice;
 use super::{dihedral_angles, signed_volume, TetMesh};
 use crate::mesh::Solid;
 
@@ -65,6 +65,10 @@ pub struct StuffStats {
     /// and over the untouched graded interior (bisected and transition tetrahedra included).
     pub boundary_dihedral_deg: (f64, f64),
     pub interior_dihedral_deg: (f64, f64),
+    /// Lattice tetrahedra that were cut or warped although they are not uniform finest BCC ones
+    /// (where the surface left the refined band, e.g. across a hole the winding number bridges):
+    /// the paper's angle bound does not cover them.
+    pub coarse_cut_tets: usize,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -185,20 +189,22 @@ pub fn stuff(
     }
     // Diagonals of quadrilateral faces go through the lowest-ranked vertex: one global order, so the
     // two tetrahedra sharing a quadrilateral agree, and no prism gets a cyclic (untetrahedralizable)
-    // set of diagonals (Dompierre et al. 1999). Lattice vertices rank before cut points.
+    // set of diagonals (Dompierre et al. 1999). This stands in for the paper's parity rule. Cut
+    // points rank before lattice vertices: measured on spot and the bunny, that raises the smallest
+    // angle (12.4 -> 15.9 degrees on spot) while the lattice order among themselves changed nothing.
     let rank = |v: u32| -> u64 {
         if (v as usize) < nv {
-            lattice_rank(lattice, v)
-        } else {
             (1u64 << 40) + v as u64
+        } else {
+            v as u64 - nv as u64
         }
     };
     let cut = |a: u32, b: u32| -> u32 { cut_vertex[cut_index[&(a.min(b), a.max(b))] as usize] };
 
     let mut tets: Vec<[u32; 4]> = Vec::new();
     let mut touched: Vec<bool> = Vec::new();
-    let mut centroid_checks: Vec<[u32; 4]> = Vec::new();
-    for t in &lattice.tets {
+    let mut coarse_cut = 0usize;
+    for (ti, t) in lattice.tets.iter().enumerate() {
         let s = t.map(|v| sign[v as usize]);
         let ins: Vec<u32> = (0..4).filter(|&i| s[i] == Sign::In).map(|i| t[i]).collect();
         let outs: Vec<u32> = (0..4)
@@ -211,7 +217,6 @@ pub fn stuff(
             .collect();
         let start = tets.len();
         match (ins.len(), outs.len()) {
-            (0, 0) => centroid_checks.push(*t),
             (0, _) => {}
             (_, 0) => tets.push(*t),
             (1, 3) => {
@@ -252,15 +257,13 @@ pub fn stuff(
         }
         let was_cut = !outs.is_empty() || !zeros.is_empty();
         touched.extend(std::iter::repeat_n(was_cut, tets.len() - start));
-    }
-    // All four vertices warped onto the surface: keep the tetrahedron if it lies inside.
-    for t in centroid_checks {
-        let c = t.iter().map(|&v| vertices[v as usize]).sum::<DVec3>() / 4.0;
-        if solid.contains(c) {
-            tets.push(t);
-            touched.push(true);
+        if was_cut && !lattice.finest[ti] && tets.len() > start {
+            coarse_cut += 1;
         }
     }
+    // Tetrahedra with all four vertices warped onto the surface are flat slivers along it (kept,
+    // they made 9.9-degree angles on the bunny); dropping them moves the boundary by less than a
+    // warp distance.
     for t in &mut tets {
         let [a, b, c, d] = t.map(|v| vertices[v as usize]);
         if signed_volume(a, b, c, d) < 0.0 {
@@ -274,6 +277,7 @@ pub fn stuff(
         cut_points: cut_edges.len(),
         warped_vertices: warped,
         output_tets: mesh.tets.len(),
+        coarse_cut_tets: coarse_cut,
         ..Default::default()
     };
     let (lo, hi) = angle_range(&mesh, |_| true);
@@ -286,20 +290,6 @@ pub fn stuff(
 
 /// The six edges of a tetrahedron as local vertex pairs.
 pub const EDGES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
-
-/// Order of lattice vertices for choosing quadrilateral diagonals (see `stuff`).
-fn lattice_rank(lattice: &BccLattice, v: u32) -> u64 {
-    let c = lattice.coords[v as usize];
-    let kind = match lattice.kind(v) {
-        LatticeVertexKind::Corner => 0u64,
-        LatticeVertexKind::Centre => 1u64,
-    };
-    let parity = (((c.x + c.y + c.z) / 2).rem_euclid(2)) as u64;
-    (RANK_ORDER[(kind * 2 + parity) as usize] << 36) | v as u64
-}
-
-/// Priority of (corner even, corner odd, centre even, centre odd) lattice vertices.
-const RANK_ORDER: [u64; 4] = [0, 1, 2, 3];
 
 /// Splits the prism with triangles `top` and `bottom` (`top[i]` above `bottom[i]`) into 3
 /// tetrahedra, each quadrilateral split by the diagonal through its lowest-ranked vertex.

@@ -227,6 +227,10 @@ fn graded_stuffing_is_valid_and_coarser_inside() {
         "grading did not coarsen the interior"
     );
     // Tetrahedra near the surface are uniform BCC ones, so the uniform bound holds there.
+    assert_eq!(
+        graded.1.coarse_cut_tets, 0,
+        "the surface left the finest band"
+    );
     let (blo, bhi) = graded.1.boundary_dihedral_deg;
     assert!(
         blo >= 10.7 && bhi <= 164.8,
