@@ -62,6 +62,8 @@ pub(crate) struct Bvh {
     pub nodes: Vec<Node>,
     pub moments: Vec<Moments>,
     pub octupoles: Vec<Octupole>,
+    /// What the quick pass reads, one cache line per node.
+    quick: Vec<QuickNode>,
     /// Triangle corners in BVH order (copied for locality).
     pub tris: Vec<[DVec3; 3]>,
     /// The mesh face of each BVH triangle.
@@ -98,10 +100,17 @@ impl Bvh {
         let sorted: Vec<[DVec3; 3]> = order.iter().map(|&i| tris[i as usize].0).collect();
         let faces = order.iter().map(|&i| tris[i as usize].1).collect();
         let (moments, octupoles) = moments_bottom_up(&tree, &sorted);
+        let quick = tree
+            .nodes
+            .iter()
+            .zip(&moments)
+            .map(|(n, m)| QuickNode::new(n, m))
+            .collect();
         Bvh {
             nodes: tree.nodes,
             moments,
             octupoles,
+            quick,
             tris: sorted,
             faces,
         }
@@ -110,21 +119,50 @@ impl Bvh {
     /// The generalized winding number at `q` (Jacobson et al. 2013, Eq. 5), with far nodes replaced
     /// by their third-order expansion (Barill et al. 2018, Eq. 10-12) and near leaves summed exactly.
     pub fn winding_number(&self, q: DVec3) -> f64 {
-        self.winding_number_with::<true>(q, ACCURATE_BETA)
+        self.winding_number_with(q, ACCURATE_BETA)
     }
 
     /// `|w| > 1/2`: the quick estimate where it is clearly on one side, else the accurate one.
     pub fn inside(&self, q: DVec3) -> bool {
-        let quick = self.winding_number_with::<false>(q, QUICK_BETA).abs();
+        let quick = self.quick_winding_number(q).abs();
         if (quick - 0.5).abs() > QUICK_MARGIN {
             return quick > 0.5;
         }
         self.winding_number(q).abs() > 0.5
     }
 
-    /// The hierarchical sum: far nodes by their expansion (to third order if `THIRD`), near leaves
-    /// exactly.
-    pub(crate) fn winding_number_with<const THIRD: bool>(&self, q: DVec3, beta: f64) -> f64 {
+    /// The quick estimate: second order at [`QUICK_BETA`], from the compact f32 node copies.
+    pub(crate) fn quick_winding_number(&self, q: DVec3) -> f64 {
+        let mut stack = [0u32; STACK];
+        let mut top = 1;
+        let mut sum = 0.0;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let node = &self.quick[index as usize];
+            let r = node.centre() - q;
+            let d2 = r.length_squared();
+            if d2 > f64::from(node.reach2) {
+                sum += node.far_field(r, d2);
+            } else if node.count > 0 {
+                let tris = &self.tris[node.first as usize..(node.first + node.count) as usize];
+                sum += tris.iter().map(|t| solid_angle(q, t)).sum::<f64>()
+                    / (4.0 * std::f64::consts::PI);
+            } else if top + 2 <= STACK {
+                stack[top] = index + 1;
+                stack[top + 1] = node.first;
+                top += 2;
+            } else {
+                // Unreachable for trees this builder makes; exact fallback rather than a wrong sum.
+                sum += self.exact_range(q, index);
+            }
+        }
+        sum
+    }
+
+    /// The hierarchical sum: far nodes (beyond `beta` radii) by their third-order expansion, near
+    /// leaves exactly.
+    pub(crate) fn winding_number_with(&self, q: DVec3, beta: f64) -> f64 {
         let mut stack = [0u32; STACK];
         let mut top = 1;
         let mut sum = 0.0;
@@ -136,11 +174,7 @@ impl Bvh {
             let r = m.centre - q;
             let d2 = r.length_squared();
             if d2 > (beta * m.radius).powi(2) {
-                sum += if THIRD {
-                    far_field_third(m, &self.octupoles[index], r, d2)
-                } else {
-                    far_field_second(m, r, d2)
-                };
+                sum += far_field_third(m, &self.octupoles[index], r, d2);
             } else if node.count > 0 {
                 let tris = &self.tris[node.first as usize..(node.first + node.count) as usize];
                 sum += tris.iter().map(|t| solid_angle(q, t)).sum::<f64>()
@@ -278,6 +312,66 @@ impl Bvh {
             }
         }
         best
+    }
+}
+
+/// A node as the quick pass needs it, in f32 (its error, ~1e-7 relative, is far below the quick
+/// pass's own): centre, `(QUICK_BETA radius)^2`, dipole, and of the quadrupole only what the second
+/// order term reads: its trace and symmetric part. 64 bytes, one cache line: the quick pass is bound
+/// by memory access, not arithmetic.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct QuickNode {
+    centre: [f32; 3],
+    reach2: f32,
+    dipole: [f32; 3],
+    trace: f32,
+    /// xx, yy, zz, xy + yx, yz + zy, zx + xz.
+    symmetric: [f32; 6],
+    first: u32,
+    count: u32,
+}
+
+impl QuickNode {
+    fn new(n: &Node, m: &Moments) -> QuickNode {
+        let c = &m.quadrupole;
+        let f = |v: DVec3| v.as_vec3().to_array();
+        QuickNode {
+            centre: f(m.centre),
+            reach2: ((QUICK_BETA * m.radius).powi(2)) as f32,
+            dipole: f(m.dipole),
+            trace: (c.x_axis.x + c.y_axis.y + c.z_axis.z) as f32,
+            symmetric: [
+                c.x_axis.x as f32,
+                c.y_axis.y as f32,
+                c.z_axis.z as f32,
+                (c.y_axis.x + c.x_axis.y) as f32,
+                (c.z_axis.y + c.y_axis.z) as f32,
+                (c.x_axis.z + c.z_axis.x) as f32,
+            ],
+            first: n.first,
+            count: n.count,
+        }
+    }
+
+    fn centre(&self) -> DVec3 {
+        DVec3::from(glam::Vec3::from_array(self.centre))
+    }
+
+    /// Second-order far-field winding number (Barill et al. 2018, Eq. 10-11; [`far_field_third`]
+    /// without its last term), with `r = centre - q`, `d2 = |r|^2`.
+    fn far_field(&self, r: DVec3, d2: f64) -> f64 {
+        let s = self.symmetric.map(f64::from);
+        let rcr = r.x * r.x * s[0]
+            + r.y * r.y * s[1]
+            + r.z * r.z * s[2]
+            + r.x * r.y * s[3]
+            + r.y * r.z * s[4]
+            + r.z * r.x * s[5];
+        let dipole = DVec3::from(glam::Vec3::from_array(self.dipole));
+        let inv3 = 1.0 / (d2 * d2.sqrt());
+        (r.dot(dipole) * inv3 + f64::from(self.trace) * inv3 - 3.0 * rcr * inv3 / d2)
+            / (4.0 * std::f64::consts::PI)
     }
 }
 
@@ -607,15 +701,6 @@ fn far_field_third(m: &Moments, octupole: &Octupole, r: DVec3, d2: f64) -> f64 {
     }
     let third = 0.5 * (-3.0 * (2.0 * a1 + a3) * inv5 + 15.0 * b * inv5 / d2);
     (r.dot(m.dipole) * inv3 + second + third) / (4.0 * std::f64::consts::PI)
-}
-
-/// [`far_field_third`] without the third-order term (Barill et al. 2018, Eq. 10-11).
-fn far_field_second(m: &Moments, r: DVec3, d2: f64) -> f64 {
-    let d = d2.sqrt();
-    let inv3 = 1.0 / (d2 * d);
-    let c = &m.quadrupole;
-    let second = (c.x_axis.x + c.y_axis.y + c.z_axis.z) * inv3 - 3.0 * r.dot(*c * r) * inv3 / d2;
-    (r.dot(m.dipole) * inv3 + second) / (4.0 * std::f64::consts::PI)
 }
 
 /// Signed solid angle of triangle `t` seen from `q` (Van Oosterom and Strackee 1983; Jacobson et al.

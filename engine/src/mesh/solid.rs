@@ -398,7 +398,7 @@ mod tests {
     /// must stay well inside that margin, also near the surface and near a hole.
     #[test]
     fn quick_estimate_stays_well_inside_its_margin() {
-        use crate::mesh::bvh::{ACCURATE_BETA, QUICK_BETA, QUICK_MARGIN};
+        use crate::mesh::bvh::{ACCURATE_BETA, QUICK_MARGIN};
         let mut holed = Shape::Sphere { radius: 10.0 }.triangulate(32);
         let positions = holed.positions.clone();
         holed
@@ -424,8 +424,8 @@ mod tests {
             for _ in 0..1500 {
                 let p = rng.in_cube(16.0);
                 let exact = solid.winding_number_exact(p);
-                let quick = solid.bvh.winding_number_with::<false>(p, QUICK_BETA);
-                let accurate = solid.bvh.winding_number_with::<true>(p, ACCURATE_BETA);
+                let quick = solid.bvh.quick_winding_number(p);
+                let accurate = solid.bvh.winding_number_with(p, ACCURATE_BETA);
                 quick_worst = quick_worst.max((quick - exact).abs());
                 accurate_worst = accurate_worst.max((accurate - exact).abs());
                 assert_eq!(solid.contains(p), exact.abs() > 0.5, "{p}: w = {exact}");
