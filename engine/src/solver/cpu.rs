@@ -245,6 +245,7 @@ pub fn solve(
         });
     }
     let eta = material.eta();
+    crate::material::check_eta(eta)?;
     let finest = graph.levels.len() - 1;
     let mut reports = Vec::with_capacity(graph.levels.len());
     let mut phi: Vec<[f64; 3]> = Vec::new();
