@@ -131,7 +131,7 @@ fn sphere() {
     println!(
         "\n### Sphere: R = 10 mm, constant environment, albedo = exitance / transmitted input\n"
     );
-    println!("Relative error per channel (R, G, B) against the closed form; bake `BakeParams {{ resolution, levels: 1, K = 0.5 }}` (48 is the default resolution).\n");
+    println!("Relative error per channel (R, G, B) against the closed form; bake `BakeParams {{ resolution, levels: 1, ..Default::default() }}` (K = {}; 48 is the default resolution).\n", BakeParams::default().k);
     println!("| resolution | nodes | material | scheme | albedo R, G, B | exact R, G, B | error R, G, B | solve s |");
     println!("|---|---|---|---|---|---|---|---|");
     let scene = Scene {
@@ -139,7 +139,7 @@ fn sphere() {
         environment: Environment::Constant([1.0; 3]),
     };
     for resolution in [12, 24, 32, 48, 64] {
-        let graph = sphere_graph(resolution, 0.5, 1);
+        let graph = sphere_graph(resolution, BakeParams::default().k, 1);
         for name in ["marble", "skin1"] {
             let m = Material::preset(name).unwrap();
             let field = MaterialField::Homogeneous(m);
@@ -181,7 +181,7 @@ fn jacobi() {
         environment: Environment::None,
     };
     for resolution in [24, 48] {
-        let full = sphere_graph(resolution, 0.5, 3);
+        let full = sphere_graph(resolution, BakeParams::default().k, 3);
         let exact = solver::solve(
             &full,
             &field,
