@@ -180,7 +180,7 @@ fn jacobi() {
         lights: vec!["dir:0,-1,0:1,1,1".parse().unwrap()],
         environment: Environment::None,
     };
-    for resolution in [24, 48] {
+    for resolution in [24, 32] {
         let full = sphere_graph(resolution, BakeParams::default().k, 3);
         let exact = solver::solve(
             &full,
