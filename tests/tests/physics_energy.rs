@@ -143,3 +143,67 @@ fn homogeneous_and_procedural_fields_agree_when_the_materials_do() {
         }
     }
 }
+
+/// End to end on a baked, non-convex shape: a `.vol` grid material (through a file), a directional
+/// light shadowed by the torus itself, three levels: energy balances, nothing is NaN.
+#[test]
+fn vol_material_on_a_baked_torus_with_self_shadowing_balances() {
+    use translucent::material::VolGrid;
+    use translucent::mesh::shapes::Shape;
+    use translucent::quadgraph::BakeParams;
+    let torus = Shape::Torus {
+        major: 10.0,
+        minor: 4.0,
+    };
+    let params = BakeParams {
+        resolution: 24,
+        levels: 2,
+        ..Default::default()
+    };
+    let graph = QuadGraph::bake(&torus.triangulate(48), &torus, &params, &mut |_| {})
+        .unwrap()
+        .0;
+    let grid = VolGrid::from_fn(
+        [8, 4, 8],
+        DVec3::new(-14.0, -4.0, -14.0),
+        DVec3::new(14.0, 4.0, 14.0),
+        |p| {
+            let t = 0.5 + 0.5 * (p.x * 0.4).sin() * (p.z * 0.3).cos();
+            ([0.5 + 4.0 * t, 1.0, 2.0 - t], [0.002 + 0.05 * t, 0.01, 0.0])
+        },
+    )
+    .unwrap();
+    let path = std::env::temp_dir().join(format!(
+        "translucent-physics-torus-{}.vol",
+        std::process::id()
+    ));
+    grid.write(&path).unwrap();
+    let field = MaterialField::grid(VolGrid::read(&path).unwrap(), 1.3).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    // Light travelling along +x, slightly down: the ring shadows part of itself.
+    let scene = Scene {
+        lights: vec!["dir:1,-0.3,0:2,2,2".parse().unwrap()],
+        environment: Environment::None,
+    };
+    let params = CpuSolveParams {
+        iterations: vec![300, 100],
+        ..Default::default()
+    };
+    let shadowed = solver::solve(&graph, &field, &scene, Some(&torus), &params).unwrap();
+    let open = solver::solve(&graph, &field, &scene, None, &params).unwrap();
+    let (es, eo) = (shadowed.energy, open.energy);
+    assert!(
+        es.transmitted_input[0] < 0.95 * eo.transmitted_input[0],
+        "no self-shadowing: {es:?} vs {eo:?}"
+    );
+    for e in [es, eo] {
+        for c in 0..3 {
+            let balance = (e.exitance[c] + e.absorbed[c]) / e.transmitted_input[c] - 1.0;
+            assert!(balance.abs() < 1e-7, "channel {c}: {e:?}");
+        }
+        assert_eq!(e.absorbed[2], 0.0);
+    }
+    assert!(shadowed.phi.iter().flatten().all(|v| v.is_finite()));
+    assert_eq!(shadowed.levels.len(), 2);
+    assert_eq!(shadowed.vertex_j_plus.len(), graph.surface.positions.len());
+}
