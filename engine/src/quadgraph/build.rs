@@ -412,7 +412,9 @@ fn place_surface_node(
 
 /// Moves each inner node toward the mean of its neighbours (a discrete stand-in for the paper's
 /// reaction-diffusion relaxation), never leaving its own tetrahedron: a step that would put the node
-/// closer than 10% (in barycentric terms) to a face is shortened.
+/// closer than 10% (in barycentric terms) to a face is shortened. For the `paper` scheme only, which
+/// uses node-to-node distances: a relaxed node may pass its surface node's plane distance, so the
+/// `fv` scheme's `d_sk > 0` holds for centroids only.
 pub fn relax_inner_nodes(level: &mut GraphLevel, iterations: usize) {
     let ni = level.inner_count();
     for _ in 0..iterations {
