@@ -90,6 +90,22 @@ fn queries(c: &mut Criterion) {
         })
         .collect();
 
+    // Cut edges as the bake sees them: 0.6 mm segments through the surface along face normals.
+    let cuts: Vec<(DVec3, DVec3)> = solid
+        .mesh()
+        .indices
+        .iter()
+        .step_by(7)
+        .filter_map(|tri| {
+            let [a, b, c] = tri.map(|v| solid.mesh().positions[v as usize]);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            let centre = (a + b + c) / 3.0;
+            let (inside, outside) = (centre - n * 0.3, centre + n * 0.3);
+            (solid.contains(inside) && !solid.contains(outside)).then_some((inside, outside))
+        })
+        .take(2000)
+        .collect();
+
     let mut group = c.benchmark_group("mesh/bunny");
     group.sample_size(10);
     group.throughput(Throughput::Elements(points.len() as u64));
@@ -99,6 +115,32 @@ fn queries(c: &mut Criterion) {
     group.bench_function("contains near the surface (1 thread)", |b| {
         b.iter(|| near.iter().filter(|p| solid.contains(**p)).count())
     });
+    group.throughput(Throughput::Elements(cuts.len() as u64));
+    group.bench_function("boundary_crossing 1e-4 mm (1 thread)", |b| {
+        b.iter(|| {
+            cuts.iter()
+                .map(|(i, o)| solid.boundary_crossing(*i, *o, 1e-4).x)
+                .sum::<f64>()
+        })
+    });
+    group.bench_function("bisection of contains to 1e-4 mm (1 thread)", |b| {
+        b.iter(|| {
+            cuts.iter()
+                .map(|&(mut i, mut o)| {
+                    while (o - i).length() > 1e-4 {
+                        let m = 0.5 * (i + o);
+                        if solid.contains(m) {
+                            i = m;
+                        } else {
+                            o = m;
+                        }
+                    }
+                    i.x
+                })
+                .sum::<f64>()
+        })
+    });
+    group.throughput(Throughput::Elements(points.len() as u64));
     group.bench_function("contains_many (rayon)", |b| {
         b.iter(|| solid.contains_many(&points))
     });

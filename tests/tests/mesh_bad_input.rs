@@ -193,7 +193,7 @@ fn face_indices_out_of_range_name_the_face_and_line() {
         normals: vec![],
         indices: vec![[0, 1, 2], [0, 1, 3]],
     };
-    let err = MeshSolid::new(mesh).unwrap_err();
+    let err = MeshSolid::new(mesh.clone()).unwrap_err();
     assert!(
         matches!(
             err,
@@ -206,6 +206,15 @@ fn face_indices_out_of_range_name_the_face_and_line() {
         ),
         "{err:?}"
     );
+    // The helpers that take any mesh skip the bad face instead of panicking.
+    let mut mesh = mesh;
+    assert_eq!((mesh.signed_volume(), mesh.surface_area()), (0.0, 0.0));
+    mesh.compute_normals();
+    assert_eq!(mesh.normals.len(), 3);
+    assert!(matches!(
+        mesh.validate(&ValidateOptions::default()),
+        Err(MeshError::IndexOutOfRange { face: 1, .. })
+    ));
 }
 
 #[test]

@@ -29,10 +29,10 @@ pub struct BakeArgs {
     #[arg(long, value_name = "NAME")]
     pub shape: Option<String>,
     /// Longest side of the object in millimetres.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
     pub size_mm: f64,
     /// Grading K: 0 keeps the interior lattice uniform; larger values coarsen it faster.
-    #[arg(short = 'K', default_value_t = BakeParams::default().k)]
+    #[arg(short = 'K', default_value_t = BakeParams::default().k, allow_negative_numbers = true)]
     pub k: f64,
     /// Number of levels (coarsest first; each finer level has about 4x the surface nodes).
     #[arg(long, default_value_t = BakeParams::default().levels)]
@@ -181,7 +181,12 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             "stats": stats,
             "exported": exported,
         });
-        println!("{}", serde_json::to_string_pretty(&value)?);
+        use std::io::Write as _;
+        let _ = writeln!(
+            std::io::stdout().lock(),
+            "{}",
+            serde_json::to_string_pretty(&value)?
+        );
     } else {
         print_report(
             &name,
@@ -217,20 +222,36 @@ fn print_report(
     validation: Option<&str>,
     exported: &[PathBuf],
 ) {
+    // Written at once, ignoring a closed pipe (`translucent bake ... | head`).
+    let mut out_text = String::new();
+    macro_rules! outln {
+        ($s:expr, $($arg:tt)*) => {{
+            use std::fmt::Write as _;
+            let _ = writeln!($s, $($arg)*);
+        }};
+    }
     if let Some(v) = validation {
-        println!("{name}: {v}");
+        outln!(out_text, "{name}: {v}");
     }
     let how = match outcome {
         CacheOutcome::Loaded => "loaded from cache",
         _ => "baked",
     };
-    println!("{name}: {how} {} in {seconds:.2} s", out.display());
+    outln!(
+        out_text,
+        "{name}: {how} {} in {seconds:.2} s",
+        out.display()
+    );
     if let Some(l) = load_s {
-        println!("  cache load alone: {l:.3} s");
+        outln!(out_text, "  cache load alone: {l:.3} s");
     }
-    println!("  level  spacing_mm  surface   inner   texture      MB  locality (random)  dihedral");
+    outln!(
+        out_text,
+        "  level  spacing_mm  surface   inner   texture      MB  locality (random)  dihedral"
+    );
     for (l, s) in stats.levels.iter().enumerate() {
-        println!(
+        outln!(
+            out_text,
             "  {l:>5}  {:>10.3}  {:>7}  {:>7}  {:>5}x{:<5} {:>6.2}  {:>8.3} ({:.3})  [{:.1}, {:.1}]",
             s.spacing_mm,
             s.surface_nodes,
@@ -244,15 +265,18 @@ fn print_report(
             s.max_dihedral_deg
         );
     }
-    println!(
+    outln!(
+        out_text,
         "  texture memory {:.2} MB, {:.1} bytes per node (the paper: about 90)",
         stats.total_bytes as f64 / 1e6,
         stats.bytes_per_node
     );
     for (stage, t) in &stats.timings_s {
-        println!("  {stage:<22} {t:>8.3} s");
+        outln!(out_text, "  {stage:<22} {t:>8.3} s");
     }
     for f in exported {
-        println!("  wrote {}", f.display());
+        outln!(out_text, "  wrote {}", f.display());
     }
+    use std::io::Write as _;
+    let _ = std::io::stdout().lock().write_all(out_text.as_bytes());
 }

@@ -116,8 +116,9 @@ impl Bvh {
         }
     }
 
-    /// The generalized winding number at `q` (Jacobson et al. 2013, Eq. 5), with far nodes replaced
-    /// by their third-order expansion (Barill et al. 2018, Eq. 10-12) and near leaves summed exactly.
+    /// The generalized winding number at `q` (Jacobson et al. 2013: the triangles' solid angles
+    /// summed, over 4 pi), with far nodes replaced by their third-order Taylor expansion (Barill et
+    /// al. 2018, section 3.2) and near leaves summed exactly.
     pub fn winding_number(&self, q: DVec3) -> f64 {
         self.winding_number_with(q, ACCURATE_BETA)
     }
@@ -202,7 +203,7 @@ impl Bvh {
         }
     }
 
-    /// The brute-force winding number: every triangle's exact solid angle (Jacobson et al. 2013, Eq. 6).
+    /// The brute-force winding number: every triangle's exact solid angle (Jacobson et al. 2013).
     pub fn winding_number_exact(&self, q: DVec3) -> f64 {
         self.tris.iter().map(|t| solid_angle(q, t)).sum::<f64>() / (4.0 * std::f64::consts::PI)
     }
@@ -358,7 +359,7 @@ impl QuickNode {
         DVec3::from(glam::Vec3::from_array(self.centre))
     }
 
-    /// Second-order far-field winding number (Barill et al. 2018, Eq. 10-11; [`far_field_third`]
+    /// Second-order far-field winding number (Barill et al. 2018, section 3.2; [`far_field_third`]
     /// without its last term), with `r = centre - q`, `d2 = |r|^2`.
     fn far_field(&self, r: DVec3, d2: f64) -> f64 {
         let s = self.symmetric.map(f64::from);
@@ -681,11 +682,12 @@ fn moments_of(tris: &[[DVec3; 3]]) -> (Moments, Octupole) {
 }
 
 /// Third-order far-field winding number of a node seen from `q`, with `r = centre - q` and
-/// `d2 = |r|^2` (Barill et al. 2018, Eq. 10-12). With `f(x) = (x - q) / (4 pi |x - q|^3)` the
-/// integrand, `f . n` expanded at the centre gives
+/// `d2 = |r|^2`: the Taylor series of Barill et al. 2018 (section 3.2), written out here. With
+/// `f(x) = (x - q) / (4 pi |x - q|^3)` the integrand, `f . n` expanded at the centre gives
 /// `f . dipole + sum_ij df_i/dx_j quadrupole_ji + 1/2 sum_ijk d2f_i/dx_j dx_k octupole_i,jk`, where
 /// `4 pi df_i/dx_j = (delta_ij - 3 r_i r_j / d2) / |r|^3` and
-/// `4 pi d2f_i/dx_j dx_k = -3 (delta_ij r_k + delta_ik r_j + delta_jk r_i) / |r|^5 + 15 r_i r_j r_k / |r|^7`.
+/// `4 pi d2f_i/dx_j dx_k = -3 (delta_ij r_k + delta_ik r_j + delta_jk r_i) / |r|^5
+///                        + 15 r_i r_j r_k / |r|^7`.
 fn far_field_third(m: &Moments, octupole: &Octupole, r: DVec3, d2: f64) -> f64 {
     let d = d2.sqrt();
     let inv3 = 1.0 / (d2 * d);
@@ -704,7 +706,7 @@ fn far_field_third(m: &Moments, octupole: &Octupole, r: DVec3, d2: f64) -> f64 {
 }
 
 /// Signed solid angle of triangle `t` seen from `q` (Van Oosterom and Strackee 1983; Jacobson et al.
-/// 2013, Eq. 6): positive when `q` is behind a counter-clockwise triangle. Finite for every input:
+/// 2013): positive when `q` is behind a counter-clockwise triangle. Finite for every input:
 /// a query on a vertex gives `atan2(0, 0) = 0`.
 pub(crate) fn solid_angle(q: DVec3, t: &[DVec3; 3]) -> f64 {
     let (a, b, c) = (t[0] - q, t[1] - q, t[2] - q);
@@ -850,7 +852,11 @@ mod tests {
             thread_local!(static SOUP: Bvh = soup(500, 2.0, 2));
             let q = DVec3::new(x, y, z);
             SOUP.with(|bvh| {
-                let brute = bvh.tris.iter().map(|t| (closest_on_triangle(q, t) - q).length_squared()).fold(f64::INFINITY, f64::min);
+                let brute = bvh
+                    .tris
+                    .iter()
+                    .map(|t| (closest_on_triangle(q, t) - q).length_squared())
+                    .fold(f64::INFINITY, f64::min);
                 prop_assert_eq!(bvh.closest_point(q).2, brute);
                 // An open soup: w is far from integers, the expansion must still track it.
                 if brute > 1.0 {
@@ -868,7 +874,7 @@ mod tests {
         let bvh = soup(3000, 2.0, 3);
         let scale = |m: &DMat3| m.to_cols_array().iter().fold(0.0f64, |a, x| a.max(x.abs()));
         let mut ranges = Vec::new();
-        // Recover each node's triangle range from the layout: leaves hold theirs, parents span children.
+        // Each node's triangle range from the layout: leaves hold theirs, parents span children.
         fn span(bvh: &Bvh, index: usize, out: &mut Vec<(usize, usize, usize)>) -> (usize, usize) {
             let n = bvh.nodes[index];
             let range = if n.count > 0 {

@@ -195,35 +195,41 @@ impl TriMesh {
 
     /// Enclosed volume by the divergence theorem (tetrahedra from the bounding-box centre, which
     /// keeps the sum well conditioned far from the origin): negative iff the faces wind inward.
-    /// Indices must be in range ([`TriMesh::check_structure`]).
+    /// Faces with an index out of range are skipped ([`TriMesh::check_structure`] reports them).
     pub fn signed_volume(&self) -> f64 {
         let (lo, hi) = self.bounds();
         let o = 0.5 * (lo + hi);
-        self.indices
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| self.positions[i as usize] - o);
-                a.dot(b.cross(c)) / 6.0
-            })
+        self.corners()
+            .map(|[a, b, c]| (a - o).dot((b - o).cross(c - o)) / 6.0)
             .sum()
     }
 
-    /// Total surface area. Indices must be in range ([`TriMesh::check_structure`]).
+    /// Total surface area (faces with an index out of range skipped).
     pub fn surface_area(&self) -> f64 {
-        self.indices
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| self.positions[i as usize]);
-                0.5 * (b - a).cross(c - a).length()
-            })
+        self.corners()
+            .map(|[a, b, c]| 0.5 * (b - a).cross(c - a).length())
             .sum()
     }
 
-    /// Recomputes area-weighted per-vertex normals from the faces.
+    /// A face's corners, `None` if an index is out of range.
+    fn face_corners(&self, tri: &[u32; 3]) -> Option<[DVec3; 3]> {
+        let [a, b, c] = tri.map(|i| self.positions.get(i as usize).copied());
+        Some([a?, b?, c?])
+    }
+
+    /// The corners of every face whose indices are all in range.
+    fn corners(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.indices.iter().filter_map(|t| self.face_corners(t))
+    }
+
+    /// Recomputes area-weighted per-vertex normals from the faces (faces with an index out of range
+    /// are skipped).
     pub fn compute_normals(&mut self) {
         let mut normals = vec![DVec3::ZERO; self.positions.len()];
         for tri in &self.indices {
-            let [a, b, c] = tri.map(|i| self.positions[i as usize]);
+            let Some([a, b, c]) = self.face_corners(tri) else {
+                continue;
+            };
             let n = (b - a).cross(c - a);
             for &i in tri {
                 normals[i as usize] += n;
@@ -248,5 +254,40 @@ pub trait Solid: Sync {
     /// `ray_hit(..).is_some()`; implementations may stop at the first crossing found.
     fn occluded(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
         self.ray_hit(origin, dir, t_max).is_some()
+    }
+    /// A point where `contains` changes along the segment from `inside` (contained) to `outside`
+    /// (not), to within `tolerance` mm: what isosurface stuffing needs on a cut lattice edge.
+    ///
+    /// The default casts one ray along the segment and keeps its first crossing if `contains`
+    /// agrees on both sides of it (`tolerance / 2` away); otherwise (a crossing with no surface to
+    /// hit, as across a bridged hole) it bisects `contains`. One ray and two `contains` instead of
+    /// `log2(length / tolerance)` of them.
+    fn boundary_crossing(&self, inside: DVec3, outside: DVec3, tolerance: f64) -> DVec3 {
+        let (delta, tolerance) = (outside - inside, tolerance.max(0.0));
+        let length = delta.length();
+        if length.is_finite() && length > tolerance {
+            let dir = delta / length;
+            if let Some((t, _)) = self.ray_hit(inside, dir, length) {
+                let half = 0.5 * tolerance;
+                let (before, after) = ((t - half).max(0.0), (t + half).min(length));
+                if self.contains(inside + dir * before) && !self.contains(inside + dir * after) {
+                    return inside + dir * t;
+                }
+            }
+        }
+        let (mut a, mut b) = (inside, outside);
+        // 64 halvings reach any tolerance representable relative to the segment.
+        for _ in 0..64 {
+            if (b - a).length() <= tolerance {
+                break;
+            }
+            let mid = 0.5 * (a + b);
+            if self.contains(mid) {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        0.5 * (a + b)
     }
 }

@@ -155,7 +155,10 @@ impl Shape {
         1e-9 * self.scale()
     }
 
-    /// A triangulation with about `2 * segments^2` triangles (unit normals from the exact shape).
+    /// A closed, outward triangulation with unit vertex normals: `segments` (at least 4) steps
+    /// around a sphere's or torus's ring and a capsule's cap (about `2 * segments^2` triangles), or
+    /// cells along a box's longest side, with about square cells on every face. Normals come from
+    /// the exact shape, except on box edges and corners, where they average the adjacent faces.
     pub fn triangulate(&self, segments: u32) -> TriMesh {
         let segments = segments.max(4);
         match *self {

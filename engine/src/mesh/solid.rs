@@ -659,6 +659,43 @@ mod tests {
     }
 
     #[test]
+    fn boundary_crossings_lie_where_contains_changes() {
+        let mut holed = Shape::Sphere { radius: 10.0 }.triangulate(32);
+        let positions = holed.positions.clone();
+        holed
+            .indices
+            .retain(|t| t.iter().any(|&i| positions[i as usize].y < 8.0));
+        let solid = MeshSolid::new(holed).unwrap();
+        let tolerance = 1e-4;
+        let mut rng = Rng(12);
+        let (mut through_hole, mut on_surface) = (0, 0);
+        for _ in 0..400 {
+            let inside = rng.in_cube(5.0);
+            let outside = rng.direction() * 15.0;
+            assert!(solid.contains(inside) && !solid.contains(outside));
+            let c = solid.boundary_crossing(inside, outside, tolerance);
+            let dir = (outside - inside).normalize();
+            // On the segment, and contains flips within the tolerance around it.
+            assert!(((c - inside).normalize() - dir).length() < 1e-9);
+            assert!(solid.contains(c - dir * tolerance) && !solid.contains(c + dir * tolerance));
+            if solid.closest_point(c).unwrap().distance < 1e-9 {
+                on_surface += 1;
+            } else {
+                through_hole += 1;
+            }
+        }
+        // Both paths are exercised: rays that hit faces, and segments leaving through the hole.
+        assert!(
+            on_surface > 100 && through_hole > 5,
+            "{on_surface} {through_hole}"
+        );
+        // Shapes use the same default, with exact rays.
+        let ball = Shape::Sphere { radius: 10.0 };
+        let c = ball.boundary_crossing(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), 1e-6);
+        assert!((c - DVec3::new(10.0, 0.0, 0.0)).length() < 1e-12, "{c}");
+    }
+
+    #[test]
     fn empty_and_all_degenerate_meshes_are_refused() {
         assert!(matches!(
             MeshSolid::new(TriMesh::default()),

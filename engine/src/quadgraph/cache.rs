@@ -205,9 +205,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), BakeError> {
         .unwrap_or_else(|| "cache".into());
     let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
-        let mut f = File::create(&tmp).map_err(|e| io_error(&tmp, e))?;
-        f.write_all(bytes).map_err(|e| io_error(&tmp, e))?;
-        f.sync_all().map_err(|e| io_error(&tmp, e))?;
+        // Errors name the file the caller asked for; the temporary name means nothing to them.
+        let mut f = File::create(&tmp).map_err(|e| io_error(path, e))?;
+        f.write_all(bytes).map_err(|e| io_error(path, e))?;
+        f.sync_all().map_err(|e| io_error(path, e))?;
         drop(f);
         std::fs::rename(&tmp, path).map_err(|e| io_error(path, e))
     })();

@@ -43,7 +43,8 @@ pub enum BakeError {
     },
     #[error("bake: level {level} (lattice spacing {spacing_mm} mm) has no tetrahedra: the solid is thinner than the lattice; raise --resolution or lower --levels")]
     Empty { level: usize, spacing_mm: f64 },
-    #[error("bake: {path}: {source}")]
+    /// The I/O error is the [`std::error::Error::source`] (anyhow's `{:#}` prints it after this).
+    #[error("bake: {path}: input/output error")]
     Io {
         path: PathBuf,
         source: std::io::Error,

@@ -149,13 +149,13 @@ pub fn pack(level: &GraphLevel, block: u32, random: bool) -> Packing {
     let (ni, ns) = (level.inner_count(), level.surface_count());
     let width = texture_width(level.node_count(), block);
     let capacity = (block * block) as usize;
-    let (inner_adj, surface_adj) = adjacencies(level);
     let (inner_blocks, surface_blocks) = if random {
         (
             chunks(shuffled(ni), capacity),
             chunks(shuffled(ns), capacity),
         )
     } else {
+        let (inner_adj, surface_adj) = adjacencies(level);
         (
             pack_order(&inner_adj, capacity),
             pack_order(&surface_adj, capacity),

@@ -42,7 +42,8 @@ pub struct LatticeParams {
     /// Edge length of the finest cubes in mm (the lattice spacing `h`; BCC long edges have length `h`).
     pub spacing: f64,
     /// Grading `K` (paper section 4.1): a leaf of `S` fine cells inside the solid is allowed only at
-    /// Chebyshev distance `>= S / K` fine cells from the surface. `0` gives a uniform interior.
+    /// Chebyshev distance `>= S / K` fine cells from the surface. `0` gives a uniform interior;
+    /// above 1 the 2:1 balance of the octree limits the grading, so values above 1 act as 1.
     pub grading: f64,
 }
 

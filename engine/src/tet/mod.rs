@@ -52,7 +52,7 @@ impl Default for TetParams {
     fn default() -> Self {
         Self {
             spacing: 1.0,
-            grading: 2.0,
+            grading: 1.0,
             stuffing: stuffing::StuffParams::default(),
         }
     }

@@ -36,7 +36,7 @@ pub struct StuffParams {
     pub alpha_long: f64,
     /// Threshold on short (red) edges, which join a cube corner and a cube centre.
     pub alpha_short: f64,
-    /// Bisection steps per cut point (each halves the interval).
+    /// Cut points are found to within the edge length / 2^`bisection_steps`.
     pub bisection_steps: u32,
 }
 
@@ -122,15 +122,11 @@ pub fn stuff(
             if sign[a as usize] == Sign::Out {
                 std::mem::swap(&mut inside, &mut outside);
             }
-            for _ in 0..params.bisection_steps {
-                let mid = (inside + outside) / 2.0;
-                if solid.contains(mid) {
-                    inside = mid;
-                } else {
-                    outside = mid;
-                }
-            }
-            (inside + outside) / 2.0
+            // One ray checked by `contains`, else bisection (DESIGN: cut points by bisection on
+            // `contains`; the ray only saves queries where it agrees).
+            let tolerance =
+                (outside - inside).length() / f64::from(1u32 << params.bisection_steps.min(30));
+            solid.boundary_crossing(inside, outside, tolerance)
         })
         .collect();
     let cut_index: HashMap<(u32, u32), u32> = cut_edges
@@ -280,11 +276,30 @@ pub fn stuff(
         coarse_cut_tets: coarse_cut,
         ..Default::default()
     };
-    let (lo, hi) = angle_range(&mesh, |_| true);
-    stats.min_dihedral_deg = lo;
-    stats.max_dihedral_deg = hi;
-    stats.boundary_dihedral_deg = angle_range(&mesh, |i| touched[i]);
-    stats.interior_dihedral_deg = angle_range(&mesh, |i| !touched[i]);
+    // One pass over the angles, then three selections of it.
+    let per_tet: Vec<(f64, f64)> = mesh
+        .tets
+        .par_iter()
+        .map(|t| {
+            let [a, b, c, d] = t.map(|v| mesh.vertices[v as usize]);
+            let angles = dihedral_angles(a, b, c, d);
+            angles
+                .iter()
+                .fold((180.0f64, 0.0f64), |(lo, hi), &x| (lo.min(x), hi.max(x)))
+        })
+        .collect();
+    let range = |select: &dyn Fn(usize) -> bool| {
+        per_tet
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| select(*i))
+            .fold((180.0f64, 0.0f64), |(lo, hi), (_, &(a, b))| {
+                (lo.min(a), hi.max(b))
+            })
+    };
+    (stats.min_dihedral_deg, stats.max_dihedral_deg) = range(&|_| true);
+    stats.boundary_dihedral_deg = range(&|i| touched[i]);
+    stats.interior_dihedral_deg = range(&|i| !touched[i]);
     (mesh, stats)
 }
 

@@ -245,3 +245,63 @@ fn graded_stuffing_is_valid_and_coarser_inside() {
     );
     assert!(ilo < 59.0, "no graded tetrahedra were made");
 }
+
+#[test]
+fn larger_k_gives_fewer_larger_interior_tetrahedra_on_a_big_sphere() {
+    let c = DVec3::new(0.21, -0.13, 0.07);
+    let solid = sphere(16.0, c);
+    let surface = Shape::Sphere { radius: 16.0 }.triangulate(64);
+    let surface = TriMesh {
+        positions: surface.positions.iter().map(|p| *p + c).collect(),
+        ..surface
+    };
+    let mut previous = usize::MAX;
+    for k in [0.0, 0.25, 1.0, 8.0] {
+        let params = TetParams {
+            spacing: 1.0,
+            grading: k,
+            ..Default::default()
+        };
+        let (mesh, stats) = tetrahedralize(&solid, &surface, &params);
+        check_mesh(
+            &format!("sphere K={k}"),
+            &solid,
+            &|p| (p - c).length() - 16.0,
+            &mesh,
+            1.0,
+        );
+        let largest = mesh
+            .tets
+            .iter()
+            .map(|t| {
+                let [a, b, c, d] = t.map(|v| mesh.vertices[v as usize]);
+                signed_volume(a, b, c, d)
+            })
+            .fold(0.0, f64::max);
+        eprintln!(
+            "K {k}: {} tetrahedra, largest volume {largest:.2} mm^3",
+            mesh.tets.len()
+        );
+        if k <= 1.0 {
+            assert!(mesh.tets.len() < previous, "K = {k} did not coarsen");
+        } else {
+            // The octree's 2:1 balance already lets cells double at every step: K = 1 is the limit.
+            assert_eq!(
+                mesh.tets.len(),
+                previous,
+                "K = {k} beyond the balance limit changed the mesh"
+            );
+        }
+        previous = mesh.tets.len();
+        // A BCC tetrahedron of the finest lattice has volume h^3 / 12.
+        if k >= 1.0 {
+            assert!(
+                largest > 8.0 / 12.0,
+                "K = {k}: no interior tetrahedron 8x the finest"
+            );
+        }
+        assert_eq!(stats.coarse_cut_tets, 0);
+        let (lo, hi) = (stats.min_dihedral_deg, stats.max_dihedral_deg);
+        assert!(lo >= 10.7 && hi <= 164.8, "K = {k}: angles [{lo}, {hi}]");
+    }
+}
