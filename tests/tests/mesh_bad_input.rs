@@ -233,8 +233,9 @@ fn unparsable_obj_is_an_obj_error() {
 
 #[test]
 fn non_manifold_edge_is_refused_naming_the_edge() {
-    // The tetrahedron plus a fin on its edge 1-2: that edge now has three faces.
-    let text = format!("{TETRA}v 1 1 -1\nf 2 1 5\n");
+    // The tetrahedron plus a fin on its edge 1-2 (that edge now has three faces), plus a degenerate
+    // face, which is dropped only if the mesh is accepted.
+    let text = format!("{TETRA}v 1 1 -1\nf 2 1 5\nf 1 1 2\n");
     let mut mesh = TriMesh::load_obj(obj("fin.obj", &text)).unwrap();
     let err = mesh.validate(&ValidateOptions::default()).unwrap_err();
     let MeshError::NonManifoldEdge {
@@ -264,8 +265,9 @@ fn non_manifold_edge_is_refused_naming_the_edge() {
             .contains("non-manifold edge between vertices"),
         "{err}"
     );
-    assert!(err.to_string().contains("[1.0, 0.0, 0.0]"), "{err}");
+    assert!(err.to_string().contains("(1 0 0)"), "{err}");
     // Forced: accepted, counted, said.
+    assert_eq!(mesh.indices.len(), 6, "a refused mesh is left as it was");
     let report = mesh.validate(&ValidateOptions::forced()).unwrap();
     assert!(
         report.forced && report.non_manifold_edges == 1 && report.boundary_edges == 2,
@@ -283,6 +285,16 @@ fn inconsistent_orientation_is_refused() {
         matches!(err, MeshError::InconsistentOrientation { edges: 3, .. }),
         "{err:?}"
     );
+    // Forced, the face is turned back when the solid is built: the winding number is whole again
+    // and ray normals point out.
+    let report = mesh.validate(&ValidateOptions::forced()).unwrap();
+    assert!(report.forced && report.summary().contains("turned to agree"));
+    let solid = MeshSolid::new(mesh).unwrap();
+    assert!((solid.winding_number(DVec3::splat(0.1)) - 1.0).abs() < 1e-9);
+    let (t, n) = solid
+        .ray_hit(DVec3::splat(0.1), DVec3::ONE.normalize(), 10.0)
+        .unwrap();
+    assert!((n - DVec3::ONE.normalize()).length() < 1e-12, "{t} {n}");
 }
 
 #[test]

@@ -70,6 +70,24 @@ fn check_solid(name: &str, mesh: &TriMesh, points: usize) -> MeshSolid {
         inside > 0 && inside < points,
         "{name}: {inside} of {points} inside"
     );
+    // Near the surface (within 0.2 mm of face centroids), where the quick estimate is most strained.
+    let faces = &solid.mesh().indices;
+    let jitter = points_in(DVec3::splat(-0.2), DVec3::splat(0.2), points, 12);
+    let near: Vec<DVec3> = jitter
+        .iter()
+        .enumerate()
+        .map(|(k, j)| {
+            let tri = faces[(k * 7919) % faces.len()].map(|v| solid.mesh().positions[v as usize]);
+            (tri[0] + tri[1] + tri[2]) / 3.0 + *j
+        })
+        .collect();
+    for (p, fast) in near.iter().zip(solid.contains_many(&near)) {
+        let exact = solid.winding_number_exact(*p);
+        // Exactly on the surface |w| is 1/2 and either answer is right.
+        if (exact.abs() - 0.5).abs() > 1e-6 {
+            assert_eq!(fast, exact.abs() > 0.5, "{name}: {p}: exact w = {exact}");
+        }
+    }
     // A shadow ray from far outside towards the centre is blocked; one pointing away is not.
     assert!(
         solid.any_hit(DVec3::new(0.0, 0.0, -100.0), DVec3::Z, 200.0),

@@ -21,6 +21,7 @@
 
 mod bvh;
 mod obj;
+mod orient;
 pub mod shapes;
 mod solid;
 mod validate;
@@ -74,8 +75,9 @@ pub enum MeshError {
         line: Option<usize>,
     },
     #[error(
-        "vertex {vertex} has a non-finite coordinate {position:?}{} (or one beyond the f32 range of OBJ \
+        "vertex {vertex} has a non-finite coordinate {}{} (or one beyond the f32 range of OBJ \
          loading)",
+        point(.position),
         at_line(.line)
     )]
     NonFiniteVertex {
@@ -86,8 +88,10 @@ pub enum MeshError {
     #[error("all {faces} faces are degenerate (zero area or a repeated vertex)")]
     AllDegenerate { faces: usize },
     #[error(
-        "non-manifold edge between vertices {a} {pa:?} and {b} {pb:?}: shared by {faces} faces, a solid's \
-         edges are shared by exactly 2 (parts touching along an edge, or a fin)"
+        "non-manifold edge between vertices {a} {} and {b} {}: shared by {faces} faces, a solid's \
+         edges are shared by exactly 2 (parts touching along an edge, or a fin)",
+        point(.pa),
+        point(.pb)
     )]
     /// `a` and `b` index the mesh's vertices (for a loaded OBJ: numbered by first use in the faces,
     /// not by `v` line); `pa` and `pb` are their positions.
@@ -115,8 +119,9 @@ pub enum MeshError {
     )]
     InconsistentOrientation { edges: usize, a: u32, b: u32 },
     #[error(
-        "vertex {vertex} at {position:?} is too far from the origin for the queries (|coordinate| > \
-         1e100, products would overflow): normalize the mesh first"
+        "vertex {vertex} at {} is too far from the origin for the queries (|coordinate| > \
+         1e100, products would overflow): normalize the mesh first",
+        point(.position)
     )]
     CoordinateTooLarge { vertex: usize, position: [f64; 3] },
     #[error("invalid shape {shape:?}: {problem}")]
@@ -128,6 +133,11 @@ pub enum MeshError {
     InvalidSize(f64),
     #[error("the mesh has zero extent (all its vertices coincide)")]
     ZeroExtent,
+}
+
+/// A position as it would be written in an OBJ file (loaded coordinates are f32 values).
+fn point(p: &[f64; 3]) -> String {
+    format!("({} {} {})", p[0] as f32, p[1] as f32, p[2] as f32)
 }
 
 fn at_line(line: &Option<usize>) -> String {

@@ -705,6 +705,29 @@ mod tests {
         }
     }
 
+    /// Shadow rays start on the surface: leaving it, they must not hit the point they start from;
+    /// entering, the first crossing is the far side.
+    #[test]
+    fn rays_from_the_surface_skip_their_own_point() {
+        for shape in all_shapes() {
+            let scale = shape.scale();
+            for p in shape.triangulate(12).positions.iter().step_by(3) {
+                let n = shape.normal_at(*p);
+                if let Some((t, _)) = shape.ray_hit(*p, n, 10.0 * scale) {
+                    // Only a torus can be met again going outward: across its hole.
+                    assert!(
+                        matches!(shape, Shape::Torus { .. }) && t > 1.0,
+                        "{shape:?} at {p}: {t}"
+                    );
+                }
+                let (t, _) = shape
+                    .ray_hit(*p, -n, 10.0 * scale)
+                    .expect("an inward ray leaves the solid");
+                assert!(t > 1e-3 * scale, "{shape:?} at {p}: {t}");
+            }
+        }
+    }
+
     #[test]
     fn box_signed_distance_is_exact() {
         let shape = Shape::Box {

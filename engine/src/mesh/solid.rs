@@ -24,13 +24,15 @@ use super::{MeshError, MeshReport, Normalization, Solid, TriMesh, ValidateOption
 ///
 /// `contains` is `|w| > 1/2` for the generalized winding number `w` (Jacobson et al. 2013), so a
 /// mesh wound inside-out (`w = -1` inside) is still the solid it bounds, and holes (the Stanford
-/// bunny's base) are bridged smoothly. Ray normals point out of the solid: if the mesh winds
-/// inward (negative signed volume) the face normals are flipped.
+/// bunny's base) are bridged smoothly. Ray normals point out of the solid, face by face (see
+/// [`RayHit::normal`]).
 #[derive(Clone, Debug)]
 pub struct MeshSolid {
     mesh: TriMesh,
     bvh: Bvh,
     inverted: bool,
+    /// Per mesh face: flip its geometric normal to point out of the solid.
+    flips: Vec<bool>,
     bounds: (DVec3, DVec3),
     /// Crossings nearer than this to a ray's origin are the surface the ray starts on.
     epsilon: f64,
@@ -45,7 +47,9 @@ pub struct RayHit {
     pub face: u32,
     /// Barycentric coordinates of the hit for the face's three vertices.
     pub barycentric: DVec3,
-    /// The face's unit normal, pointing out of the solid.
+    /// The face's unit normal, pointing out of the solid: flipped where the face winds inward,
+    /// judged per connected part by the winding number (so inside-out meshes and forced meshes
+    /// with some faces wound against their neighbours get outward normals too).
     pub normal: DVec3,
 }
 
@@ -59,10 +63,12 @@ pub struct ClosestPoint {
 }
 
 impl MeshSolid {
-    /// Builds the hierarchy over `mesh` (taken as is: normalize first, see [`TriMesh::normalized`]).
-    /// Faces of exactly zero area are left out of the queries (they bound nothing). Coordinates
-    /// beyond 1e100 are refused: the moments multiply up to four of them.
-    pub fn new(mesh: TriMesh) -> Result<MeshSolid, MeshError> {
+    /// Builds the hierarchy over `mesh` (normalize first, see [`TriMesh::normalized`]). Faces wound
+    /// against their neighbours are turned to agree with them (two corners swapped; they would
+    /// cancel in the winding number): a mesh that [`TriMesh::validate`] accepts without force is
+    /// kept as it is. Faces of exactly zero area are left out of the queries (they bound nothing).
+    /// Coordinates beyond 1e100 are refused: the moments multiply up to four of them.
+    pub fn new(mut mesh: TriMesh) -> Result<MeshSolid, MeshError> {
         mesh.check_structure()?;
         if let Some(vertex) = mesh
             .positions
@@ -72,6 +78,7 @@ impl MeshSolid {
             let position = mesh.positions[vertex].to_array();
             return Err(MeshError::CoordinateTooLarge { vertex, position });
         }
+        let (parts, _turned) = super::orient::make_coherent(&mut mesh);
         let tris: Vec<([DVec3; 3], u32)> = mesh
             .indices
             .iter()
@@ -85,10 +92,12 @@ impl MeshSolid {
             });
         }
         let bvh = Bvh::build(tris);
+        let flips = super::orient::outward_flips(&mesh, &bvh, &parts);
         let bounds = mesh.bounds();
         let epsilon = 1e-9 * (0.5 * (bounds.1 - bounds.0).length()).max(f64::MIN_POSITIVE);
         Ok(MeshSolid {
             inverted: mesh.signed_volume() < 0.0,
+            flips,
             mesh,
             bvh,
             bounds,
@@ -119,12 +128,14 @@ impl MeshSolid {
         Ok((solid, report, transform))
     }
 
-    /// The mesh this solid was built from.
+    /// The mesh this solid was built from, with faces wound against their neighbours turned (see
+    /// [`MeshSolid::new`]): the surface to display with it.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
     }
 
-    /// Whether the faces wind inward (negative signed volume); ray normals are flipped if so.
+    /// Whether the faces wind inward (negative signed volume). Ray normals point outward either way
+    /// (see [`RayHit::normal`]).
     pub fn is_inverted(&self) -> bool {
         self.inverted
     }
@@ -175,15 +186,16 @@ impl MeshSolid {
         let hit = self.bvh.intersect(origin, dir, self.epsilon, t_max, any)?;
         let [a, b, c] = self.bvh.tris[hit.tri as usize];
         let n = (b - a).cross(c - a).normalize();
+        let face = self.bvh.faces[hit.tri as usize];
         Some(RayHit {
             t: hit.t,
-            face: self.bvh.faces[hit.tri as usize],
+            face,
             barycentric: {
                 // The widened edge test can leave a coordinate at -1e-12.
                 let b = DVec3::new(1.0 - hit.u - hit.v, hit.u, hit.v).max(DVec3::ZERO);
                 b / b.element_sum()
             },
-            normal: if self.inverted { -n } else { n },
+            normal: if self.flips[face as usize] { -n } else { n },
         })
     }
 
@@ -338,6 +350,75 @@ mod tests {
             "{}",
             hit.normal
         );
+    }
+
+    /// Outward normals for every hit, whatever the winding: a sphere with every other face flipped,
+    /// two spheres wound opposite ways, and a hollow shell whose inner wall faces its cavity.
+    #[test]
+    fn ray_normals_point_out_of_the_solid_whatever_the_winding() {
+        let sphere = |r: f64, centre: DVec3, inward: bool| {
+            let mut m = Shape::Sphere { radius: r }.triangulate(24);
+            for p in &mut m.positions {
+                *p += centre;
+            }
+            if inward {
+                m = flipped(m);
+            }
+            m
+        };
+        let merge = |a: TriMesh, b: TriMesh| {
+            let mut m = a;
+            let base = m.positions.len() as u32;
+            m.positions.extend(b.positions);
+            m.normals.extend(b.normals);
+            m.indices
+                .extend(b.indices.iter().map(|t| t.map(|i| i + base)));
+            m
+        };
+        let mut checker = sphere(10.0, DVec3::ZERO, false);
+        for t in checker.indices.iter_mut().step_by(2) {
+            t.swap(1, 2);
+        }
+        let cases = [
+            ("checkered", checker, vec![(DVec3::ZERO, 1.0)]),
+            (
+                "two ways",
+                merge(
+                    sphere(5.0, DVec3::X * -10.0, false),
+                    sphere(5.0, DVec3::X * 10.0, true),
+                ),
+                vec![(DVec3::X * -10.0, 1.0), (DVec3::X * 10.0, 1.0)],
+            ),
+            (
+                "shell",
+                merge(
+                    sphere(10.0, DVec3::ZERO, false),
+                    sphere(5.0, DVec3::ZERO, true),
+                ),
+                vec![(DVec3::ZERO, 1.0)],
+            ),
+        ];
+        let mut rng = Rng(21);
+        for (name, mesh, centres) in cases {
+            let solid = MeshSolid::new(mesh).unwrap();
+            let mut hits = 0;
+            for _ in 0..300 {
+                // Aimed at the parts (and into the shell's cavity) so that most rays hit.
+                let (centre, _) = centres[hits % centres.len()];
+                let origin = rng.in_cube(30.0);
+                let dir = (centre + rng.in_cube(4.0) - origin).normalize_or(DVec3::X);
+                let Some(hit) = solid.closest_hit(origin, dir, 100.0) else {
+                    continue;
+                };
+                hits += 1;
+                // Outward: a step along the normal leaves the solid, a step against it enters.
+                let at = origin + dir * hit.t;
+                let ahead = solid.contains(at + hit.normal * 1e-3);
+                let behind = solid.contains(at - hit.normal * 1e-3);
+                assert!(!ahead && behind, "{name}: normal {} at {at}", hit.normal);
+            }
+            assert!(hits > 200, "{name}: {hits} hits");
+        }
     }
 
     #[test]

@@ -128,7 +128,8 @@ impl MeshReport {
         }
         if self.inconsistent_edges > 0 {
             s += &format!(
-                "; {} inconsistently oriented edges",
+                "; {} inconsistently oriented edges (faces are turned to agree with their \
+                 neighbours when the solid is built)",
                 self.inconsistent_edges
             );
         }
@@ -170,26 +171,42 @@ impl Normalization {
 }
 
 impl TriMesh {
-    /// Checks the mesh against the rules of the module doc, drops degenerate faces (counted in the
-    /// report) and reports what it found. The first problem found is the error.
+    /// Checks the mesh against the rules of the module doc and reports what it found; an accepted
+    /// mesh loses its degenerate faces (counted in the report), a refused one is left unchanged.
+    /// The first problem found is the error.
     pub fn validate(&mut self, options: &ValidateOptions) -> Result<MeshReport, MeshError> {
         self.check_structure()?;
         let (lo, hi) = self.bounds();
         let diagonal2 = (hi - lo).length_squared();
-        let before = self.indices.len();
-        let positions = &self.positions;
-        self.indices.retain(|t| {
-            let [a, b, c] = t.map(|i| positions[i as usize]);
-            t[0] != t[1]
-                && t[1] != t[2]
-                && t[2] != t[0]
-                && 0.5 * (b - a).cross(c - a).length() > options.degenerate_area * diagonal2
-        });
-        let dropped = before - self.indices.len();
-        if self.indices.is_empty() {
-            return Err(MeshError::AllDegenerate { faces: before });
+        let kept: Vec<[u32; 3]> = self
+            .indices
+            .iter()
+            .filter(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize]);
+                t[0] != t[1]
+                    && t[1] != t[2]
+                    && t[2] != t[0]
+                    && 0.5 * (b - a).cross(c - a).length() > options.degenerate_area * diagonal2
+            })
+            .copied()
+            .collect();
+        if kept.is_empty() {
+            return Err(MeshError::AllDegenerate {
+                faces: self.indices.len(),
+            });
         }
+        // The mesh changes only if it is accepted.
+        let original = std::mem::replace(&mut self.indices, kept);
+        let dropped = original.len() - self.indices.len();
+        let result = self.analyse(options, dropped);
+        if result.is_err() {
+            self.indices = original;
+        }
+        result
+    }
 
+    /// Topology and the open-sheet rule on faces already free of degenerate ones.
+    fn analyse(&self, options: &ValidateOptions, dropped: usize) -> Result<MeshReport, MeshError> {
         // Every face edge as (low, high, forward); sorted, uses of one edge are adjacent.
         let mut edges: Vec<(u32, u32, bool)> = Vec::with_capacity(3 * self.indices.len());
         for t in &self.indices {
