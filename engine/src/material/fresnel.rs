@@ -11,10 +11,21 @@
 //! assert!((fresnel::transmittance(1.0, 0.3) - 1.0).abs() < 1e-12); // index-matched: no reflection
 //! ```
 
-/// Internal diffuse Fresnel reflectance F_dr(eta) (the polynomial fit of Jensen et al. 2001, as in
-/// DESIGN section 2; 0.4448 at eta = 1.3).
+/// The range of eta over which the F_dr fits below stay physical (0 <= F_dr < 1, A > 0); outside it
+/// they extrapolate to nonsense (F_dr < 0 or > 1, a negative boundary constant A), so materials
+/// refuse such an eta.
+pub const ETA_RANGE: (f64, f64) = (0.3, 3.5);
+
+/// Internal diffuse Fresnel reflectance F_dr(eta): for eta >= 1 the polynomial fit of DESIGN
+/// section 2 (Jensen et al. 2001; 0.4448 at eta = 1.3); for eta < 1, where that polynomial goes
+/// negative, the companion fit of Egan and Hilgeman (1979) that Jensen et al. also quote.
+/// Valid over [`ETA_RANGE`].
 pub fn diffuse_reflectance(eta: f64) -> f64 {
-    -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+    if eta >= 1.0 {
+        -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+    } else {
+        -0.4399 + 0.7099 / eta - 0.3319 / (eta * eta) + 0.0636 / (eta * eta * eta)
+    }
 }
 
 /// The boundary constant A = (1 + F_dr) / (1 - F_dr) of the Robin condition (paper Eq. 2).
@@ -102,6 +113,30 @@ mod tests {
             "{f_dr_integral}"
         );
         assert!((diffuse_reflectance(1.3) - 0.4448).abs() < 1e-4);
+        // Both fits meet at eta = 1 and stay physical over the accepted range.
+        assert!((diffuse_reflectance(1.0) - diffuse_reflectance(1.0 - 1e-12)).abs() < 1e-3);
+        let (lo, hi) = ETA_RANGE;
+        for i in 0..=1000 {
+            let eta = lo + (hi - lo) * i as f64 / 1000.0;
+            let f = diffuse_reflectance(eta);
+            assert!(
+                (0.0..1.0).contains(&f) && boundary_a(eta) >= 1.0,
+                "eta {eta}: F_dr {f}"
+            );
+        }
+        // eta < 1 fit against the integral too.
+        let eta = 0.8;
+        let mut t = 0.0;
+        for i in 0..n {
+            let mu = (i as f64 + 0.5) / n as f64;
+            t += transmittance(eta, mu) * mu / n as f64;
+        }
+        let integral = 1.0 - 2.0 * t / (eta * eta);
+        assert!(
+            (diffuse_reflectance(eta) - integral).abs() < 0.02,
+            "{} vs {integral}",
+            diffuse_reflectance(eta)
+        );
         assert!(
             (external_diffuse_reflectance(1.3) - (1.0 - 1.69 * (1.0 - 0.444_762_840))).abs() < 1e-8
         );

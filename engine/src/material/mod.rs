@@ -51,7 +51,10 @@ pub enum MaterialError {
          diffusion coefficient 1/(3 sigma_t') is infinite)"
     )]
     ZeroExtinction { channel: &'static str },
-    #[error("material: eta (relative index of refraction) is {0}; it must be finite and > 0")]
+    #[error(
+        "material: eta (relative index of refraction) is {0}; it must be finite and within \
+         [0.3, 3.5], where the diffuse Fresnel fits hold"
+    )]
     BadEta(f64),
     #[error("material: unknown preset '{name}' (known: {known})")]
     UnknownPreset { name: String, known: String },
@@ -113,8 +116,10 @@ pub(crate) fn check_pair(sigma_s: [f64; 3], sigma_a: [f64; 3]) -> Result<(), Mat
     Ok(())
 }
 
-pub(crate) fn check_eta(eta: f64) -> Result<(), MaterialError> {
-    if eta.is_finite() && eta > 0.0 {
+/// Checks eta: finite and inside [`fresnel::ETA_RANGE`] (where the F_dr fits hold).
+pub fn check_eta(eta: f64) -> Result<(), MaterialError> {
+    let (lo, hi) = fresnel::ETA_RANGE;
+    if eta.is_finite() && (lo..=hi).contains(&eta) {
         Ok(())
     } else {
         Err(MaterialError::BadEta(eta))
@@ -241,7 +246,7 @@ mod tests {
             matches!(e, MaterialError::ZeroExtinction { channel: "green" }),
             "{e}"
         );
-        for eta in [0.0, -1.3, f64::NAN, f64::INFINITY] {
+        for eta in [0.0, -1.3, f64::NAN, f64::INFINITY, 0.1, 5.0] {
             assert!(matches!(
                 Material::new(ok, ok, eta),
                 Err(MaterialError::BadEta(_))

@@ -2,6 +2,7 @@
 //! surface nodes on the input surface; then Shepard links between levels, shading weights and
 //! texture packing. See [`QuadGraph::bake`].
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use glam::DVec3;
@@ -63,8 +64,11 @@ pub struct LevelStats {
     pub surface_nodes: usize,
     pub inner_nodes: usize,
     pub tetrahedra_split: usize,
-    /// Surface nodes whose ray met the input surface (the rest sit at their face centroid).
+    /// Surface nodes whose ray met the input surface...
     pub surface_nodes_on_surface: usize,
+    /// ...or met it too far behind the face and were clamped halfway to their inner node (see
+    /// `place_surface_node`); the rest sit at their face centroid.
+    pub surface_nodes_clamped: usize,
     /// Dihedral angles after the split of paper Fig. 4 (which makes thinner tetrahedra)...
     pub min_dihedral_deg: f64,
     pub max_dihedral_deg: f64,
@@ -228,12 +232,17 @@ impl QuadGraph {
             });
             let start = Instant::now();
             let reach = 2.0 * spacing;
-            let mut level = GraphLevel::from_tets_par(mesh, spacing, |c, n| {
-                place_surface_node(solid, c, n, reach)
+            let counts = [
+                AtomicUsize::new(0),
+                AtomicUsize::new(0),
+                AtomicUsize::new(0),
+            ];
+            let mut level = GraphLevel::from_tets_par(mesh, spacing, |c, n, depth| {
+                let (p, normal, placement) = place_surface_node(solid, c, n, reach, depth);
+                counts[placement as usize].fetch_add(1, Ordering::Relaxed);
+                (p, normal)
             });
-            let on_surface = (0..level.surface_count())
-                .filter(|&s| level.positions[level.inner_count() + s] != level.face_frame(s).0)
-                .count();
+            let [on_surface, clamped, _] = counts.map(AtomicUsize::into_inner);
             if params.relax {
                 relax_inner_nodes(&mut level, 8);
             }
@@ -247,6 +256,7 @@ impl QuadGraph {
                 stuffing_dihedral_deg: (stuffed.min_dihedral_deg, stuffed.max_dihedral_deg),
                 coarse_cut_tets: stuffed.coarse_cut_tets,
                 surface_nodes_on_surface: on_surface,
+                surface_nodes_clamped: clamped,
                 min_dihedral_deg,
                 max_dihedral_deg,
                 ..Default::default()
@@ -294,6 +304,7 @@ impl QuadGraph {
         for (s, from_stats) in summary.levels.iter_mut().zip(stats) {
             s.tetrahedra_split = from_stats.tetrahedra_split;
             s.surface_nodes_on_surface = from_stats.surface_nodes_on_surface;
+            s.surface_nodes_clamped = from_stats.surface_nodes_clamped;
             s.stuffing_dihedral_deg = from_stats.stuffing_dihedral_deg;
             s.coarse_cut_tets = from_stats.coarse_cut_tets;
         }
@@ -347,35 +358,63 @@ impl QuadGraph {
     }
 }
 
+/// Where a surface node ended up (counted in [`LevelStats`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Placement {
+    Surface = 0,
+    Clamped = 1,
+    Centroid = 2,
+}
+
 /// Where the ray from a boundary face's centroid along its outward normal, or against it (the face
 /// may lie just outside the true surface), first meets the surface within `reach`; the face centroid
 /// and normal when neither does (as at the holes of a scanned mesh). From a centroid inside the solid
 /// the first crossing is the surface nearby; from one outside, a hit whose surface normal faces away
 /// from the face is another sheet of a thin part, and is skipped.
+///
+/// A backward hit is clamped to halfway to the inner node (`depth` behind the face): further back,
+/// the surface node would sit next to or behind its inner node and the boundary distance `d_sk`
+/// along the face normal (DESIGN section 2) would be tiny or negative. Measured without the clamp,
+/// default settings: 45 of 18328 surface nodes on spot, 118 of 21648 on the bunny had `d_sk <= 0`.
 fn place_surface_node(
     solid: &dyn Solid,
     centroid: DVec3,
     normal: DVec3,
     reach: f64,
-) -> (DVec3, DVec3) {
-    let mut best: Option<(f64, DVec3, DVec3)> = None;
+    depth: f64,
+) -> (DVec3, DVec3, Placement) {
+    let mut best: Option<(f64, DVec3, DVec3, Placement)> = None;
     let inside = solid.contains(centroid);
+    let limit = (0.5 * depth).max(0.0);
+    // Rays start a hair behind the centroid: a face whose vertices are all cut points on one flat
+    // triangle of the input lies in the surface, and a ray from exactly there skips that surface
+    // as its own origin (about 6% of spot's faces).
+    let back = 1e-5 * reach;
     for dir in [normal, -normal] {
-        if let Some((t, n)) = solid.ray_hit(centroid, dir, reach) {
-            let p = centroid + dir * t;
-            let usable =
-                t.is_finite() && p.is_finite() && n.is_finite() && (inside || n.dot(normal) > 0.0);
-            if usable && best.is_none_or(|(bt, _, _)| t < bt) {
-                best = Some((t, p, n.normalize()));
+        if let Some((t, n)) = solid.ray_hit(centroid - dir * back, dir, reach + back) {
+            let t = t - back;
+            let usable = t.is_finite() && n.is_finite() && (inside || n.dot(normal) > 0.0);
+            if usable && best.is_none_or(|(bt, ..)| t.abs() < bt) {
+                // Backward hits beyond the limit are clamped to it, keeping the surface's normal.
+                let (t_placed, placement) = if dir == normal || t <= limit {
+                    (t, Placement::Surface)
+                } else {
+                    (limit, Placement::Clamped)
+                };
+                best = Some((t.abs(), centroid + dir * t_placed, n.normalize(), placement));
             }
         }
     }
-    best.map_or((centroid, normal), |(_, p, n)| (p, n))
+    best.map_or((centroid, normal, Placement::Centroid), |(_, p, n, k)| {
+        (p, n, k)
+    })
 }
 
 /// Moves each inner node toward the mean of its neighbours (a discrete stand-in for the paper's
 /// reaction-diffusion relaxation), never leaving its own tetrahedron: a step that would put the node
-/// closer than 10% (in barycentric terms) to a face is shortened.
+/// closer than 10% (in barycentric terms) to a face is shortened. For the `paper` scheme only, which
+/// uses node-to-node distances: a relaxed node may pass its surface node's plane distance, so the
+/// `fv` scheme's `d_sk > 0` holds for centroids only.
 pub fn relax_inner_nodes(level: &mut GraphLevel, iterations: usize) {
     let ni = level.inner_count();
     for _ in 0..iterations {

@@ -169,18 +169,21 @@ impl GraphLevel {
         level
     }
 
-    /// [`Self::from_tets`] with the surface nodes placed in parallel.
+    /// [`Self::from_tets`] with the surface nodes placed in parallel;
+    /// `place_surface_node(face_centroid, face_normal, depth)` also gets the distance of the
+    /// tetrahedron's centroid (its inner node) behind the face plane.
     pub fn from_tets_par(
         tets: TetMesh,
         spacing: f64,
-        place_surface_node: impl Fn(DVec3, DVec3) -> (DVec3, DVec3) + Sync,
+        place_surface_node: impl Fn(DVec3, DVec3, f64) -> (DVec3, DVec3) + Sync,
     ) -> Self {
         let mut level = Self::connect(tets, spacing);
         let placed: Vec<(DVec3, DVec3)> = (0..level.surface_count())
             .into_par_iter()
             .map(|s| {
                 let (c, n) = level.face_frame(s);
-                place_surface_node(c, n)
+                let inner = level.positions[level.surface_faces[s].0 as usize];
+                place_surface_node(c, n, n.dot(c - inner))
             })
             .collect();
         let inner = level.inner_count();

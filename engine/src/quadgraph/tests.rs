@@ -61,6 +61,13 @@ fn check_graph(name: &str, shape: Shape, graph: &QuadGraph) {
             );
             let (c, face_normal) = level.face_frame(s);
             assert!((p - c).length() <= 2.0 * level.spacing);
+            // The surface node lies in front of its inner node, at least half the face's distance.
+            let k = level.positions[level.surface_faces[s].0 as usize];
+            let (d_sk, d_face) = (face_normal.dot(p - k), face_normal.dot(c - k));
+            assert!(
+                d_sk >= 0.5 * d_face - 1e-9 * level.spacing,
+                "{name}: d_sk {d_sk} vs face {d_face}"
+            );
             assert!(
                 n.dot(face_normal) > 0.0,
                 "{name}: surface normal against its face's outward normal"
@@ -571,4 +578,60 @@ fn bake_mesh_uses_the_mesh_as_solid_and_linear_indices_address_texels() {
         }
         assert_eq!(p.linear_index(NO_NODE), NO_NODE);
     }
+}
+
+#[test]
+fn real_mesh_surface_nodes_stay_in_front_of_their_inner_nodes() {
+    use crate::mesh::{MeshSolid, TriMesh, ValidateOptions};
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes/spot.obj");
+    let dir = std::env::var_os("TRANSLUCENT_MESH_DIR").map(std::path::PathBuf::from);
+    let path = dir.map_or(path, |d| d.join("spot.obj"));
+    if !path.is_file() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "test mesh {} missing",
+            path.display()
+        );
+        eprintln!(
+            "skipped: test mesh {} not found (set TRANSLUCENT_MESH_DIR)",
+            path.display()
+        );
+        return;
+    }
+    let mut mesh = TriMesh::load_obj(&path).unwrap();
+    mesh.validate(&ValidateOptions::default()).unwrap();
+    let (mut mesh, _) = mesh.normalized(50.0).unwrap();
+    mesh.compute_normals();
+    let solid = MeshSolid::new(mesh.clone()).unwrap();
+    let params = BakeParams {
+        resolution: 32,
+        levels: 1,
+        ..Default::default()
+    };
+    let (g, stats) = QuadGraph::bake(&mesh, &solid, &params, &mut |_| {}).unwrap();
+    let l = g.finest();
+    for s in 0..l.surface_count() {
+        let (c, n) = l.face_frame(s);
+        let k = l.positions[l.surface_faces[s].0 as usize];
+        let p = l.positions[l.inner_count() + s];
+        let (d_sk, d_face) = (n.dot(p - k), n.dot(c - k));
+        assert!(
+            d_sk >= 0.5 * d_face - 1e-9,
+            "surface node {s}: d_sk {d_sk}, face at {d_face}"
+        );
+    }
+    // Spot is closed: every ray meets the surface (a few clamped in front of their inner node).
+    let level = &stats.levels[0];
+    let (hit, clamped) = (level.surface_nodes_on_surface, level.surface_nodes_clamped);
+    assert_eq!(
+        hit + clamped,
+        l.surface_count(),
+        "surface nodes left at their face centroid"
+    );
+    assert!(
+        clamped * 20 < l.surface_count(),
+        "{clamped} clamped of {}",
+        l.surface_count()
+    );
 }

@@ -245,6 +245,7 @@ pub fn solve(
         });
     }
     let eta = material.eta();
+    crate::material::check_eta(eta)?;
     let finest = graph.levels.len() - 1;
     let mut reports = Vec::with_capacity(graph.levels.len());
     let mut phi: Vec<[f64; 3]> = Vec::new();
@@ -339,9 +340,9 @@ pub fn solve(
             energy.exitance[c] += (1.0 - op.f_dr) * j_plus[s][c] * op.areas[s];
         }
     }
-    for i in 0..inner {
+    for ((mu, phi_i), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
         for c in 0..3 {
-            energy.absorbed[c] += op.mu[i][c] * phi[i][c] * op.volumes[i];
+            energy.absorbed[c] += mu[c] * phi_i[c] * v;
         }
     }
     let vertex_j_plus = shade_vertices(graph, &j_plus_clamped)?;

@@ -39,6 +39,8 @@ pub enum SolverError {
         #[source]
         source: crate::material::MaterialError,
     },
+    #[error("solver: {0}")]
+    Material(#[from] crate::material::MaterialError),
     #[error("solver: {what}: {problem}")]
     BadScene { what: String, problem: String },
     #[error("solver: parameter {name}: {problem}")]

@@ -75,6 +75,14 @@ pub struct LevelOperator {
     pub a: f64,
 }
 
+/// Diagonal and the 4 off-diagonal coefficients of one inner row.
+type InnerRow = ([f64; 3], [[f64; 3]; 4]);
+
+/// `v > min`, false for NaN (written out so that NaN fails every check).
+fn above(v: f64, min: f64) -> bool {
+    v.is_finite() && v > min
+}
+
 fn degenerate(node: usize, problem: String) -> SolverError {
     SolverError::DegenerateGeometry {
         level: usize::MAX,
@@ -136,22 +144,22 @@ impl LevelOperator {
         let mut row_scale = vec![0.0; nodes];
 
         // Inner rows, in parallel: each writes only its own entries.
-        let inner_rows: Vec<Result<([f64; 3], [[f64; 3]; 4]), SolverError>> = (0..inner)
+        let inner_rows: Vec<Result<InnerRow, SolverError>> = (0..inner)
             .into_par_iter()
             .map(|i| {
                 let xi = level.positions[i];
                 let (mut d, mut o) = ([0.0; 3], [[0.0; 3]; 4]);
-                for f in 0..4 {
+                for (f, of) in o.iter_mut().enumerate() {
                     let j = level.neighbors[i][f] as usize;
                     let xj = level.positions[j];
                     let (area, n, p0) = face(i, f);
-                    if !(area > 0.0) {
+                    if !above(area, 0.0) {
                         return Err(degenerate(i, format!("face {f} has zero area")));
                     }
                     match scheme {
                         Scheme::Fv => {
                             let dij = n.dot(xj - xi).abs();
-                            if !(dij > 1e-12 * level.spacing.max(1e-9)) {
+                            if !above(dij, 1e-12 * level.spacing.max(1e-9)) {
                                 return Err(degenerate(
                                     i,
                                     format!("neighbour {j} lies in the plane of face {f}"),
@@ -167,12 +175,12 @@ impl LevelOperator {
                                 } else {
                                     kappa[i][c]
                                 };
-                                o[f][c] = area * k / (volumes[i] * dij);
+                                of[c] = area * k / (volumes[i] * dij);
                             }
                         }
                         Scheme::Paper => {
                             let d2 = xj.distance_squared(xi);
-                            if !(d2 > 0.0) {
+                            if !above(d2, 0.0) {
                                 return Err(degenerate(
                                     i,
                                     format!("neighbour {j} coincides with the node"),
@@ -180,7 +188,7 @@ impl LevelOperator {
                             }
                             // Eq. 5: weights 1/d_ij^2 with kappa at the neighbour.
                             for c in 0..3 {
-                                o[f][c] = kappa[j][c] / d2;
+                                of[c] = kappa[j][c] / d2;
                                 d[c] += kappa[i][c] / d2;
                             }
                         }
@@ -212,7 +220,7 @@ impl LevelOperator {
                 // Eq. 6: Euclidean edge length, kappa sampled at the surface node.
                 Scheme::Paper => (xs.distance(xk), kappa[node]),
             };
-            if !(dsk > 1e-12 * level.spacing.max(1e-9)) {
+            if !above(dsk, 1e-12 * level.spacing.max(1e-9)) {
                 return Err(degenerate(
                     node,
                     format!("surface node at distance {dsk} from its cell's centroid"),
