@@ -7,7 +7,7 @@
 //!   (paper, DESIGN section 2), to fp16 precision.
 
 use translucent::render::{
-    fresnel_reflectance, render_headless, FrameDesc, Light, RadianceMode, Scene,
+    render_headless, FrameDesc, Light, RadianceMode, Scene,
 };
 use translucent_tests::{compare_to_reference, workspace_root, GpuTest, ImageTolerance};
 
@@ -99,7 +99,7 @@ fn uniform_exitance_gives_the_exact_fresnel_radiance_at_normal_view() {
         .pixel(32, 32);
 
     // The pixel centre's view ray is 0.23 degrees off the normal: F_t changes by < 1e-6 there.
-    let f_t = 1.0 - fresnel_reflectance(eta, 1.0);
+    let f_t = 1.0 - translucent::material::fresnel::reflectance(eta, 1.0);
     for c in 0..3 {
         let expected_physical = f_t * f64::from(j[c]) / (std::f64::consts::PI * eta * eta);
         let expected_paper = f_t * f64::from(j[c]) / std::f64::consts::PI;
@@ -181,7 +181,7 @@ fn specular_of_a_light_behind_the_camera_matches_cook_torrance_at_normal_view() 
         .expect("render")
         .image
         .pixel(32, 32);
-    let f_r = fresnel_reflectance(eta, 1.0);
+    let f_r = translucent::material::fresnel::reflectance(eta, 1.0);
     for c in 0..3 {
         let expected = f_r * irradiance[c] / (4.0 * std::f64::consts::PI);
         let got = f64::from(with[c] - without[c]);
@@ -253,7 +253,7 @@ fn the_shadow_map_removes_the_specular_of_an_occluded_point_only() {
         let h = (l + v).normalize();
         let g1 = |x: f64| 2.0 * x / (x + 1.0);
         let (n_l, n_v) = (n.dot(l), n.dot(v));
-        fresnel_reflectance(eta, v.dot(h)) * g1(n_l) * g1(n_v)
+        translucent::material::fresnel::reflectance(eta, v.dot(h)) * g1(n_l) * g1(n_v)
             / (std::f64::consts::PI * 4.0 * n_l * n_v)
             * irradiance[0]
             * n_l

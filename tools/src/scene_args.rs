@@ -62,28 +62,10 @@ fn vec3(option: &str, text: &str) -> anyhow::Result<DVec3> {
     Ok(DVec3::from_array(numbers::<3>(option, text)?))
 }
 
-/// Parses one `--light` value.
+/// Parses one `--light` value (the syntax is the library's `Light::from_str`).
 pub fn parse_light(text: &str) -> anyhow::Result<Light> {
-    let parts: Vec<&str> = text.split(':').collect();
-    let light = match parts.as_slice() {
-        ["dir", d, e] => Light::Directional { direction: vec3("--light dir direction", d)?, irradiance: numbers("--light dir irradiance", e)? },
-        ["point", p, i] => Light::Point { position: vec3("--light point position", p)?, intensity: numbers("--light point intensity", i)? },
-        ["spot", p, d, i, angles] => {
-            let [inner_deg, outer_deg] = numbers("--light spot angles", angles)?;
-            Light::Spot {
-                position: vec3("--light spot position", p)?,
-                direction: vec3("--light spot direction", d)?,
-                intensity: numbers("--light spot intensity", i)?,
-                inner_deg,
-                outer_deg,
-            }
-        }
-        _ => bail!("--light {text:?}: expected dir:X,Y,Z:R,G,B, point:X,Y,Z:R,G,B or spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER,OUTER"),
-    };
-    light
-        .validate()
-        .with_context(|| format!("--light {text:?}"))?;
-    Ok(light)
+    text.parse::<Light>()
+        .with_context(|| format!("--light {text:?}"))
 }
 
 /// Parses `--camera X,Y,Z:TX,TY,TZ:FOVY_DEG`.

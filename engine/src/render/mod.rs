@@ -36,7 +36,7 @@ pub use headless::{render_headless, Captured, HeadlessRenderer};
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms, Vertex};
 pub use scene::{
-    diffuse_fresnel_reflectance, fresnel_reflectance, lambert_exitance, Camera, FrameDesc, Light,
+    lambert_exitance, Camera, FrameDesc, Light,
     RadianceMode, Scene,
 };
 pub use shadow_pass::{DepthPush, ShadowPass};
@@ -51,4 +51,6 @@ pub enum RenderError {
     Vk(#[from] crate::vk::VkError),
     #[error(transparent)]
     Shader(#[from] crate::shader::ShaderError),
+    #[error(transparent)]
+    Scene(#[from] crate::solver::SolverError),
 }

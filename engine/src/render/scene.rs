@@ -5,121 +5,21 @@ use glam::{DVec3, Mat4, Vec3};
 
 use super::RenderError;
 use crate::mesh::shapes::Shape;
+use crate::material::fresnel;
 use crate::mesh::TriMesh;
 
-/// A light (DESIGN section 8 `--light` syntax).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Light {
-    /// Irradiance `irradiance` (RGB) on a surface facing the light, travelling along `direction`.
-    Directional {
-        direction: DVec3,
-        irradiance: [f64; 3],
-    },
-    /// Radiant intensity `intensity` (RGB) from `position`.
-    Point {
-        position: DVec3,
-        intensity: [f64; 3],
-    },
-    /// A point light restricted to a cone around `direction`, full inside `inner_deg`, zero
-    /// outside `outer_deg` (half-angles), smooth in between.
-    Spot {
-        position: DVec3,
-        direction: DVec3,
-        intensity: [f64; 3],
-        inner_deg: f64,
-        outer_deg: f64,
-    },
-}
+pub use crate::solver::{Light, RadianceMode};
 
 impl Light {
-    /// The default light: from the upper left front, white irradiance 3.
+    /// The built-in scene's light: directional, from the upper left front, white irradiance 3.
     pub fn default_light() -> Light {
         Light::Directional {
             direction: DVec3::new(1.0, -1.0, -1.0).normalize(),
             irradiance: [3.0; 3],
         }
     }
-
-    /// Unit direction towards the light and the irradiance on a surface facing it, at `p`.
-    pub fn incident(&self, p: DVec3) -> (DVec3, [f64; 3]) {
-        match *self {
-            Light::Directional {
-                direction,
-                irradiance,
-            } => (-direction.normalize(), irradiance),
-            Light::Point {
-                position,
-                intensity,
-            } => {
-                let d = position - p;
-                let r2 = d.length_squared().max(1e-12);
-                (d / r2.sqrt(), intensity.map(|i| i / r2))
-            }
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                inner_deg,
-                outer_deg,
-            } => {
-                let d = position - p;
-                let r2 = d.length_squared().max(1e-12);
-                let l = d / r2.sqrt();
-                let (cos_inner, cos_outer) =
-                    (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
-                let c = (-l).dot(direction.normalize());
-                let t = ((c - cos_outer) / (cos_inner - cos_outer).max(1e-9)).clamp(0.0, 1.0);
-                let falloff = t * t * (3.0 - 2.0 * t);
-                (l, intensity.map(|i| i * falloff / r2))
-            }
-        }
-    }
-
-    /// Rejects non-finite values, zero directions and negative powers.
-    pub fn validate(&self) -> Result<(), RenderError> {
-        let bad = |problem: &str| {
-            Err(RenderError::Invalid {
-                what: "light".into(),
-                problem: problem.into(),
-            })
-        };
-        let (vectors, power): (Vec<DVec3>, [f64; 3]) = match *self {
-            Light::Directional {
-                direction,
-                irradiance,
-            } => (vec![direction], irradiance),
-            Light::Point {
-                position,
-                intensity,
-            } => (vec![position, DVec3::ONE], intensity),
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                inner_deg,
-                outer_deg,
-            } => {
-                if !(0.0..=180.0).contains(&inner_deg) || !(inner_deg..=180.0).contains(&outer_deg)
-                {
-                    return bad("spot angles must satisfy 0 <= inner <= outer <= 180 degrees");
-                }
-                (vec![position, direction], intensity)
-            }
-        };
-        if vectors.iter().any(|v| !v.is_finite()) || power.iter().any(|p| !p.is_finite()) {
-            return bad("values must be finite");
-        }
-        if matches!(self, Light::Directional { .. } | Light::Spot { .. })
-            && vectors.iter().any(|v| v.length() < 1e-12)
-        {
-            return bad("direction must not be zero");
-        }
-        if power.iter().any(|&p| p < 0.0) {
-            return bad("power must not be negative");
-        }
-        Ok(())
-    }
 }
+
 
 /// A pinhole camera: `eye` looks at `target`, vertical field of view `fovy_deg`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -189,16 +89,6 @@ impl Camera {
     }
 }
 
-/// How the final shading turns exitance into radiance (DESIGN section 2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum RadianceMode {
-    /// `L_o = F_t(eta, theta_o) J+ / (pi eta^2)`.
-    #[default]
-    Physical,
-    /// The paper's Eq. 4: `L_o = F_t J+ / pi`.
-    Paper,
-}
-
 /// The object to render: a mesh in mm with one exitance J+ (linear RGB) per vertex.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -236,25 +126,6 @@ impl Default for FrameDesc {
     }
 }
 
-/// Fresnel reflectance of unpolarized light arriving from outside at `cos_i` on a boundary of
-/// relative index `eta` (exact; 1 under total internal reflection).
-pub fn fresnel_reflectance(eta: f64, cos_i: f64) -> f64 {
-    let cos_i = cos_i.clamp(0.0, 1.0);
-    let sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin_t2 >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin_t2).sqrt();
-    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    0.5 * (rs * rs + rp * rp)
-}
-
-/// Internal diffuse Fresnel reflectance F_dr(eta) (DESIGN section 2).
-pub fn diffuse_fresnel_reflectance(eta: f64) -> f64 {
-    -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
-}
-
 /// A stand-in for the diffusion solver: J+ per vertex from the lights, as if every point were a
 /// Lambertian reflector of `albedo` inside a medium of index `eta` (exitance `(1 - F_dr) J+ =
 /// albedo q`), plus a constant environment of radiance `ambient`. Shadows are ignored.
@@ -267,19 +138,18 @@ pub fn lambert_exitance(
     albedo: [f64; 3],
     ambient: f64,
 ) -> Vec<[f32; 3]> {
-    let f_dr = diffuse_fresnel_reflectance(eta);
-    let f_dr_ext = 1.0 - eta * eta * (1.0 - f_dr);
-    let q_env = std::f64::consts::PI * ambient * (1.0 - f_dr_ext);
+    let f_dr = fresnel::diffuse_reflectance(eta);
+    let q_env = std::f64::consts::PI * ambient * (1.0 - fresnel::external_diffuse_reflectance(eta));
     mesh.positions
         .iter()
         .zip(&mesh.normals)
         .map(|(&p, &n)| {
             let mut q = [q_env; 3];
             for light in lights {
-                let (l, e) = light.incident(p);
+                let (e, l, _) = light.arriving(p);
                 let cos = n.dot(l);
                 if cos > 0.0 {
-                    let t = 1.0 - fresnel_reflectance(eta, cos);
+                    let t = fresnel::transmittance(eta, cos);
                     for c in 0..3 {
                         q[c] += e[c] * cos * t;
                     }
@@ -392,21 +262,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fresnel_matches_known_values() {
-        // Normal incidence: ((eta - 1) / (eta + 1))^2.
-        assert!((fresnel_reflectance(1.5, 1.0) - 0.04).abs() < 1e-12);
-        assert!((fresnel_reflectance(1.3, 0.0) - 1.0).abs() < 1e-12);
-        assert!(
-            fresnel_reflectance(1.0, 0.3) < 1e-15,
-            "no boundary, no reflection"
-        );
-        assert!(
-            (diffuse_fresnel_reflectance(1.3) - 0.4448).abs() < 1e-3,
-            "DESIGN: 0.4448 at 1.3"
-        );
-    }
-
-    #[test]
     fn lambert_exitance_integrates_to_albedo_times_transmitted_irradiance() {
         let mesh = Shape::Sphere { radius: 10.0 }.triangulate(16);
         let light = Light::Directional {
@@ -420,8 +275,8 @@ mod tests {
             .iter()
             .position(|p| p.y > 9.99)
             .expect("pole");
-        let f_dr = diffuse_fresnel_reflectance(eta);
-        let expected = 0.5 * 2.0 * (1.0 - fresnel_reflectance(eta, 1.0)) / (1.0 - f_dr);
+        let f_dr = fresnel::diffuse_reflectance(eta);
+        let expected = 0.5 * 2.0 * fresnel::transmittance(eta, 1.0) / (1.0 - f_dr);
         assert!((f64::from(j[top][0]) - expected).abs() < 1e-5);
         assert_eq!(j[top][2], 0.0);
         let bottom = mesh
