@@ -501,6 +501,48 @@ impl<P: bytemuck::Pod> ComputePipeline<P> {
             raw.cmd_dispatch(cb, groups[0], groups[1], groups[2]);
         }
     }
+
+    /// Records bind + push + an indirect dispatch whose group counts the GPU reads from `args` at
+    /// `offset` (a `VkDispatchIndirectCommand`).
+    ///
+    /// # Safety
+    /// As [`ComputePipeline::dispatch`]; `args` must have INDIRECT_BUFFER usage, hold the command
+    /// at `offset` (a multiple of 4) and its writes be made visible to INDIRECT_COMMAND_READ.
+    pub unsafe fn dispatch_indirect(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        set: vk::DescriptorSet,
+        push: &P,
+        args: &Buffer,
+        offset: u64,
+    ) {
+        let raw = ctx.raw();
+        // SAFETY: the caller's contract; the layout matches the set and the push range.
+        unsafe {
+            raw.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.raw);
+            if set != vk::DescriptorSet::null() {
+                raw.cmd_bind_descriptor_sets(
+                    cb,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.interface.layout,
+                    0,
+                    &[set],
+                    &[],
+                );
+            }
+            if self.interface.push_size > 0 {
+                raw.cmd_push_constants(
+                    cb,
+                    self.interface.layout,
+                    self.interface.push_stages,
+                    0,
+                    bytemuck::bytes_of(push),
+                );
+            }
+            raw.cmd_dispatch_indirect(cb, args.raw, offset);
+        }
+    }
 }
 
 impl<P> Drop for ComputePipeline<P> {

@@ -1,0 +1,1382 @@
+//! The GPU diffusion solve of a baked QuadGraph (paper sections 4.3 and 5; DESIGN sections 4 and 5):
+//! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10), pure Jacobi
+//! ping-pong (Eqs. 8/9 in the `fv` or `paper` form, surface and inner nodes in one dispatch, told
+//! apart by their row), convergence decided on the GPU with indirect dispatch; then J+ at the
+//! surface nodes (clamped at 0, counted) and per display vertex through the shading weights.
+//!
+//! Precision ([`Precision`]): `Mixed` (default) keeps phi in RGBA32F and iterates, inside each block
+//! of `k` iterations, a correction delta in RGBA16F ping-pong against the fp32 residual
+//! (residual pass = iteration 1, `k - 1` correction sweeps, then phi += delta); `Fp32` and `Fp16`
+//! are plain phi ping-pong in that format (benchmark modes; `Fp16` is the paper's and stalls).
+//! All state is stored times the exposure [`GpuDiffusion::q_scale`] (q is RGBA16F; fp16 overflows at
+//! 65504 and phi reaches ~7 q) and unscaled in fp32 when read (J+ pass, read-backs).
+//!
+//! Convergence: iterations are recorded in blocks of an even `k`, up to the per-level cap; after each
+//! block one workgroup reduces max|delta phi| / max|phi|, estimates rho from successive blocks,
+//! divides by (1 - rho) and, below the tolerance, zeroes the indirect dispatch arguments of the
+//! following blocks. The CPU never reads anything inside a frame; [`GpuDiffusion::iterations_run`]
+//! reads the GPU's counters afterwards. Even `k` keeps a level's result in a known image.
+//!
+//! Synchronization: every image stays in GENERAL; exactly one global memory barrier (compute write
+//! -> compute read|write) before every dispatch of the loop (in `Mixed` a block of k iterations has
+//! k + 1 dispatches: residual, k - 1 sweeps, apply), one barrier compute write -> indirect read after
+//! each convergence reduction.
+//!
+//! Interface with the irradiance gather (part B, `render::irradiance`): per level,
+//! [`GpuDiffusion::surface_position`] (RGBA32F, rgb = surface node position in mm in the object
+//! frame, a = 1 on surface-node texels, 0 on inner nodes and padding), [`GpuDiffusion::surface_normal`]
+//! (RGBA16F, rgb = outward unit normal) and [`GpuDiffusion::q_image`] (RGBA16F storage image in
+//! GENERAL, rgb = q * [`GpuDiffusion::q_scale`], to be written where position.a = 1). The gather is
+//! recorded before [`GpuDiffusion::record`], which starts with a barrier (compute|transfer write ->
+//! compute read) covering the q images of every level. Tests and the CPU-q path use
+//! [`GpuDiffusion::upload_q`] instead.
+//!
+//! ```no_run
+//! # use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
+//! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph,
+//! #      field: &translucent::material::MaterialField, q: &[Vec<[f32; 3]>]) -> Result<(), translucent::Error> {
+//! let mut solve = GpuDiffusion::new(ctx, graph, field, &GpuSolveParams::default())?;
+//! solve.set_q_scale(GpuDiffusion::exposure_for(q.iter().flatten()));
+//! for (level, q) in q.iter().enumerate() {
+//!     solve.upload_q(ctx, level, q)?;
+//! }
+//! ctx.execute("solve", |cb| {
+//!     // SAFETY: `cb` is recording; `solve` outlives the waited submission.
+//!     unsafe { solve.record(ctx, cb, None) };
+//!     Ok(())
+//! })?;
+//! let j_plus = solve.read_j_plus(ctx)?; // per surface node of the finest level
+//! let iterations = solve.iterations_run(ctx)?; // per level, from the GPU counter
+//! # Ok(()) }
+//! ```
+
+pub mod textures;
+
+use ash::vk;
+use half::f16;
+
+use self::textures::LevelTexels;
+use super::operator::{LevelOperator, Scheme};
+use super::SolverError;
+use crate::material::MaterialField;
+use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::vk::{
+    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, ImageReadback,
+    MemoryUse,
+};
+use crate::Error;
+
+/// How phi is stored (DESIGN section 4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// phi RGBA32F, correction sweeps in RGBA16F against the fp32 residual (the default).
+    #[default]
+    Mixed,
+    /// phi RGBA16F ping-pong (the paper's state; stalls on fine levels).
+    Fp16,
+    /// phi RGBA32F ping-pong.
+    Fp32,
+}
+
+impl std::str::FromStr for Precision {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "mixed" => Ok(Self::Mixed),
+            "fp16" => Ok(Self::Fp16),
+            "fp32" => Ok(Self::Fp32),
+            _ => Err(SolverError::BadParameter {
+                name: "precision",
+                problem: format!("'{s}' (expected mixed, fp16 or fp32)"),
+            }),
+        }
+    }
+}
+
+/// Parameters of [`GpuDiffusion`].
+#[derive(Clone, Debug)]
+pub struct GpuSolveParams {
+    pub scheme: Scheme,
+    pub precision: Precision,
+    /// Iteration cap per level, coarsest first; the last entry repeats. Rounded up to whole blocks.
+    pub iterations: Vec<u32>,
+    /// Iterations per block (even, >= 2): the convergence test runs after each block.
+    pub block: u32,
+    /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
+    pub tolerance: f32,
+}
+
+impl Default for GpuSolveParams {
+    fn default() -> Self {
+        Self {
+            scheme: Scheme::Fv,
+            precision: Precision::Mixed,
+            iterations: vec![200],
+            block: 8,
+            tolerance: 1e-4,
+        }
+    }
+}
+
+/// Push constants of the per-level diffusion passes (`diffusion/*.comp`, `graph_common.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LevelPush {
+    pub size: [i32; 2],
+    pub width: u32,
+    pub flags: u32,
+}
+
+/// Push constants of `shepard/init_phi*.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ShepardPush {
+    pub size: [i32; 2],
+    pub coarse_width: u32,
+    /// 1: write zero (coarsest level, no warm start).
+    pub zero: u32,
+}
+
+/// Push constants of `reduce/convergence*.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ReducePush {
+    pub size: [i32; 2],
+    pub level: u32,
+    pub k: u32,
+    pub tolerance: f32,
+}
+
+/// Push constants of `diffusion/j_plus*.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct JPlusPush {
+    pub size: [i32; 2],
+    pub surface_rows: u32,
+    pub inv_q_scale: f32,
+    pub phi_factor: f32,
+    pub q_factor: f32,
+}
+
+/// Push constants of `diffusion/vertex_j_plus.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VertexPush {
+    pub count: u32,
+    pub width: u32,
+}
+
+/// One level's record in the control buffer (`LevelControl` in `reduce/convergence.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LevelControl {
+    /// `VkDispatchIndirectCommand` of the level's iteration dispatches.
+    pub groups: [u32; 3],
+    pub iterations: u32,
+    pub blocks: u32,
+    pub rel_previous: f32,
+    /// Error estimate after the last block that ran (f32::MAX-like when not contracting yet).
+    pub estimate: f32,
+    pub stopped_early: u32,
+}
+
+/// Pass names: profiler scopes and debug labels.
+pub const PASS_INIT: &str = "diffusion init";
+pub const PASS_JACOBI: &str = "diffusion jacobi";
+pub const PASS_CONVERGENCE: &str = "diffusion convergence";
+pub const PASS_J_PLUS: &str = "diffusion j+";
+pub const PASS_VERTEX_J_PLUS: &str = "diffusion vertex j+";
+
+const STORAGE_IMAGE: vk::ImageUsageFlags = vk::ImageUsageFlags::from_raw(
+    vk::ImageUsageFlags::STORAGE.as_raw()
+        | vk::ImageUsageFlags::TRANSFER_DST.as_raw()
+        | vk::ImageUsageFlags::TRANSFER_SRC.as_raw(),
+);
+
+/// One level's textures and descriptor sets.
+pub struct GpuLevel {
+    pub packing: Packing,
+    pub node_count: usize,
+    pub inner_count: usize,
+    /// Ping-pong state: phi (Fp32, Fp16) or the correction delta (Mixed, RGBA16F).
+    state: [Image; 2],
+    /// Mixed: phi (RGBA32F) and the fp32 residual.
+    phi: Option<Image>,
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    residual: Option<Image>,
+    q: Image,
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    connectivity: Image,
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    weights: [Image; 3],
+    source_gain: Image,
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    links: [Image; 2],
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    link_weights: [Image; 2],
+    surface_position: Image,
+    surface_normal: Image,
+    /// Per dispatch kind, the sets: see [`GpuDiffusion::record`].
+    iterate_sets: Vec<vk::DescriptorSet>,
+    init_set: vk::DescriptorSet,
+    reduce_set: vk::DescriptorSet,
+    bytes: u64,
+}
+
+impl GpuLevel {
+    /// The image holding this level's phi after whole blocks.
+    fn result(&self) -> &Image {
+        self.phi.as_ref().unwrap_or(&self.state[0])
+    }
+    fn push(&self) -> LevelPush {
+        LevelPush {
+            size: [self.packing.width as i32, self.packing.height as i32],
+            width: self.packing.width,
+            flags: 0,
+        }
+    }
+    fn extent(&self) -> [u32; 3] {
+        [self.packing.width, self.packing.height, 1]
+    }
+}
+
+struct Pipelines {
+    iterate: ComputePipeline<LevelPush>,
+    /// Mixed only: residual (iteration 1 of a block) and apply (phi += delta).
+    residual: Option<ComputePipeline<LevelPush>>,
+    apply: Option<ComputePipeline<LevelPush>>,
+    init: ComputePipeline<ShepardPush>,
+    reduce: ComputePipeline<ReducePush>,
+    j_plus: ComputePipeline<JPlusPush>,
+    vertex: ComputePipeline<VertexPush>,
+}
+
+/// The GPU solve of one QuadGraph with one material (see the module doc).
+pub struct GpuDiffusion {
+    params: GpuSolveParams,
+    pipelines: Pipelines,
+    levels: Vec<GpuLevel>,
+    /// Per level [`LevelControl`]; indirect arguments, host-readable after the frame.
+    control: Buffer,
+    /// Surface nodes clamped at J+ = 0 per channel (finest level).
+    clamp_counts: Buffer,
+    j_plus: Image,
+    j_plus_set: vk::DescriptorSet,
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    vertex_links: Buffer,
+    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    vertex_weights: Buffer,
+    vertex_j_plus: Buffer,
+    vertex_count: u32,
+    vertex_set: vk::DescriptorSet,
+    /// Blocks recorded per level.
+    blocks: Vec<u32>,
+    q_scale: f32,
+    f_dr: f64,
+    a: f64,
+}
+
+fn bad_param(name: &'static str, problem: String) -> Error {
+    Error::Solver(SolverError::BadParameter { name, problem })
+}
+
+fn image(
+    ctx: &Context,
+    name: &'static str,
+    p: &Packing,
+    format: vk::Format,
+) -> Result<Image, Error> {
+    Ok(Image::new(
+        ctx,
+        &ImageDesc {
+            name,
+            width: p.width,
+            height: p.height,
+            format,
+            usage: STORAGE_IMAGE,
+        },
+    )?)
+}
+
+fn texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::R16G16B16A16_SFLOAT => 8,
+        _ => 16,
+    }
+}
+
+/// Uploads every `(image, bytes)` in one submission and leaves the images in GENERAL.
+fn upload_images(ctx: &Context, name: &str, items: &[(&Image, Vec<u8>)]) -> Result<(), Error> {
+    let staging: Vec<Buffer> = items
+        .iter()
+        .map(|(_, bytes)| {
+            Buffer::with_data(
+                ctx,
+                "diffusion upload",
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                bytes,
+            )
+        })
+        .collect::<Result<_, _>>()?;
+    ctx.execute(name, |cb| {
+        // SAFETY: `cb` is recording; images and staging buffers outlive the waited submission.
+        unsafe {
+            let to_dst: Vec<_> = items
+                .iter()
+                .map(|(img, _)| barrier::image_barrier(img, Access::Undefined, Access::TransferDst))
+                .collect();
+            // why: the copies overwrite whole images; earlier contents are discarded (layout).
+            barrier::record(ctx, cb, &[], &to_dst);
+            for ((img, _), buf) in items.iter().zip(&staging) {
+                let region = vk::BufferImageCopy::default()
+                    .image_subresource(
+                        vk::ImageSubresourceLayers::default()
+                            .aspect_mask(vk::ImageAspectFlags::COLOR)
+                            .layer_count(1),
+                    )
+                    .image_extent(vk::Extent3D {
+                        width: img.width,
+                        height: img.height,
+                        depth: 1,
+                    });
+                ctx.raw().cmd_copy_buffer_to_image(
+                    cb,
+                    buf.raw,
+                    img.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[region],
+                );
+            }
+            let to_general: Vec<_> = items
+                .iter()
+                .map(|(img, _)| {
+                    barrier::image_barrier(img, Access::TransferDst, Access::ComputeReadWrite)
+                })
+                .collect();
+            // why: the solve reads (RAW) and may write these in GENERAL.
+            barrier::record(ctx, cb, &[], &to_general);
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+fn bytes_of<T: bytemuck::Pod>(v: &[T]) -> Vec<u8> {
+    bytemuck::cast_slice(v).to_vec()
+}
+
+/// A raw synchronization2 memory barrier (for the indirect-argument and host hazards that
+/// [`Access`] has no state for).
+fn raw_barrier(
+    src_stage: vk::PipelineStageFlags2,
+    src_access: vk::AccessFlags2,
+    dst_stage: vk::PipelineStageFlags2,
+    dst_access: vk::AccessFlags2,
+) -> vk::MemoryBarrier2<'static> {
+    vk::MemoryBarrier2::default()
+        .src_stage_mask(src_stage)
+        .src_access_mask(src_access)
+        .dst_stage_mask(dst_stage)
+        .dst_access_mask(dst_access)
+}
+
+impl GpuDiffusion {
+    /// Assembles every level's operator (f64), builds and uploads the textures, creates the
+    /// pipelines. Fails with a typed error on bad parameters, graphs or materials.
+    pub fn new(
+        ctx: &Context,
+        graph: &QuadGraph,
+        material: &MaterialField,
+        params: &GpuSolveParams,
+    ) -> Result<Self, Error> {
+        if graph.levels.is_empty() {
+            return Err(SolverError::EmptyGraph.into());
+        }
+        if params.block < 2 || params.block % 2 != 0 || params.block > 1024 {
+            return Err(bad_param(
+                "block",
+                format!("{} must be even, in 2..=1024", params.block),
+            ));
+        }
+        if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
+            return Err(bad_param(
+                "tolerance",
+                format!("{} must be finite and >= 0", params.tolerance),
+            ));
+        }
+        if params.iterations.is_empty() || params.iterations.iter().any(|&n| n > 1_000_000) {
+            return Err(bad_param(
+                "iterations",
+                format!("{:?}: one to many caps, each <= 1e6", params.iterations),
+            ));
+        }
+        let eta = material.eta();
+        crate::material::check_eta(eta).map_err(SolverError::from)?;
+        let pipelines = Self::pipelines(ctx, params.precision, graph.levels.len() as u32)?;
+        let mut levels: Vec<GpuLevel> = Vec::with_capacity(graph.levels.len());
+        let (mut f_dr, mut a) = (0.0, 0.0);
+        for (h, level) in graph.levels.iter().enumerate() {
+            let op =
+                LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
+            (f_dr, a) = (op.f_dr, op.a);
+            let coarse = levels.last().map(|l| &l.packing);
+            if h > 0 && level.from_coarser.is_none() {
+                return Err(SolverError::MissingLinks { level: h }.into());
+            }
+            let texels = LevelTexels::build(level, &op, coarse).map_err(|e| e.at_level(h))?;
+            let gpu =
+                Self::upload_level(ctx, &pipelines, params.precision, &texels, levels.last(), h)?;
+            levels.push(gpu);
+        }
+        let finest = levels.last().ok_or(SolverError::EmptyGraph)?;
+        let j_plus = image(
+            ctx,
+            "diffusion j+",
+            &finest.packing,
+            vk::Format::R32G32B32A32_SFLOAT,
+        )?;
+        let control = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "diffusion control",
+                size: (levels.len() * std::mem::size_of::<LevelControl>()) as u64,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::INDIRECT_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+                memory: MemoryUse::Readback,
+            },
+        )?;
+        let clamp_counts = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "diffusion clamp counts",
+                size: 16,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                memory: MemoryUse::Readback,
+            },
+        )?;
+        // Shading weights -> linear texel indices of the finest level.
+        let shading = &graph.shading;
+        let inner = finest.inner_count;
+        let mut links = Vec::with_capacity(shading.links.len().max(1));
+        let mut weights = Vec::with_capacity(shading.links.len().max(1));
+        for (v, (l, w)) in shading.links.iter().zip(&shading.weights).enumerate() {
+            let mut lt = [0u32; 4];
+            let mut wt = [0f32; 4];
+            for k in 0..4 {
+                if l[k] == NO_NODE {
+                    continue;
+                }
+                let node = inner + l[k] as usize;
+                if node >= finest.node_count || !w[k].is_finite() {
+                    return Err(SolverError::BadGraph {
+                        level: levels.len() - 1,
+                        problem: format!("vertex {v} links to surface node {} (invalid)", l[k]),
+                    }
+                    .into());
+                }
+                lt[k] = finest.packing.linear_index(node as u32);
+                wt[k] = w[k] as f32;
+            }
+            links.push(lt);
+            weights.push(wt);
+        }
+        let vertex_count = links.len() as u32;
+        if links.is_empty() {
+            links.push([0; 4]);
+            weights.push([0.0; 4]);
+        }
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let vertex_links = Buffer::with_data(ctx, "diffusion vertex links", storage, &links)?;
+        let vertex_weights = Buffer::with_data(ctx, "diffusion vertex weights", storage, &weights)?;
+        let vertex_j_plus = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "diffusion vertex j+",
+                size: (links.len() * 16) as u64,
+                usage: storage | vk::BufferUsageFlags::VERTEX_BUFFER,
+                memory: MemoryUse::Readback,
+            },
+        )?;
+        let finest = levels.last().ok_or(SolverError::EmptyGraph)?;
+        let j_plus_set = pipelines.j_plus.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::storage_image("phi", finest.result()),
+                DescriptorWrite::storage_image("q", &finest.q),
+                DescriptorWrite::storage_image("source_gain", &finest.source_gain),
+                DescriptorWrite::storage_image("j_plus", &j_plus),
+                DescriptorWrite::StorageBuffer {
+                    name: "counts",
+                    buffer: &clamp_counts,
+                },
+            ],
+        )?;
+        let vertex_set = pipelines.vertex.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::storage_image("j_plus", &j_plus),
+                DescriptorWrite::StorageBuffer {
+                    name: "vertex_links",
+                    buffer: &vertex_links,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "vertex_weights",
+                    buffer: &vertex_weights,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "vertex_j_plus",
+                    buffer: &vertex_j_plus,
+                },
+            ],
+        )?;
+        let mut reduce_sets = Vec::with_capacity(levels.len());
+        for l in &levels {
+            let (latest, previous) = match params.precision {
+                Precision::Mixed => (&l.state[1], &l.state[0]),
+                _ => (&l.state[0], &l.state[1]),
+            };
+            reduce_sets.push(pipelines.reduce.allocate_set(
+                ctx,
+                &[
+                    DescriptorWrite::storage_image("latest", latest),
+                    DescriptorWrite::storage_image("previous", previous),
+                    DescriptorWrite::storage_image("phi", l.result()),
+                    DescriptorWrite::storage_image("source_gain", &l.source_gain),
+                    DescriptorWrite::StorageBuffer {
+                        name: "control",
+                        buffer: &control,
+                    },
+                ],
+            )?);
+        }
+        for (l, set) in levels.iter_mut().zip(reduce_sets) {
+            l.reduce_set = set;
+        }
+        // j+ image to GENERAL once.
+        ctx.execute("diffusion j+ layout", |cb| {
+            // SAFETY: `cb` is recording; the image outlives the waited submission.
+            unsafe {
+                // why: first use of the J+ image; it is written in GENERAL by every frame.
+                barrier::image(
+                    ctx,
+                    cb,
+                    &j_plus,
+                    Access::Undefined,
+                    Access::ComputeReadWrite,
+                );
+            }
+            Ok(())
+        })?;
+        let blocks = (0..levels.len())
+            .map(|h| {
+                let cap = params
+                    .iterations
+                    .get(h)
+                    .or(params.iterations.last())
+                    .copied()
+                    .unwrap_or(0);
+                cap.div_ceil(params.block)
+            })
+            .collect();
+        Ok(Self {
+            params: params.clone(),
+            pipelines,
+            levels,
+            control,
+            clamp_counts,
+            j_plus,
+            j_plus_set,
+            vertex_links,
+            vertex_weights,
+            vertex_j_plus,
+            vertex_count,
+            vertex_set,
+            blocks,
+            q_scale: 1.0,
+            f_dr,
+            a,
+        })
+    }
+
+    fn pipelines(ctx: &Context, precision: Precision, levels: u32) -> Result<Pipelines, Error> {
+        let sets = 2 * levels + 2;
+        let (iterate, init, reduce, j_plus) = match precision {
+            Precision::Mixed => (
+                "diffusion/correction_sweep.comp",
+                "shepard/init_phi_fp32.comp",
+                "reduce/convergence_mixed.comp",
+                "diffusion/j_plus_fp32.comp",
+            ),
+            Precision::Fp32 => (
+                "diffusion/jacobi_fp32.comp",
+                "shepard/init_phi_fp32.comp",
+                "reduce/convergence_fp32.comp",
+                "diffusion/j_plus_fp32.comp",
+            ),
+            Precision::Fp16 => (
+                "diffusion/jacobi_fp16.comp",
+                "shepard/init_phi_fp16.comp",
+                "reduce/convergence_fp16.comp",
+                "diffusion/j_plus_fp16.comp",
+            ),
+        };
+        let graph_bindings: &[&str] = if precision == Precision::Mixed {
+            &[
+                "src",
+                "dst",
+                "residual",
+                "connectivity",
+                "weight_r",
+                "weight_g",
+                "weight_b",
+            ]
+        } else {
+            &[
+                "src",
+                "dst",
+                "q",
+                "connectivity",
+                "weight_r",
+                "weight_g",
+                "weight_b",
+                "source_gain",
+            ]
+        };
+        let iterate = ComputePipeline::new(
+            ctx,
+            &ComputePipelineDesc {
+                name: PASS_JACOBI,
+                shader: iterate,
+                bindings: graph_bindings,
+                max_sets: sets,
+            },
+        )?;
+        let (residual, apply) = if precision == Precision::Mixed {
+            (
+                Some(ComputePipeline::new(
+                    ctx,
+                    &ComputePipelineDesc {
+                        name: "diffusion residual",
+                        shader: "diffusion/residual_fp32.comp",
+                        bindings: &[
+                            "phi",
+                            "residual",
+                            "delta",
+                            "q",
+                            "connectivity",
+                            "weight_r",
+                            "weight_g",
+                            "weight_b",
+                            "source_gain",
+                        ],
+                        max_sets: sets,
+                    },
+                )?),
+                Some(ComputePipeline::new(
+                    ctx,
+                    &ComputePipelineDesc {
+                        name: "diffusion apply correction",
+                        shader: "diffusion/apply_correction.comp",
+                        bindings: &["delta", "phi"],
+                        max_sets: sets,
+                    },
+                )?),
+            )
+        } else {
+            (None, None)
+        };
+        Ok(Pipelines {
+            iterate,
+            residual,
+            apply,
+            init: ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_INIT,
+                    shader: init,
+                    bindings: &[
+                        "coarse",
+                        "dst",
+                        "links_lo",
+                        "links_hi",
+                        "link_weights_lo",
+                        "link_weights_hi",
+                    ],
+                    max_sets: sets,
+                },
+            )?,
+            reduce: ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_CONVERGENCE,
+                    shader: reduce,
+                    bindings: &["latest", "previous", "phi", "source_gain", "control"],
+                    max_sets: sets,
+                },
+            )?,
+            j_plus: ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_J_PLUS,
+                    shader: j_plus,
+                    bindings: &["phi", "q", "source_gain", "j_plus", "counts"],
+                    max_sets: 2,
+                },
+            )?,
+            vertex: ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_VERTEX_J_PLUS,
+                    shader: "diffusion/vertex_j_plus.comp",
+                    bindings: &["j_plus", "vertex_links", "vertex_weights", "vertex_j_plus"],
+                    max_sets: 2,
+                },
+            )?,
+        })
+    }
+
+    fn upload_level(
+        ctx: &Context,
+        pipelines: &Pipelines,
+        precision: Precision,
+        t: &LevelTexels,
+        coarser: Option<&GpuLevel>,
+        h: usize,
+    ) -> Result<GpuLevel, Error> {
+        use vk::Format as F;
+        let p = &t.packing;
+        let state_format = match precision {
+            Precision::Fp32 => F::R32G32B32A32_SFLOAT,
+            Precision::Mixed | Precision::Fp16 => F::R16G16B16A16_SFLOAT,
+        };
+        let state = [
+            image(ctx, "diffusion ping", p, state_format)?,
+            image(ctx, "diffusion pong", p, state_format)?,
+        ];
+        let (phi, residual) = if precision == Precision::Mixed {
+            (
+                Some(image(ctx, "diffusion phi", p, F::R32G32B32A32_SFLOAT)?),
+                Some(image(ctx, "diffusion residual", p, F::R32G32B32A32_SFLOAT)?),
+            )
+        } else {
+            (None, None)
+        };
+        let q = image(ctx, "diffusion q", p, F::R16G16B16A16_SFLOAT)?;
+        let connectivity = image(ctx, "diffusion connectivity", p, F::R32G32B32A32_UINT)?;
+        let weights = [
+            image(ctx, "diffusion weight r", p, F::R32G32B32A32_SFLOAT)?,
+            image(ctx, "diffusion weight g", p, F::R32G32B32A32_SFLOAT)?,
+            image(ctx, "diffusion weight b", p, F::R32G32B32A32_SFLOAT)?,
+        ];
+        let source_gain = image(ctx, "diffusion source gain", p, F::R32G32B32A32_SFLOAT)?;
+        let links = [
+            image(ctx, "diffusion links lo", p, F::R32G32B32A32_UINT)?,
+            image(ctx, "diffusion links hi", p, F::R32G32B32A32_UINT)?,
+        ];
+        let link_weights = [
+            image(ctx, "diffusion link weights lo", p, F::R16G16B16A16_SFLOAT)?,
+            image(ctx, "diffusion link weights hi", p, F::R16G16B16A16_SFLOAT)?,
+        ];
+        let surface_position = image(ctx, "surface position", p, F::R32G32B32A32_SFLOAT)?;
+        let surface_normal = image(ctx, "surface normal", p, F::R16G16B16A16_SFLOAT)?;
+        let n = t.texel_count();
+        let zeros16 = vec![0u8; n * 8];
+        let state_zero = vec![0u8; n * texel_bytes(state_format) as usize];
+        let mut items: Vec<(&Image, Vec<u8>)> = vec![
+            (&state[0], state_zero.clone()),
+            (&state[1], state_zero),
+            (&q, zeros16),
+            (&connectivity, bytes_of(&t.connectivity)),
+            (&weights[0], bytes_of(&t.weights[0])),
+            (&weights[1], bytes_of(&t.weights[1])),
+            (&weights[2], bytes_of(&t.weights[2])),
+            (&source_gain, bytes_of(&t.source_gain)),
+            (&links[0], bytes_of(&t.links[0])),
+            (&links[1], bytes_of(&t.links[1])),
+            (&link_weights[0], bytes_of(&t.link_weights[0])),
+            (&link_weights[1], bytes_of(&t.link_weights[1])),
+            (&surface_position, bytes_of(&t.surface_position)),
+            (&surface_normal, bytes_of(&t.surface_normal)),
+        ];
+        for img in phi.iter().chain(&residual) {
+            items.push((img, vec![0u8; n * 16]));
+        }
+        let bytes: u64 = items.iter().map(|(_, b)| b.len() as u64).sum();
+        upload_images(ctx, "diffusion level upload", &items)?;
+        drop(items);
+
+        let mut iterate_sets = Vec::new();
+        for (src, dst) in [(&state[0], &state[1]), (&state[1], &state[0])] {
+            let mut w = vec![
+                DescriptorWrite::storage_image("src", src),
+                DescriptorWrite::storage_image("dst", dst),
+                DescriptorWrite::storage_image("connectivity", &connectivity),
+                DescriptorWrite::storage_image("weight_r", &weights[0]),
+                DescriptorWrite::storage_image("weight_g", &weights[1]),
+                DescriptorWrite::storage_image("weight_b", &weights[2]),
+            ];
+            match &residual {
+                Some(r) => w.push(DescriptorWrite::storage_image("residual", r)),
+                None => {
+                    w.push(DescriptorWrite::storage_image("q", &q));
+                    w.push(DescriptorWrite::storage_image("source_gain", &source_gain));
+                }
+            }
+            iterate_sets.push(pipelines.iterate.allocate_set(ctx, &w)?);
+        }
+        if let (Some(phi), Some(residual), Some(rp), Some(ap)) =
+            (&phi, &residual, &pipelines.residual, &pipelines.apply)
+        {
+            iterate_sets.push(rp.allocate_set(
+                ctx,
+                &[
+                    DescriptorWrite::storage_image("phi", phi),
+                    DescriptorWrite::storage_image("residual", residual),
+                    DescriptorWrite::storage_image("delta", &state[0]),
+                    DescriptorWrite::storage_image("q", &q),
+                    DescriptorWrite::storage_image("connectivity", &connectivity),
+                    DescriptorWrite::storage_image("weight_r", &weights[0]),
+                    DescriptorWrite::storage_image("weight_g", &weights[1]),
+                    DescriptorWrite::storage_image("weight_b", &weights[2]),
+                    DescriptorWrite::storage_image("source_gain", &source_gain),
+                ],
+            )?);
+            // k - 1 (odd) sweeps from state[0] leave the last correction in state[1].
+            iterate_sets.push(ap.allocate_set(
+                ctx,
+                &[
+                    DescriptorWrite::storage_image("delta", &state[1]),
+                    DescriptorWrite::storage_image("phi", phi),
+                ],
+            )?);
+        }
+        let dst = phi.as_ref().unwrap_or(&state[0]);
+        // The coarsest level never reads `coarse` (zero init); any image of the right format binds.
+        let coarse = match coarser {
+            Some(c) => c.result(),
+            None => residual.as_ref().unwrap_or(&state[1]),
+        };
+        let init_set = pipelines.init.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::storage_image("coarse", coarse),
+                DescriptorWrite::storage_image("dst", dst),
+                DescriptorWrite::storage_image("links_lo", &links[0]),
+                DescriptorWrite::storage_image("links_hi", &links[1]),
+                DescriptorWrite::storage_image("link_weights_lo", &link_weights[0]),
+                DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
+            ],
+        )?;
+        let _ = h;
+        Ok(GpuLevel {
+            packing: t.packing.clone(),
+            node_count: t.packing.texels.len(),
+            inner_count: t.packing.texels.len()
+                - t.source_gain[..t.packing.surface_rows as usize * t.packing.width as usize]
+                    .iter()
+                    .filter(|g| g[3] != 0.0)
+                    .count(),
+            state,
+            phi,
+            residual,
+            q,
+            connectivity,
+            weights,
+            source_gain,
+            links,
+            link_weights,
+            surface_position,
+            surface_normal,
+            iterate_sets,
+            init_set,
+            reduce_set: vk::DescriptorSet::null(),
+            bytes,
+        })
+    }
+
+    pub fn level_count(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// GPU bytes of level `level`'s textures (state, q, graph, links, surface geometry).
+    pub fn level_bytes(&self, level: usize) -> u64 {
+        self.levels.get(level).map_or(0, |l| l.bytes)
+    }
+
+    /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
+    pub fn bytes(&self) -> (u64, f64) {
+        let total: u64 = self.levels.iter().map(|l| l.bytes).sum();
+        let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
+        (total, total as f64 / nodes.max(1) as f64)
+    }
+
+    /// Nodes per level.
+    pub fn node_count(&self, level: usize) -> usize {
+        self.levels.get(level).map_or(0, |l| l.node_count)
+    }
+
+    pub fn surface_position(&self, level: usize) -> Option<&Image> {
+        self.levels.get(level).map(|l| &l.surface_position)
+    }
+    pub fn surface_normal(&self, level: usize) -> Option<&Image> {
+        self.levels.get(level).map(|l| &l.surface_normal)
+    }
+    pub fn q_image(&self, level: usize) -> Option<&Image> {
+        self.levels.get(level).map(|l| &l.q)
+    }
+    /// The exposure every q (and therefore phi) is stored with.
+    pub fn q_scale(&self) -> f32 {
+        self.q_scale
+    }
+    /// Sets the exposure; q already uploaded or gathered must be written again.
+    pub fn set_q_scale(&mut self, scale: f32) {
+        if scale.is_finite() && scale > 0.0 {
+            self.q_scale = scale;
+        }
+    }
+    /// A power-of-two exposure mapping the largest q to about 1024: phi (about 7 q at most) then
+    /// stays below 8192, far from fp16's 65504, and q keeps ~10 bits down to 1e-4 of its maximum.
+    pub fn exposure_for<'a>(q: impl IntoIterator<Item = &'a [f32; 3]>) -> f32 {
+        let max = q
+            .into_iter()
+            .flatten()
+            .filter(|v| v.is_finite())
+            .fold(0.0f32, |m, &v| m.max(v.abs()));
+        if max > 0.0 {
+            (1024.0 / max)
+                .log2()
+                .floor()
+                .exp2()
+                .clamp(f32::MIN_POSITIVE, 1e30)
+        } else {
+            1.0
+        }
+    }
+    /// The per display-vertex J+ buffer (one vec4 per vertex, rgb = clamped J+), written by the
+    /// last pass of [`Self::record`] (compute write; a draw reading it as vertex input needs a
+    /// compute write -> vertex attribute read barrier).
+    pub fn vertex_j_plus_buffer(&self) -> &Buffer {
+        &self.vertex_j_plus
+    }
+
+    /// Headless: uploads q (by surface index) of `level`, times [`Self::q_scale`], into its q
+    /// image. Fails on a wrong length, a negative or non-finite value, or fp16 overflow.
+    pub fn upload_q(&mut self, ctx: &Context, level: usize, q: &[[f32; 3]]) -> Result<(), Error> {
+        let l = self.levels.get(level).ok_or_else(|| {
+            bad_param(
+                "level",
+                format!("{level} (only {} levels)", self.levels.len()),
+            )
+        })?;
+        let surface = l.node_count - l.inner_count;
+        if q.len() != surface {
+            return Err(bad_param(
+                "q",
+                format!(
+                    "{} values for {surface} surface nodes of level {level}",
+                    q.len()
+                ),
+            ));
+        }
+        // phi reaches ~7.2 q (4/(1 - F_dr) at eta = 1.3); keep it inside fp16's range.
+        let limit = 65504.0 / 8.0;
+        let mut texels = vec![[f16::ZERO; 4]; l.packing.width as usize * l.packing.height as usize];
+        for (s, v) in q.iter().enumerate() {
+            for &c in v {
+                if !(c.is_finite() && c >= 0.0) {
+                    return Err(bad_param(
+                        "q",
+                        format!("surface node {s}: {c} (must be finite, >= 0)"),
+                    ));
+                }
+                if c * self.q_scale > limit {
+                    return Err(bad_param(
+                        "q",
+                        format!(
+                            "surface node {s}: {c} times the exposure {} overflows fp16 phi; lower it (GpuDiffusion::exposure_for)",
+                            self.q_scale
+                        ),
+                    ));
+                }
+            }
+            let t = l.packing.linear_index((l.inner_count + s) as u32) as usize;
+            texels[t] = [
+                f16::from_f32(v[0] * self.q_scale),
+                f16::from_f32(v[1] * self.q_scale),
+                f16::from_f32(v[2] * self.q_scale),
+                f16::ZERO,
+            ];
+        }
+        let staging = Buffer::with_data(
+            ctx,
+            "diffusion q upload",
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            &texels,
+        )?;
+        let img = &l.q;
+        ctx.execute("diffusion q upload", |cb| {
+            let region = vk::BufferImageCopy::default()
+                .image_subresource(
+                    vk::ImageSubresourceLayers::default()
+                        .aspect_mask(vk::ImageAspectFlags::COLOR)
+                        .layer_count(1),
+                )
+                .image_extent(vk::Extent3D {
+                    width: img.width,
+                    height: img.height,
+                    depth: 1,
+                });
+            // SAFETY: `cb` is recording; image and staging outlive the waited submission.
+            unsafe {
+                // why: earlier solves read q (WAR); the copy needs TRANSFER_DST layout.
+                barrier::image(ctx, cb, img, Access::ComputeReadWrite, Access::TransferDst);
+                ctx.raw().cmd_copy_buffer_to_image(
+                    cb,
+                    staging.raw,
+                    img.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[region],
+                );
+                // why: the solve reads the new q (RAW) in GENERAL.
+                barrier::image(ctx, cb, img, Access::TransferDst, Access::ComputeReadWrite);
+            }
+            Ok(())
+        })?;
+        Ok(())
+    }
+
+    /// Records the whole solve: control reset, then per level init, blocks of iterations with a
+    /// convergence reduction after each, then J+ and per-vertex J+. Blocks after convergence are
+    /// recorded but dispatch zero groups.
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope; `self` must outlive its execution; the
+    /// q images must have been written (gather or [`Self::upload_q`]) before, in this or an earlier
+    /// submission.
+    pub unsafe fn record(
+        &mut self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        mut profiler: Option<&mut GpuProfiler>,
+    ) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        let raw = ctx.raw();
+        let k = self.params.block;
+        let initial: Vec<LevelControl> = self
+            .levels
+            .iter()
+            .map(|l| LevelControl {
+                groups: [l.packing.width.div_ceil(8), l.packing.height.div_ceil(8), 1],
+                ..Default::default()
+            })
+            .collect();
+        let mut scope = |cb, name: Option<&'static str>| {
+            if let Some(p) = profiler.as_deref_mut() {
+                // SAFETY: forwarded contract of `record`.
+                unsafe {
+                    match name {
+                        Some(n) => p.begin_scope(cb, n),
+                        None => p.end_scope(cb),
+                    }
+                }
+            }
+        };
+        // SAFETY: the caller's contract; every set's resources live in `self`.
+        unsafe {
+            ctx.begin_label(cb, "diffusion");
+            // why: the previous solve's compute and indirect reads of the control and count
+            // buffers must finish before they are reset (WAR).
+            barrier::record(
+                ctx,
+                cb,
+                &[raw_barrier(
+                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
+                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::INDIRECT_COMMAND_READ,
+                    S::COPY | S::CLEAR,
+                    A::TRANSFER_WRITE,
+                )],
+                &[],
+            );
+            raw.cmd_update_buffer(cb, self.control.raw, 0, bytemuck::cast_slice(&initial));
+            raw.cmd_fill_buffer(cb, self.clamp_counts.raw, 0, 16, 0);
+            // why: the loop reads the reset control (indirect args, RAW) and counts, and q written
+            // by the irradiance gather (compute) or an upload (transfer) (RAW).
+            barrier::record(
+                ctx,
+                cb,
+                &[raw_barrier(
+                    S::COPY | S::CLEAR | S::COMPUTE_SHADER,
+                    A::TRANSFER_WRITE | A::SHADER_STORAGE_WRITE,
+                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
+                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::INDIRECT_COMMAND_READ,
+                )],
+                &[],
+            );
+            for h in 0..self.levels.len() {
+                let level = &self.levels[h];
+                let push = level.push();
+                let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
+                scope(cb, Some(PASS_INIT));
+                // why: init overwrites this level's phi, which the previous frame's J+ or
+                // reduction read (WAR), and reads the coarser level's last iteration (RAW).
+                barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+                let coarse_width = if h > 0 {
+                    self.levels[h - 1].packing.width
+                } else {
+                    1
+                };
+                self.pipelines.init.dispatch(
+                    ctx,
+                    cb,
+                    level.init_set,
+                    &ShepardPush {
+                        size: push.size,
+                        coarse_width,
+                        zero: u32::from(h == 0),
+                    },
+                    level.extent(),
+                );
+                scope(cb, None);
+                for _ in 0..self.blocks[h] {
+                    scope(cb, Some(PASS_JACOBI));
+                    match self.params.precision {
+                        Precision::Mixed => {
+                            let (Some(rp), Some(ap)) =
+                                (&self.pipelines.residual, &self.pipelines.apply)
+                            else {
+                                continue;
+                            };
+                            // why: the residual reads phi written by init or the last apply (RAW)
+                            // and overwrites delta the last reduction read (WAR).
+                            barrier::memory(
+                                ctx,
+                                cb,
+                                Access::ComputeWrite,
+                                Access::ComputeReadWrite,
+                            );
+                            rp.dispatch_indirect(
+                                ctx,
+                                cb,
+                                level.iterate_sets[2],
+                                &push,
+                                &self.control,
+                                offset,
+                            );
+                            for j in 1..k {
+                                // why: this sweep reads the previous iterate (RAW) and overwrites
+                                // the one before (WAR).
+                                barrier::memory(
+                                    ctx,
+                                    cb,
+                                    Access::ComputeWrite,
+                                    Access::ComputeReadWrite,
+                                );
+                                let set = level.iterate_sets[((j - 1) % 2) as usize];
+                                self.pipelines.iterate.dispatch_indirect(
+                                    ctx,
+                                    cb,
+                                    set,
+                                    &push,
+                                    &self.control,
+                                    offset,
+                                );
+                            }
+                            // why: phi += the last correction (RAW on delta).
+                            barrier::memory(
+                                ctx,
+                                cb,
+                                Access::ComputeWrite,
+                                Access::ComputeReadWrite,
+                            );
+                            ap.dispatch_indirect(
+                                ctx,
+                                cb,
+                                level.iterate_sets[3],
+                                &push,
+                                &self.control,
+                                offset,
+                            );
+                        }
+                        Precision::Fp32 | Precision::Fp16 => {
+                            for j in 0..k {
+                                // why: this iteration reads the previous one's output (RAW) and
+                                // overwrites what the one before read (WAR).
+                                barrier::memory(
+                                    ctx,
+                                    cb,
+                                    Access::ComputeWrite,
+                                    Access::ComputeReadWrite,
+                                );
+                                let set = level.iterate_sets[(j % 2) as usize];
+                                self.pipelines.iterate.dispatch_indirect(
+                                    ctx,
+                                    cb,
+                                    set,
+                                    &push,
+                                    &self.control,
+                                    offset,
+                                );
+                            }
+                        }
+                    }
+                    scope(cb, None);
+                    scope(cb, Some(PASS_CONVERGENCE));
+                    // why: the reduction reads the block's last two iterates (RAW).
+                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+                    self.pipelines.reduce.dispatch(
+                        ctx,
+                        cb,
+                        level.reduce_set,
+                        &ReducePush {
+                            size: push.size,
+                            level: h as u32,
+                            k,
+                            tolerance: self.params.tolerance,
+                        },
+                        [1, 1, 1],
+                    );
+                    // why: the next block's indirect dispatches read the arguments the reduction
+                    // wrote (RAW at DRAW_INDIRECT), and its next reduction updates them again.
+                    barrier::record(
+                        ctx,
+                        cb,
+                        &[raw_barrier(
+                            S::COMPUTE_SHADER,
+                            A::SHADER_STORAGE_WRITE,
+                            S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                            A::INDIRECT_COMMAND_READ
+                                | A::SHADER_STORAGE_READ
+                                | A::SHADER_STORAGE_WRITE,
+                        )],
+                        &[],
+                    );
+                    scope(cb, None);
+                }
+            }
+            let finest = &self.levels[self.levels.len() - 1];
+            scope(cb, Some(PASS_J_PLUS));
+            // why: J+ reads the finest level's final phi (RAW) and overwrites the J+ image the
+            // previous frame's vertex pass read (WAR).
+            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+            self.pipelines.j_plus.dispatch(
+                ctx,
+                cb,
+                self.j_plus_set,
+                &JPlusPush {
+                    size: finest.push().size,
+                    surface_rows: finest.packing.surface_rows,
+                    inv_q_scale: 1.0 / self.q_scale,
+                    phi_factor: ((1.0 + 1.0 / self.a) / 4.0) as f32,
+                    q_factor: (1.0 / (1.0 + self.f_dr)) as f32,
+                },
+                finest.extent(),
+            );
+            scope(cb, None);
+            scope(cb, Some(PASS_VERTEX_J_PLUS));
+            // why: the vertex pass reads the J+ image just written (RAW).
+            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+            self.pipelines.vertex.dispatch(
+                ctx,
+                cb,
+                self.vertex_set,
+                &VertexPush {
+                    count: self.vertex_count,
+                    width: finest.packing.width,
+                },
+                [self.vertex_count.max(1), 1, 1],
+            );
+            scope(cb, None);
+            ctx.end_label(cb);
+        }
+    }
+
+    /// Headless: makes the last solve's buffer writes host-visible (own submission, waited).
+    fn sync_host(&self, ctx: &Context) -> Result<(), Error> {
+        ctx.execute("diffusion host sync", |cb| {
+            // SAFETY: `cb` is recording.
+            unsafe {
+                // why: the CPU reads the control, count and vertex buffers the compute passes
+                // wrote (RAW across the host boundary).
+                barrier::memory(ctx, cb, Access::ComputeWrite, Access::HostRead);
+            }
+            Ok(())
+        })?;
+        Ok(())
+    }
+
+    /// Headless, after the solve's submission completed: the control record of every level.
+    pub fn control(&self, ctx: &Context) -> Result<Vec<LevelControl>, Error> {
+        self.sync_host(ctx)?;
+        let bytes = self.control.read_bytes()?;
+        Ok(bytes
+            .chunks_exact(std::mem::size_of::<LevelControl>())
+            .map(bytemuck::pod_read_unaligned)
+            .collect())
+    }
+
+    /// Headless: Jacobi iterations run per level (the GPU's counter).
+    pub fn iterations_run(&self, ctx: &Context) -> Result<Vec<u32>, Error> {
+        Ok(self.control(ctx)?.iter().map(|c| c.iterations).collect())
+    }
+
+    /// Headless: surface nodes clamped at J+ = 0 per channel in the last solve.
+    pub fn clamped(&self, ctx: &Context) -> Result<[u32; 3], Error> {
+        self.sync_host(ctx)?;
+        let b = self.clamp_counts.read_bytes()?;
+        let c: [u32; 4] = bytemuck::pod_read_unaligned(&b[..16]);
+        Ok([c[0], c[1], c[2]])
+    }
+
+    /// Headless: the per display-vertex J+ of the last solve.
+    pub fn read_vertex_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
+        self.sync_host(ctx)?;
+        let b = self.vertex_j_plus.read_bytes()?;
+        Ok(b.chunks_exact(16)
+            .take(self.vertex_count as usize)
+            .map(|c| {
+                let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
+                [v[0], v[1], v[2]]
+            })
+            .collect())
+    }
+
+    fn read_nodes(
+        &self,
+        ctx: &Context,
+        img: &Image,
+        level: &GpuLevel,
+        scale: f32,
+    ) -> Result<Vec<[f32; 3]>, Error> {
+        let linear = ImageReadback::capture(ctx, img, Access::ComputeReadWrite)?;
+        Ok(level
+            .packing
+            .texels
+            .iter()
+            .map(|&[u, v]| {
+                let p = linear.pixel(u, v);
+                [p[0] * scale, p[1] * scale, p[2] * scale]
+            })
+            .collect())
+    }
+
+    /// Headless: phi of `level` in node order (inner, then surface), unscaled.
+    pub fn read_phi(&self, ctx: &Context, level: usize) -> Result<Vec<[f32; 3]>, Error> {
+        let l = self.levels.get(level).ok_or_else(|| {
+            bad_param(
+                "level",
+                format!("{level} (only {} levels)", self.levels.len()),
+            )
+        })?;
+        self.read_nodes(ctx, l.result(), l, 1.0 / self.q_scale)
+    }
+
+    /// Headless: clamped J+ per surface node of the finest level (surface index order).
+    pub fn read_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
+        let l = &self.levels[self.levels.len() - 1];
+        let all = self.read_nodes(ctx, &self.j_plus, l, 1.0)?;
+        Ok(all[l.inner_count..].to_vec())
+    }
+}

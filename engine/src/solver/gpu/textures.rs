@@ -1,0 +1,173 @@
+//! The texel arrays of one QuadGraph level (DESIGN section 4), built on the CPU from the f64
+//! operator ([`LevelOperator`]) and uploaded as textures by [`super::GpuDiffusion`].
+//!
+//! One node = one texel at `packing.texels[node]`; padding texels point to themselves with weight 0
+//! and have `source_gain.a = 0` (left out of reductions). Per texel:
+//!
+//! | texture | format | channels |
+//! |---|---|---|
+//! | `connectivity` | RGBA32UI | the 4 neighbours' linear texel indices `v * width + u` (one 32-bit index instead of a (u, v) pair: half the bytes of the paper's two textures, no 16-bit limit on the width) |
+//! | `weight_r/g/b` | RGBA32F | per channel, the Jacobi weights `off_ik / diag_i` of the 4 neighbours (f64 on the CPU, then f32) |
+//! | `source_gain` | RGBA32F | rgb: `q_gain / diag_s` on surface rows (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9), 0 on inner rows; a: 1 for a node, 0 for padding |
+//! | `links_lo/hi` | RGBA32UI | 8 linear texel indices into the coarser level (paper Eq. 10) |
+//! | `link_weights_lo/hi` | RGBA16F | their Shepard weights (renormalized on the GPU) |
+//! | `surface_position` | RGBA32F | rgb: surface node position (mm), a: 1 on surface nodes |
+//! | `surface_normal` | RGBA16F | rgb: outward unit normal of surface nodes |
+//!
+//! Why three weight textures and no material textures: with a heterogeneous material, the `fv`
+//! weights `A_f kappa_ij / (V_i d_ij)` use a harmonic kappa per channel, so they differ per channel;
+//! folding material, geometry and the diagonal (with mu) into f64-computed weights keeps one
+//! multiply-add per neighbour and channel and makes the GPU iteration the CPU reference's
+//! `LevelOperator::jacobi_sweep` up to f32 rounding. Editing the material re-uploads these weights.
+
+use half::f16;
+
+use crate::quadgraph::graph::{GraphLevel, Packing, NO_NODE};
+use crate::quadgraph::packing;
+use crate::solver::operator::LevelOperator;
+use crate::solver::SolverError;
+
+/// Block size of the packing used when a level comes without one (test fixtures).
+pub const FALLBACK_BLOCK: u32 = 32;
+
+/// The CPU-side contents of one level's textures, row-major, `width * height` texels each.
+#[derive(Clone, Debug)]
+pub struct LevelTexels {
+    pub packing: Packing,
+    pub connectivity: Vec<[u32; 4]>,
+    pub weights: [Vec<[f32; 4]>; 3],
+    pub source_gain: Vec<[f32; 4]>,
+    pub links: [Vec<[u32; 4]>; 2],
+    pub link_weights: [Vec<[f16; 4]>; 2],
+    pub surface_position: Vec<[f32; 4]>,
+    pub surface_normal: Vec<[f16; 4]>,
+}
+
+/// The level's packing, or a breadth-first one when the level was never packed.
+pub fn packing_of(level: &GraphLevel) -> Packing {
+    if level.packing.texels.len() == level.node_count() && level.packing.width > 0 {
+        level.packing.clone()
+    } else {
+        packing::pack(level, FALLBACK_BLOCK, false)
+    }
+}
+
+fn bad(problem: String) -> SolverError {
+    SolverError::BadGraph {
+        level: usize::MAX,
+        problem,
+    }
+}
+
+impl LevelTexels {
+    /// Builds the texels of `level` from its operator; `coarse` is the coarser level's packing
+    /// (for the Shepard links), `None` on the coarsest level.
+    pub fn build(
+        level: &GraphLevel,
+        op: &LevelOperator,
+        coarse: Option<&Packing>,
+    ) -> Result<Self, SolverError> {
+        let packing = packing_of(level);
+        let (w, h) = (packing.width as usize, packing.height as usize);
+        let texels = w * h;
+        if texels == 0 || packing.texels.len() != level.node_count() {
+            return Err(bad(format!(
+                "packing has {} texels for {} nodes",
+                packing.texels.len(),
+                level.node_count()
+            )));
+        }
+        let linear: Vec<u32> = (0..level.node_count() as u32)
+            .map(|n| packing.linear_index(n))
+            .collect();
+        if let Some(&t) = linear.iter().find(|&&t| t as usize >= texels) {
+            return Err(bad(format!("texel {t} outside the {w}x{h} texture")));
+        }
+        let inner = level.inner_count();
+        let surface_rows = packing.surface_rows as usize * w;
+        let mut out = LevelTexels {
+            connectivity: (0..texels as u32).map(|t| [t; 4]).collect(),
+            weights: std::array::from_fn(|_| vec![[0.0; 4]; texels]),
+            source_gain: vec![[0.0; 4]; texels],
+            links: std::array::from_fn(|_| vec![[0; 4]; texels]),
+            link_weights: std::array::from_fn(|_| vec![[f16::ZERO; 4]; texels]),
+            surface_position: vec![[0.0; 4]; texels],
+            surface_normal: vec![[f16::ZERO; 4]; texels],
+            packing,
+        };
+        for node in 0..level.node_count() {
+            let t = linear[node] as usize;
+            let is_surface = node >= inner;
+            // The node type is a row test on the GPU (DESIGN section 3 step 10).
+            if is_surface != (t < surface_rows) {
+                return Err(bad(format!(
+                    "node {node} ({}) is packed in the wrong rows",
+                    if is_surface { "surface" } else { "inner" }
+                )));
+            }
+            let diag = op.diag[node];
+            for (k, &j) in op.neighbors[node].iter().enumerate() {
+                if j == NO_NODE {
+                    continue;
+                }
+                out.connectivity[t][k] = linear[j as usize];
+                for (c, weights) in out.weights.iter_mut().enumerate() {
+                    weights[t][k] = (op.off[node][k][c] / diag[c]) as f32;
+                }
+            }
+            out.source_gain[t][3] = 1.0;
+            if is_surface {
+                let s = node - inner;
+                for (g, d) in out.source_gain[t].iter_mut().zip(diag) {
+                    *g = (op.q_gain / d) as f32;
+                }
+                let p = level.positions[node];
+                let n = level.surface_normals[s];
+                out.surface_position[t] = [p.x as f32, p.y as f32, p.z as f32, 1.0];
+                out.surface_normal[t] = [n.x, n.y, n.z, 0.0].map(f16::from_f64);
+            }
+        }
+        if let (Some(coarse), Some(links)) = (coarse, level.from_coarser.as_ref()) {
+            if links.links.len() != level.node_count() {
+                return Err(bad(format!(
+                    "{} Shepard links for {} nodes",
+                    links.links.len(),
+                    level.node_count()
+                )));
+            }
+            for (node, (l, wt)) in links.links.iter().zip(&links.weights).enumerate() {
+                let t = linear[node] as usize;
+                for (slot, (&c, &wc)) in l.iter().zip(wt).enumerate() {
+                    if c == NO_NODE || wc == 0.0 {
+                        continue;
+                    }
+                    let ct = coarse.linear_index(c);
+                    if ct == NO_NODE || !wc.is_finite() || wc < 0.0 {
+                        return Err(bad(format!(
+                            "Shepard link {slot} of node {node} ({c}, weight {wc}) is invalid"
+                        )));
+                    }
+                    out.links[slot / 4][t][slot % 4] = ct;
+                    out.link_weights[slot / 4][t][slot % 4] = f16::from_f64(wc);
+                }
+            }
+        }
+        let finite = out
+            .weights
+            .iter()
+            .flatten()
+            .chain(&out.source_gain)
+            .flatten()
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(SolverError::NonFinite {
+                what: "GPU weights (an f64 coefficient overflows f32)".into(),
+            });
+        }
+        Ok(out)
+    }
+
+    pub fn texel_count(&self) -> usize {
+        self.packing.width as usize * self.packing.height as usize
+    }
+}

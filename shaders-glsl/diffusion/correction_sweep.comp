@@ -1,0 +1,32 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Mixed precision inner sweep (DESIGN section 4): Jacobi on the correction, A delta = r, in fp16
+// ping-pong: delta_i <- r_i + sum_k w_ik delta_nbr. The correction shrinks as phi converges, so the
+// fp16 rounding is relative to the correction, not to phi: this is what removes the fp16 stall.
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba16f) uniform readonly image2D src;
+layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D dst;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D residual;
+layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D connectivity;
+layout(set = 0, binding = 4, rgba32f) uniform readonly image2D weight_r;
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D weight_g;
+layout(set = 0, binding = 6, rgba32f) uniform readonly image2D weight_b;
+
+#include "graph_common.glsl"
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (outside(p)) {
+        return;
+    }
+    uvec4 nb = imageLoad(connectivity, p);
+    vec4 wr = imageLoad(weight_r, p);
+    vec4 wg = imageLoad(weight_g, p);
+    vec4 wb = imageLoad(weight_b, p);
+    vec3 acc = imageLoad(residual, p).rgb;
+    for (int k = 0; k < 4; ++k) {
+        acc += vec3(wr[k], wg[k], wb[k]) * imageLoad(src, texel_of(nb[k])).rgb;
+    }
+    imageStore(dst, p, vec4(acc, 0.0));
+}

@@ -1,0 +1,23 @@
+// Shared by the diffusion passes: the per-level push constants and the neighbour gather of the
+// QuadGraph textures (DESIGN section 4). One node = one texel; `connectivity` holds the 4 linear
+// texel indices v * width + u of the neighbours (padding and unused slots point to the texel
+// itself, with weight 0); `weight_r/g/b` hold, per channel, the Jacobi weights a_ik / a_ii of the
+// 4 neighbours (computed in f64 on the CPU, see solver/gpu/textures.rs).
+#ifndef GRAPH_COMMON_GLSL
+#define GRAPH_COMMON_GLSL
+
+layout(push_constant) uniform LevelPush {
+    ivec2 size;
+    uint width;
+    uint flags;
+} pc;
+
+ivec2 texel_of(uint linear) {
+    return ivec2(int(linear % pc.width), int(linear / pc.width));
+}
+
+bool outside(ivec2 p) {
+    return p.x >= pc.size.x || p.y >= pc.size.y;
+}
+
+#endif

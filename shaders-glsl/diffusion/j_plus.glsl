@@ -1,0 +1,43 @@
+// Outgoing partial current at the surface nodes (DESIGN section 2):
+// J+ = (1 + 1/A) phi / 4 - q / (1 + F_dr), unscaled from the exposure (phi and q are stored times
+// q_scale), clamped at 0 for display; clamped nodes are counted per channel. Surface nodes are the
+// rows v < surface_rows with source_gain.a = 1. Included with PHI_FORMAT set.
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, PHI_FORMAT) uniform readonly image2D phi;
+layout(set = 0, binding = 1, rgba16f) uniform readonly image2D q;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source_gain;
+layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D j_plus;
+
+layout(set = 0, binding = 4, std430) buffer ClampCounts {
+    uint clamped[4];
+} counts;
+
+layout(push_constant) uniform JPlusPush {
+    ivec2 size;
+    uint surface_rows;
+    float inv_q_scale;
+    float phi_factor;
+    float q_factor;
+} pc;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (p.x >= pc.size.x || p.y >= pc.size.y) {
+        return;
+    }
+    bool surface = uint(p.y) < pc.surface_rows && imageLoad(source_gain, p).a != 0.0;
+    vec3 j = vec3(0.0);
+    if (surface) {
+        vec3 raw = (pc.phi_factor * imageLoad(phi, p).rgb - pc.q_factor * imageLoad(q, p).rgb)
+                 * pc.inv_q_scale;
+        for (int c = 0; c < 3; ++c) {
+            if (!(raw[c] >= 0.0)) {
+                atomicAdd(counts.clamped[c], 1u);
+                raw[c] = 0.0;
+            }
+        }
+        j = raw;
+    }
+    imageStore(j_plus, p, vec4(j, surface ? 1.0 : 0.0));
+}

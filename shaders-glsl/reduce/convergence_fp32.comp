@@ -1,0 +1,5 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#define DELTA_FORMAT rgba32f
+#define PHI_FORMAT rgba32f
+#include "convergence.glsl"
