@@ -334,3 +334,72 @@ fn bad_parameters_and_q_are_typed_errors() {
     drop(solve);
     gpu.finish();
 }
+
+/// The GPU-written vertex J+ drawn by the mesh pass (no CPU round trip) gives the same image as
+/// the CPU reference's vertex J+ uploaded with `set_exitance`, on the same schedule.
+#[test]
+fn mesh_pass_draws_the_gpu_written_exitance() {
+    use translucent::render::{FrameDesc, HeadlessRenderer, Light, Scene as RenderScene};
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 2);
+    let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    let cpu = cpu_jacobi(&graph, &field, 32);
+    let scene = RenderScene {
+        mesh: graph.surface.clone(),
+        exitance: cpu.vertex_j_plus.clone(),
+        lights: vec![Light::default_light()],
+        eta: 1.3,
+    };
+    let frame = FrameDesc {
+        width: 64,
+        height: 64,
+        specular: false,
+        ..Default::default()
+    };
+    let mut renderer = HeadlessRenderer::new(ctx, &scene, &frame).unwrap();
+    let reference = renderer.render_frame(ctx).unwrap().image;
+
+    let q = q_levels(&graph, &field, 1.0);
+    let params = GpuSolveParams {
+        iterations: vec![32],
+        tolerance: 0.0,
+        ..Default::default()
+    };
+    let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params).unwrap();
+    solve.set_q_scale(GpuDiffusion::exposure_for(q.iter().flatten()));
+    for (h, q) in q.iter().enumerate() {
+        solve.upload_q(ctx, h, q).unwrap();
+    }
+    // Zero the uploaded exitance first, so the image can only match if the GPU wrote it.
+    renderer
+        .set_exitance(ctx, &vec![[0.0; 3]; graph.surface.positions.len()])
+        .unwrap();
+    solve.bind_mesh(ctx, renderer.mesh()).unwrap();
+    let captured = renderer
+        .render_frame_after(ctx, |cb, profiler| {
+            // SAFETY: `cb` is recording; `solve` outlives the waited submission.
+            unsafe { solve.record(ctx, cb, Some(profiler)) };
+        })
+        .unwrap();
+    let (mut diff, mut sum) = (0.0f64, 0.0f64);
+    for (a, b) in captured.image.pixels.iter().zip(&reference.pixels) {
+        for c in 0..3 {
+            assert!(a[c].is_finite());
+            diff += f64::from((a[c] - b[c]).abs());
+            sum += f64::from(b[c].abs());
+        }
+    }
+    println!(
+        "image relative L1 difference {:.2e}; passes {:?}",
+        diff / sum,
+        captured.passes
+    );
+    assert!(sum > 0.0, "reference image is black");
+    // Tolerance: the vertex J+ agree to the 0.5% of the solver comparison.
+    assert!(diff / sum < 5e-3, "relative L1 {}", diff / sum);
+    assert!(captured.passes.contains_key("diffusion jacobi"));
+    drop(solve);
+    drop(renderer);
+    gpu.finish();
+}

@@ -78,7 +78,8 @@ impl HeadlessRenderer {
         let shadow = ShadowPass::new(ctx, SHADOW_RESOLUTION)?;
         let shading = MeshPass::new(ctx, &shadow)?;
         let readback = ImageReadback::new(ctx, &target.color)?;
-        let profiler = GpuProfiler::new(ctx, "headless frame", 8)?;
+        // Room for a GPU solve recorded before the frame (scopes per Jacobi block).
+        let profiler = GpuProfiler::new(ctx, "headless frame", 4096)?;
 
         let light = scene.shadow_light().filter(|_| frame.specular);
         let (light_view_proj, light_dir, irradiance) = match light {
@@ -128,6 +129,22 @@ impl HeadlessRenderer {
 
     /// Renders one frame, waits for it and reads it back.
     pub fn render_frame(&mut self, ctx: &Context) -> Result<Captured, RenderError> {
+        self.render_frame_after(ctx, |_, _| {})
+    }
+
+    /// The displayed mesh on the GPU (e.g. for `GpuDiffusion::bind_mesh`).
+    pub fn mesh(&self) -> &GpuMesh {
+        &self.mesh
+    }
+
+    /// [`Self::render_frame`], with `before(cb, profiler)` recorded first in the same command
+    /// buffer (e.g. the GPU diffusion solve writing the mesh's exitance; it must leave its writes
+    /// visible to vertex input).
+    pub fn render_frame_after(
+        &mut self,
+        ctx: &Context,
+        before: impl FnOnce(ash::vk::CommandBuffer, &mut GpuProfiler),
+    ) -> Result<Captured, RenderError> {
         let submission = ctx.submit("headless frame", |cb| {
             let (frame, _) = ctx.frames();
             let p = &mut self.profiler;
@@ -135,6 +152,7 @@ impl HeadlessRenderer {
             // waited submission.
             unsafe {
                 p.begin_frame(cb, frame);
+                before(cb, p);
                 match &self.shadow_light {
                     Some(m) => self.shadow.record(ctx, cb, &self.mesh, m, Some(p)),
                     // No shadow-casting light: the pass is skipped (and absent from the timings).

@@ -89,7 +89,9 @@ impl GpuMesh {
             vertices: Buffer::with_data(
                 ctx,
                 "mesh vertices",
-                vk::BufferUsageFlags::VERTEX_BUFFER,
+                // STORAGE: the GPU diffusion solve writes the exitance field in place
+                // (solver::gpu::GpuDiffusion::bind_mesh), so the solved J+ never visits the CPU.
+                vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
                 &vertices,
             )?,
             index_count: indices.len() as u32,
@@ -100,6 +102,16 @@ impl GpuMesh {
                 &indices,
             )?,
         })
+    }
+
+    /// The interleaved [`Vertex`] buffer (for passes that write the exitance on the GPU).
+    pub fn vertex_buffer(&self) -> &Buffer {
+        &self.vertices
+    }
+
+    /// Vertices in [`Self::vertex_buffer`].
+    pub fn vertex_count(&self) -> usize {
+        (self.vertices.size / std::mem::size_of::<Vertex>() as u64) as usize
     }
 
     /// Binds the buffers and draws every triangle.

@@ -60,6 +60,7 @@ use super::operator::{LevelOperator, Scheme};
 use super::SolverError;
 use crate::material::MaterialField;
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
+use crate::render::{GpuMesh, Vertex};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::vk::{
     barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, ImageReadback,
@@ -165,6 +166,9 @@ pub struct JPlusPush {
 pub struct VertexPush {
     pub count: u32,
     pub width: u32,
+    /// Floats per vertex in the output buffer and the float offset of J+ in a vertex.
+    pub stride: u32,
+    pub offset: u32,
 }
 
 /// One level's record in the control buffer (`LevelControl` in `reduce/convergence.glsl`).
@@ -263,13 +267,13 @@ pub struct GpuDiffusion {
     clamp_counts: Buffer,
     j_plus: Image,
     j_plus_set: vk::DescriptorSet,
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
     vertex_links: Buffer,
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
     vertex_weights: Buffer,
     vertex_j_plus: Buffer,
     vertex_count: u32,
     vertex_set: vk::DescriptorSet,
+    /// The display mesh's vertex buffer, written in place ([`Self::bind_mesh`]).
+    mesh_set: Option<vk::DescriptorSet>,
     /// Blocks recorded per level.
     blocks: Vec<u32>,
     q_scale: f32,
@@ -593,6 +597,7 @@ impl GpuDiffusion {
             vertex_j_plus,
             vertex_count,
             vertex_set,
+            mesh_set: None,
             blocks,
             q_scale: 1.0,
             f_dr,
@@ -731,7 +736,7 @@ impl GpuDiffusion {
                     name: PASS_VERTEX_J_PLUS,
                     shader: "diffusion/vertex_j_plus.comp",
                     bindings: &["j_plus", "vertex_links", "vertex_weights", "vertex_j_plus"],
-                    max_sets: 2,
+                    max_sets: 4,
                 },
             )?,
         })
@@ -1285,12 +1290,70 @@ impl GpuDiffusion {
                 &VertexPush {
                     count: self.vertex_count,
                     width: finest.packing.width,
+                    stride: 4,
+                    offset: 0,
                 },
                 [self.vertex_count.max(1), 1, 1],
             );
+            if let Some(set) = self.mesh_set {
+                // why: the previous frame's draws fetched these vertices (WAR).
+                barrier::memory(ctx, cb, Access::VertexInput, Access::ComputeWrite);
+                let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
+                self.pipelines.vertex.dispatch(
+                    ctx,
+                    cb,
+                    set,
+                    &VertexPush {
+                        count: self.vertex_count,
+                        width: finest.packing.width,
+                        stride: floats(std::mem::size_of::<Vertex>()),
+                        offset: floats(std::mem::offset_of!(Vertex, exitance)),
+                    },
+                    [self.vertex_count.max(1), 1, 1],
+                );
+                // why: the mesh pass fetches the exitance just written as a vertex attribute
+                // (RAW across compute -> vertex input).
+                barrier::memory(ctx, cb, Access::ComputeWrite, Access::VertexInput);
+            }
             scope(cb, None);
             ctx.end_label(cb);
         }
+    }
+
+    /// Makes [`Self::record`] also write the per-vertex J+ into `mesh`'s vertex buffer (its
+    /// exitance field, in place), followed by a barrier to vertex input: the mesh pass then draws
+    /// the GPU solution with no CPU round trip. `mesh` must be the graph's display surface and
+    /// outlive every recorded solve.
+    pub fn bind_mesh(&mut self, ctx: &Context, mesh: &GpuMesh) -> Result<(), Error> {
+        if mesh.vertex_count() != self.vertex_count as usize {
+            return Err(bad_param(
+                "mesh",
+                format!(
+                    "{} vertices, but the shading weights cover {}",
+                    mesh.vertex_count(),
+                    self.vertex_count
+                ),
+            ));
+        }
+        self.mesh_set = Some(self.pipelines.vertex.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::storage_image("j_plus", &self.j_plus),
+                DescriptorWrite::StorageBuffer {
+                    name: "vertex_links",
+                    buffer: &self.vertex_links,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "vertex_weights",
+                    buffer: &self.vertex_weights,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "vertex_j_plus",
+                    buffer: mesh.vertex_buffer(),
+                },
+            ],
+        )?);
+        Ok(())
     }
 
     /// Headless: makes the last solve's buffer writes host-visible (own submission, waited).
