@@ -190,6 +190,16 @@ fn per_pass(ctx: &Context, mesh_dir: &Path, resolution: u32) -> Result<()> {
         let solid = MeshSolid::new(mesh.clone())?;
         let graph = bake(&mesh, &solid, resolution, 3)?;
         let nodes: Vec<usize> = graph.levels.iter().map(|l| l.node_count()).collect();
+        let exact = solver::solve(
+            &graph,
+            &field,
+            &scene(),
+            None,
+            &CpuSolveParams {
+                iterations: vec![0],
+                ..Default::default()
+            },
+        )?;
         for precision in [Precision::Mixed, Precision::Fp32, Precision::Fp16] {
             let params = GpuSolveParams {
                 precision,
@@ -206,8 +216,9 @@ fn per_pass(ctx: &Context, mesh_dir: &Path, resolution: u32) -> Result<()> {
                 .iter()
                 .map(|(k, v)| format!("{k} {v:.2}"))
                 .collect();
+            let err = rel_rms(&r.j_plus, &exact.j_plus_clamped);
             println!(
-                "| {name} | {nodes:?} | {precision:?} | {:?} | {:.1} | {} | {:.1} MB, {per_node:.0} B/node |",
+                "| {name} | {nodes:?} | {precision:?} | {:?} | {err:.1e} | {:.1} | {} | {:.1} MB, {per_node:.0} B/node |",
                 r.iterations,
                 r.ms,
                 passes.join(", "),
@@ -235,7 +246,7 @@ fn main() -> Result<()> {
     let mesh_dir = std::env::var_os("TRANSLUCENT_MESH_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from("../shared/meshes"));
-    println!("| mesh | nodes per level | precision | iterations | GPU ms | passes (ms) | memory |\n|---|---|---|---|---|---|---|");
+    println!("| mesh | nodes per level | precision | iterations | J+ error vs exact | GPU ms | passes (ms) | memory |\n|---|---|---|---|---|---|---|---|");
     per_pass(&ctx, &mesh_dir, resolution)?;
     Ok(())
 }

@@ -185,6 +185,19 @@ pub struct LevelControl {
     pub stopped_early: u32,
 }
 
+/// What the last [`GpuDiffusion::record`] put in the command buffer (for tests and reports).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecordStats {
+    /// Iteration dispatches (Jacobi, or residual + correction sweeps + apply in `Mixed`).
+    pub iteration_dispatches: u32,
+    /// Memory barriers recorded in front of iteration dispatches.
+    pub iteration_barriers: u32,
+    /// Blocks recorded (each followed by one reduction and one indirect-argument barrier).
+    pub blocks: u32,
+    /// Iterations the recorded blocks can run at most (blocks x k).
+    pub iterations_recorded: u32,
+}
+
 /// Pass names: profiler scopes and debug labels.
 pub const PASS_INIT: &str = "diffusion init";
 pub const PASS_JACOBI: &str = "diffusion jacobi";
@@ -276,6 +289,7 @@ pub struct GpuDiffusion {
     mesh_set: Option<vk::DescriptorSet>,
     /// Blocks recorded per level.
     blocks: Vec<u32>,
+    stats: RecordStats,
     q_scale: f32,
     f_dr: f64,
     a: f64,
@@ -599,6 +613,7 @@ impl GpuDiffusion {
             vertex_set,
             mesh_set: None,
             blocks,
+            stats: RecordStats::default(),
             q_scale: 1.0,
             f_dr,
             a,
@@ -1070,6 +1085,7 @@ impl GpuDiffusion {
         use vk::PipelineStageFlags2 as S;
         let raw = ctx.raw();
         let k = self.params.block;
+        let mut stats = RecordStats::default();
         let initial: Vec<LevelControl> = self
             .levels
             .iter()
@@ -1170,6 +1186,8 @@ impl GpuDiffusion {
                                 &self.control,
                                 offset,
                             );
+                            stats.iteration_barriers += 1;
+                            stats.iteration_dispatches += 1;
                             for j in 1..k {
                                 // why: this sweep reads the previous iterate (RAW) and overwrites
                                 // the one before (WAR).
@@ -1188,6 +1206,8 @@ impl GpuDiffusion {
                                     &self.control,
                                     offset,
                                 );
+                                stats.iteration_barriers += 1;
+                                stats.iteration_dispatches += 1;
                             }
                             // why: phi += the last correction (RAW on delta).
                             barrier::memory(
@@ -1204,6 +1224,8 @@ impl GpuDiffusion {
                                 &self.control,
                                 offset,
                             );
+                            stats.iteration_barriers += 1;
+                            stats.iteration_dispatches += 1;
                         }
                         Precision::Fp32 | Precision::Fp16 => {
                             for j in 0..k {
@@ -1224,10 +1246,14 @@ impl GpuDiffusion {
                                     &self.control,
                                     offset,
                                 );
+                                stats.iteration_barriers += 1;
+                                stats.iteration_dispatches += 1;
                             }
                         }
                     }
                     scope(cb, None);
+                    stats.blocks += 1;
+                    stats.iterations_recorded += k;
                     scope(cb, Some(PASS_CONVERGENCE));
                     // why: the reduction reads the block's last two iterates (RAW).
                     barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
@@ -1318,6 +1344,12 @@ impl GpuDiffusion {
             scope(cb, None);
             ctx.end_label(cb);
         }
+        self.stats = stats;
+    }
+
+    /// What the last [`Self::record`] recorded.
+    pub fn record_stats(&self) -> RecordStats {
+        self.stats
     }
 
     /// Makes [`Self::record`] also write the per-vertex J+ into `mesh`'s vertex buffer (its
