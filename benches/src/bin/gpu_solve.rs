@@ -107,9 +107,12 @@ fn multilevel(ctx: &Context, out: &Path, resolution: u32) -> Result<()> {
     let mesh = ball.triangulate(48);
     let field = MaterialField::Homogeneous(Material::preset("skin1")?);
     let tolerances = [3e-2f32, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4];
-    let mut csv = String::from("levels,tolerance,iterations,gpu_ms,rel_rms_error\n");
+    let mut csv = String::from("levels,tolerance,iterations,node_updates,gpu_ms,rel_rms_error\n");
     let mut series: Vec<(u32, Vec<(f64, f64)>)> = Vec::new();
-    println!("| levels | tolerance | iterations per level (GPU counter) | GPU ms | J+ rel. RMS error vs exact |\n|---|---|---|---|---|");
+    // Deterministic work measure (lavapipe timings move with the machine's load): node updates,
+    // sum over levels of iterations x nodes.
+    let mut work_series: Vec<(u32, Vec<(f64, f64)>)> = Vec::new();
+    println!("| levels | tolerance | iterations per level (GPU counter) | node updates | GPU ms | J+ rel. RMS error vs exact |\n|---|---|---|---|---|---|");
     for levels in [1u32, 3] {
         let graph = bake(&mesh, &ball, resolution, levels)?;
         let exact = solver::solve(
@@ -123,6 +126,8 @@ fn multilevel(ctx: &Context, out: &Path, resolution: u32) -> Result<()> {
             },
         )?;
         let mut points = Vec::new();
+        let mut work = Vec::new();
+        let nodes: Vec<f64> = graph.levels.iter().map(|l| l.node_count() as f64).collect();
         for &tol in &tolerances {
             let params = GpuSolveParams {
                 precision: Precision::Mixed,
@@ -132,21 +137,30 @@ fn multilevel(ctx: &Context, out: &Path, resolution: u32) -> Result<()> {
             };
             let r = run(ctx, &graph, &field, &params)?;
             let err = rel_rms(&r.j_plus, &exact.j_plus_clamped);
+            let updates: f64 = r
+                .iterations
+                .iter()
+                .zip(&nodes)
+                .map(|(&i, n)| f64::from(i) * n)
+                .sum();
             println!(
-                "| {levels} | {tol:.0e} | {:?} | {:.1} | {err:.2e} |",
-                r.iterations, r.ms
+                "| {levels} | {tol:.0e} | {:?} | {:.2e} | {:.1} | {err:.2e} |",
+                r.iterations, updates, r.ms
             );
             csv.push_str(&format!(
-                "{levels},{tol},{},{:.3},{err:.4e}\n",
+                "{levels},{tol},{},{updates},{:.3},{err:.4e}\n",
                 r.iterations.iter().sum::<u32>(),
                 r.ms
             ));
             points.push((r.ms.max(1e-3), err.max(1e-7)));
+            work.push((updates.max(1.0), err.max(1e-7)));
         }
         series.push((levels, points));
+        work_series.push((levels, work));
     }
     std::fs::write(out.join("gpu_multilevel.csv"), csv)?;
     plot(&out.join("gpu_multilevel.png"), &series)?;
+    plot(&out.join("gpu_multilevel_work.png"), &work_series)?;
     Ok(())
 }
 
