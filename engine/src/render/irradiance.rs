@@ -287,7 +287,7 @@ impl IrradiancePass {
                     "surface_normal",
                     "q",
                     "shadow_atlas",
-                    "GatherScene",
+                    "scene",
                 ],
                 max_sets: max_levels.max(1),
             },
@@ -373,7 +373,7 @@ impl IrradiancePass {
                     layout: vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
                 },
                 DescriptorWrite::StorageBuffer {
-                    name: "GatherScene",
+                    name: "scene",
                     buffer: &self.scene,
                 },
             ],
