@@ -50,12 +50,14 @@ layout(push_constant) uniform GatherPush {
 } pc;
 
 // Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit.
-float visibility(uint index, vec3 p, vec3 n) {
+float visibility(uint index, vec3 p, vec3 n, float cos_l) {
     ShadowView v = scene.views[index];
-    // Normal offset (world texel size at p): keeps faceted-mesh depth from shadowing the
-    // exact-surface node that lies a chord's sagitta below it.
+    // Normal offset, in world texels at p, growing with the angle to the light: the PCF kernel
+    // reaches a texel and a half from p's projection, where a tilted surface's own depth is
+    // nearer the light by tan(theta) per texel (acne). Facing the light, no offset is needed.
     float texel = v.tile.w + v.eye.w * distance(p, v.eye.xyz);
-    vec4 clip = v.view_proj * vec4(p + n * (pc.normal_offset * texel), 1.0);
+    float sin_l = sqrt(max(1.0 - cos_l * cos_l, 0.0));
+    vec4 clip = v.view_proj * vec4(p + n * (pc.normal_offset * texel * sin_l), 1.0);
     if (clip.w <= 0.0) {
         return 1.0;
     }
@@ -140,9 +142,9 @@ void main() {
         }
         float vis = 1.0;
         if (light.views.y == 1u) {
-            vis = visibility(light.views.x, p, n);
+            vis = visibility(light.views.x, p, n, cos_l);
         } else if (light.views.y == 6u) {
-            vis = visibility(light.views.x + cube_face(-l), p, n);
+            vis = visibility(light.views.x + cube_face(-l), p, n, cos_l);
         }
         sum += e * (cos_l * fresnel_transmittance(pc.eta, cos_l) * vis);
     }

@@ -307,21 +307,35 @@ fn visibility_agreement(
     graph: &QuadGraph,
     solid: &dyn Solid,
     light: &str,
+    cast_shadows: bool,
 ) -> (usize, usize, usize) {
     let level = graph.finest();
     let uploaded = as_uploaded(level);
     let scene = single(light);
     let shadowed = scene.surface_irradiance(&uploaded, ETA, Some(solid));
     let free = scene.surface_irradiance(&uploaded, ETA, None);
-    let got = gather(&gpu.ctx, graph, &scene, true, 1024, None);
+    let got = gather(&gpu.ctx, graph, &scene, cast_shadows, 1024, None);
     let (mut agree, mut lit) = (0, 0);
-    for ((g, s), f) in got.q.iter().zip(&shadowed).zip(&free) {
+    let inner = level.inner_count();
+    for (i, ((g, s), f)) in got.q.iter().zip(&shadowed).zip(&free).enumerate() {
         // The channel with the most light decides; visibility is the same for all three.
         let c = (0..3).max_by(|&a, &b| f[a].total_cmp(&f[b])).unwrap_or(0);
         let cpu_visible = s[c] > 0.0;
         let gpu_visible = f[c] > 0.0 && f64::from(g[c]) > 0.5 * f[c];
         lit += usize::from(cpu_visible);
         agree += usize::from(cpu_visible == gpu_visible);
+        // LIGHT_DEBUG=1 lists the disagreeing nodes (where, how grazing, PCF fraction).
+        if cpu_visible != gpu_visible && std::env::var_os("LIGHT_DEBUG").is_some() {
+            let p = uploaded.positions[inner + i];
+            let n = uploaded.surface_normals[i];
+            let (_, l, _) = scene.lights[0].arriving(p);
+            eprintln!(
+                "  cpu {cpu_visible} gpu {:.3} free {:.4} cos {:.3} at {p:.2}",
+                f64::from(g[c]) / f[c],
+                f[c],
+                n.dot(l)
+            );
+        }
     }
     gpu.assert_no_messages();
     (agree, got.q.len(), lit)
@@ -337,10 +351,10 @@ fn shadow_maps_agree_with_ray_casting_on_a_self_shadowing_torus() {
     for light in [
         "dir:1,-0.18,0.3:1,1,1",
         "spot:-40,6,0:1,-0.15,0:2000,2000,2000:20,40",
-        "point:30,4,20:2000,2000,2000",
+        "point:30,7,20:2000,2000,2000",
         "point:0,0,0:200,200,200",
     ] {
-        let (agree, total, lit) = visibility_agreement(&gpu, &graph, &torus, light);
+        let (agree, total, lit) = visibility_agreement(&gpu, &graph, &torus, light, true);
         let share = agree as f64 / total as f64;
         eprintln!(
             "torus, {light}: shadow-map visibility agrees with ray casting on {agree}/{total} \
@@ -350,6 +364,11 @@ fn shadow_maps_agree_with_ray_casting_on_a_self_shadowing_torus() {
         assert!(lit > total / 10, "{light}: only {lit} nodes lit");
         assert!(share >= 0.98, "{light}: agreement {share}");
     }
+    // The check can fail: without shadow maps the grazing light's agreement drops well below.
+    let (agree, total, _) =
+        visibility_agreement(&gpu, &graph, &torus, "dir:1,-0.18,0.3:1,1,1", false);
+    eprintln!("torus, no shadow maps: {agree}/{total}");
+    assert!((agree as f64) < 0.95 * total as f64, "{agree}/{total}");
     gpu.finish();
 }
 
@@ -388,7 +407,7 @@ fn shadow_maps_agree_with_ray_casting_on_the_rocker_arm() {
         "dir:1,-0.2,0.4:1,1,1",
         "spot:0,60,10:0,-1,-0.1:9000,9000,9000:25,45",
     ] {
-        let (agree, total, lit) = visibility_agreement(&gpu, &graph, &solid, light);
+        let (agree, total, lit) = visibility_agreement(&gpu, &graph, &solid, light, true);
         let share = agree as f64 / total as f64;
         eprintln!(
             "rocker arm, {light}: agreement {agree}/{total} ({:.2}%), {lit} lit",
@@ -436,7 +455,10 @@ fn no_shadow_casting_light_records_no_shadow_pass() {
         eprintln!("skipped the profiler check: the device has no timestamps");
     }
     // A sphere never shadows itself: the same q either way.
-    assert_eq!(with.q, without.q);
+    assert!(
+        with.q == without.q,
+        "shadow maps changed q on a convex sphere"
+    );
     gpu.finish();
 }
 
