@@ -600,7 +600,7 @@ fn light_pass_timings() {
     );
     for tile in [512, 1024, 2048] {
         let mut rows = Vec::new();
-        for _ in 0..5 {
+        for _ in 0..9 {
             rows.push(gather(&gpu.ctx, &graph, &scene, true, tile, None).passes);
         }
         let median = |name: &str| {
@@ -609,7 +609,7 @@ fn light_pass_timings() {
             v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
         };
         eprintln!(
-            "tile {tile}: shadow_map {:.3} ms, gather_q {:.3} ms (median of 5)",
+            "tile {tile}: shadow_map {:.3} ms, gather_q {:.3} ms (median of 9)",
             median("shadow_map"),
             median("gather_q")
         );

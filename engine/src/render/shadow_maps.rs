@@ -415,6 +415,12 @@ impl ShadowMaps {
             return;
         }
         let extent = self.atlas.extent();
+        // Only the tiles in use are cleared and drawn: the atlas is sized for the most views.
+        let used = self.views.len() as u32;
+        let area = vk::Extent2D {
+            width: used.min(self.columns) * self.tile,
+            height: used.div_ceil(self.columns) * self.tile,
+        };
         let depth = vk::RenderingAttachmentInfo::default()
             .image_view(self.atlas.view)
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
@@ -429,7 +435,7 @@ impl ShadowMaps {
         let rendering = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D::default(),
-                extent,
+                extent: area,
             })
             .layer_count(1)
             .depth_attachment(&depth);
