@@ -616,3 +616,112 @@ fn light_pass_timings() {
     }
     gpu.finish();
 }
+
+/// Every level of a multi-level bake gathered in one command buffer, twice (two frames: the
+/// second frame's shadow pass and scene update must wait for the first frame's reads), each level
+/// against the reference; synchronization validation must stay silent.
+#[test]
+fn every_level_is_gathered_in_one_frame() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let ball = Shape::Sphere { radius: 10.0 };
+    let params = BakeParams {
+        resolution: 16,
+        levels: 2,
+        ..Default::default()
+    };
+    let graph = QuadGraph::bake(&ball.triangulate(48), &ball, &params, &mut |_| {})
+        .expect("bake")
+        .0;
+    assert_eq!(graph.levels.len(), 2);
+    let scene = Scene {
+        lights: vec![
+            "dir:0.3,-1,0.2:1,2,3".parse().expect("light"),
+            "point:0,0,25:500,500,500".parse().expect("light"),
+        ],
+        environment: Environment::Constant([0.05; 3]),
+    };
+    let caster = GpuMesh::new(
+        ctx,
+        &graph.surface,
+        &vec![[0.0; 3]; graph.surface.positions.len()],
+    )
+    .expect("caster");
+    let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default()).expect("shadow maps");
+    shadows
+        .set_lights(&scene.lights, mesh_bounds(&graph.surface), true)
+        .expect("lights");
+    let pass = IrradiancePass::new(ctx, 2).expect("pass");
+    let images: Vec<SurfaceImages> = graph
+        .levels
+        .iter()
+        .map(|l| SurfaceImages::upload(ctx, l).expect("images"))
+        .collect();
+    let sets: Vec<_> = images
+        .iter()
+        .map(|i| {
+            pass.bind_level(ctx, &shadows, &i.position, &i.normal, &i.q, i.surface_rows)
+                .expect("set")
+        })
+        .collect();
+    let uniforms = GatherScene::new(&scene, &shadows).expect("scene");
+    let finest = graph.finest();
+    let q_scale = q_scale_for(&scene, finest, ETA);
+    let mut q_state = Access::Undefined;
+    for _frame in 0..2 {
+        ctx.execute("gather all levels", |cb| {
+            // SAFETY: `cb` is recording; everything outlives the waited submission.
+            unsafe {
+                shadows.record(ctx, cb, &caster, None);
+                pass.record_scene(ctx, cb, &uniforms);
+                for (set, img) in sets.iter().zip(&images) {
+                    pass.record(
+                        ctx, cb, set, &shadows, &img.q, q_state, q_scale, ETA as f32, None,
+                    )
+                    .map_err(|e| VkError::InvalidArgument {
+                        what: "gather".into(),
+                        problem: e.to_string(),
+                    })?;
+                }
+            }
+            Ok(())
+        })
+        .expect("frame");
+        // Next frame, q was last written by the gather (a solver would have read it since).
+        q_state = Access::ComputeWrite;
+    }
+    for (level, img) in graph.levels.iter().zip(&images) {
+        let uploaded = as_uploaded(level);
+        let reference = scene.surface_irradiance(&uploaded, ETA, Some(&ball));
+        let got = img
+            .read_q(ctx, level, Access::ComputeWrite, q_scale)
+            .expect("read");
+        let max_q = reference.iter().flatten().fold(0.0f64, |m, &v| m.max(v));
+        let inner = level.inner_count();
+        let mut checked = 0;
+        for (s, (g, r)) in got.iter().zip(&reference).enumerate() {
+            let p = uploaded.positions[inner + s];
+            let n = uploaded.surface_normals[s];
+            if scene.lights.iter().any(|l| {
+                let c = n.dot(l.arriving(p).1);
+                c > 0.0 && c < 0.2
+            }) {
+                continue; // terminator: PCF may dim it
+            }
+            checked += 1;
+            for c in 0..3 {
+                let err = (f64::from(g[c]) - r[c]).abs();
+                assert!(
+                    err <= RELATIVE_TOLERANCE * r[c] + 1e-6 * max_q,
+                    "level with {} nodes, node {s}: GPU {} CPU {}",
+                    level.surface_count(),
+                    g[c],
+                    r[c]
+                );
+            }
+        }
+        assert!(checked > level.surface_count() / 3, "{checked}");
+    }
+    drop((sets, images, pass, shadows, caster));
+    gpu.finish();
+}
