@@ -725,3 +725,60 @@ fn every_level_is_gathered_in_one_frame() {
     drop((sets, images, pass, shadows, caster));
     gpu.finish();
 }
+
+/// The atlas projection of a view lands each point in the view's tile, at the texel the gather
+/// computes from the view's own projection.
+#[test]
+fn atlas_projection_lands_in_the_views_tile() {
+    let gpu = GpuTest::new();
+    let mut shadows = ShadowMaps::new(
+        &gpu.ctx,
+        &ShadowMapsDesc {
+            tile_resolution: 64,
+            max_views: 12,
+        },
+    )
+    .expect("shadow maps");
+    let lights: Vec<Light> = ["dir:0,-1,0:1,1,1", "point:0,0,0:1,1,1"]
+        .iter()
+        .map(|l| l.parse().expect("light"))
+        .collect();
+    shadows
+        .set_lights(&lights, (DVec3::ZERO, 10.0), true)
+        .expect("lights");
+    assert_eq!(shadows.light_views(), &[(0, 1), (1, 6)]);
+    let (w, h) = (shadows.atlas.width as f32, shadows.atlas.height as f32);
+    let mut checked = 0;
+    for (i, v) in shadows.views().iter().enumerate() {
+        let m = shadows.atlas_view_proj(i).expect("view");
+        for p in [
+            DVec3::new(1.0, -2.0, 3.0),
+            DVec3::new(-4.0, 1.0, 0.5),
+            DVec3::new(0.5, 0.3, -6.0),
+        ] {
+            let clip = v.view_proj * p.as_vec3().extend(1.0);
+            let own = clip.truncate() / clip.w;
+            if clip.w <= 0.0 || own.x.abs() > 1.0 || own.y.abs() > 1.0 {
+                continue; // not in this view (another cube face)
+            }
+            let atlas = m * p.as_vec3().extend(1.0);
+            let atlas = atlas.truncate() / atlas.w;
+            let texel = [(atlas.x * 0.5 + 0.5) * w, (atlas.y * 0.5 + 0.5) * h];
+            let expected = [
+                v.origin[0] as f32 + (own.x * 0.5 + 0.5) * v.size as f32,
+                v.origin[1] as f32 + (own.y * 0.5 + 0.5) * v.size as f32,
+            ];
+            assert!(
+                (texel[0] - expected[0]).abs() < 1e-3 && (texel[1] - expected[1]).abs() < 1e-3,
+                "view {i}: {texel:?} vs {expected:?}"
+            );
+            assert!((atlas.z - own.z).abs() < 1e-6);
+            checked += 1;
+        }
+    }
+    // Each point is in the directional view and in at least one cube face.
+    assert!(checked >= 6, "{checked}");
+    assert!(shadows.atlas_view_proj(7).is_none());
+    drop(shadows);
+    gpu.finish();
+}

@@ -378,6 +378,25 @@ impl ShadowMaps {
         &self.light_views
     }
 
+    /// `view`'s projection onto the whole atlas: clip x, y in -1..1 cover the atlas, the view's
+    /// tile where it used to cover -1..1. For a sampler over the whole atlas that computes
+    /// `uv = ndc.xy * 0.5 + 0.5` (as `mesh/shade_mesh.frag` does for its shadow lookup).
+    pub fn atlas_view_proj(&self, view: usize) -> Option<Mat4> {
+        let v = self.views.get(view)?;
+        let (w, h) = (self.atlas.width as f32, self.atlas.height as f32);
+        let (sx, sy) = (v.size as f32 / w, v.size as f32 / h);
+        // ndc' = s ndc + (2 origin / extent + s - 1), applied to clip coordinates (times w).
+        let bx = 2.0 * v.origin[0] as f32 / w + sx - 1.0;
+        let by = 2.0 * v.origin[1] as f32 / h + sy - 1.0;
+        let tile = Mat4::from_cols(
+            glam::Vec4::new(sx, 0.0, 0.0, 0.0),
+            glam::Vec4::new(0.0, sy, 0.0, 0.0),
+            glam::Vec4::new(0.0, 0.0, 1.0, 0.0),
+            glam::Vec4::new(bx, by, 0.0, 1.0),
+        );
+        Some(tile * v.view_proj)
+    }
+
     /// Whether any light casts a shadow (otherwise [`ShadowMaps::record`] records no pass).
     pub fn any_shadows(&self) -> bool {
         !self.views.is_empty()
