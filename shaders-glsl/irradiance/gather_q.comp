@@ -1,5 +1,7 @@
 #version 460
-// Irradiance gather (DESIGN sections 2 and 5): for every surface-node texel of a level,
+// Irradiance gather (DESIGN sections 2 and 5; paper Eq. 3 and section 5: "evaluating the incoming
+// diffuse illumination on the surface, including shadows (using shadow mapping)" per level): for
+// every surface-node texel of a level,
 //   q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility + E_env(n) (1 - F_dr,ext),
 // written pre-scaled by q_scale (fp16 overflows at 65504). Visibility: 3x3 PCF in the light's
 // shadow view (a tile of the depth atlas), with a normal offset of about a texel.
@@ -146,6 +148,7 @@ void main() {
         } else if (light.views.y == 6u) {
             vis = visibility(light.views.x + cube_face(-l), p, n, cos_l);
         }
+        // Paper Eq. 3 for a delta light: E (n . w_i) F_t(w_i), shadowed.
         sum += e * (cos_l * fresnel_transmittance(pc.eta, cos_l) * vis);
     }
 
@@ -161,6 +164,7 @@ void main() {
             }
             e_env = sh_irradiance(c, n);
         }
+        // Paper Eq. 3 over the sphere of directions with F_t averaged: E_env (1 - F_dr,ext).
         sum += e_env * (1.0 - external_diffuse_reflectance(pc.eta));
     }
 

@@ -1,5 +1,5 @@
-//! [`IrradiancePass`]: the irradiance gather of DESIGN section 5. For every surface-node texel of
-//! a level it writes the transmitted irradiance (DESIGN section 2)
+//! [`IrradiancePass`]: the irradiance gather of DESIGN section 5 (paper Eq. 3 and section 5). For
+//! every surface-node texel of a level it writes the transmitted irradiance (DESIGN section 2)
 //! `q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility + E_env(n) (1 - F_dr,ext)`,
 //! times `q_scale`, into an RGBA16F storage image. Visibility is 3x3 PCF in the light's
 //! [`ShadowMaps`] view; the environment is constant (`E = pi L`) or order-2 spherical harmonics
