@@ -943,6 +943,10 @@ impl GpuDiffusion {
     pub fn surface_normal(&self, level: usize) -> Option<&Image> {
         self.levels.get(level).map(|l| &l.surface_normal)
     }
+    /// Rows of `level`'s textures holding surface nodes (what the gather covers).
+    pub fn surface_rows(&self, level: usize) -> Option<u32> {
+        self.levels.get(level).map(|l| l.packing.surface_rows)
+    }
     pub fn q_image(&self, level: usize) -> Option<&Image> {
         self.levels.get(level).map(|l| &l.q)
     }
