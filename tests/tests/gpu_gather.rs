@@ -135,3 +135,122 @@ fn gathered_q_feeds_the_gpu_solve() {
     drop(caster);
     gpu.finish();
 }
+
+/// `GpuFrame` (shadow maps + gather + solve, J+ written into the displayed mesh) rendered by the
+/// headless renderer, against the same renderer showing the CPU reference's vertex J+ (same
+/// schedule); plus its CPU-side report (residual, energy) from the GPU's phi.
+#[test]
+fn gpu_frame_renders_like_the_cpu_reference() {
+    use translucent::render::{FrameDesc, HeadlessRenderer, Scene as RenderScene};
+    use translucent::solver::gpu::GpuFrame;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let ball = Shape::Sphere { radius: 10.0 };
+    let params = BakeParams {
+        resolution: 12,
+        levels: 2,
+        ..Default::default()
+    };
+    let graph = QuadGraph::bake(&ball.triangulate(32), &ball, &params, &mut |_| {})
+        .unwrap()
+        .0;
+    let scene = Scene {
+        lights: vec!["dir:-0.3,-1,0.2:2,2,2".parse().unwrap()],
+        environment: Environment::Constant([0.05; 3]),
+    };
+    let field = MaterialField::Homogeneous(Material::preset("skimmilk").unwrap());
+    let solve_params = GpuSolveParams {
+        iterations: vec![48],
+        tolerance: 0.0,
+        ..Default::default()
+    };
+    let cpu = solver::solve(
+        &graph,
+        &field,
+        &scene,
+        None,
+        &CpuSolveParams {
+            iterations: vec![48],
+            tolerance: 0.0,
+            exact: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let render_scene = RenderScene {
+        mesh: graph.surface.clone(),
+        exitance: cpu.vertex_j_plus.clone(),
+        lights: scene.lights.clone(),
+        eta: field.eta(),
+    };
+    let desc = FrameDesc {
+        width: 64,
+        height: 64,
+        specular: false,
+        ..Default::default()
+    };
+    let mut renderer = HeadlessRenderer::new(ctx, &render_scene, &desc).unwrap();
+    let reference = renderer.render_frame(ctx).unwrap().image;
+    renderer
+        .set_exitance(ctx, &vec![[0.0; 3]; graph.surface.positions.len()])
+        .unwrap();
+    let mut frame = GpuFrame::new(ctx, &graph, &field, &scene, &solve_params).unwrap();
+    frame.solve.bind_mesh(ctx, renderer.mesh()).unwrap();
+    let caster = GpuMesh::new(
+        ctx,
+        &graph.surface,
+        &vec![[0.0; 3]; graph.surface.positions.len()],
+    )
+    .unwrap();
+    let mut failed = None;
+    let captured = renderer
+        .render_frame_after(ctx, |cb, profiler| {
+            // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
+            failed = unsafe { frame.record(ctx, cb, &caster, Some(profiler)) }.err();
+        })
+        .unwrap();
+    assert!(failed.is_none(), "{failed:?}");
+    let (mut diff, mut sum) = (0.0f64, 0.0f64);
+    for (a, b) in captured.image.pixels.iter().zip(&reference.pixels) {
+        for c in 0..3 {
+            assert!(a[c].is_finite());
+            diff += f64::from((a[c] - b[c]).abs());
+            sum += f64::from(b[c].abs());
+        }
+    }
+    let report = frame
+        .report(ctx, &graph, &field, &scene, None, &solve_params)
+        .unwrap();
+    let cpu_residual = cpu.residual;
+    println!(
+        "GpuFrame image relative L1 {:.2e}; passes {:?}; report {report:?}; CPU residual {cpu_residual:?}",
+        diff / sum,
+        captured.passes
+    );
+    assert!(sum > 0.0);
+    assert!(diff / sum < 1e-2, "relative L1 {}", diff / sum);
+    assert_eq!(report.iterations, vec![48, 48]);
+    for c in 0..3 {
+        // Same schedule: the GPU's residual is the CPU's, up to the gathered q's fp16 rounding.
+        let r = report.residual[c];
+        assert!(
+            r.is_finite() && (r - cpu_residual[c]).abs() <= 0.05 * cpu_residual[c] + 1e-3,
+            "{r} vs {}",
+            cpu_residual[c]
+        );
+        let e = report.energy;
+        assert!(
+            (e.exitance[c] - cpu.energy.exitance[c]).abs()
+                <= 1e-2 * cpu.energy.transmitted_input[c]
+        );
+    }
+    for pass in ["shadow maps", "diffusion jacobi", "diffusion j+"] {
+        let present = captured.passes.keys().any(|k| k.contains(pass));
+        println!("{pass}: {present}");
+    }
+    assert!(captured.passes.contains_key("diffusion jacobi"));
+    drop(frame);
+    drop(caster);
+    drop(renderer);
+    gpu.finish();
+}

@@ -50,7 +50,10 @@
 //! # Ok(()) }
 //! ```
 
+pub mod frame;
 pub mod textures;
+
+pub use frame::{GpuFrame, GpuFrameReport};
 
 use ash::vk;
 use half::f16;
