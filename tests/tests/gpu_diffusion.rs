@@ -476,3 +476,56 @@ fn gpu_matches_the_cpu_reference_on_a_baked_spot() {
     }
     gpu.finish();
 }
+
+/// Warm start (DESIGN section 5): a second solve of the same scene starts from the first one's phi
+/// (no init pass) and stops after the two blocks the rho estimate needs, with the same answer.
+#[test]
+fn warm_start_stops_after_two_blocks_on_an_unchanged_scene() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 2);
+    let field = MaterialField::Homogeneous(Material::preset("skin1").unwrap());
+    let params = GpuSolveParams {
+        iterations: vec![4000],
+        tolerance: 1e-4,
+        warm_start: true,
+        ..Default::default()
+    };
+    let (first, cold, mut solve) = gpu_solve(ctx, &graph, &field, &params, 1.0);
+    ctx.execute("warm solve", |cb| {
+        // SAFETY: `cb` is recording; `solve` outlives the waited submission.
+        unsafe { solve.record(ctx, cb, None) };
+        Ok(())
+    })
+    .unwrap();
+    let warm = solve.iterations_run(ctx).unwrap();
+    let second = solve.read_j_plus(ctx).unwrap();
+    println!("cold {cold:?}, warm {warm:?}");
+    assert!(
+        warm.iter().all(|&i| i == 2 * params.block),
+        "warm {warm:?} (cold {cold:?})"
+    );
+    let reference: Vec<[f64; 3]> = first.iter().map(|v| v.map(f64::from)).collect();
+    let err = rel_rms(&second, &reference);
+    assert!(err < 1e-3, "warm vs cold {err}");
+    // A new exposure invalidates the stored phi: the next solve initialises again.
+    solve.set_q_scale(solve.q_scale() * 2.0);
+    let n = graph
+        .levels
+        .iter()
+        .map(|l| l.surface_count())
+        .collect::<Vec<_>>();
+    for (h, &count) in n.iter().enumerate() {
+        solve.upload_q(ctx, h, &vec![[1.0; 3]; count]).unwrap();
+    }
+    ctx.execute("cold again", |cb| {
+        // SAFETY: as above.
+        unsafe { solve.record(ctx, cb, None) };
+        Ok(())
+    })
+    .unwrap();
+    let again = solve.iterations_run(ctx).unwrap();
+    assert!(again.iter().zip(&warm).any(|(a, w)| a > w), "{again:?}");
+    drop(solve);
+    gpu.finish();
+}

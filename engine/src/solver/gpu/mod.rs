@@ -24,7 +24,8 @@
 //!
 //! Interface with the irradiance gather (part B, `render::irradiance`): per level,
 //! [`GpuDiffusion::surface_position`] (RGBA32F, rgb = surface node position in mm in the object
-//! frame, a = 1 on surface-node texels, 0 on inner nodes and padding), [`GpuDiffusion::surface_normal`]
+//! frame, a = 1 on surface-node texels, 0 on padding; the same width as the level's textures but
+//! only its `surface_rows` rows, [`GpuDiffusion::surface_rows`]), [`GpuDiffusion::surface_normal`]
 //! (RGBA16F, rgb = outward unit normal) and [`GpuDiffusion::q_image`] (RGBA16F storage image in
 //! GENERAL, rgb = q * [`GpuDiffusion::q_scale`], to be written where position.a = 1). The gather is
 //! recorded before [`GpuDiffusion::record`], which starts with a barrier (compute|transfer write ->
@@ -109,6 +110,11 @@ pub struct GpuSolveParams {
     pub block: u32,
     /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
     pub tolerance: f32,
+    /// Start every level from the previous solve's phi instead of Shepard resampling (DESIGN
+    /// section 5: light or material changes); the first solve, and the first after
+    /// [`GpuDiffusion::set_q_scale`], still initialises. The skipped init is absent from the
+    /// profiler output.
+    pub warm_start: bool,
 }
 
 impl Default for GpuSolveParams {
@@ -119,6 +125,7 @@ impl Default for GpuSolveParams {
             iterations: vec![200],
             block: 8,
             tolerance: 1e-4,
+            warm_start: false,
         }
     }
 }
@@ -293,6 +300,8 @@ pub struct GpuDiffusion {
     /// Blocks recorded per level.
     blocks: Vec<u32>,
     stats: RecordStats,
+    /// phi holds a previous solve's result at the current exposure (for warm starts).
+    solved: bool,
     q_scale: f32,
     f_dr: f64,
     a: f64,
@@ -617,6 +626,7 @@ impl GpuDiffusion {
             mesh_set: None,
             blocks,
             stats: RecordStats::default(),
+            solved: false,
             q_scale: 1.0,
             f_dr,
             a,
@@ -802,8 +812,16 @@ impl GpuDiffusion {
             image(ctx, "diffusion link weights lo", p, F::R16G16B16A16_SFLOAT)?,
             image(ctx, "diffusion link weights hi", p, F::R16G16B16A16_SFLOAT)?,
         ];
-        let surface_position = image(ctx, "surface position", p, F::R32G32B32A32_SFLOAT)?;
-        let surface_normal = image(ctx, "surface normal", p, F::R16G16B16A16_SFLOAT)?;
+        // Only the surface rows: the gather writes nothing below them (saves 24 bytes per inner
+        // texel; the gather accepts images with at least `surface_rows` rows).
+        let surface = Packing {
+            width: p.width,
+            height: p.surface_rows.max(1),
+            ..Packing::default()
+        };
+        let surface_texels = (surface.width * surface.height) as usize;
+        let surface_position = image(ctx, "surface position", &surface, F::R32G32B32A32_SFLOAT)?;
+        let surface_normal = image(ctx, "surface normal", &surface, F::R16G16B16A16_SFLOAT)?;
         let n = t.texel_count();
         let zeros16 = vec![0u8; n * 8];
         let state_zero = vec![0u8; n * texel_bytes(state_format) as usize];
@@ -820,8 +838,14 @@ impl GpuDiffusion {
             (&links[1], bytes_of(&t.links[1])),
             (&link_weights[0], bytes_of(&t.link_weights[0])),
             (&link_weights[1], bytes_of(&t.link_weights[1])),
-            (&surface_position, bytes_of(&t.surface_position)),
-            (&surface_normal, bytes_of(&t.surface_normal)),
+            (
+                &surface_position,
+                bytes_of(&t.surface_position[..surface_texels.min(n)]),
+            ),
+            (
+                &surface_normal,
+                bytes_of(&t.surface_normal[..surface_texels.min(n)]),
+            ),
         ];
         for img in phi.iter().chain(&residual) {
             items.push((img, vec![0u8; n * 16]));
@@ -959,8 +983,10 @@ impl GpuDiffusion {
     }
     /// Sets the exposure; q already uploaded or gathered must be written again.
     pub fn set_q_scale(&mut self, scale: f32) {
-        if scale.is_finite() && scale > 0.0 {
+        if scale.is_finite() && scale > 0.0 && scale != self.q_scale {
             self.q_scale = scale;
+            // phi is stored times the exposure: last solve's phi is no longer a start.
+            self.solved = false;
         }
     }
     /// A power-of-two exposure mapping the largest q to about 1024: phi (about 7 q at most) then
@@ -1093,6 +1119,7 @@ impl GpuDiffusion {
         let raw = ctx.raw();
         let k = self.params.block;
         let mut stats = RecordStats::default();
+        let warm = self.params.warm_start && self.solved;
         let initial: Vec<LevelControl> = self
             .levels
             .iter()
@@ -1147,27 +1174,29 @@ impl GpuDiffusion {
                 let level = &self.levels[h];
                 let push = level.push();
                 let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
-                scope(cb, Some(PASS_INIT));
-                // why: init overwrites this level's phi, which the previous frame's J+ or
-                // reduction read (WAR), and reads the coarser level's last iteration (RAW).
-                barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                let coarse_width = if h > 0 {
-                    self.levels[h - 1].packing.width
-                } else {
-                    1
-                };
-                self.pipelines.init.dispatch(
-                    ctx,
-                    cb,
-                    level.init_set,
-                    &ShepardPush {
-                        size: push.size,
-                        coarse_width,
-                        zero: u32::from(h == 0),
-                    },
-                    level.extent(),
-                );
-                scope(cb, None);
+                if !warm {
+                    scope(cb, Some(PASS_INIT));
+                    // why: init overwrites this level's phi, which the previous frame's J+ or
+                    // reduction read (WAR), and reads the coarser level's last iteration (RAW).
+                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+                    let coarse_width = if h > 0 {
+                        self.levels[h - 1].packing.width
+                    } else {
+                        1
+                    };
+                    self.pipelines.init.dispatch(
+                        ctx,
+                        cb,
+                        level.init_set,
+                        &ShepardPush {
+                            size: push.size,
+                            coarse_width,
+                            zero: u32::from(h == 0),
+                        },
+                        level.extent(),
+                    );
+                    scope(cb, None);
+                }
                 for _ in 0..self.blocks[h] {
                     scope(cb, Some(PASS_JACOBI));
                     match self.params.precision {
@@ -1352,6 +1381,7 @@ impl GpuDiffusion {
             ctx.end_label(cb);
         }
         self.stats = stats;
+        self.solved = true;
     }
 
     /// What the last [`Self::record`] recorded.
