@@ -529,3 +529,40 @@ fn warm_start_stops_after_two_blocks_on_an_unchanged_scene() {
     drop(solve);
     gpu.finish();
 }
+
+/// The paper's scheme (Eqs. 5/6, kept for comparison) runs through the same passes with its own
+/// weights: GPU against the CPU reference of that scheme on the same schedule.
+#[test]
+fn paper_scheme_matches_the_cpu_reference() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 2);
+    let field = MaterialField::Homogeneous(Material::preset("skin2").unwrap());
+    let cpu = solver::solve(
+        &graph,
+        &field,
+        &scene(),
+        None,
+        &CpuSolveParams {
+            scheme: Scheme::Paper,
+            iterations: vec![40],
+            tolerance: 0.0,
+            exact: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let params = GpuSolveParams {
+        scheme: Scheme::Paper,
+        iterations: vec![40],
+        tolerance: 0.0,
+        ..Default::default()
+    };
+    let (j, iterations, solve) = gpu_solve(ctx, &graph, &field, &params, 1.0);
+    let err = rel_rms(&j, &cpu.j_plus_clamped);
+    println!("paper scheme: rel RMS {err:.2e}, iterations {iterations:?}");
+    assert!(err <= 5e-3, "relative RMS {err}");
+    assert_eq!(iterations, vec![40, 40]);
+    drop(solve);
+    gpu.finish();
+}
