@@ -566,3 +566,80 @@ fn paper_scheme_matches_the_cpu_reference() {
     drop(solve);
     gpu.finish();
 }
+
+/// q spanning 1e-4 to 1e4 in one solve (the fp16 exposure maps the largest to ~1024, so the dimmest
+/// are fp16 subnormals): GPU phi against the f64 Jacobi of the same operator and q.
+#[test]
+fn q_from_1e_minus_4_to_1e4_in_one_solve() {
+    use translucent::solver::cpu::jacobi;
+    use translucent::solver::operator::LevelOperator;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 1);
+    let level = &graph.levels[0];
+    let field = MaterialField::Homogeneous(Material::preset("ketchup").unwrap());
+    // log10 q from -4 to 4 along x: a smooth but extreme light gradient.
+    let q: Vec<[f32; 3]> = (0..level.surface_count())
+        .map(|s| {
+            let x = level.positions[level.inner_count() + s].x / 10.0;
+            [10f32.powf((4.0 * x) as f32); 3]
+        })
+        .collect();
+    let op = LevelOperator::build(level, &field, Scheme::Fv).unwrap();
+    let b = op.rhs(&q.iter().map(|v| v.map(f64::from)).collect::<Vec<_>>());
+    let mut phi = vec![[0.0; 3]; level.node_count()];
+    jacobi(&op, &b, &mut phi, 64, 0.0);
+    for precision in [Precision::Mixed, Precision::Fp32, Precision::Fp16] {
+        let mut solve = GpuDiffusion::new(
+            ctx,
+            &graph,
+            &field,
+            &GpuSolveParams {
+                precision,
+                iterations: vec![64],
+                tolerance: 0.0,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        solve.set_q_scale(GpuDiffusion::exposure_for(&q));
+        solve.upload_q(ctx, 0, &q).unwrap();
+        ctx.execute("solve", |cb| {
+            // SAFETY: `cb` is recording; `solve` outlives the waited submission.
+            unsafe { solve.record(ctx, cb, None) };
+            Ok(())
+        })
+        .unwrap();
+        let got = solve.read_phi(ctx, 0).unwrap();
+        assert!(
+            got.iter().flatten().all(|v| v.is_finite()),
+            "{precision:?}: NaN/Inf"
+        );
+        let all = rel_rms(&got, &phi);
+        // The dim half (q < 1): relative to its own magnitude.
+        let dim: Vec<usize> = (0..level.surface_count())
+            .map(|s| level.inner_count() + s)
+            .filter(|&n| level.positions[n].x < 0.0)
+            .collect();
+        let dim_err = rel_rms(
+            &dim.iter().map(|&n| got[n]).collect::<Vec<_>>(),
+            &dim.iter().map(|&n| phi[n]).collect::<Vec<_>>(),
+        );
+        println!(
+            "{precision:?}: phi rel RMS {all:.2e}, dim half {dim_err:.2e}, q_scale {}",
+            solve.q_scale()
+        );
+        // fp16 state: ~1e-3 rounding per iteration accumulates (as in the uniform-scaling test).
+        let bound = if precision == Precision::Fp16 {
+            2e-2
+        } else {
+            5e-3
+        };
+        assert!(all <= bound, "{precision:?}: {all}");
+        if precision != Precision::Fp16 {
+            assert!(dim_err <= 5e-2, "{precision:?}: dim half {dim_err}");
+        }
+        drop(solve);
+    }
+    gpu.finish();
+}
