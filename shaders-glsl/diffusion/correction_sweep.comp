@@ -25,7 +25,7 @@ void main() {
     vec4 wg = imageLoad(weight_g, p);
     vec4 wb = imageLoad(weight_b, p);
     vec3 acc = imageLoad(residual, p).rgb;
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < (is_surface_row(p) ? 1 : 4); ++k) {
         acc += vec3(wr[k], wg[k], wb[k]) * imageLoad(src, texel_of(nb[k])).rgb;
     }
     imageStore(dst, p, vec4(acc, 0.0));

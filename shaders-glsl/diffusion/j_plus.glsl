@@ -1,12 +1,12 @@
 // Outgoing partial current at the surface nodes (DESIGN section 2):
 // J+ = (1 + 1/A) phi / 4 - q / (1 + F_dr), unscaled from the exposure (phi and q are stored times
 // q_scale), clamped at 0 for display; clamped nodes are counted per channel. Surface nodes are the
-// rows v < surface_rows with source_gain.a = 1. Included with PHI_FORMAT set.
+// rows v < surface_rows that are not padding (padding texels point to themselves). Included with PHI_FORMAT set.
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, PHI_FORMAT) uniform readonly image2D phi;
 layout(set = 0, binding = 1, rgba16f) uniform readonly image2D q;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D source_gain;
+layout(set = 0, binding = 2, rgba32ui) uniform readonly uimage2D connectivity;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D j_plus;
 
 layout(set = 0, binding = 4, std430) buffer ClampCounts {
@@ -26,7 +26,8 @@ void main() {
     if (p.x >= pc.size.x || p.y >= pc.size.y) {
         return;
     }
-    bool surface = uint(p.y) < pc.surface_rows && imageLoad(source_gain, p).a != 0.0;
+    uint self_index = uint(p.y) * uint(pc.size.x) + uint(p.x);
+    bool surface = uint(p.y) < pc.surface_rows && imageLoad(connectivity, p).x != self_index;
     vec3 j = vec3(0.0);
     if (surface) {
         vec3 raw = (pc.phi_factor * imageLoad(phi, p).rgb - pc.q_factor * imageLoad(q, p).rgb)

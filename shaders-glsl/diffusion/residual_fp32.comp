@@ -13,7 +13,6 @@ layout(set = 0, binding = 4, rgba32ui) uniform readonly uimage2D connectivity;
 layout(set = 0, binding = 5, rgba32f) uniform readonly image2D weight_r;
 layout(set = 0, binding = 6, rgba32f) uniform readonly image2D weight_g;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D weight_b;
-layout(set = 0, binding = 8, rgba32f) uniform readonly image2D source_gain;
 
 #include "graph_common.glsl"
 
@@ -26,8 +25,9 @@ void main() {
     vec4 wr = imageLoad(weight_r, p);
     vec4 wg = imageLoad(weight_g, p);
     vec4 wb = imageLoad(weight_b, p);
-    vec3 acc = imageLoad(source_gain, p).rgb * imageLoad(q, p).rgb;
-    for (int k = 0; k < 4; ++k) {
+    bool surface = is_surface_row(p);
+    vec3 acc = surface ? vec3(wr[1], wg[1], wb[1]) * imageLoad(q, p).rgb : vec3(0.0);
+    for (int k = 0; k < (surface ? 1 : 4); ++k) {
         acc += vec3(wr[k], wg[k], wb[k]) * imageLoad(phi, texel_of(nb[k])).rgb;
     }
     vec3 r = acc - imageLoad(phi, p).rgb;

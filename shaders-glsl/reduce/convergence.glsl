@@ -1,6 +1,6 @@
 // Convergence decided on the GPU (DESIGN section 5), after each block of k Jacobi iterations of a
 // level: one workgroup reduces max|delta phi| (the last iteration's change, latest - previous) and
-// max|phi| per channel over the level's nodes (padding, source_gain.a = 0, is left out), then one
+// max|phi| per channel over the level's nodes (padding texels, whose first neighbour is themselves, are left out), then one
 // thread updates the level's control record: iterations run, rel = max_c max|dphi_c| / max|phi_c|,
 // rho = (rel / rel_previous_block)^(1/k), estimate = rel / (1 - rho); once the estimate is below the
 // tolerance (or rel is exactly 0) the indirect dispatch arguments of the following blocks become 0
@@ -11,7 +11,7 @@ layout(local_size_x = 256) in;
 layout(set = 0, binding = 0, DELTA_FORMAT) uniform readonly image2D latest;
 layout(set = 0, binding = 1, DELTA_FORMAT) uniform readonly image2D previous;
 layout(set = 0, binding = 2, PHI_FORMAT) uniform readonly image2D phi;
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D source_gain;
+layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D connectivity;
 
 struct LevelControl {
     // VkDispatchIndirectCommand of this level's iteration dispatches.
@@ -50,7 +50,7 @@ void main() {
         uint n = uint(pc.size.x * pc.size.y);
         for (uint i = t; i < n; i += 256u) {
             ivec2 p = ivec2(int(i % uint(pc.size.x)), int(i / uint(pc.size.x)));
-            if (imageLoad(source_gain, p).a == 0.0) {
+            if (imageLoad(connectivity, p).x == i) {
                 continue;
             }
             d = max(d, abs(imageLoad(latest, p).rgb - imageLoad(previous, p).rgb));

@@ -136,7 +136,7 @@ impl Default for GpuSolveParams {
 pub struct LevelPush {
     pub size: [i32; 2],
     pub width: u32,
-    pub flags: u32,
+    pub surface_rows: u32,
 }
 
 /// Push constants of `shepard/init_phi*.comp`.
@@ -237,7 +237,6 @@ pub struct GpuLevel {
     connectivity: Image,
     #[allow(dead_code)] // owned here: descriptor sets refer to it
     weights: [Image; 3],
-    source_gain: Image,
     #[allow(dead_code)] // owned here: descriptor sets refer to it
     links: [Image; 2],
     #[allow(dead_code)] // owned here: descriptor sets refer to it
@@ -260,7 +259,7 @@ impl GpuLevel {
         LevelPush {
             size: [self.packing.width as i32, self.packing.height as i32],
             width: self.packing.width,
-            flags: 0,
+            surface_rows: self.packing.surface_rows,
         }
     }
     fn extent(&self) -> [u32; 3] {
@@ -535,7 +534,7 @@ impl GpuDiffusion {
             &[
                 DescriptorWrite::storage_image("phi", finest.result()),
                 DescriptorWrite::storage_image("q", &finest.q),
-                DescriptorWrite::storage_image("source_gain", &finest.source_gain),
+                DescriptorWrite::storage_image("connectivity", &finest.connectivity),
                 DescriptorWrite::storage_image("j_plus", &j_plus),
                 DescriptorWrite::StorageBuffer {
                     name: "counts",
@@ -573,7 +572,7 @@ impl GpuDiffusion {
                     DescriptorWrite::storage_image("latest", latest),
                     DescriptorWrite::storage_image("previous", previous),
                     DescriptorWrite::storage_image("phi", l.result()),
-                    DescriptorWrite::storage_image("source_gain", &l.source_gain),
+                    DescriptorWrite::storage_image("connectivity", &l.connectivity),
                     DescriptorWrite::StorageBuffer {
                         name: "control",
                         buffer: &control,
@@ -674,7 +673,6 @@ impl GpuDiffusion {
                 "weight_r",
                 "weight_g",
                 "weight_b",
-                "source_gain",
             ]
         };
         let iterate = ComputePipeline::new(
@@ -702,7 +700,6 @@ impl GpuDiffusion {
                             "weight_r",
                             "weight_g",
                             "weight_b",
-                            "source_gain",
                         ],
                         max_sets: sets,
                     },
@@ -745,7 +742,7 @@ impl GpuDiffusion {
                 &ComputePipelineDesc {
                     name: PASS_CONVERGENCE,
                     shader: reduce,
-                    bindings: &["latest", "previous", "phi", "source_gain", "control"],
+                    bindings: &["latest", "previous", "phi", "connectivity", "control"],
                     max_sets: sets,
                 },
             )?,
@@ -754,7 +751,7 @@ impl GpuDiffusion {
                 &ComputePipelineDesc {
                     name: PASS_J_PLUS,
                     shader: j_plus,
-                    bindings: &["phi", "q", "source_gain", "j_plus", "counts"],
+                    bindings: &["phi", "q", "connectivity", "j_plus", "counts"],
                     max_sets: 2,
                 },
             )?,
@@ -803,7 +800,6 @@ impl GpuDiffusion {
             image(ctx, "diffusion weight g", p, F::R32G32B32A32_SFLOAT)?,
             image(ctx, "diffusion weight b", p, F::R32G32B32A32_SFLOAT)?,
         ];
-        let source_gain = image(ctx, "diffusion source gain", p, F::R32G32B32A32_SFLOAT)?;
         let links = [
             image(ctx, "diffusion links lo", p, F::R32G32B32A32_UINT)?,
             image(ctx, "diffusion links hi", p, F::R32G32B32A32_UINT)?,
@@ -833,7 +829,6 @@ impl GpuDiffusion {
             (&weights[0], bytes_of(&t.weights[0])),
             (&weights[1], bytes_of(&t.weights[1])),
             (&weights[2], bytes_of(&t.weights[2])),
-            (&source_gain, bytes_of(&t.source_gain)),
             (&links[0], bytes_of(&t.links[0])),
             (&links[1], bytes_of(&t.links[1])),
             (&link_weights[0], bytes_of(&t.link_weights[0])),
@@ -868,7 +863,6 @@ impl GpuDiffusion {
                 Some(r) => w.push(DescriptorWrite::storage_image("residual", r)),
                 None => {
                     w.push(DescriptorWrite::storage_image("q", &q));
-                    w.push(DescriptorWrite::storage_image("source_gain", &source_gain));
                 }
             }
             iterate_sets.push(pipelines.iterate.allocate_set(ctx, &w)?);
@@ -887,7 +881,6 @@ impl GpuDiffusion {
                     DescriptorWrite::storage_image("weight_r", &weights[0]),
                     DescriptorWrite::storage_image("weight_g", &weights[1]),
                     DescriptorWrite::storage_image("weight_b", &weights[2]),
-                    DescriptorWrite::storage_image("source_gain", &source_gain),
                 ],
             )?);
             // k - 1 (odd) sweeps from state[0] leave the last correction in state[1].
@@ -920,18 +913,18 @@ impl GpuDiffusion {
         Ok(GpuLevel {
             packing: t.packing.clone(),
             node_count: t.packing.texels.len(),
-            inner_count: t.packing.texels.len()
-                - t.source_gain[..t.packing.surface_rows as usize * t.packing.width as usize]
-                    .iter()
-                    .filter(|g| g[3] != 0.0)
-                    .count(),
+            inner_count: t
+                .packing
+                .texels
+                .iter()
+                .filter(|&&[_, v]| v >= t.packing.surface_rows)
+                .count(),
             state,
             phi,
             residual,
             q,
             connectivity,
             weights,
-            source_gain,
             links,
             link_weights,
             surface_position,

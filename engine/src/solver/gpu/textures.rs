@@ -2,13 +2,12 @@
 //! operator ([`LevelOperator`]) and uploaded as textures by [`super::GpuDiffusion`].
 //!
 //! One node = one texel at `packing.texels[node]`; padding texels point to themselves with weight 0
-//! and have `source_gain.a = 0` (left out of reductions). Per texel:
+//! (how reductions recognise and skip them: no node is its own neighbour). Per texel:
 //!
 //! | texture | format | channels |
 //! |---|---|---|
 //! | `connectivity` | RGBA32UI | the 4 neighbours' linear texel indices `v * width + u` (one 32-bit index instead of a (u, v) pair: half the bytes of the paper's two textures, no 16-bit limit on the width) |
-//! | `weight_r/g/b` | RGBA32F | per channel, the Jacobi weights `off_ik / diag_i` of the 4 neighbours (f64 on the CPU, then f32) |
-//! | `source_gain` | RGBA32F | rgb: `q_gain / diag_s` on surface rows (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9), 0 on inner rows; a: 1 for a node, 0 for padding |
+//! | `weight_r/g/b` | RGBA32F | per channel, the Jacobi weights `off_ik / diag_i` of the 4 neighbours (f64 on the CPU, then f32); a surface node has one neighbour (slot 0) and keeps its source gain `q_gain / diag_s` (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9) in slot 1 |
 //! | `links_lo/hi` | RGBA32UI | 8 linear texel indices into the coarser level (paper Eq. 10) |
 //! | `link_weights_lo/hi` | RGBA16F | their Shepard weights (renormalized on the GPU) |
 //! | `surface_position` | RGBA32F | rgb: surface node position (mm), a: 1 on surface nodes |
@@ -36,7 +35,6 @@ pub struct LevelTexels {
     pub packing: Packing,
     pub connectivity: Vec<[u32; 4]>,
     pub weights: [Vec<[f32; 4]>; 3],
-    pub source_gain: Vec<[f32; 4]>,
     pub links: [Vec<[u32; 4]>; 2],
     pub link_weights: [Vec<[f16; 4]>; 2],
     pub surface_position: Vec<[f32; 4]>,
@@ -88,7 +86,6 @@ impl LevelTexels {
         let mut out = LevelTexels {
             connectivity: (0..texels as u32).map(|t| [t; 4]).collect(),
             weights: std::array::from_fn(|_| vec![[0.0; 4]; texels]),
-            source_gain: vec![[0.0; 4]; texels],
             links: std::array::from_fn(|_| vec![[0; 4]; texels]),
             link_weights: std::array::from_fn(|_| vec![[f16::ZERO; 4]; texels]),
             surface_position: vec![[0.0; 4]; texels],
@@ -115,11 +112,14 @@ impl LevelTexels {
                     weights[t][k] = (op.off[node][k][c] / diag[c]) as f32;
                 }
             }
-            out.source_gain[t][3] = 1.0;
             if is_surface {
                 let s = node - inner;
-                for (g, d) in out.source_gain[t].iter_mut().zip(diag) {
-                    *g = (op.q_gain / d) as f32;
+                if op.neighbors[node][1..].iter().any(|&j| j != NO_NODE) {
+                    return Err(bad(format!("surface node {s} has more than one neighbour")));
+                }
+                // Surface rows use slot 0 only; slot 1 carries the source gain (Eq. 9).
+                for (c, weights) in out.weights.iter_mut().enumerate() {
+                    weights[t][1] = (op.q_gain / diag[c]) as f32;
                 }
                 let p = level.positions[node];
                 let n = level.surface_normals[s];
@@ -156,7 +156,6 @@ impl LevelTexels {
             .weights
             .iter()
             .flatten()
-            .chain(&out.source_gain)
             .flatten()
             .all(|v| v.is_finite());
         if !finite {
