@@ -5,11 +5,17 @@ use clap::{Parser, Subcommand};
 
 mod bake;
 mod info;
+mod material_args;
+mod object_args;
 mod render;
 mod scene_args;
 
 #[derive(Parser)]
-#[command(name = "translucent", version, about = "Real-time heterogeneous translucency on Vulkan")]
+#[command(
+    name = "translucent",
+    version,
+    about = "Real-time heterogeneous translucency on Vulkan"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

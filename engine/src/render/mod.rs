@@ -35,10 +35,7 @@ mod target;
 pub use headless::{render_headless, Captured, HeadlessRenderer};
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms, Vertex};
-pub use scene::{
-    lambert_exitance, Camera, FrameDesc, Light,
-    RadianceMode, Scene,
-};
+pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene};
 pub use shadow_pass::{DepthPush, ShadowPass};
 pub use target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 

@@ -21,8 +21,8 @@
 //! ```
 
 pub mod lattice;
-pub mod stuffing;
 pub mod structured;
+pub mod stuffing;
 
 use glam::DVec3;
 
