@@ -26,7 +26,7 @@ enum Command {
     /// The Vulkan device, driver and the features used.
     Info(info::InfoArgs),
     /// Render a scene headless to PNG or EXR.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Bake (or load from the cache) the QuadGraph of a mesh or shape.
     Bake(bake::BakeArgs),
 }
