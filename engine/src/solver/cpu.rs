@@ -47,6 +47,21 @@ pub enum RadianceMode {
     Paper,
 }
 
+impl std::str::FromStr for RadianceMode {
+    type Err = SolverError;
+    /// `physical` or `paper` (the CLI's `--radiance`).
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "physical" => Ok(Self::Physical),
+            "paper" => Ok(Self::Paper),
+            _ => Err(SolverError::BadParameter {
+                name: "radiance",
+                problem: format!("'{s}' (expected physical or paper)"),
+            }),
+        }
+    }
+}
+
 /// Outgoing radiance at a surface point with outgoing current `j_plus`, viewed at `cos_o` to the
 /// normal (outside). Negative J+ gives zero radiance.
 pub fn radiance(j_plus: [f64; 3], eta: f64, cos_o: f64, mode: RadianceMode) -> [f64; 3] {
@@ -93,7 +108,7 @@ impl Default for CpuSolveParams {
 /// Energy per channel (DESIGN section 8's `energy`): sum q dA, sum (1 - F_dr) J+ dA over the
 /// surface nodes (dA = face area) and sum mu phi dV over the inner nodes (dV = tetrahedron volume).
 /// Exitance uses the unclamped J+, so transmitted_input = exitance + absorbed holds (exactly for `fv`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Energy {
     pub transmitted_input: [f64; 3],
     pub exitance: [f64; 3],
@@ -101,7 +116,7 @@ pub struct Energy {
 }
 
 /// What one level's Jacobi run did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LevelReport {
     pub surface_nodes: usize,
     pub inner_nodes: usize,
