@@ -227,6 +227,8 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
     });
     let e = solver::solve(&g, &bad_eta, &scene, None, &ok).unwrap_err();
     assert!(matches!(e, SolverError::Material(_)), "{e}");
+    assert!("paper".parse::<solver::RadianceMode>().unwrap() == solver::RadianceMode::Paper);
+    assert!("phys".parse::<solver::RadianceMode>().is_err());
     assert!(
         "--scheme=fv".parse::<Scheme>().is_err()
             && "paper".parse::<Scheme>().unwrap() == Scheme::Paper
