@@ -108,10 +108,9 @@ fn check_mesh(
             "{name}: tetrahedron {t:?} has volume {v}"
         );
         let centroid = (a + b + c + d) / 4.0;
-        // The centroid of a surface tetrahedron may lie a sliver outside where the surface curves
-        // between its cut points: allow a small fraction of the spacing.
+        // Strictly inside, on the torus's saddle-shaped inner side too.
         assert!(
-            sdf(centroid) < 0.05 * spacing,
+            sdf(centroid) < 0.0,
             "{name}: centroid {centroid} outside ({})",
             sdf(centroid)
         );
