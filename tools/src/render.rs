@@ -50,8 +50,12 @@ pub struct RenderArgs {
     #[arg(long, value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: Option<String>,
     /// Constant environment radiance R,G,B.
-    #[arg(long, value_name = "R,G,B")]
+    #[arg(long, value_name = "R,G,B", conflicts_with = "env")]
     pub env_constant: Option<String>,
+    /// Environment radiance from an equirectangular EXR (Mitsuba's envmap convention, +Y up),
+    /// projected onto order-2 spherical harmonics.
+    #[arg(long, value_name = "FILE.exr")]
+    pub env: Option<PathBuf>,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -137,9 +141,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let frame_desc = args.scene.frame_desc()?;
     let lights = args.scene.lights()?;
-    let environment = match &args.env_constant {
-        Some(text) => Environment::Constant(rgb("--env-constant", text)?),
-        None => Environment::None,
+    let environment = match (&args.env_constant, &args.env) {
+        (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
+        (None, Some(path)) => Environment::load_exr(path).context("--env")?,
+        (None, None) => Environment::None,
     };
     let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
 
