@@ -6,7 +6,9 @@
 //!   whose normal faces the camera, L_o = F_t(eta, 0) J+ / (pi eta^2) (physical) and F_t J+ / pi
 //!   (paper, DESIGN section 2), to fp16 precision.
 
-use translucent::render::{render_headless, FrameDesc, Light, RadianceMode, Scene};
+use translucent::render::{
+    render_headless, FrameDesc, Light, RadianceMode, Scene,
+};
 use translucent_tests::{compare_to_reference, workspace_root, GpuTest, ImageTolerance};
 
 /// The reference was rendered on lavapipe; other drivers rasterize and round slightly

@@ -9,11 +9,7 @@ mod render;
 mod scene_args;
 
 #[derive(Parser)]
-#[command(
-    name = "translucent",
-    version,
-    about = "Real-time heterogeneous translucency on Vulkan"
-)]
+#[command(name = "translucent", version, about = "Real-time heterogeneous translucency on Vulkan")]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -44,7 +44,10 @@ pub use irradiance::{
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms, Vertex};
-pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene};
+pub use scene::{
+    lambert_exitance, Camera, FrameDesc, Light,
+    RadianceMode, Scene,
+};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT,

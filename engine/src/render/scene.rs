@@ -4,8 +4,8 @@
 use glam::{DVec3, Mat4, Vec3};
 
 use super::RenderError;
-use crate::material::fresnel;
 use crate::mesh::shapes::Shape;
+use crate::material::fresnel;
 use crate::mesh::TriMesh;
 
 pub use crate::solver::{Light, RadianceMode};
@@ -19,6 +19,7 @@ impl Light {
         }
     }
 }
+
 
 /// A pinhole camera: `eye` looks at `target`, vertical field of view `fovy_deg`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -21,8 +21,8 @@
 //! ```
 
 pub mod lattice;
-pub mod structured;
 pub mod stuffing;
+pub mod structured;
 
 use glam::DVec3;
 
