@@ -37,6 +37,9 @@ pub enum Access {
     DepthSampledFragment,
     // why: a color image sampled by fragment shaders.
     FragmentSampled,
+    // why: a finished depth map sampled by fragment and compute shaders (shadow lookups of the
+    // shading pass and of the irradiance gather).
+    DepthSampledShaders,
     // why: source of a copy (capture read-back).
     TransferSrc,
     // why: destination of a copy, clear or vkCmdUpdateBuffer.
@@ -76,6 +79,11 @@ impl Access {
             ),
             Access::DepthSampledFragment => (
                 S::FRAGMENT_SHADER,
+                A::SHADER_SAMPLED_READ,
+                L::DEPTH_READ_ONLY_OPTIMAL,
+            ),
+            Access::DepthSampledShaders => (
+                S::FRAGMENT_SHADER | S::COMPUTE_SHADER,
                 A::SHADER_SAMPLED_READ,
                 L::DEPTH_READ_ONLY_OPTIMAL,
             ),

@@ -1,0 +1,630 @@
+//! [`IrradiancePass`]: the irradiance gather of DESIGN section 5 (paper Eq. 3 and section 5). For
+//! every surface-node texel of a level it writes the transmitted irradiance (DESIGN section 2)
+//! `q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility + E_env(n) (1 - F_dr,ext)`,
+//! times `q_scale`, into an RGBA16F storage image. Visibility is 3x3 PCF in the light's
+//! [`ShadowMaps`] view; the environment is constant (`E = pi L`) or order-2 spherical harmonics
+//! (Ramamoorthi and Hanrahan 2001, Eq. 13), with no visibility, exactly as the f64 reference
+//! [`crate::solver::Scene::surface_irradiance`].
+//!
+//! Interface with the solver (one set of images per level, texel (u, v) = `packing.texels`):
+//! - `surface_position`: RGBA32F, rgb = node position (mm), a = 1 at a surface node, else 0;
+//! - `surface_normal`: RGBA16F, rgb = outward unit normal;
+//! - `q`: RGBA16F storage image in GENERAL, rgb = q * q_scale (written only where a = 1).
+//!
+//! Inputs must be in [`Access::ComputeRead`] (GENERAL, writes visible); the pass leaves `q` in
+//! [`Access::ComputeWrite`] and the reader records the barrier to its read.
+//! [`SurfaceImages::upload`] builds all three from a baked [`GraphLevel`].
+//!
+//! ```no_run
+//! use translucent::render::{GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc, SurfaceImages};
+//! use translucent::solver::{Environment, Scene};
+//! use translucent::vk::Access;
+//! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph, cb: ash::vk::CommandBuffer,
+//! #      caster: &translucent::render::GpuMesh) -> Result<(), translucent::Error> {
+//! let scene = Scene { lights: vec!["dir:1,-1,0:3,3,3".parse()?], environment: Environment::Constant([0.1; 3]) };
+//! let level = graph.finest();
+//! let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
+//! shadows.set_lights(&scene.lights, translucent::render::level_bounds(level), true)?;
+//! let gather = IrradiancePass::new(ctx, 4)?;
+//! let images = SurfaceImages::upload(ctx, level)?;
+//! let set = gather.bind_level(ctx, &shadows, &images.position, &images.normal, &images.q, images.surface_rows)?;
+//! let uniforms = GatherScene::new(&scene, &shadows)?;
+//! let q_scale = translucent::render::q_scale_for(&scene, level, 1.3);
+//! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
+//! unsafe {
+//!     shadows.record(ctx, cb, caster, None);
+//!     gather.record_scene(ctx, cb, &uniforms);
+//!     gather.record(ctx, cb, &set, &shadows, &images.q, Access::Undefined, q_scale, 1.3, None)?;
+//! }
+//! # Ok(()) }
+//! ```
+
+use ash::vk;
+use glam::DVec3;
+
+use super::shadow_maps::{ShadowMaps, MAX_LIGHTS, MAX_SHADOW_VIEWS};
+use super::RenderError;
+use crate::material::fresnel;
+use crate::quadgraph::graph::GraphLevel;
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::solver::{Environment, Light, Scene};
+use crate::vk::{
+    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, MemoryUse, Sampler,
+};
+
+/// Format of `surface_position`.
+pub const SURFACE_POSITION_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+/// Format of `surface_normal`.
+pub const SURFACE_NORMAL_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+/// Format of `q`.
+pub const Q_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+/// Largest finite fp16: the gather saturates there.
+pub const FP16_MAX: f32 = 65504.0;
+
+/// Push constants of `irradiance/gather_q.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GatherPush {
+    /// Texture width and the rows holding surface nodes.
+    pub extent: [u32; 2],
+    pub q_scale: f32,
+    pub eta: f32,
+    /// Normal offset of the shadow lookup, in shadow-map texels.
+    pub normal_offset: f32,
+    pub pad: f32,
+}
+
+/// One light as `gather_q.comp` reads it (std430, all vec4).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GatherLight {
+    /// xyz: position, or direction of travel (directional); w: kind (0 dir, 1 point, 2 spot).
+    pub position: [f32; 4],
+    /// xyz: spot axis; w: cos(outer).
+    pub direction: [f32; 4],
+    /// rgb: irradiance or intensity; w: cos(inner).
+    pub colour: [f32; 4],
+    /// x: first shadow view, y: view count.
+    pub views: [u32; 4],
+}
+
+/// One shadow view as `gather_q.comp` reads it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GatherView {
+    pub view_proj: [f32; 16],
+    /// xy: atlas origin (texels), z: tile size, w: texel size in mm (orthographic).
+    pub tile: [f32; 4],
+    /// xyz: eye, w: texel size per mm of distance (perspective).
+    pub eye: [f32; 4],
+}
+
+/// The `GatherScene` storage buffer of `gather_q.comp`: lights, environment, shadow views.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GatherScene {
+    /// x: lights, y: environment (0 none, 1 constant, 2 SH).
+    pub counts: [u32; 4],
+    /// rgb: SH coefficients of radiance, or `sh[0]` the constant radiance.
+    pub sh: [[f32; 4]; 9],
+    pub lights: [GatherLight; MAX_LIGHTS],
+    pub views: [GatherView; MAX_SHADOW_VIEWS],
+}
+
+fn invalid(what: &str, problem: impl Into<String>) -> RenderError {
+    RenderError::Invalid {
+        what: what.into(),
+        problem: problem.into(),
+    }
+}
+
+fn f4(v: DVec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+fn rgb(c: [f64; 3], w: f32) -> [f32; 4] {
+    [c[0] as f32, c[1] as f32, c[2] as f32, w]
+}
+
+impl GatherScene {
+    /// The lights and environment of `scene` with the shadow views of `shadows` (which must
+    /// have been given the same lights). More than [`MAX_LIGHTS`] lights is a typed error.
+    pub fn new(scene: &Scene, shadows: &ShadowMaps) -> Result<GatherScene, RenderError> {
+        scene.validate()?;
+        if scene.lights.len() > MAX_LIGHTS {
+            return Err(invalid(
+                "lights",
+                format!(
+                    "{} lights; the irradiance gather handles at most {MAX_LIGHTS}",
+                    scene.lights.len()
+                ),
+            ));
+        }
+        let light_views = shadows.light_views();
+        if light_views.len() != scene.lights.len() {
+            return Err(invalid(
+                "shadow maps",
+                format!(
+                    "fitted for {} lights, the scene has {}: call ShadowMaps::set_lights with the scene's lights",
+                    light_views.len(),
+                    scene.lights.len()
+                ),
+            ));
+        }
+        let mut out = GatherScene::zeroed();
+        out.counts[0] = scene.lights.len() as u32;
+        for ((slot, light), &(first, count)) in
+            out.lights.iter_mut().zip(&scene.lights).zip(light_views)
+        {
+            let views = [first, count, 0, 0];
+            *slot = match *light {
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => GatherLight {
+                    position: f4(direction.normalize(), 0.0),
+                    direction: [0.0; 4],
+                    colour: rgb(irradiance, 0.0),
+                    views,
+                },
+                Light::Point {
+                    position,
+                    intensity,
+                } => GatherLight {
+                    position: f4(position, 1.0),
+                    direction: [0.0; 4],
+                    colour: rgb(intensity, 0.0),
+                    views,
+                },
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    inner_deg,
+                    outer_deg,
+                } => GatherLight {
+                    position: f4(position, 2.0),
+                    direction: f4(direction.normalize(), outer_deg.to_radians().cos() as f32),
+                    colour: rgb(intensity, inner_deg.to_radians().cos() as f32),
+                    views,
+                },
+            };
+        }
+        match scene.environment {
+            Environment::None => {}
+            Environment::Constant(l) => {
+                out.counts[1] = 1;
+                out.sh[0] = rgb(l, 0.0);
+            }
+            Environment::SphericalHarmonics(c) => {
+                out.counts[1] = 2;
+                for (dst, src) in out.sh.iter_mut().zip(c) {
+                    *dst = rgb(src, 0.0);
+                }
+            }
+        }
+        for (dst, v) in out.views.iter_mut().zip(shadows.views()) {
+            *dst = GatherView {
+                view_proj: v.view_proj.to_cols_array(),
+                tile: [
+                    v.origin[0] as f32,
+                    v.origin[1] as f32,
+                    v.size as f32,
+                    v.texel_mm,
+                ],
+                eye: [v.eye.x, v.eye.y, v.eye.z, v.texel_per_mm],
+            };
+        }
+        Ok(out)
+    }
+
+    fn zeroed() -> GatherScene {
+        bytemuck::Zeroable::zeroed()
+    }
+}
+
+/// The bounding sphere (centre, radius in mm) of a level's nodes, for [`ShadowMaps::set_lights`].
+pub fn level_bounds(level: &GraphLevel) -> (DVec3, f64) {
+    let (lo, hi) = level.positions.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (DVec3::ZERO, 1.0);
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = level
+        .positions
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0, f64::max);
+    (centre, radius.max(1e-3))
+}
+
+/// A q scale for fp16 storage: the largest unshadowed q over the level's surface nodes maps to
+/// 2048, so phi (up to ~7 q) stays below fp16's 65504 and dim light keeps fp16's relative precision.
+/// 1 when nothing is lit.
+pub fn q_scale_for(scene: &Scene, level: &GraphLevel, eta: f64) -> f32 {
+    let max_q = scene
+        .surface_irradiance(level, eta, None)
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, &v| m.max(v));
+    let scale = 2048.0 / max_q;
+    if max_q > 0.0 && scale.is_finite() && (scale as f32).is_finite() && scale as f32 > 0.0 {
+        scale as f32
+    } else {
+        1.0
+    }
+}
+
+/// A descriptor set of the gather for one level's images.
+#[derive(Debug)]
+pub struct GatherLevel {
+    set: vk::DescriptorSet,
+    extent: [u32; 2],
+}
+
+/// The gather pipeline, its scene buffer and the shadow atlas sampler.
+pub struct IrradiancePass {
+    pipeline: ComputePipeline<GatherPush>,
+    scene: Buffer,
+    sampler: Sampler,
+    /// Normal offset of shadow lookups in texels of the light's view (default 1.5).
+    pub normal_offset: f32,
+}
+
+impl IrradiancePass {
+    /// The pass, with room for `max_levels` level descriptor sets.
+    pub fn new(ctx: &Context, max_levels: u32) -> Result<IrradiancePass, RenderError> {
+        let pipeline = ComputePipeline::new(
+            ctx,
+            &ComputePipelineDesc {
+                name: "gather q",
+                shader: "irradiance/gather_q.comp",
+                bindings: &[
+                    "surface_position",
+                    "surface_normal",
+                    "q",
+                    "shadow_atlas",
+                    "scene",
+                ],
+                max_sets: max_levels.max(1),
+            },
+        )?;
+        let scene = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "gather scene",
+                size: std::mem::size_of::<GatherScene>() as u64,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                memory: MemoryUse::GpuOnly,
+            },
+        )?;
+        // texelFetch ignores filtering; nearest and no compare keep the depth values raw for the
+        // shader's own comparison (PCF inside the tile, never across tiles).
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .max_lod(0.0);
+        let sampler = Sampler::new(ctx, "shadow atlas sampler", &info)?;
+        Ok(IrradiancePass {
+            pipeline,
+            scene,
+            sampler,
+            normal_offset: 1.5,
+        })
+    }
+
+    /// A descriptor set for one level: checks the three images' formats, usages and sizes.
+    /// `surface_rows`: rows of the level's textures that hold surface nodes (`packing.surface_rows`).
+    pub fn bind_level(
+        &self,
+        ctx: &Context,
+        shadows: &ShadowMaps,
+        position: &Image,
+        normal: &Image,
+        q: &Image,
+        surface_rows: u32,
+    ) -> Result<GatherLevel, RenderError> {
+        for (image, format, role) in [
+            (position, SURFACE_POSITION_FORMAT, "surface_position"),
+            (normal, SURFACE_NORMAL_FORMAT, "surface_normal"),
+            (q, Q_FORMAT, "q"),
+        ] {
+            if image.format != format {
+                return Err(invalid(
+                    role,
+                    format!(
+                        "image {:?} is {:?}, the gather needs {format:?}",
+                        image.name, image.format
+                    ),
+                ));
+            }
+            if !image.usage.contains(vk::ImageUsageFlags::STORAGE) {
+                return Err(invalid(
+                    role,
+                    format!("image {:?} lacks STORAGE usage", image.name),
+                ));
+            }
+            if image.width != q.width || image.height < surface_rows {
+                return Err(invalid(
+                    role,
+                    format!(
+                        "image {:?} is {}x{}; needs width {} and at least {surface_rows} rows",
+                        image.name, image.width, image.height, q.width
+                    ),
+                ));
+            }
+        }
+        let set = self.pipeline.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::storage_image("surface_position", position),
+                DescriptorWrite::storage_image("surface_normal", normal),
+                DescriptorWrite::storage_image("q", q),
+                DescriptorWrite::SampledImage {
+                    name: "shadow_atlas",
+                    image: &shadows.atlas,
+                    sampler: self.sampler.raw,
+                    layout: vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "scene",
+                    buffer: &self.scene,
+                },
+            ],
+        )?;
+        Ok(GatherLevel {
+            set,
+            extent: [q.width, surface_rows],
+        })
+    }
+
+    /// Writes the lights, environment and shadow views into the pass's buffer, in the command
+    /// stream (once per frame, before the levels' [`IrradiancePass::record`]).
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope; `self` must outlive its execution.
+    pub unsafe fn record_scene(&self, ctx: &Context, cb: vk::CommandBuffer, scene: &GatherScene) {
+        // SAFETY: the caller's contract; the size is the buffer's (< 65536, vkCmdUpdateBuffer's limit).
+        unsafe {
+            // why: earlier gathers' reads of the scene buffer must finish before the update (WAR).
+            barrier::memory(ctx, cb, Access::ComputeRead, Access::TransferDst);
+            ctx.raw()
+                .cmd_update_buffer(cb, self.scene.raw, 0, bytemuck::bytes_of(scene));
+            // why: the gather reads the scene just written (RAW).
+            barrier::memory(ctx, cb, Access::TransferDst, Access::ComputeRead);
+        }
+    }
+
+    /// Gathers q for one level. `shadows` must have been recorded this frame (or have no
+    /// shadow-casting light); `q` was last used in `q_state` and is left in
+    /// [`Access::ComputeWrite`]. Bad `q_scale` or `eta` is a typed error (nothing recorded).
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope, after [`IrradiancePass::record_scene`]
+    /// and [`ShadowMaps::record`]; `level` must come from this pass with `q` its q image; all of
+    /// it must outlive the execution.
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn record(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        level: &GatherLevel,
+        shadows: &ShadowMaps,
+        q: &Image,
+        q_state: Access,
+        q_scale: f32,
+        eta: f32,
+        profiler: Option<&mut GpuProfiler>,
+    ) -> Result<(), RenderError> {
+        if !(q_scale.is_finite() && q_scale > 0.0) {
+            return Err(invalid(
+                "q scale",
+                format!("{q_scale} is not finite and positive"),
+            ));
+        }
+        let (lo, hi) = fresnel::ETA_RANGE;
+        if !(f64::from(eta) >= lo && f64::from(eta) <= hi) {
+            return Err(invalid("eta", format!("{eta} is outside [{lo}, {hi}]")));
+        }
+        if shadows.atlas_state != Access::DepthSampledShaders {
+            return Err(invalid(
+                "shadow maps",
+                "not recorded this frame (ShadowMaps::record leaves the atlas sampleable)",
+            ));
+        }
+        let push = GatherPush {
+            extent: level.extent,
+            q_scale,
+            eta,
+            normal_offset: self.normal_offset,
+            pad: 0.0,
+        };
+        let mut profiler = profiler;
+        // SAFETY: the caller's contract.
+        unsafe {
+            ctx.begin_label(cb, "gather q");
+            if let Some(p) = profiler.as_deref_mut() {
+                p.begin_scope(cb, "gather_q");
+            }
+            // why: q's previous readers (last frame's Jacobi) finish before it is overwritten
+            // (WAR), and a first use moves it from UNDEFINED to GENERAL.
+            barrier::image(ctx, cb, q, q_state, Access::ComputeWrite);
+            self.pipeline.dispatch(
+                ctx,
+                cb,
+                level.set,
+                &push,
+                [level.extent[0], level.extent[1], 1],
+            );
+            if let Some(p) = profiler {
+                p.end_scope(cb);
+            }
+            ctx.end_label(cb);
+        }
+        Ok(())
+    }
+}
+
+/// The gather's three images for one level, built from a baked [`GraphLevel`]: what the solver
+/// creates per level, for hosts and tests that do not have it. Only the surface rows are stored.
+pub struct SurfaceImages {
+    pub position: Image,
+    pub normal: Image,
+    pub q: Image,
+    pub surface_rows: u32,
+}
+
+impl SurfaceImages {
+    /// Creates and fills `position` and `normal` (left in [`Access::ComputeRead`]); `q` is
+    /// created undefined (usage STORAGE | TRANSFER_SRC). Headless contexts only (it submits).
+    pub fn upload(ctx: &Context, level: &GraphLevel) -> Result<SurfaceImages, RenderError> {
+        let packing = &level.packing;
+        let (width, rows) = (packing.width, packing.surface_rows);
+        let inner = level.inner_count();
+        if width == 0 || rows == 0 || packing.texels.len() != level.positions.len() {
+            return Err(invalid(
+                "graph level",
+                format!(
+                    "not packed ({}x{} surface texels, {} texels for {} nodes)",
+                    width,
+                    rows,
+                    packing.texels.len(),
+                    level.positions.len()
+                ),
+            ));
+        }
+        let texels = (width * rows) as usize;
+        let mut positions = vec![[0.0f32; 4]; texels];
+        let mut normals = vec![[half::f16::ZERO; 4]; texels];
+        for s in 0..level.surface_count() {
+            let [u, v] = packing.texels[inner + s];
+            if v >= rows || u >= width {
+                return Err(invalid(
+                    "graph level",
+                    format!("surface node {s} packed at ({u}, {v}), outside the surface rows"),
+                ));
+            }
+            let p = level.positions[inner + s];
+            let n = level.surface_normals[s];
+            let i = (v * width + u) as usize;
+            positions[i] = [p.x as f32, p.y as f32, p.z as f32, 1.0];
+            normals[i] = [
+                half::f16::from_f64(n.x),
+                half::f16::from_f64(n.y),
+                half::f16::from_f64(n.z),
+                half::f16::ZERO,
+            ];
+        }
+        let image = |name: &'static str, format, usage| {
+            Image::new(
+                ctx,
+                &ImageDesc {
+                    name,
+                    width,
+                    height: rows,
+                    format,
+                    usage,
+                },
+            )
+        };
+        let input = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+        let position = image("surface_position", SURFACE_POSITION_FORMAT, input)?;
+        let normal = image("surface_normal", SURFACE_NORMAL_FORMAT, input)?;
+        let q = image(
+            "q",
+            Q_FORMAT,
+            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+        )?;
+        let staged_positions = Buffer::with_data(
+            ctx,
+            "surface_position upload",
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            &positions,
+        )?;
+        let normal_bits: Vec<u16> = normals.iter().flatten().map(|h| h.to_bits()).collect();
+        let staged_normals = Buffer::with_data(
+            ctx,
+            "surface_normal upload",
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            &normal_bits,
+        )?;
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(
+                vk::ImageSubresourceLayers::default()
+                    .aspect_mask(vk::ImageAspectFlags::COLOR)
+                    .layer_count(1),
+            )
+            .image_extent(vk::Extent3D {
+                width,
+                height: rows,
+                depth: 1,
+            });
+        ctx.execute("upload surface images", |cb| {
+            // SAFETY: `cb` is recording; images and staging buffers outlive the waited submission.
+            unsafe {
+                barrier::record(
+                    ctx,
+                    cb,
+                    &[],
+                    &[
+                        // why: first use; the copies need TRANSFER_DST layout.
+                        barrier::image_barrier(&position, Access::Undefined, Access::TransferDst),
+                        barrier::image_barrier(&normal, Access::Undefined, Access::TransferDst),
+                    ],
+                );
+                for (buffer, image) in [(&staged_positions, &position), (&staged_normals, &normal)]
+                {
+                    ctx.raw().cmd_copy_buffer_to_image(
+                        cb,
+                        buffer.raw,
+                        image.raw,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[region],
+                    );
+                }
+                barrier::record(
+                    ctx,
+                    cb,
+                    &[],
+                    &[
+                        // why: the gather reads the uploaded texels (RAW), in GENERAL.
+                        barrier::image_barrier(&position, Access::TransferDst, Access::ComputeRead),
+                        barrier::image_barrier(&normal, Access::TransferDst, Access::ComputeRead),
+                    ],
+                );
+            }
+            Ok(())
+        })?;
+        Ok(SurfaceImages {
+            position,
+            normal,
+            q,
+            surface_rows: rows,
+        })
+    }
+
+    /// Reads `q` back (headless) and returns q / `q_scale` per surface node (surface index order).
+    pub fn read_q(
+        &self,
+        ctx: &Context,
+        level: &GraphLevel,
+        q_state: Access,
+        q_scale: f32,
+    ) -> Result<Vec<[f32; 3]>, RenderError> {
+        let image = crate::vk::ImageReadback::capture(ctx, &self.q, q_state)?;
+        let inner = level.inner_count();
+        Ok((0..level.surface_count())
+            .map(|s| {
+                let [u, v] = level.packing.texels[inner + s];
+                let t = image.pixel(u, v);
+                [t[0] / q_scale, t[1] / q_scale, t[2] / q_scale]
+            })
+            .collect())
+    }
+}

@@ -1,0 +1,175 @@
+#version 460
+// Irradiance gather (DESIGN sections 2 and 5; paper Eq. 3 and section 5: "evaluating the incoming
+// diffuse illumination on the surface, including shadows (using shadow mapping)" per level): for
+// every surface-node texel of a level,
+//   q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility + E_env(n) (1 - F_dr,ext),
+// written pre-scaled by q_scale (fp16 overflows at 65504). Visibility: 3x3 PCF in the light's
+// shadow view (a tile of the depth atlas), with a normal offset of about a texel.
+#include "optics.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+const uint MAX_LIGHTS = 8;
+const uint MAX_VIEWS = 48;
+const uint LIGHT_DIRECTIONAL = 0;
+const uint LIGHT_POINT = 1;
+const uint LIGHT_SPOT = 2;
+const uint ENV_NONE = 0;
+const uint ENV_CONSTANT = 1;
+const uint ENV_SH = 2;
+const float FP16_MAX = 65504.0;
+
+struct GatherLight {
+    vec4 position;  // xyz: position (point, spot) or direction of travel (directional); w: kind
+    vec4 direction; // xyz: spot axis (unit); w: cos(outer)
+    vec4 colour;    // rgb: irradiance (directional) or intensity; w: cos(inner)
+    uvec4 views;    // x: first shadow view, y: view count (0: unshadowed, 1, or 6 cube faces)
+};
+
+struct ShadowView {
+    mat4 view_proj;
+    vec4 tile;  // xy: atlas texel origin, z: tile size in texels, w: world texel size (orthographic)
+    vec4 eye;   // xyz: eye (perspective), w: world texel size per mm of distance (perspective)
+};
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D surface_position;
+layout(set = 0, binding = 1, rgba16f) uniform readonly image2D surface_normal;
+layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D q;
+layout(set = 0, binding = 3) uniform sampler2D shadow_atlas;
+layout(std430, set = 0, binding = 4) readonly buffer GatherScene {
+    uvec4 counts;   // x: lights, y: environment kind
+    vec4 sh[9];     // rgb: SH radiance coefficients, or sh[0].rgb the constant radiance
+    GatherLight lights[MAX_LIGHTS];
+    ShadowView views[MAX_VIEWS];
+} scene;
+
+layout(push_constant) uniform GatherPush {
+    uvec2 extent;  // texture width, surface rows
+    float q_scale;
+    float eta;
+    float normal_offset; // in shadow-map texels
+    float pad;
+} pc;
+
+// Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit.
+float visibility(uint index, vec3 p, vec3 n, float cos_l) {
+    ShadowView v = scene.views[index];
+    // Normal offset, in world texels at p, growing with the angle to the light: the PCF kernel
+    // reaches a texel and a half from p's projection, where a tilted surface's own depth is
+    // nearer the light by tan(theta) per texel (acne). Facing the light, no offset is needed.
+    float texel = v.tile.w + v.eye.w * distance(p, v.eye.xyz);
+    float sin_l = sqrt(max(1.0 - cos_l * cos_l, 0.0));
+    vec4 clip = v.view_proj * vec4(p + n * (pc.normal_offset * texel * sin_l), 1.0);
+    if (clip.w <= 0.0) {
+        return 1.0;
+    }
+    vec3 ndc = clip.xyz / clip.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) {
+        return 1.0; // outside the view: the view covers the object, so nothing occludes here
+    }
+    float size = v.tile.z;
+    ivec2 origin = ivec2(v.tile.xy);
+    ivec2 centre = ivec2(floor((ndc.xy * 0.5 + 0.5) * size));
+    float depth = clamp(ndc.z, 0.0, 1.0);
+    float lit = 0.0;
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            // Clamped to the tile: a neighbouring tile belongs to another view.
+            ivec2 t = clamp(centre + ivec2(dx, dy), ivec2(0), ivec2(size) - 1);
+            float stored = texelFetch(shadow_atlas, origin + t, 0).r;
+            lit += depth <= stored ? 1.0 : 0.0;
+        }
+    }
+    return lit / 9.0;
+}
+
+// The cube face (+X, -X, +Y, -Y, +Z, -Z) whose frustum holds direction d.
+uint cube_face(vec3 d) {
+    vec3 a = abs(d);
+    if (a.x >= a.y && a.x >= a.z) {
+        return d.x >= 0.0 ? 0u : 1u;
+    }
+    if (a.y >= a.z) {
+        return d.y >= 0.0 ? 2u : 3u;
+    }
+    return d.z >= 0.0 ? 4u : 5u;
+}
+
+void main() {
+    ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(texel), pc.extent))) {
+        return;
+    }
+    vec4 position = imageLoad(surface_position, texel);
+    if (position.a != 1.0) {
+        return; // padding texel: q is only defined at surface nodes
+    }
+    vec3 p = position.xyz;
+    vec3 n = imageLoad(surface_normal, texel).xyz;
+    // fp16 normals are unit only to ~5e-4; renormalize so n.l matches the f64 reference.
+    n = length(n) > 0.0 ? normalize(n) : vec3(0.0);
+
+    vec3 sum = vec3(0.0);
+    for (uint i = 0; i < min(scene.counts.x, MAX_LIGHTS); ++i) {
+        GatherLight light = scene.lights[i];
+        uint kind = uint(light.position.w);
+        vec3 l;
+        vec3 e;
+        if (kind == LIGHT_DIRECTIONAL) {
+            l = -light.position.xyz;
+            e = light.colour.rgb;
+        } else {
+            vec3 to_light = light.position.xyz - p;
+            // As the f64 reference: a light sitting on a node must not divide by zero.
+            float r = max(length(to_light), 1e-9);
+            l = to_light / r;
+            float falloff = 1.0;
+            if (kind == LIGHT_SPOT) {
+                float cos_axis = dot(-l, light.direction.xyz);
+                float co = light.direction.w;
+                float ci = light.colour.w;
+                if (ci - co > 1e-12) {
+                    float t = clamp((cos_axis - co) / (ci - co), 0.0, 1.0);
+                    falloff = t * t * (3.0 - 2.0 * t);
+                } else {
+                    falloff = cos_axis >= co ? 1.0 : 0.0;
+                }
+            }
+            // Divided in two steps: r^2 underflows or overflows fp32 long before E does.
+            e = light.colour.rgb * falloff / r / r;
+        }
+        float cos_l = dot(n, l);
+        if (cos_l <= 0.0 || all(equal(e, vec3(0.0)))) {
+            continue;
+        }
+        float vis = 1.0;
+        if (light.views.y == 1u) {
+            vis = visibility(light.views.x, p, n, cos_l);
+        } else if (light.views.y == 6u) {
+            vis = visibility(light.views.x + cube_face(-l), p, n, cos_l);
+        }
+        // Paper Eq. 3 for a delta light: E (n . w_i) F_t(w_i), shadowed.
+        sum += e * (cos_l * fresnel_transmittance(pc.eta, cos_l) * vis);
+    }
+
+    uint env = scene.counts.y;
+    if (env != ENV_NONE) {
+        vec3 e_env;
+        if (env == ENV_CONSTANT) {
+            e_env = PI * scene.sh[0].rgb;
+        } else {
+            vec3 c[9];
+            for (int k = 0; k < 9; ++k) {
+                c[k] = scene.sh[k].rgb;
+            }
+            e_env = sh_irradiance(c, n);
+        }
+        // Paper Eq. 3 over the sphere of directions with F_t averaged: E_env (1 - F_dr,ext).
+        sum += e_env * (1.0 - external_diffuse_reflectance(pc.eta));
+    }
+
+    vec3 scaled = sum * pc.q_scale;
+    // Never NaN or Inf into the solver: fp16 saturates rather than overflowing to Inf.
+    scaled = clamp(mix(scaled, vec3(0.0), isnan(scaled)), vec3(0.0), vec3(FP16_MAX));
+    imageStore(q, texel, vec4(scaled, 1.0));
+}
