@@ -19,12 +19,23 @@ pub fn workspace_root() -> PathBuf {
         .unwrap_or_default()
 }
 
-/// `TRANSLUCENT_MESH_DIR`, else `../shared/meshes` relative to the workspace root.
-pub fn mesh_dir() -> Option<PathBuf> {
+/// The path of test mesh `name` (e.g. `"spot.obj"`), or `None` with a printed "skipped" message when
+/// it is missing. With `CI` set a missing mesh fails the test instead.
+pub fn test_mesh(name: &str) -> Option<PathBuf> {
     let dir = std::env::var_os("TRANSLUCENT_MESH_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace_root().join("../shared/meshes"));
-    dir.is_dir().then_some(dir)
+    let path = dir.join(name);
+    if path.is_file() {
+        return Some(path);
+    }
+    let message = format!(
+        "test mesh {} not found (set TRANSLUCENT_MESH_DIR)",
+        path.display()
+    );
+    assert!(std::env::var_os("CI").is_none(), "{message}");
+    eprintln!("skipped: {message}");
+    None
 }
 
 /// Where tests write their outputs (`target/test-output/`), created on demand.

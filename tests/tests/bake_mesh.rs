@@ -2,8 +2,6 @@
 //! low resolution, checked for the graph invariants, tetrahedron quality and containment, weights,
 //! packing and the cache (DESIGN section 3).
 
-use std::path::PathBuf;
-
 use glam::DVec3;
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
@@ -11,24 +9,6 @@ use translucent::quadgraph::graph::{NodeKind, NO_NODE, TET_FACES};
 use translucent::quadgraph::{cache, BakeParams};
 use translucent::tet::signed_volume;
 use translucent::QuadGraph;
-
-/// The test-mesh directory: `TRANSLUCENT_MESH_DIR`, else `<workspace>/../shared/meshes`.
-fn mesh_path(name: &str) -> Option<PathBuf> {
-    let dir = std::env::var_os("TRANSLUCENT_MESH_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes"));
-    let path = dir.join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    let message = format!(
-        "test mesh {} not found (set TRANSLUCENT_MESH_DIR)",
-        path.display()
-    );
-    assert!(std::env::var_os("CI").is_none(), "{message}");
-    eprintln!("skipped: {message}");
-    None
-}
 
 /// Checks every level of `graph` against `solid`; returns the share of surface nodes whose ray met
 /// the surface (the rest sit at their face centroid).
@@ -140,7 +120,7 @@ fn check_graph(name: &str, graph: &QuadGraph, solid: &dyn Solid) -> f64 {
 
 #[test]
 fn spot_bakes_with_valid_graph_and_round_trips_through_the_cache() {
-    let Some(path) = mesh_path("spot.obj") else {
+    let Some(path) = translucent_tests::test_mesh("spot.obj") else {
         return;
     };
     let mut mesh = TriMesh::load_obj(&path).unwrap();
@@ -202,7 +182,7 @@ fn open_and_non_manifold_meshes_are_refused_with_the_reason() {
         ("teapot.obj", "open surface"),
         ("suzanne.obj", "non-manifold"),
     ] {
-        let Some(path) = mesh_path(name) else {
+        let Some(path) = translucent_tests::test_mesh(name) else {
             continue;
         };
         let mut mesh = TriMesh::load_obj(&path).unwrap();

@@ -374,24 +374,9 @@ fn shadow_maps_agree_with_ray_casting_on_a_self_shadowing_torus() {
 
 #[test]
 fn shadow_maps_agree_with_ray_casting_on_the_rocker_arm() {
-    let Some(dir) = translucent_tests::mesh_dir() else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "test meshes not found (set TRANSLUCENT_MESH_DIR)"
-        );
-        eprintln!("skipped: test meshes not found (set TRANSLUCENT_MESH_DIR)");
+    let Some(path) = translucent_tests::test_mesh("rocker-arm.obj") else {
         return;
     };
-    let path = dir.join("rocker-arm.obj");
-    if !path.is_file() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} missing",
-            path.display()
-        );
-        eprintln!("skipped: {} missing", path.display());
-        return;
-    }
     let (solid, _, _) =
         MeshSolid::load(&path, 50.0, &ValidateOptions::default()).expect("rocker arm loads");
     let params = BakeParams {

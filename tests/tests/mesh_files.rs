@@ -1,33 +1,8 @@
 //! Every test mesh in `../shared/meshes` through the public path: load, validate, normalize, query.
 //! Expected counts come from `../shared/meshes/SOURCES.md` and DESIGN section 3.
 
-use std::path::PathBuf;
-
 use glam::DVec3;
 use translucent::mesh::{MeshError, MeshSolid, Solid, TriMesh, ValidateOptions};
-
-/// The test-mesh directory: `TRANSLUCENT_MESH_DIR`, else `<workspace>/../shared/meshes`.
-fn mesh_dir() -> PathBuf {
-    std::env::var_os("TRANSLUCENT_MESH_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes"))
-}
-
-/// The path of a test mesh, or `None` (with a message) when it is missing; missing meshes fail
-/// the test when `CI` is set.
-fn mesh_path(name: &str) -> Option<PathBuf> {
-    let path = mesh_dir().join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    let message = format!(
-        "test mesh {} not found (set TRANSLUCENT_MESH_DIR)",
-        path.display()
-    );
-    assert!(std::env::var_os("CI").is_none(), "{message}");
-    eprintln!("skipped: {message}");
-    None
-}
 
 /// Deterministic points in a box (splitmix64).
 fn points_in(lo: DVec3, hi: DVec3, count: usize, seed: u64) -> Vec<DVec3> {
@@ -110,7 +85,7 @@ fn closed_test_meshes_pass_validation() {
         ("homer", 12000),
         ("nefertiti", 99938),
     ] {
-        let Some(path) = mesh_path(&format!("{name}.obj")) else {
+        let Some(path) = translucent_tests::test_mesh(&format!("{name}.obj")) else {
             continue;
         };
         let mut mesh = TriMesh::load_obj(&path).unwrap();
@@ -147,7 +122,7 @@ fn closed_test_meshes_pass_validation() {
 
 #[test]
 fn stanford_bunny_with_holes_passes_and_its_holes_are_bridged() {
-    let Some(path) = mesh_path("stanford-bunny.obj") else {
+    let Some(path) = translucent_tests::test_mesh("stanford-bunny.obj") else {
         return;
     };
     let mut mesh = TriMesh::load_obj(&path).unwrap();
@@ -191,7 +166,7 @@ fn stanford_bunny_with_holes_passes_and_its_holes_are_bridged() {
 
 #[test]
 fn open_teapot_is_refused_unless_forced() {
-    let Some(path) = mesh_path("teapot.obj") else {
+    let Some(path) = translucent_tests::test_mesh("teapot.obj") else {
         return;
     };
     let mut mesh = TriMesh::load_obj(&path).unwrap();
@@ -227,7 +202,7 @@ fn open_teapot_is_refused_unless_forced() {
 
 #[test]
 fn suzanne_with_a_non_manifold_edge_is_refused_unless_forced() {
-    let Some(path) = mesh_path("suzanne.obj") else {
+    let Some(path) = translucent_tests::test_mesh("suzanne.obj") else {
         return;
     };
     let mut mesh = TriMesh::load_obj(&path).unwrap();

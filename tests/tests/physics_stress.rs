@@ -95,6 +95,23 @@ fn extreme_materials_sizes_and_lights_stay_finite() {
 }
 
 #[test]
+fn irradiance_beyond_f64_sums_is_an_error_not_a_nan() {
+    let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    let graph = cube(5.0, 3);
+    for e in [1e150, 1e200, 1e300] {
+        let scene = Scene {
+            lights: vec![format!("dir:0,-1,0:{e},{e},{e}").parse().unwrap()],
+            environment: Environment::None,
+        };
+        match solver::solve(&graph, &field, &scene, None, &CpuSolveParams::default()) {
+            Ok(sol) => assert!(all_finite(&sol), "E = {e}"),
+            Err(SolverError::NonFinite { .. }) => {}
+            Err(other) => panic!("E = {e}: {other}"),
+        }
+    }
+}
+
+#[test]
 fn bad_graphs_scenes_and_parameters_are_typed_errors() {
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
     let scene = Scene {
@@ -210,6 +227,8 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
     });
     let e = solver::solve(&g, &bad_eta, &scene, None, &ok).unwrap_err();
     assert!(matches!(e, SolverError::Material(_)), "{e}");
+    assert!("paper".parse::<solver::RadianceMode>().unwrap() == solver::RadianceMode::Paper);
+    assert!("phys".parse::<solver::RadianceMode>().is_err());
     assert!(
         "--scheme=fv".parse::<Scheme>().is_err()
             && "paper".parse::<Scheme>().unwrap() == Scheme::Paper

@@ -11,42 +11,16 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use anyhow::Context;
-use glam::DVec3;
-use translucent::mesh::shapes::Shape;
-use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
 use translucent::quadgraph::cache::{self, CacheOutcome};
-use translucent::quadgraph::{export, BakeParams, BakeStats};
+use translucent::quadgraph::{export, BakeStats};
 use translucent::QuadGraph;
 
+use crate::object_args::{Object, ObjectArgs};
+
 #[derive(clap::Args)]
-#[command(group(clap::ArgGroup::new("input").required(true).args(["mesh", "shape"])))]
 pub struct BakeArgs {
-    /// OBJ file to bake (validated, then normalized to --size-mm).
-    #[arg(long, value_name = "FILE.obj")]
-    pub mesh: Option<PathBuf>,
-    /// Procedural shape instead of a mesh: sphere, torus, box, capsule.
-    #[arg(long, value_name = "NAME")]
-    pub shape: Option<String>,
-    /// Longest side of the object in millimetres.
-    #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
-    pub size_mm: f64,
-    /// Grading K: 0 keeps the interior lattice uniform; larger values coarsen it faster.
-    #[arg(short = 'K', default_value_t = BakeParams::default().k, allow_negative_numbers = true)]
-    pub k: f64,
-    /// Number of levels (coarsest first; each finer level has about 4x the surface nodes).
-    #[arg(long, default_value_t = BakeParams::default().levels)]
-    pub levels: u32,
-    /// Lattice cells across the longest side at the finest level.
-    #[arg(long, default_value_t = BakeParams::default().resolution)]
-    pub resolution: u32,
-    /// Relax inner node positions (for the `paper` scheme only).
-    #[arg(long)]
-    pub relax: bool,
-    /// Accept meshes that fail validation (open sheets, non-manifold edges) as the solid their
-    /// generalized winding number describes.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub object: ObjectArgs,
     /// Bake even if the cache file matches.
     #[arg(long)]
     pub rebuild: bool,
@@ -61,74 +35,14 @@ pub struct BakeArgs {
     pub export: Option<PathBuf>,
 }
 
-/// A procedural shape of longest side `size_mm` (the same proportions as `translucent render`).
-pub fn shape_by_name(name: &str, size_mm: f64) -> anyhow::Result<Shape> {
-    Ok(match name {
-        "sphere" => Shape::Sphere {
-            radius: 0.5 * size_mm,
-        },
-        "torus" => Shape::Torus {
-            major: 0.35 * size_mm,
-            minor: 0.15 * size_mm,
-        },
-        "box" => Shape::Box {
-            half_extents: DVec3::new(0.5, 0.3, 0.4) * size_mm,
-        },
-        "capsule" => Shape::Capsule {
-            half_length: 0.25 * size_mm,
-            radius: 0.25 * size_mm,
-        },
-        other => anyhow::bail!("unknown shape {other:?} (sphere, torus, box, capsule)"),
-    })
-}
-
 pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
-    if !(args.size_mm.is_finite() && args.size_mm > 0.0) {
-        anyhow::bail!("--size-mm must be a positive number, got {}", args.size_mm);
-    }
-    let params = BakeParams {
-        resolution: args.resolution,
-        k: args.k,
-        levels: args.levels,
-        relax: args.relax,
-        ..Default::default()
-    };
-    let (name, surface, solid, validation): (String, TriMesh, Box<dyn Solid>, Option<String>) =
-        match (&args.mesh, &args.shape) {
-            (Some(path), _) => {
-                let mut mesh = TriMesh::load_obj(path)?;
-                let options = if args.force {
-                    ValidateOptions::forced()
-                } else {
-                    ValidateOptions::default()
-                };
-                let report = mesh.validate(&options).with_context(|| {
-                    format!(
-                        "{} refused (--force accepts it as a winding-number solid)",
-                        path.display()
-                    )
-                })?;
-                let (mut mesh, _) = mesh.normalized(args.size_mm)?;
-                if mesh.normals.len() != mesh.positions.len() {
-                    mesh.compute_normals();
-                }
-                let solid = MeshSolid::new(mesh.clone())?;
-                let stem = path
-                    .file_stem()
-                    .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
-                (stem, mesh, Box::new(solid), Some(report.summary()))
-            }
-            (None, Some(shape)) => {
-                let s = shape_by_name(shape, args.size_mm)?;
-                (
-                    format!("shape-{shape}"),
-                    s.triangulate(96),
-                    Box::new(s),
-                    None,
-                )
-            }
-            (None, None) => anyhow::bail!("give --mesh FILE.obj or --shape NAME"),
-        };
+    let params = args.object.bake_params();
+    let Object {
+        name,
+        surface,
+        solid,
+        validation,
+    } = args.object.load(None)?;
     let out = args
         .out
         .clone()

@@ -5,6 +5,8 @@ use clap::{Parser, Subcommand};
 
 mod bake;
 mod info;
+mod material_args;
+mod object_args;
 mod render;
 mod scene_args;
 
@@ -24,7 +26,7 @@ enum Command {
     /// The Vulkan device, driver and the features used.
     Info(info::InfoArgs),
     /// Render a scene headless to PNG or EXR.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Bake (or load from the cache) the QuadGraph of a mesh or shape.
     Bake(bake::BakeArgs),
 }

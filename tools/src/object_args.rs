@@ -15,7 +15,7 @@ pub struct ObjectArgs {
     /// OBJ file (validated, then normalized to --size-mm).
     #[arg(long, value_name = "FILE.obj", conflicts_with = "shape")]
     pub mesh: Option<PathBuf>,
-    /// Procedural shape instead of a mesh: sphere, torus, box, capsule.
+    /// Procedural shape instead of a mesh: sphere, torus, box, capsule (render's default: torus).
     #[arg(long, value_name = "NAME")]
     pub shape: Option<String>,
     /// Longest side of the object in millimetres.

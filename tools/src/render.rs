@@ -1,20 +1,61 @@
-//! `translucent render`: renders the built-in default scene (a procedural shape, a default light,
-//! an auto-framed camera) headless and writes PNG or EXR. J+ comes from the Lambert-like CPU
-//! stand-in until the diffusion solvers are plugged in.
+//! `translucent render`: bakes (or loads from the cache) the QuadGraph of a mesh or shape, solves the
+//! diffusion problem for the lights and the material, shades the display mesh with the result
+//! headless and writes PNG or EXR (DESIGN section 8).
+//!
+//! ```text
+//! translucent render --out marble.png --profile
+//! translucent render --shape torus --material skimmilk --light dir:0,-1,0:4,4,4 --out t.exr --json
+//! ```
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::{bail, Context as _};
+use translucent::quadgraph::cache::{self, CacheOutcome};
 use translucent::render::{HeadlessRenderer, Scene};
+use translucent::solver::{self, CpuSolveParams, Environment, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 
+use crate::material_args::MaterialArgs;
+use crate::object_args::ObjectArgs;
 use crate::scene_args::SceneArgs;
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
     #[command(flatten)]
+    pub object: ObjectArgs,
+    #[command(flatten)]
+    pub material: MaterialArgs,
+    #[command(flatten)]
     pub scene: SceneArgs,
+    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010). voxel and dipole are
+    /// not built yet.
+    #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
+    pub method: String,
+    /// cpu: the f64 reference solver. gpu: the GPU frame (not built yet).
+    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
+    pub solver: String,
+    /// Discretization: fv (finite volumes, default) or paper (Eqs. 5/6, for comparison).
+    #[arg(long, default_value = "fv", value_parser = ["fv", "paper"])]
+    pub scheme: String,
+    /// Jacobi iterations per level. Without it the CPU solver runs multi-level Jacobi to
+    /// --tolerance and then solves the finest level exactly; with it, exactly this schedule.
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Stop a level's iterations once the estimated relative error is below this.
+    #[arg(long, default_value_t = 1e-4)]
+    pub tolerance: f64,
+    /// GPU state precision (mixed, fp16, fp32); applies to the GPU solver only.
+    #[arg(long, value_parser = ["mixed", "fp16", "fp32"])]
+    pub precision: Option<String>,
+    /// Constant environment radiance R,G,B.
+    #[arg(long, value_name = "R,G,B", conflicts_with = "env")]
+    pub env_constant: Option<String>,
+    /// Environment radiance from an equirectangular EXR (Mitsuba's envmap convention, +Y up),
+    /// projected onto order-2 spherical harmonics.
+    #[arg(long, value_name = "FILE.exr")]
+    pub env: Option<PathBuf>,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -24,12 +65,43 @@ pub struct RenderArgs {
     /// Print the per-pass GPU milliseconds of the last frame.
     #[arg(long)]
     pub profile: bool,
-    /// Print one JSON object: device, per-frame pass timings.
+    /// Print one JSON object: device, levels, frames (passes, iterations), residual, energy.
     #[arg(long)]
     pub json: bool,
     /// Write the GPU timestamp scopes of all frames as a Chrome trace (chrome://tracing, Perfetto).
     #[arg(long)]
     pub trace: Option<PathBuf>,
+    /// Where baked QuadGraphs are cached (default: $TRANSLUCENT_CACHE_DIR, else
+    /// $XDG_CACHE_HOME/translucent, else ~/.cache/translucent).
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+}
+
+/// The default scene: a torus of skim milk, back lit (see `scene_args::default_lights`), so the
+/// light passing through its tube shows.
+const DEFAULT_SHAPE: &str = "torus";
+const DEFAULT_MATERIAL: &str = "skimmilk";
+
+fn default_cache_dir() -> PathBuf {
+    let env = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    env("TRANSLUCENT_CACHE_DIR")
+        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("translucent")))
+        .or_else(|| env("HOME").map(|d| d.join(".cache").join("translucent")))
+        .unwrap_or_else(|| std::env::temp_dir().join("translucent-cache"))
+}
+
+fn rgb(option: &str, text: &str) -> anyhow::Result<[f64; 3]> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{option} {text:?}: expected R,G,B numbers"))?;
+    v.try_into()
+        .map_err(|_| anyhow::anyhow!("{option} {text:?}: expected 3 numbers"))
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
@@ -46,16 +118,91 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
+    if args.method != "quadgraph" {
+        bail!(
+            "--method {}: not built yet (only quadgraph is)",
+            args.method
+        );
+    }
+    if args.solver == "gpu" {
+        bail!("--solver gpu: the GPU frame is not built yet; use --solver cpu (the f64 reference)");
+    }
+    if args.precision.is_some() {
+        bail!("--precision applies to the GPU solver; the CPU reference is f64");
+    }
+    if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
+        bail!(
+            "--tolerance {}: must be a finite non-negative number",
+            args.tolerance
+        );
+    }
+    if args.iterations == Some(0) {
+        bail!("--iterations 0: give at least one iteration per level");
+    }
     let frame_desc = args.scene.frame_desc()?;
     let lights = args.scene.lights()?;
-    let scene = Scene::procedural(
-        &args.scene.shape,
-        args.scene.size_mm,
-        lights,
-        args.scene.eta,
-    )
-    .context("building the scene")?;
+    let environment = match (&args.env_constant, &args.env) {
+        (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
+        (None, Some(path)) => Environment::load_exr(path).context("--env")?,
+        (None, None) => Environment::None,
+    };
+    let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
 
+    // Bake, or load the cached bake of the same surface and parameters.
+    let object = args.object.load(Some(DEFAULT_SHAPE))?;
+    let params = args.object.bake_params();
+    let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
+    std::fs::create_dir_all(&cache_dir)
+        .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
+    let key = cache::cache_key(&object.surface, &params);
+    let cache_file = cache_dir.join(format!("{}-{key:016x}.qgraph", object.name));
+    let start = Instant::now();
+    let (graph, stats, outcome) = cache::bake_cached(
+        &cache_file,
+        &object.surface,
+        object.solid.as_ref(),
+        &params,
+        &mut |_| {},
+    )?;
+    let bake_s = start.elapsed().as_secs_f64();
+    if let CacheOutcome::Rebuilt(reason) = &outcome {
+        eprintln!("warning: {reason}; baked again");
+    }
+
+    // Solve on the CPU (f64 reference).
+    let solve_params = CpuSolveParams {
+        scheme: if args.scheme == "paper" {
+            Scheme::Paper
+        } else {
+            Scheme::Fv
+        },
+        iterations: vec![args
+            .iterations
+            .unwrap_or(CpuSolveParams::default().iterations[0])],
+        tolerance: args.tolerance,
+        exact: args.iterations.is_none(),
+        ..CpuSolveParams::default()
+    };
+    let solver_scene = solver::Scene {
+        lights: lights.clone(),
+        environment,
+    };
+    let start = Instant::now();
+    let solution = solver::solve(
+        &graph,
+        &field,
+        &solver_scene,
+        Some(object.solid.as_ref()),
+        &solve_params,
+    )?;
+    let solve_s = start.elapsed().as_secs_f64();
+
+    let scene = Scene {
+        mesh: graph.surface.clone(),
+        exitance: solution.vertex_j_plus.clone(),
+        lights,
+        eta: field.eta(),
+    };
     let ctx = Context::headless(&ContextDesc {
         echo_validation: true,
         ..ContextDesc::default()
@@ -64,18 +211,28 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     let mut last = None;
-    for _ in 0..args.frames {
+    for i in 0..args.frames {
         let captured = renderer.render_frame(&ctx)?;
-        frames.push(serde_json::json!({ "frame": captured.frame, "passes": captured.passes }));
+        // The scene does not change between frames: only the first one solves.
+        let iterations: Vec<usize> = if i == 0 {
+            solution
+                .levels
+                .iter()
+                .map(|l| l.jacobi_iterations)
+                .collect()
+        } else {
+            vec![0; solution.levels.len()]
+        };
+        frames.push(serde_json::json!({
+            "frame": captured.frame,
+            "passes": captured.passes,
+            "iterations": iterations,
+        }));
         timings.extend(captured.timings.clone());
         last = Some(captured);
     }
     if let Some(path) = &args.trace {
-        let trace = FrameTimings::chrome_trace(&timings).to_string();
-        write_atomically(path, |tmp| {
-            std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
-        })
-        .with_context(|| format!("--trace {}", path.display()))?;
+        write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
     }
     let last = last.context("no frame rendered")?;
     last.image
@@ -83,6 +240,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("--out {}", args.out.display()))?;
 
     if args.profile && !args.json {
+        println!(
+            "bake {bake_s:9.3} s ({}), CPU solve {solve_s:.3} s",
+            match outcome {
+                CacheOutcome::Loaded => "cache",
+                _ => "baked",
+            }
+        );
         if last.passes.is_empty() {
             println!("no GPU timestamps on this device");
         }
@@ -90,13 +254,44 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             println!("{pass:<12} {ms:9.3} ms");
         }
     }
+    if solution.clamped.iter().any(|&c| c > 0) && !args.json {
+        eprintln!(
+            "note: J+ < 0 (the diffusion model's limit for strong absorbers) clamped to 0 at {:?} surface nodes (R, G, B)",
+            solution.clamped
+        );
+    }
     if args.json {
+        let levels: Vec<_> = stats
+            .levels
+            .iter()
+            .map(|l| {
+                serde_json::json!({
+                    "surface_nodes": l.surface_nodes,
+                    "inner_nodes": l.inner_nodes,
+                    "bytes": l.bytes,
+                })
+            })
+            .collect();
         let out = serde_json::json!({
             "device": ctx.info().device_name,
             "output": args.out.display().to_string(),
             "width": frame_desc.width,
             "height": frame_desc.height,
+            "method": args.method,
+            "solver": args.solver,
+            "scheme": args.scheme,
+            "levels": levels,
             "frames": frames,
+            "exact_iterations": solution.exact.as_ref().map(|e| e.iterations),
+            "residual": solution.residual,
+            "energy": {
+                "transmitted_input": solution.energy.transmitted_input,
+                "exitance": solution.energy.exitance,
+                "absorbed": solution.energy.absorbed,
+            },
+            "clamped_nodes": solution.clamped,
+            "cpu_seconds": { "bake": bake_s, "solve": solve_s },
+            "cache": cache_file.display().to_string(),
         });
         println!("{out}");
     }
@@ -107,4 +302,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
+}
+
+fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
+    write_atomically(path, |tmp| {
+        std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
+    })
+    .with_context(|| format!("--trace {}", path.display()))
 }

@@ -8,18 +8,9 @@ use translucent::render::{Camera, FrameDesc, Light, RadianceMode};
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Procedural shape rendered when no mesh is given.
-    #[arg(long, default_value = "sphere", value_parser = ["sphere", "torus"])]
-    pub shape: String,
-    /// Size of the object in mm (longest side).
-    #[arg(long, default_value_t = 50.0)]
-    pub size_mm: f64,
-    /// Relative index of refraction n_inside / n_outside.
-    #[arg(long, default_value_t = 1.3)]
-    pub eta: f64,
     /// `dir:X,Y,Z:R,G,B` (direction the light travels, irradiance), `point:X,Y,Z:R,G,B`
     /// (intensity) or `spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER_DEG,OUTER_DEG`; repeatable.
-    /// Default: dir:1,-1,-1:3,3,3.
+    /// Default: a back light (dir:0.2,-0.35,1:5,5,5) and a dim front fill (dir:-0.6,-0.7,-0.4:0.6,0.6,0.6).
     #[arg(long = "light")]
     pub lights: Vec<String>,
     /// `X,Y,Z:TX,TY,TZ:FOVY_DEG`: eye, target, vertical field of view. Default: auto-framed.
@@ -62,6 +53,21 @@ fn vec3(option: &str, text: &str) -> anyhow::Result<DVec3> {
     Ok(DVec3::from_array(numbers::<3>(option, text)?))
 }
 
+/// The default scene's lights: a back light that shows the light passing through the object, and
+/// a dim fill from the front so its shape reads.
+pub fn default_lights() -> Vec<Light> {
+    vec![
+        Light::Directional {
+            direction: DVec3::new(0.2, -0.35, 1.0).normalize(),
+            irradiance: [5.0; 3],
+        },
+        Light::Directional {
+            direction: DVec3::new(-0.6, -0.7, -0.4).normalize(),
+            irradiance: [0.6; 3],
+        },
+    ]
+}
+
 /// Parses one `--light` value (the syntax is the library's `Light::from_str`).
 pub fn parse_light(text: &str) -> anyhow::Result<Light> {
     text.parse::<Light>()
@@ -89,7 +95,7 @@ pub fn parse_camera(text: &str) -> anyhow::Result<Camera> {
 impl SceneArgs {
     pub fn lights(&self) -> anyhow::Result<Vec<Light>> {
         if self.lights.is_empty() {
-            return Ok(vec![Light::default_light()]);
+            return Ok(default_lights());
         }
         self.lights.iter().map(|l| parse_light(l)).collect()
     }
@@ -99,15 +105,6 @@ impl SceneArgs {
             if !(1..=16384).contains(&v) {
                 bail!("{option} {v}: must be in 1..=16384");
             }
-        }
-        if !(self.size_mm.is_finite() && self.size_mm > 0.0) {
-            bail!(
-                "--size-mm {}: must be a positive number of millimetres",
-                self.size_mm
-            );
-        }
-        if !(self.eta.is_finite() && self.eta > 0.0) {
-            bail!("--eta {}: must be a positive number", self.eta);
         }
         if !(self.exposure.is_finite() && self.exposure >= 0.0) {
             bail!(

@@ -45,6 +45,7 @@ pub const MAX_SHADOW_VIEWS: usize = MAX_LIGHTS * 6;
 /// Beyond this half-angle a single perspective view wastes most of its texels (and at 90 degrees
 /// it fails): use the six cube faces instead.
 const MAX_SINGLE_VIEW_HALF_ANGLE_DEG: f64 = 60.0;
+const MIN_HALF_ANGLE_DEG: f64 = 0.1;
 
 /// Push constants of `shadow_map/depth_only.vert`.
 #[repr(C)]
@@ -205,6 +206,8 @@ fn fit_views(
     };
     match single.filter(|&(_, half)| half <= max_half) {
         Some((axis, half)) => {
+            // A zero cone (allowed, it lights only its axis) would give an infinite projection.
+            let half = half.max(MIN_HALF_ANGLE_DEG.to_radians());
             if let Some(vp) = perspective(eye, axis, half, centre, radius) {
                 views.push(persp(eye, vp));
             }
@@ -221,11 +224,10 @@ fn fit_views(
                 DVec3::Z,
                 -DVec3::Z,
             ] {
-                let along = to_centre.dot(axis);
                 // A face that sees none of the sphere still gets a tile (the gather indexes
-                // faces by direction): an empty, far-plane view.
+                // faces by direction): any valid view, nothing is drawn into it.
                 let vp = perspective(eye, axis, half, centre, radius).unwrap_or_else(|| {
-                    perspective(eye, axis, half, eye + axis * (radius - along), radius)
+                    perspective(eye, axis, half, eye + axis * radius, radius)
                         .unwrap_or((Mat4::IDENTITY, 2.0))
                 });
                 views.push(persp(eye, vp));
@@ -590,6 +592,27 @@ mod tests {
                         "face {face}: {p} -> {q}"
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_cones_and_far_faces_give_finite_views() {
+        let (centre, radius) = (DVec3::ZERO, 10.0);
+        for light in [
+            "spot:0,50,0:0,-1,0:1,1,1:0,0",
+            "spot:0,50,0:0,1,0:1,1,1:5,10",
+            "point:0,11,0:1,1,1",
+            "spot:0,0,0:0,1,0:1,1,1:80,90",
+        ] {
+            let light: Light = light.parse().expect("light");
+            let mut views = Vec::new();
+            fit_views(&light, centre, radius, 64, &mut views);
+            for v in &views {
+                assert!(
+                    v.view_proj.is_finite() && v.texel_per_mm.is_finite() && v.texel_mm.is_finite(),
+                    "{light:?}: {v:?}"
+                );
             }
         }
     }

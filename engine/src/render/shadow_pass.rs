@@ -1,4 +1,6 @@
-//! [`ShadowPass`]: a depth-only pass rendering the mesh from a light into its shadow map.
+//! [`ShadowPass`]: a depth-only pass rendering the mesh from one light into its own shadow map (the
+//! shading pass's specular). For every light at once, in one atlas sampled by compute, see
+//! [`super::ShadowMaps`]; both draw with `shadow_map/depth_only.vert`.
 
 use ash::vk;
 
@@ -9,7 +11,7 @@ use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc};
 
 pub const SHADOW_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
-/// Push constants of `shadow/depth_only.vert`.
+/// Push constants of `shadow_map/depth_only.vert` (the same layout as [`super::ShadowPush`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DepthPush {
@@ -30,7 +32,7 @@ impl ShadowPass {
             ctx,
             &GraphicsPipelineDesc {
                 name: "shadow map",
-                vertex: "shadow/depth_only.vert",
+                vertex: "shadow_map/depth_only.vert",
                 fragment: None,
                 vertex_stride: std::mem::size_of::<Vertex>() as u32,
                 vertex_attributes: &[VertexAttribute {

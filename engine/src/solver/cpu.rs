@@ -47,6 +47,21 @@ pub enum RadianceMode {
     Paper,
 }
 
+impl std::str::FromStr for RadianceMode {
+    type Err = SolverError;
+    /// `physical` or `paper` (the CLI's `--radiance`).
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "physical" => Ok(Self::Physical),
+            "paper" => Ok(Self::Paper),
+            _ => Err(SolverError::BadParameter {
+                name: "radiance",
+                problem: format!("'{s}' (expected physical or paper)"),
+            }),
+        }
+    }
+}
+
 /// Outgoing radiance at a surface point with outgoing current `j_plus`, viewed at `cos_o` to the
 /// normal (outside). Negative J+ gives zero radiance.
 pub fn radiance(j_plus: [f64; 3], eta: f64, cos_o: f64, mode: RadianceMode) -> [f64; 3] {
@@ -93,7 +108,7 @@ impl Default for CpuSolveParams {
 /// Energy per channel (DESIGN section 8's `energy`): sum q dA, sum (1 - F_dr) J+ dA over the
 /// surface nodes (dA = face area) and sum mu phi dV over the inner nodes (dV = tetrahedron volume).
 /// Exitance uses the unclamped J+, so transmitted_input = exitance + absorbed holds (exactly for `fv`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Energy {
     pub transmitted_input: [f64; 3],
     pub exitance: [f64; 3],
@@ -101,13 +116,14 @@ pub struct Energy {
 }
 
 /// What one level's Jacobi run did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LevelReport {
     pub surface_nodes: usize,
     pub inner_nodes: usize,
     pub jacobi_iterations: usize,
-    /// Estimated relative error when Jacobi stopped (infinite if too few iterations to tell).
-    pub jacobi_error_estimate: f64,
+    /// Estimated relative error when Jacobi stopped; `None` when it cannot be told (fewer than 16
+    /// iterations, or no contraction measured).
+    pub jacobi_error_estimate: Option<f64>,
 }
 
 /// The result on the finest level.
@@ -136,18 +152,19 @@ pub struct CpuSolution {
     pub operator: LevelOperator,
 }
 
-/// Jacobi on one level from `x`; returns (iterations, error estimate).
+/// Jacobi on one level from `x`; returns the iterations run and the error estimate (see
+/// [`LevelReport::jacobi_error_estimate`]).
 pub fn jacobi(
     op: &LevelOperator,
     b: &[[f64; 3]],
     x: &mut Vec<[f64; 3]>,
     max_iterations: usize,
     tolerance: f64,
-) -> (usize, f64) {
+) -> (usize, Option<f64>) {
     const BLOCK: usize = 8;
     let mut next = vec![[0.0; 3]; x.len()];
     let mut history: Vec<f64> = Vec::with_capacity(max_iterations.min(1 << 16));
-    let mut estimate = f64::INFINITY;
+    let mut estimate = None;
     for it in 1..=max_iterations {
         let (delta, max) = op.jacobi_sweep(b, x, &mut next);
         std::mem::swap(x, &mut next);
@@ -155,17 +172,14 @@ pub fn jacobi(
             .map(|c| if max[c] > 0.0 { delta[c] / max[c] } else { 0.0 })
             .fold(0.0, f64::max);
         if rel == 0.0 {
-            return (it, 0.0);
+            return (it, Some(0.0));
         }
         history.push(rel);
         if it >= 2 * BLOCK && it % BLOCK == 0 {
             let rho = (rel / history[it - 1 - BLOCK]).powf(1.0 / BLOCK as f64);
-            estimate = if rho < 1.0 {
-                rel / (1.0 - rho)
-            } else {
-                f64::INFINITY
-            };
-            if estimate < tolerance {
+            // An update of 1e-4 at rho = 0.999 still means ~10% error (DESIGN section 5).
+            estimate = (rho < 1.0).then(|| rel / (1.0 - rho));
+            if estimate.is_some_and(|e| e < tolerance) {
                 return (it, estimate);
             }
         }
@@ -309,6 +323,11 @@ pub fn solve(
         });
     }
     let residual = op.residual(&phi, &b);
+    if residual.iter().any(|r| !r.is_finite()) {
+        return Err(SolverError::NonFinite {
+            what: "the residual (irradiance beyond the range of f64 sums of squares?)".into(),
+        });
+    }
 
     let level = &graph.levels[finest];
     let inner = level.inner_count();

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use super::operator::{LevelOperator, Scheme};
 
 /// What an exact solve did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct KrylovReport {
     pub iterations: usize,
     /// Final relative residual per channel.

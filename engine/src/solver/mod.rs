@@ -9,6 +9,7 @@
 
 pub mod analytic;
 pub mod cpu;
+pub mod environment_map;
 pub mod gpu;
 pub mod krylov;
 pub mod operator;

@@ -1,0 +1,220 @@
+//! The command line as a user runs it: `translucent render`, `bake` and `info`, with validation on
+//! (any validation message makes the command fail). Small graphs and images keep this fast on
+//! lavapipe.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn translucent(args: &[&str], cache: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_translucent"))
+        .args(args)
+        .env("TRANSLUCENT_VALIDATION", "1")
+        .env("TRANSLUCENT_DEVICE", "llvmpipe")
+        .env("TRANSLUCENT_CACHE_DIR", cache)
+        .output()
+        .expect("run the translucent binary")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("translucent-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+fn json_of(out: &Output) -> serde_json::Value {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {stdout}\nstderr: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(stdout.trim()).unwrap_or_else(|e| panic!("{e}: {stdout}"))
+}
+
+fn rgb(v: &serde_json::Value) -> [f64; 3] {
+    let a = v.as_array().expect("array");
+    std::array::from_fn(|c| a[c].as_f64().expect("number"))
+}
+
+const SMALL: [&str; 10] = [
+    "--resolution",
+    "16",
+    "--levels",
+    "2",
+    "--width",
+    "64",
+    "--height",
+    "64",
+    "--size-mm",
+    "20",
+];
+
+#[test]
+fn render_solves_balances_energy_and_only_the_first_frame_solves() {
+    let dir = scratch("render");
+    let png = dir.join("sphere.png");
+    let mut args = vec![
+        "render",
+        "--shape",
+        "sphere",
+        "--material",
+        "marble",
+        "--frames",
+        "3",
+    ];
+    args.extend(SMALL);
+    args.extend(["--out", png.to_str().expect("utf-8 path"), "--json"]);
+    let v = json_of(&translucent(&args, &dir));
+
+    assert!(v["device"].as_str().expect("device").contains("llvmpipe"));
+    let levels = v["levels"].as_array().expect("levels");
+    assert_eq!(levels.len(), 2);
+    assert!(
+        levels[1]["surface_nodes"].as_u64() > levels[0]["surface_nodes"].as_u64(),
+        "finer level has more surface nodes: {levels:?}"
+    );
+    // fv conserves energy exactly: what enters leaves or is absorbed (DESIGN section 2).
+    let e = &v["energy"];
+    let (input, exit, absorbed) = (
+        rgb(&e["transmitted_input"]),
+        rgb(&e["exitance"]),
+        rgb(&e["absorbed"]),
+    );
+    for c in 0..3 {
+        assert!(input[c] > 0.0 && exit[c] > 0.0 && absorbed[c] > 0.0);
+        let balance = (input[c] - exit[c] - absorbed[c]).abs() / input[c];
+        assert!(
+            balance < 1e-6,
+            "channel {c}: {input:?} vs {exit:?} + {absorbed:?}"
+        );
+    }
+    let frames = v["frames"].as_array().expect("frames");
+    assert_eq!(frames.len(), 3);
+    let iterations = |f: &serde_json::Value| -> u64 {
+        f["iterations"]
+            .as_array()
+            .expect("iterations")
+            .iter()
+            .map(|i| i.as_u64().expect("count"))
+            .sum()
+    };
+    assert!(iterations(&frames[0]) > 0, "the first frame solves");
+    assert_eq!(
+        iterations(&frames[1]) + iterations(&frames[2]),
+        0,
+        "later frames do not"
+    );
+    assert!(
+        frames[2]["passes"].get("shading").is_some(),
+        "{:?}",
+        frames[2]
+    );
+
+    let image = image::open(&png).expect("the PNG was written").to_rgb8();
+    assert_eq!(image.dimensions(), (64, 64));
+    let lit = image
+        .pixels()
+        .filter(|p| p.0.iter().any(|&c| c > 20))
+        .count();
+    assert!(
+        lit > 64 * 64 / 10,
+        "the object covers the middle of the frame: {lit} lit pixels"
+    );
+    assert!(image.get_pixel(0, 0).0 == [0, 0, 0], "background is black");
+}
+
+#[test]
+fn render_writes_linear_exr_and_a_cached_bake_is_reused() {
+    let dir = scratch("exr");
+    let exr = dir.join("torus.exr");
+    let mut args = vec![
+        "render",
+        "--shape",
+        "torus",
+        "--env-constant",
+        "0.5,0.5,0.5",
+        "--no-specular",
+    ];
+    args.extend(SMALL);
+    args.extend(["--out", exr.to_str().expect("utf-8 path"), "--json"]);
+    let first = json_of(&translucent(&args, &dir));
+    let second = json_of(&translucent(&args, &dir));
+    assert!(exr.is_file());
+    assert_eq!(first["cache"], second["cache"]);
+    assert_eq!(
+        first["energy"], second["energy"],
+        "a cached graph gives the same solution"
+    );
+    assert!(
+        second["frames"][0]["passes"].get("shadow_map").is_none(),
+        "--no-specular records no shadow pass"
+    );
+}
+
+#[test]
+fn bad_input_is_refused_with_a_message_and_no_output_file() {
+    let dir = scratch("bad");
+    let out = dir.join("never.png");
+    let out_s = out.to_str().expect("utf-8 path");
+    for (args, needle) in [
+        (vec!["render", "--out", "x.bmp"], "--out"),
+        (
+            vec!["render", "--material", "cheese", "--out", out_s],
+            "cheese",
+        ),
+        (
+            vec![
+                "render",
+                "--sigma-a",
+                "0.1,0.1",
+                "--sigma-s",
+                "1,1,1",
+                "--out",
+                out_s,
+            ],
+            "--sigma-a",
+        ),
+        (
+            vec![
+                "render",
+                "--sigma-a=-1,0,0",
+                "--sigma-s",
+                "1,1,1",
+                "--out",
+                out_s,
+            ],
+            "sigma",
+        ),
+        (
+            vec!["render", "--light", "dir:0,0,0:1,1,1", "--out", out_s],
+            "--light",
+        ),
+        (
+            vec!["render", "--size-mm", "-3", "--out", out_s],
+            "--size-mm",
+        ),
+        (vec!["render", "--method", "voxel", "--out", out_s], "voxel"),
+        (
+            vec!["render", "--mesh", "/nonexistent/x.obj", "--out", out_s],
+            "x.obj",
+        ),
+        (vec!["bake", "--shape", "cube"], "cube"),
+    ] {
+        let o = translucent(&args, &dir);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?} left an output file");
+    }
+}
+
+#[test]
+fn info_names_the_device_with_validation_on() {
+    let dir = scratch("info");
+    let v = json_of(&translucent(&["info", "--json"], &dir));
+    let text = v.to_string();
+    assert!(text.contains("llvmpipe"), "{text}");
+}
