@@ -422,27 +422,10 @@ fn mesh_pass_draws_the_gpu_written_exitance() {
     gpu.finish();
 }
 
-/// `spot.obj` from the shared mesh directory (skipped with a message when missing, fails under CI).
-fn spot_path() -> Option<std::path::PathBuf> {
-    let path = translucent_tests::mesh_dir()
-        .unwrap_or_else(|| std::path::PathBuf::from("../shared/meshes"))
-        .join("spot.obj");
-    if path.is_file() {
-        return Some(path);
-    }
-    let message = format!(
-        "test mesh {} not found (set TRANSLUCENT_MESH_DIR)",
-        path.display()
-    );
-    assert!(std::env::var_os("CI").is_none(), "{message}");
-    eprintln!("skipped: {message}");
-    None
-}
-
 #[test]
 fn gpu_matches_the_cpu_reference_on_a_baked_spot() {
     use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
-    let Some(path) = spot_path() else {
+    let Some(path) = translucent_tests::test_mesh("spot.obj") else {
         return;
     };
     let mut mesh = TriMesh::load_obj(&path).unwrap();
