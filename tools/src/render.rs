@@ -12,7 +12,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use translucent::quadgraph::cache::{self, CacheOutcome};
-use translucent::render::{HeadlessRenderer, Scene};
+use translucent::render::{GpuMesh, HeadlessRenderer, Scene};
+use translucent::solver::gpu::{GpuFrame, GpuSolveParams, Precision};
 use translucent::solver::{self, CpuSolveParams, Environment, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
@@ -33,7 +34,8 @@ pub struct RenderArgs {
     /// not built yet.
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
-    /// cpu: the f64 reference solver. gpu: the GPU frame (not built yet).
+    /// cpu: the f64 reference solver. gpu: the GPU frame (shadow maps, irradiance gather and
+    /// Jacobi on the GPU, convergence decided on the GPU).
     #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
     pub solver: String,
     /// Discretization: fv (finite volumes, default) or paper (Eqs. 5/6, for comparison).
@@ -41,6 +43,7 @@ pub struct RenderArgs {
     pub scheme: String,
     /// Jacobi iterations per level. Without it the CPU solver runs multi-level Jacobi to
     /// --tolerance and then solves the finest level exactly; with it, exactly this schedule.
+    /// For the GPU solver it is the cap per level (default 2000), stopped early at --tolerance.
     #[arg(long)]
     pub iterations: Option<usize>,
     /// Stop a level's iterations once the estimated relative error is below this.
@@ -124,10 +127,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             args.method
         );
     }
-    if args.solver == "gpu" {
-        bail!("--solver gpu: the GPU frame is not built yet; use --solver cpu (the f64 reference)");
-    }
-    if args.precision.is_some() {
+    let on_gpu = args.solver == "gpu";
+    if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");
     }
     if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
@@ -169,13 +170,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {reason}; baked again");
     }
 
-    // Solve on the CPU (f64 reference).
+    let scheme = if args.scheme == "paper" {
+        Scheme::Paper
+    } else {
+        Scheme::Fv
+    };
+    // Solve on the CPU (f64 reference), or below on the GPU.
     let solve_params = CpuSolveParams {
-        scheme: if args.scheme == "paper" {
-            Scheme::Paper
-        } else {
-            Scheme::Fv
-        },
+        scheme,
         iterations: vec![args
             .iterations
             .unwrap_or(CpuSolveParams::default().iterations[0])],
@@ -188,18 +190,25 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         environment,
     };
     let start = Instant::now();
-    let solution = solver::solve(
-        &graph,
-        &field,
-        &solver_scene,
-        Some(object.solid.as_ref()),
-        &solve_params,
-    )?;
+    let solution = if on_gpu {
+        None
+    } else {
+        Some(solver::solve(
+            &graph,
+            &field,
+            &solver_scene,
+            Some(object.solid.as_ref()),
+            &solve_params,
+        )?)
+    };
     let solve_s = start.elapsed().as_secs_f64();
 
+    let vertices = graph.surface.positions.len();
     let scene = Scene {
         mesh: graph.surface.clone(),
-        exitance: solution.vertex_j_plus.clone(),
+        exitance: solution
+            .as_ref()
+            .map_or_else(|| vec![[0.0; 3]; vertices], |s| s.vertex_j_plus.clone()),
         lights,
         eta: field.eta(),
     };
@@ -208,20 +217,62 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         ..ContextDesc::default()
     })?;
     let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
+    let gpu_params = GpuSolveParams {
+        scheme,
+        precision: match args.precision.as_deref() {
+            Some(p) => p.parse::<Precision>()?,
+            None => Precision::Mixed,
+        },
+        iterations: vec![
+            u32::try_from(args.iterations.unwrap_or(2000)).context("--iterations: too large")?
+        ],
+        tolerance: args.tolerance as f32,
+        ..GpuSolveParams::default()
+    };
+    // The GPU frame writes J+ straight into the displayed mesh's vertices; the shadow maps are
+    // cast by the same surface (a mesh of its own: the renderer's is borrowed while recording).
+    let mut gpu = match on_gpu {
+        true => {
+            let mut frame = GpuFrame::new(&ctx, &graph, &field, &solver_scene, &gpu_params)?;
+            frame.solve.bind_mesh(&ctx, renderer.mesh())?;
+            let caster = GpuMesh::new(&ctx, &graph.surface, &vec![[0.0; 3]; vertices])?;
+            Some((frame, caster))
+        }
+        false => None,
+    };
+    let level_count = graph.levels.len();
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     let mut last = None;
+    let mut gpu_report = None;
     for i in 0..args.frames {
-        let captured = renderer.render_frame(&ctx)?;
         // The scene does not change between frames: only the first one solves.
-        let iterations: Vec<usize> = if i == 0 {
-            solution
-                .levels
-                .iter()
-                .map(|l| l.jacobi_iterations)
-                .collect()
-        } else {
-            vec![0; solution.levels.len()]
+        let captured = match (&mut gpu, i) {
+            (Some((frame, caster)), 0) => {
+                let mut failed = None;
+                let captured = renderer.render_frame_after(&ctx, |cb, profiler| {
+                    // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
+                    failed = unsafe { frame.record(&ctx, cb, caster, Some(profiler)) }.err();
+                })?;
+                if let Some(e) = failed {
+                    return Err(e.into());
+                }
+                gpu_report = Some(frame.report(
+                    &ctx,
+                    &graph,
+                    &field,
+                    &solver_scene,
+                    Some(object.solid.as_ref()),
+                    &gpu_params,
+                )?);
+                captured
+            }
+            _ => renderer.render_frame(&ctx)?,
+        };
+        let iterations: Vec<usize> = match (&solution, &gpu_report, i) {
+            (Some(s), _, 0) => s.levels.iter().map(|l| l.jacobi_iterations).collect(),
+            (None, Some(r), 0) => r.iterations.iter().map(|&n| n as usize).collect(),
+            _ => vec![0; level_count],
         };
         frames.push(serde_json::json!({
             "frame": captured.frame,
@@ -241,10 +292,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     if args.profile && !args.json {
         println!(
-            "bake {bake_s:9.3} s ({}), CPU solve {solve_s:.3} s",
+            "bake {bake_s:9.3} s ({}), {}",
             match outcome {
                 CacheOutcome::Loaded => "cache",
                 _ => "baked",
+            },
+            match &gpu_report {
+                Some(r) => format!("GPU solve, iterations per level {:?}", r.iterations),
+                None => format!("CPU solve {solve_s:.3} s"),
             }
         );
         if last.passes.is_empty() {
@@ -254,10 +309,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             println!("{pass:<12} {ms:9.3} ms");
         }
     }
-    if solution.clamped.iter().any(|&c| c > 0) && !args.json {
+    let (residual, energy, clamped) = match (&solution, &gpu_report) {
+        (Some(s), _) => (s.residual, s.energy, s.clamped.map(|c| c as u64)),
+        (None, Some(r)) => (r.residual, r.energy, r.clamped.map(u64::from)),
+        (None, None) => bail!("no solve ran"),
+    };
+    if clamped.iter().any(|&c| c > 0) && !args.json {
         eprintln!(
-            "note: J+ < 0 (the diffusion model's limit for strong absorbers) clamped to 0 at {:?} surface nodes (R, G, B)",
-            solution.clamped
+            "note: J+ < 0 (the diffusion model's limit for strong absorbers) clamped to 0 at {clamped:?} surface nodes (R, G, B)"
         );
     }
     if args.json {
@@ -282,20 +341,23 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "scheme": args.scheme,
             "levels": levels,
             "frames": frames,
-            "exact_iterations": solution.exact.as_ref().map(|e| e.iterations),
-            "residual": solution.residual,
+            "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
+            "precision": on_gpu.then(|| format!("{:?}", gpu_params.precision).to_lowercase()),
+            "gpu_bytes": gpu.as_ref().map(|(f, _)| f.solve.bytes().0),
+            "residual": residual,
             "energy": {
-                "transmitted_input": solution.energy.transmitted_input,
-                "exitance": solution.energy.exitance,
-                "absorbed": solution.energy.absorbed,
+                "transmitted_input": energy.transmitted_input,
+                "exitance": energy.exitance,
+                "absorbed": energy.absorbed,
             },
-            "clamped_nodes": solution.clamped,
+            "clamped_nodes": clamped,
             "cpu_seconds": { "bake": bake_s, "solve": solve_s },
             "cache": cache_file.display().to_string(),
         });
         println!("{out}");
     }
     let messages = ctx.take_validation_messages();
+    drop(gpu);
     drop(renderer);
     drop(ctx);
     if !messages.is_empty() {

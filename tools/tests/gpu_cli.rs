@@ -1,0 +1,161 @@
+//! `translucent render --solver gpu`: the GPU frame (shadow maps, gather, solve with convergence
+//! decided on the GPU) from the command line, against `--solver cpu` on the same scene. Validation
+//! is on: any message fails the command.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn translucent(args: &[&str], cache: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_translucent"))
+        .args(args)
+        .env("TRANSLUCENT_VALIDATION", "1")
+        .env("TRANSLUCENT_DEVICE", "llvmpipe")
+        .env("TRANSLUCENT_CACHE_DIR", cache)
+        .output()
+        .expect("run the translucent binary")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("translucent-gpu-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+fn json_of(out: &Output) -> serde_json::Value {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {stdout}\nstderr: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(stdout.trim()).unwrap_or_else(|e| panic!("{e}: {stdout}"))
+}
+
+fn rgb(v: &serde_json::Value) -> [f64; 3] {
+    let a = v.as_array().expect("array");
+    std::array::from_fn(|c| a[c].as_f64().expect("number"))
+}
+
+fn render(dir: &Path, extra: &[&str]) -> Output {
+    let png = dir.join("out.png");
+    let mut args = vec![
+        "render",
+        "--shape",
+        "sphere",
+        "--material",
+        "marble",
+        "--resolution",
+        "16",
+        "--levels",
+        "2",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--size-mm",
+        "20",
+        "--json",
+        "--out",
+    ];
+    args.push(png.to_str().expect("utf-8 path"));
+    args.extend(extra);
+    translucent(&args, dir)
+}
+
+#[test]
+fn gpu_solver_renders_with_gpu_counted_iterations_and_matches_the_cpu_energy() {
+    let dir = scratch("render");
+    let gpu = json_of(&render(
+        &dir,
+        &["--solver", "gpu", "--frames", "2", "--tolerance", "1e-5"],
+    ));
+    let cpu = json_of(&render(&dir, &["--solver", "cpu"]));
+    assert_eq!(gpu["solver"], "gpu");
+    assert_eq!(gpu["precision"], "mixed");
+    let frames = gpu["frames"].as_array().expect("frames");
+    let iterations = |f: &serde_json::Value| -> Vec<u64> {
+        f["iterations"]
+            .as_array()
+            .expect("iterations")
+            .iter()
+            .map(|i| i.as_u64().expect("count"))
+            .collect()
+    };
+    let first = iterations(&frames[0]);
+    assert_eq!(first.len(), 2);
+    assert!(
+        first.iter().all(|&i| i > 0 && i % 8 == 0 && i < 2000),
+        "{first:?}"
+    );
+    assert_eq!(
+        iterations(&frames[1]),
+        vec![0, 0],
+        "an unchanged scene is not solved again"
+    );
+    for pass in [
+        "diffusion jacobi",
+        "diffusion convergence",
+        "gather_q",
+        "shading",
+    ] {
+        assert!(
+            frames[0]["passes"].get(pass).is_some(),
+            "{pass}: {:?}",
+            frames[0]["passes"]
+        );
+    }
+    assert!(frames[1]["passes"].get("diffusion jacobi").is_none());
+    // Energy of the GPU solution (computed from its phi) against the exact CPU solve: the GPU stops
+    // at a 1e-5 estimate and its q comes from the gather (fp16, shadow maps).
+    let (ge, ce) = (&gpu["energy"], &cpu["energy"]);
+    for key in ["transmitted_input", "exitance", "absorbed"] {
+        let (g, c) = (rgb(&ge[key]), rgb(&ce[key]));
+        for ch in 0..3 {
+            assert!(
+                (g[ch] - c[ch]).abs() <= 1e-2 * c[ch].abs(),
+                "{key}[{ch}]: GPU {g:?} vs CPU {c:?}"
+            );
+        }
+    }
+    assert!(gpu["gpu_bytes"].as_u64().expect("bytes") > 0);
+    let residual = rgb(&gpu["residual"]);
+    assert!(
+        residual.iter().all(|r| r.is_finite() && *r < 1e-2),
+        "{residual:?}"
+    );
+}
+
+#[test]
+fn gpu_precision_modes_and_bad_combinations() {
+    let dir = scratch("precision");
+    for precision in ["fp16", "fp32"] {
+        let v = json_of(&render(
+            &dir,
+            &[
+                "--solver",
+                "gpu",
+                "--precision",
+                precision,
+                "--iterations",
+                "64",
+                "--scheme",
+                "paper",
+            ],
+        ));
+        assert_eq!(v["precision"], precision);
+        assert_eq!(v["scheme"], "paper");
+        let its: Vec<u64> = v["frames"][0]["iterations"]
+            .as_array()
+            .expect("iterations")
+            .iter()
+            .map(|i| i.as_u64().expect("count"))
+            .collect();
+        assert!(its.iter().all(|&i| i <= 64), "cap per level: {its:?}");
+    }
+    let out = render(&dir, &["--solver", "cpu", "--precision", "fp16"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--precision"));
+}
