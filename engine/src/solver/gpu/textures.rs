@@ -18,6 +18,35 @@
 //! folding material, geometry and the diagonal (with mu) into f64-computed weights keeps one
 //! multiply-add per neighbour and channel and makes the GPU iteration the CPU reference's
 //! `LevelOperator::jacobi_sweep` up to f32 rounding. Editing the material re-uploads these weights.
+//!
+//! ```
+//! use glam::DVec3;
+//! use translucent::material::{Material, MaterialField};
+//! use translucent::solver::gpu::textures::LevelTexels;
+//! use translucent::solver::operator::{LevelOperator, Scheme};
+//! use translucent::{tet::TetMesh, GraphLevel};
+//! let level = GraphLevel::from_tets(TetMesh::bcc_box(DVec3::ZERO, DVec3::splat(4.0), [3, 3, 3]), 1.0, |c, n| (c, n));
+//! let op = LevelOperator::build(&level, &MaterialField::Homogeneous(Material::preset("marble")?), Scheme::Fv)?;
+//! let t = LevelTexels::build(&level, &op, None)?;
+//! let width = t.packing.width;
+//! for (node, &[u, v]) in t.packing.texels.iter().enumerate() {
+//!     let texel = (v * width + u) as usize;
+//!     let surface = node >= level.inner_count();
+//!     assert_eq!(surface, v < t.packing.surface_rows); // the node type is a row test
+//!     let row_sum: f32 = (0..if surface { 1 } else { 4 }).map(|k| t.weights[0][texel][k]).sum();
+//!     assert!(row_sum < 1.0); // Jacobi weights a_ik / a_ii of an M-matrix row
+//!     if surface {
+//!         assert!(t.weights[0][texel][1] > 0.0); // the source gain, Eq. 9
+//!     }
+//! }
+//! // Padding texels point to themselves with weight 0.
+//! let used: std::collections::HashSet<u32> = t.packing.texels.iter().map(|&[u, v]| v * width + u).collect();
+//! for texel in (0..t.texel_count() as u32).filter(|x| !used.contains(x)) {
+//!     assert_eq!(t.connectivity[texel as usize], [texel; 4]);
+//!     assert!(t.weights.iter().all(|w| w[texel as usize] == [0.0; 4]));
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use half::f16;
 
