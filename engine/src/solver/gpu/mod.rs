@@ -19,8 +19,9 @@
 //!
 //! Synchronization: every image stays in GENERAL; exactly one global memory barrier (compute write
 //! -> compute read|write) before every dispatch of the loop (in `Mixed` a block of k iterations has
-//! k + 1 dispatches: residual, k - 1 sweeps, apply), one barrier compute write -> indirect read after
-//! each convergence reduction.
+//! k + 1 dispatches: residual, k - 1 sweeps, apply); around each convergence reduction one barrier
+//! before it (compute write -> read) and one after it (compute write -> indirect read). The counts
+//! are in [`GpuDiffusion::record_stats`]; synchronization validation checks they suffice.
 //!
 //! Interface with the irradiance gather (part B, `render::irradiance`): per level,
 //! [`GpuDiffusion::surface_position`] (RGBA32F, rgb = surface node position in mm in the object
