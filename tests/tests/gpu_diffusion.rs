@@ -338,6 +338,17 @@ fn bad_parameters_and_q_are_typed_errors() {
         &GpuSolveParams::default()
     )
     .is_err());
+    // A finer level without Shepard links from the coarser one: a typed error naming the level.
+    let mut unlinked = bake(&Shape::Sphere { radius: 10.0 }, 8, 2);
+    unlinked.levels[1].from_coarser = None;
+    let err = GpuDiffusion::new(ctx, &unlinked, &field, &GpuSolveParams::default())
+        .err()
+        .expect("missing links are refused");
+    assert!(err.to_string().contains("level 1"), "{err}");
+    // Broken connectivity: a neighbour index past the node count.
+    let mut broken = graph.clone();
+    broken.levels[0].neighbors[0][0] = u32::MAX - 1;
+    assert!(GpuDiffusion::new(ctx, &broken, &field, &GpuSolveParams::default()).is_err());
     let mut solve = GpuDiffusion::new(ctx, &graph, &field, &GpuSolveParams::default()).unwrap();
     let n = graph.levels[0].surface_count();
     assert!(solve.upload_q(ctx, 0, &vec![[1.0; 3]; n + 1]).is_err());
