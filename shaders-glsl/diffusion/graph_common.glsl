@@ -12,6 +12,10 @@ layout(push_constant) uniform LevelPush {
     ivec2 size;
     uint width;
     uint surface_rows;
+    // Homogeneous material only (graph_weights.glsl with HOMOGENEOUS): kappa and mu per channel,
+    // q_gain = 4 / (1 - F_dr) in mu_gain.a.
+    vec4 kappa;
+    vec4 mu_gain;
 } pc;
 
 ivec2 texel_of(uint linear) {

@@ -8,11 +8,9 @@ layout(set = 0, binding = 0, STATE_FORMAT) uniform readonly image2D src;
 layout(set = 0, binding = 1, STATE_FORMAT) uniform writeonly image2D dst;
 layout(set = 0, binding = 2, rgba16f) uniform readonly image2D q;
 layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D connectivity;
-layout(set = 0, binding = 4, rgba32f) uniform readonly image2D weight_r;
-layout(set = 0, binding = 5, rgba32f) uniform readonly image2D weight_g;
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D weight_b;
 
 #include "graph_common.glsl"
+#include "graph_weights.glsl"
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -20,15 +18,14 @@ void main() {
         return;
     }
     uvec4 nb = imageLoad(connectivity, p);
-    vec4 wr = imageLoad(weight_r, p);
-    vec4 wg = imageLoad(weight_g, p);
-    vec4 wb = imageLoad(weight_b, p);
-    // Eq. 9's source term on surface rows (zero weights on padding).
     bool surface = is_surface_row(p);
-    vec3 acc = surface ? vec3(wr[1], wg[1], wb[1]) * imageLoad(q, p).rgb : vec3(0.0);
+    vec3 w[4];
+    vec3 gain;
+    node_weights(p, surface, w, gain);
+    // Eq. 9's source term on surface rows (zero weights on padding).
+    vec3 acc = surface ? gain * imageLoad(q, p).rgb : vec3(0.0);
     for (int k = 0; k < (surface ? 1 : 4); ++k) {
-        vec3 phi_j = imageLoad(src, texel_of(nb[k])).rgb;
-        acc += vec3(wr[k], wg[k], wb[k]) * phi_j;
+        acc += w[k] * imageLoad(src, texel_of(nb[k])).rgb;
     }
     imageStore(dst, p, vec4(acc, 0.0));
 }

@@ -637,3 +637,76 @@ fn q_from_1e_minus_4_to_1e4_in_one_solve() {
     }
     gpu.finish();
 }
+
+/// DESIGN section 2's exact case: sigma_a = 0 and uniform q give phi = 4 q / (1 - F_dr) at every
+/// node, for any kappa; here through the homogeneous weight path (mu = 0: the padding guard) and
+/// the per-channel path (a heterogeneous field of two non-absorbing materials).
+#[test]
+fn no_absorption_and_uniform_light_give_the_exact_constant_phi() {
+    use translucent::material::fresnel;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 2);
+    let white = Material::new([1.0, 2.0, 0.5], [0.0; 3], 1.3).unwrap();
+    let grey = Material::new([0.2, 0.3, 4.0], [0.0; 3], 1.3).unwrap();
+    let fields = [
+        MaterialField::Homogeneous(white),
+        MaterialField::procedural(
+            Procedural::Split {
+                normal: glam::DVec3::Y,
+                offset: 0.0,
+                below: white.coefficients(),
+                above: grey.coefficients(),
+            },
+            1.3,
+        )
+        .unwrap(),
+    ];
+    let expected = 4.0 / (1.0 - fresnel::diffuse_reflectance(1.3));
+    for field in &fields {
+        for precision in [Precision::Mixed, Precision::Fp32] {
+            let mut solve = GpuDiffusion::new(
+                ctx,
+                &graph,
+                field,
+                &GpuSolveParams {
+                    precision,
+                    iterations: vec![1600],
+                    tolerance: 1e-5,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            solve.set_q_scale(GpuDiffusion::exposure_for(&[[1.0f32; 3]]));
+            for (h, level) in graph.levels.iter().enumerate() {
+                solve
+                    .upload_q(ctx, h, &vec![[1.0; 3]; level.surface_count()])
+                    .unwrap();
+            }
+            ctx.execute("solve", |cb| {
+                // SAFETY: `cb` is recording; `solve` outlives the waited submission.
+                unsafe { solve.record(ctx, cb, None) };
+                Ok(())
+            })
+            .unwrap();
+            let phi = solve.read_phi(ctx, graph.levels.len() - 1).unwrap();
+            let worst = phi
+                .iter()
+                .flatten()
+                .map(|&v| (f64::from(v) - expected).abs() / expected)
+                .fold(0.0f64, f64::max);
+            println!(
+                "{} {precision:?}: max |phi - 4q/(1-F_dr)| / phi = {worst:.2e}, iterations {:?}",
+                if field.is_homogeneous() {
+                    "homogeneous"
+                } else {
+                    "split"
+                },
+                solve.iterations_run(ctx).unwrap()
+            );
+            assert!(worst < 1e-3, "{worst}");
+            drop(solve);
+        }
+    }
+    gpu.finish();
+}

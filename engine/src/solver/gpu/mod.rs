@@ -60,7 +60,7 @@ pub use frame::{GpuFrame, GpuFrameReport};
 use ash::vk;
 use half::f16;
 
-use self::textures::LevelTexels;
+use self::textures::{HomogeneousMaterial, LevelTexels};
 use super::operator::{LevelOperator, Scheme};
 use super::SolverError;
 use crate::material::MaterialField;
@@ -138,6 +138,10 @@ pub struct LevelPush {
     pub size: [i32; 2],
     pub width: u32,
     pub surface_rows: u32,
+    /// Homogeneous material only (`graph_weights.glsl`): kappa per channel (a unused).
+    pub kappa: [f32; 4],
+    /// Homogeneous material only: mu per channel, q_gain = 4 / (1 - F_dr) in a.
+    pub mu_gain: [f32; 4],
 }
 
 /// Push constants of `shepard/init_phi*.comp`.
@@ -237,7 +241,8 @@ pub struct GpuLevel {
     #[allow(dead_code)] // owned here: descriptor sets refer to it
     connectivity: Image,
     #[allow(dead_code)] // owned here: descriptor sets refer to it
-    weights: [Image; 3],
+    /// Three per-channel weight sets, or one of geometric factors (homogeneous material).
+    weights: Vec<Image>,
     #[allow(dead_code)] // owned here: descriptor sets refer to it
     links: [Image; 2],
     #[allow(dead_code)] // owned here: descriptor sets refer to it
@@ -261,6 +266,8 @@ impl GpuLevel {
             size: [self.packing.width as i32, self.packing.height as i32],
             width: self.packing.width,
             surface_rows: self.packing.surface_rows,
+            kappa: [0.0; 4],
+            mu_gain: [0.0; 4],
         }
     }
     fn extent(&self) -> [u32; 3] {
@@ -305,6 +312,9 @@ pub struct GpuDiffusion {
     q_scale: f32,
     f_dr: f64,
     a: f64,
+    /// Push-constant material of the homogeneous weight path (zero otherwise).
+    kappa: [f32; 4],
+    mu_gain: [f32; 4],
 }
 
 fn bad_param(name: &'static str, problem: String) -> Error {
@@ -443,18 +453,34 @@ impl GpuDiffusion {
         }
         let eta = material.eta();
         crate::material::check_eta(eta).map_err(SolverError::from)?;
-        let pipelines = Self::pipelines(ctx, params.precision, graph.levels.len() as u32)?;
+        let homogeneous = match material {
+            MaterialField::Homogeneous(m) => {
+                let c = m.coefficients();
+                Some(HomogeneousMaterial {
+                    kappa: c.kappa(),
+                    mu: c.mu(),
+                })
+            }
+            _ => None,
+        };
+        let pipelines = Self::pipelines(
+            ctx,
+            params.precision,
+            homogeneous.is_some(),
+            graph.levels.len() as u32,
+        )?;
         let mut levels: Vec<GpuLevel> = Vec::with_capacity(graph.levels.len());
-        let (mut f_dr, mut a) = (0.0, 0.0);
+        let (mut f_dr, mut a, mut q_gain) = (0.0, 0.0, 0.0);
         for (h, level) in graph.levels.iter().enumerate() {
             let op =
                 LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
-            (f_dr, a) = (op.f_dr, op.a);
+            (f_dr, a, q_gain) = (op.f_dr, op.a, op.q_gain);
             let coarse = levels.last().map(|l| &l.packing);
             if h > 0 && level.from_coarser.is_none() {
                 return Err(SolverError::MissingLinks { level: h }.into());
             }
-            let texels = LevelTexels::build(level, &op, coarse).map_err(|e| e.at_level(h))?;
+            let texels =
+                LevelTexels::build(level, &op, coarse, homogeneous).map_err(|e| e.at_level(h))?;
             let gpu =
                 Self::upload_level(ctx, &pipelines, params.precision, &texels, levels.last(), h)?;
             levels.push(gpu);
@@ -630,58 +656,78 @@ impl GpuDiffusion {
             q_scale: 1.0,
             f_dr,
             a,
+            kappa: homogeneous.map_or([0.0; 4], |m| {
+                [m.kappa[0] as f32, m.kappa[1] as f32, m.kappa[2] as f32, 0.0]
+            }),
+            mu_gain: homogeneous.map_or([0.0; 4], |m| {
+                [
+                    m.mu[0] as f32,
+                    m.mu[1] as f32,
+                    m.mu[2] as f32,
+                    q_gain as f32,
+                ]
+            }),
         })
     }
 
-    fn pipelines(ctx: &Context, precision: Precision, levels: u32) -> Result<Pipelines, Error> {
+    fn pipelines(
+        ctx: &Context,
+        precision: Precision,
+        homogeneous: bool,
+        levels: u32,
+    ) -> Result<Pipelines, Error> {
         let sets = 2 * levels + 2;
         let (iterate, init, reduce, j_plus) = match precision {
             Precision::Mixed => (
-                "diffusion/correction_sweep.comp",
+                if homogeneous {
+                    "diffusion/correction_sweep_mixed_h.comp"
+                } else {
+                    "diffusion/correction_sweep_mixed.comp"
+                },
                 "shepard/init_phi_fp32.comp",
                 "reduce/convergence_mixed.comp",
                 "diffusion/j_plus_fp32.comp",
             ),
             Precision::Fp32 => (
-                "diffusion/jacobi_fp32.comp",
+                if homogeneous {
+                    "diffusion/jacobi_fp32_h.comp"
+                } else {
+                    "diffusion/jacobi_fp32.comp"
+                },
                 "shepard/init_phi_fp32.comp",
                 "reduce/convergence_fp32.comp",
                 "diffusion/j_plus_fp32.comp",
             ),
             Precision::Fp16 => (
-                "diffusion/jacobi_fp16.comp",
+                if homogeneous {
+                    "diffusion/jacobi_fp16_h.comp"
+                } else {
+                    "diffusion/jacobi_fp16.comp"
+                },
                 "shepard/init_phi_fp16.comp",
                 "reduce/convergence_fp16.comp",
                 "diffusion/j_plus_fp16.comp",
             ),
         };
-        let graph_bindings: &[&str] = if precision == Precision::Mixed {
-            &[
-                "src",
-                "dst",
-                "residual",
-                "connectivity",
-                "weight_r",
-                "weight_g",
-                "weight_b",
-            ]
+        let weight_names: &[&str] = if homogeneous {
+            &["weight_geo"]
         } else {
-            &[
-                "src",
-                "dst",
-                "q",
-                "connectivity",
-                "weight_r",
-                "weight_g",
-                "weight_b",
-            ]
+            &["weight_r", "weight_g", "weight_b"]
+        };
+        let with_weights = |names: &[&'static str]| -> Vec<&'static str> {
+            names.iter().chain(weight_names).copied().collect()
+        };
+        let graph_bindings = if precision == Precision::Mixed {
+            with_weights(&["src", "dst", "residual", "connectivity"])
+        } else {
+            with_weights(&["src", "dst", "q", "connectivity"])
         };
         let iterate = ComputePipeline::new(
             ctx,
             &ComputePipelineDesc {
                 name: PASS_JACOBI,
                 shader: iterate,
-                bindings: graph_bindings,
+                bindings: &graph_bindings,
                 max_sets: sets,
             },
         )?;
@@ -691,17 +737,12 @@ impl GpuDiffusion {
                     ctx,
                     &ComputePipelineDesc {
                         name: "diffusion residual",
-                        shader: "diffusion/residual_fp32.comp",
-                        bindings: &[
-                            "phi",
-                            "residual",
-                            "delta",
-                            "q",
-                            "connectivity",
-                            "weight_r",
-                            "weight_g",
-                            "weight_b",
-                        ],
+                        shader: if homogeneous {
+                            "diffusion/residual_fp32_h.comp"
+                        } else {
+                            "diffusion/residual_fp32.comp"
+                        },
+                        bindings: &with_weights(&["phi", "residual", "delta", "q", "connectivity"]),
                         max_sets: sets,
                     },
                 )?),
@@ -796,11 +837,30 @@ impl GpuDiffusion {
         };
         let q = image(ctx, "diffusion q", p, F::R16G16B16A16_SFLOAT)?;
         let connectivity = image(ctx, "diffusion connectivity", p, F::R32G32B32A32_UINT)?;
-        let weights = [
-            image(ctx, "diffusion weight r", p, F::R32G32B32A32_SFLOAT)?,
-            image(ctx, "diffusion weight g", p, F::R32G32B32A32_SFLOAT)?,
-            image(ctx, "diffusion weight b", p, F::R32G32B32A32_SFLOAT)?,
-        ];
+        let (weights, weight_data): (Vec<Image>, Vec<&[[f32; 4]]>) = match &t.weight_geo {
+            Some(geo) => (
+                vec![image(
+                    ctx,
+                    "diffusion weight geo",
+                    p,
+                    F::R32G32B32A32_SFLOAT,
+                )?],
+                vec![geo],
+            ),
+            None => (
+                vec![
+                    image(ctx, "diffusion weight r", p, F::R32G32B32A32_SFLOAT)?,
+                    image(ctx, "diffusion weight g", p, F::R32G32B32A32_SFLOAT)?,
+                    image(ctx, "diffusion weight b", p, F::R32G32B32A32_SFLOAT)?,
+                ],
+                t.weights.iter().map(Vec::as_slice).collect(),
+            ),
+        };
+        let weight_names: &[&str] = if weights.len() == 1 {
+            &["weight_geo"]
+        } else {
+            &["weight_r", "weight_g", "weight_b"]
+        };
         let links = [
             image(ctx, "diffusion links lo", p, F::R32G32B32A32_UINT)?,
             image(ctx, "diffusion links hi", p, F::R32G32B32A32_UINT)?,
@@ -827,9 +887,6 @@ impl GpuDiffusion {
             (&state[1], state_zero),
             (&q, zeros16),
             (&connectivity, bytes_of(&t.connectivity)),
-            (&weights[0], bytes_of(&t.weights[0])),
-            (&weights[1], bytes_of(&t.weights[1])),
-            (&weights[2], bytes_of(&t.weights[2])),
             (&links[0], bytes_of(&t.links[0])),
             (&links[1], bytes_of(&t.links[1])),
             (&link_weights[0], bytes_of(&t.link_weights[0])),
@@ -843,6 +900,9 @@ impl GpuDiffusion {
                 bytes_of(&t.surface_normal[..surface_texels.min(n)]),
             ),
         ];
+        for (img, data) in weights.iter().zip(&weight_data) {
+            items.push((img, bytes_of(data)));
+        }
         for img in phi.iter().chain(&residual) {
             items.push((img, vec![0u8; n * 16]));
         }
@@ -856,10 +916,13 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("src", src),
                 DescriptorWrite::storage_image("dst", dst),
                 DescriptorWrite::storage_image("connectivity", &connectivity),
-                DescriptorWrite::storage_image("weight_r", &weights[0]),
-                DescriptorWrite::storage_image("weight_g", &weights[1]),
-                DescriptorWrite::storage_image("weight_b", &weights[2]),
             ];
+            w.extend(
+                weight_names
+                    .iter()
+                    .zip(&weights)
+                    .map(|(&n, img)| DescriptorWrite::storage_image(n, img)),
+            );
             match &residual {
                 Some(r) => w.push(DescriptorWrite::storage_image("residual", r)),
                 None => {
@@ -871,19 +934,26 @@ impl GpuDiffusion {
         if let (Some(phi), Some(residual), Some(rp), Some(ap)) =
             (&phi, &residual, &pipelines.residual, &pipelines.apply)
         {
-            iterate_sets.push(rp.allocate_set(
-                ctx,
-                &[
-                    DescriptorWrite::storage_image("phi", phi),
-                    DescriptorWrite::storage_image("residual", residual),
-                    DescriptorWrite::storage_image("delta", &state[0]),
-                    DescriptorWrite::storage_image("q", &q),
-                    DescriptorWrite::storage_image("connectivity", &connectivity),
-                    DescriptorWrite::storage_image("weight_r", &weights[0]),
-                    DescriptorWrite::storage_image("weight_g", &weights[1]),
-                    DescriptorWrite::storage_image("weight_b", &weights[2]),
-                ],
-            )?);
+            iterate_sets.push(
+                rp.allocate_set(
+                    ctx,
+                    &[
+                        DescriptorWrite::storage_image("phi", phi),
+                        DescriptorWrite::storage_image("residual", residual),
+                        DescriptorWrite::storage_image("delta", &state[0]),
+                        DescriptorWrite::storage_image("q", &q),
+                        DescriptorWrite::storage_image("connectivity", &connectivity),
+                    ]
+                    .into_iter()
+                    .chain(
+                        weight_names
+                            .iter()
+                            .zip(&weights)
+                            .map(|(&n, img)| DescriptorWrite::storage_image(n, img)),
+                    )
+                    .collect::<Vec<_>>(),
+                )?,
+            );
             // k - 1 (odd) sweeps from state[0] leave the last correction in state[1].
             iterate_sets.push(ap.allocate_set(
                 ctx,
@@ -1166,7 +1236,11 @@ impl GpuDiffusion {
             );
             for h in 0..self.levels.len() {
                 let level = &self.levels[h];
-                let push = level.push();
+                let push = LevelPush {
+                    kappa: self.kappa,
+                    mu_gain: self.mu_gain,
+                    ..level.push()
+                };
                 let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
                 if !warm {
                     scope(cb, Some(PASS_INIT));

@@ -27,7 +27,7 @@
 //! use translucent::{tet::TetMesh, GraphLevel};
 //! let level = GraphLevel::from_tets(TetMesh::bcc_box(DVec3::ZERO, DVec3::splat(4.0), [3, 3, 3]), 1.0, |c, n| (c, n));
 //! let op = LevelOperator::build(&level, &MaterialField::Homogeneous(Material::preset("marble")?), Scheme::Fv)?;
-//! let t = LevelTexels::build(&level, &op, None)?;
+//! let t = LevelTexels::build(&level, &op, None, None)?;
 //! let width = t.packing.width;
 //! for (node, &[u, v]) in t.packing.texels.iter().enumerate() {
 //!     let texel = (v * width + u) as usize;
@@ -55,6 +55,14 @@ use crate::quadgraph::packing;
 use crate::solver::operator::LevelOperator;
 use crate::solver::SolverError;
 
+/// One material everywhere: the GPU computes the weights from one RGBA32F of geometric factors and
+/// these constants (`diffusion/graph_weights.glsl`), 32 bytes per texel less than three weight sets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HomogeneousMaterial {
+    pub kappa: [f64; 3],
+    pub mu: [f64; 3],
+}
+
 /// Block size of the packing used when a level comes without one (test fixtures).
 pub const FALLBACK_BLOCK: u32 = 32;
 
@@ -64,6 +72,8 @@ pub struct LevelTexels {
     pub packing: Packing,
     pub connectivity: Vec<[u32; 4]>,
     pub weights: [Vec<[f32; 4]>; 3],
+    /// Homogeneous material only: the geometric factors `off_ik / kappa` (see [`HomogeneousMaterial`]).
+    pub weight_geo: Option<Vec<[f32; 4]>>,
     pub links: [Vec<[u32; 4]>; 2],
     pub link_weights: [Vec<[f16; 4]>; 2],
     pub surface_position: Vec<[f32; 4]>,
@@ -93,6 +103,7 @@ impl LevelTexels {
         level: &GraphLevel,
         op: &LevelOperator,
         coarse: Option<&Packing>,
+        homogeneous: Option<HomogeneousMaterial>,
     ) -> Result<Self, SolverError> {
         let packing = packing_of(level);
         let (w, h) = (packing.width as usize, packing.height as usize);
@@ -115,6 +126,7 @@ impl LevelTexels {
         let mut out = LevelTexels {
             connectivity: (0..texels as u32).map(|t| [t; 4]).collect(),
             weights: std::array::from_fn(|_| vec![[0.0; 4]; texels]),
+            weight_geo: homogeneous.map(|_| vec![[0.0; 4]; texels]),
             links: std::array::from_fn(|_| vec![[0; 4]; texels]),
             link_weights: std::array::from_fn(|_| vec![[f16::ZERO; 4]; texels]),
             surface_position: vec![[0.0; 4]; texels],
@@ -140,6 +152,31 @@ impl LevelTexels {
                 for (c, weights) in out.weights.iter_mut().enumerate() {
                     weights[t][k] = (op.off[node][k][c] / diag[c]) as f32;
                 }
+            }
+            if let (Some(m), Some(geo)) = (homogeneous, out.weight_geo.as_mut()) {
+                // g_ik = off_ik / kappa; the shader rebuilds a_ii from g, kappa and mu: check here
+                // that this reproduces the f64 operator in every channel.
+                let mut g = [0.0f64; 4];
+                for (k, gk) in g.iter_mut().enumerate() {
+                    *gk = op.off[node][k][0] / m.kappa[0];
+                }
+                for (c, &d) in diag.iter().enumerate() {
+                    let rebuilt = if is_surface {
+                        1.0 + m.kappa[c] * g[0]
+                    } else {
+                        m.kappa[c] * g.iter().sum::<f64>() + m.mu[c]
+                    };
+                    let off_ok = (0..4).all(|k| {
+                        (m.kappa[c] * g[k] - op.off[node][k][c]).abs()
+                            <= 1e-9 * op.off[node][k][c].abs()
+                    });
+                    if !off_ok || (rebuilt - d).abs() > 1e-9 * d.abs() {
+                        return Err(bad(format!(
+                            "node {node}: the operator is not that of the homogeneous material"
+                        )));
+                    }
+                }
+                geo[t] = g.map(|v| v as f32);
             }
             if is_surface {
                 let s = node - inner;
@@ -185,6 +222,7 @@ impl LevelTexels {
             .weights
             .iter()
             .flatten()
+            .chain(out.weight_geo.iter().flatten())
             .flatten()
             .all(|v| v.is_finite());
         if !finite {

@@ -1,5 +1,3 @@
-#version 460
-#extension GL_GOOGLE_include_directive : require
 // Mixed precision inner sweep (DESIGN section 4): Jacobi on the correction, A delta = r, in fp16
 // ping-pong: delta_i <- r_i + sum_k w_ik delta_nbr. The correction shrinks as phi converges, so the
 // fp16 rounding is relative to the correction, not to phi: this is what removes the fp16 stall.
@@ -9,11 +7,9 @@ layout(set = 0, binding = 0, rgba16f) uniform readonly image2D src;
 layout(set = 0, binding = 1, rgba16f) uniform writeonly image2D dst;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D residual;
 layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D connectivity;
-layout(set = 0, binding = 4, rgba32f) uniform readonly image2D weight_r;
-layout(set = 0, binding = 5, rgba32f) uniform readonly image2D weight_g;
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D weight_b;
 
 #include "graph_common.glsl"
+#include "graph_weights.glsl"
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -21,12 +17,13 @@ void main() {
         return;
     }
     uvec4 nb = imageLoad(connectivity, p);
-    vec4 wr = imageLoad(weight_r, p);
-    vec4 wg = imageLoad(weight_g, p);
-    vec4 wb = imageLoad(weight_b, p);
+    bool surface = is_surface_row(p);
+    vec3 w[4];
+    vec3 gain;
+    node_weights(p, surface, w, gain);
     vec3 acc = imageLoad(residual, p).rgb;
-    for (int k = 0; k < (is_surface_row(p) ? 1 : 4); ++k) {
-        acc += vec3(wr[k], wg[k], wb[k]) * imageLoad(src, texel_of(nb[k])).rgb;
+    for (int k = 0; k < (surface ? 1 : 4); ++k) {
+        acc += w[k] * imageLoad(src, texel_of(nb[k])).rgb;
     }
     imageStore(dst, p, vec4(acc, 0.0));
 }
