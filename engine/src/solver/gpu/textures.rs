@@ -8,12 +8,13 @@
 //! |---|---|---|
 //! | `connectivity` | RGBA32UI | the 4 neighbours' linear texel indices `v * width + u` (one 32-bit index instead of a (u, v) pair: half the bytes of the paper's two textures, no 16-bit limit on the width) |
 //! | `weight_r/g/b` | RGBA32F | per channel, the Jacobi weights `off_ik / diag_i` of the 4 neighbours (f64 on the CPU, then f32); a surface node has one neighbour (slot 0) and keeps its source gain `q_gain / diag_s` (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9) in slot 1 |
+//! | `weight_geo` | RGBA32F | homogeneous material only, instead of `weight_r/g/b`: the geometric factors `off_ik / kappa` (`A_f / (V_i d_ij)` for fv, `1 / d_ij^2` for the paper scheme, `2 A / d_sk` on surface rows); the shader rebuilds the weights with kappa and mu from push constants |
 //! | `links_lo/hi` | RGBA32UI | 8 linear texel indices into the coarser level (paper Eq. 10) |
 //! | `link_weights_lo/hi` | RGBA16F | their Shepard weights (renormalized on the GPU) |
 //! | `surface_position` | RGBA32F | rgb: surface node position (mm), a: 1 on surface nodes |
 //! | `surface_normal` | RGBA16F | rgb: outward unit normal of surface nodes |
 //!
-//! Why three weight textures and no material textures: with a heterogeneous material, the `fv`
+//! Why three weight textures (heterogeneous) and no material textures: with a heterogeneous material, the `fv`
 //! weights `A_f kappa_ij / (V_i d_ij)` use a harmonic kappa per channel, so they differ per channel;
 //! folding material, geometry and the diagonal (with mu) into f64-computed weights keeps one
 //! multiply-add per neighbour and channel and makes the GPU iteration the CPU reference's
