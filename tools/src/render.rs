@@ -34,9 +34,9 @@ pub struct RenderArgs {
     /// not built yet.
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
-    /// cpu: the f64 reference solver. gpu: the GPU frame (shadow maps, irradiance gather and
-    /// Jacobi on the GPU, convergence decided on the GPU).
-    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
+    /// gpu (default): the GPU frame (shadow maps, irradiance gather and Jacobi on the GPU,
+    /// convergence decided on the GPU). cpu: the f64 reference solver.
+    #[arg(long, default_value = "gpu", value_parser = ["cpu", "gpu"])]
     pub solver: String,
     /// Discretization: fv (finite volumes, default) or paper (Eqs. 5/6, for comparison).
     #[arg(long, default_value = "fv", value_parser = ["fv", "paper"])]

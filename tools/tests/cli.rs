@@ -57,6 +57,8 @@ fn render_solves_balances_energy_and_only_the_first_frame_solves() {
     let png = dir.join("sphere.png");
     let mut args = vec![
         "render",
+        "--solver",
+        "cpu",
         "--shape",
         "sphere",
         "--material",
@@ -131,6 +133,8 @@ fn render_writes_linear_exr_and_a_cached_bake_is_reused() {
     let exr = dir.join("torus.exr");
     let mut args = vec![
         "render",
+        "--solver",
+        "cpu",
         "--shape",
         "torus",
         "--env-constant",
@@ -143,10 +147,16 @@ fn render_writes_linear_exr_and_a_cached_bake_is_reused() {
     let second = json_of(&translucent(&args, &dir));
     assert!(exr.is_file());
     assert_eq!(first["cache"], second["cache"]);
-    assert_eq!(
-        first["energy"], second["energy"],
-        "a cached graph gives the same solution"
-    );
+    // Same graph, same solution; parallel reductions may differ in the last bits only.
+    for key in ["transmitted_input", "exitance", "absorbed"] {
+        let (a, b) = (rgb(&first["energy"][key]), rgb(&second["energy"][key]));
+        for c in 0..3 {
+            assert!(
+                (a[c] - b[c]).abs() <= 1e-9 * a[c].abs(),
+                "{key}: {a:?} vs {b:?}"
+            );
+        }
+    }
     assert!(
         second["frames"][0]["passes"].get("shadow_map").is_none(),
         "--no-specular records no shadow pass"
