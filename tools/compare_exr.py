@@ -81,7 +81,9 @@ def sphere_reflection(spec: str, width: int, height: int):
         raise SystemExit(f"error: --sphere-reflection {spec!r}: radius and eta must be > 0")
     eye, target = np.array(eye), np.array(target)
     forward = (target - eye) / np.linalg.norm(target - eye)
-    up = np.array([0.0, 1.0, 0.0]) if np.linalg.norm(np.cross(forward, [0, 1, 0])) > 1e-6 else np.array([0.0, 0.0, 1.0])
+    # Same rule as Camera::view_proj: +Y up unless looking along Y.
+    looking_along_y = np.linalg.norm(np.cross(forward, [0.0, 1.0, 0.0])) <= 1e-6
+    up = np.array([0.0, 0.0, 1.0]) if looking_along_y else np.array([0.0, 1.0, 0.0])
     right = np.cross(forward, up)
     right /= np.linalg.norm(right)
     up = np.cross(right, forward)

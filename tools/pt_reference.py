@@ -338,7 +338,10 @@ def scene_dict(args, work: Path) -> tuple[dict, float]:
         raise SceneError(f"--spp {args.spp}: must be >= 1")
 
     surface = export_surface(args, work)
-    boundary = {"type": "null"} if eta == 1.0 else {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
+    if eta == 1.0:
+        boundary = {"type": "null"}
+    else:
+        boundary = {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0}
     scene = {
         "type": "scene",
         "integrator": {
@@ -430,7 +433,8 @@ def self_check(parser) -> int:
 
     failures = []
     clear = ["--sigma-a", "0,0,0", "--sigma-s", "2,1,0.5"]
-    base = ["--shape", "sphere", "--size-mm", "10", "--env-constant", "0.5,1,2", "--camera", "0,0,30:0,0,0:30", "--width", "24"]
+    base = ["--shape", "sphere", "--size-mm", "10", "--env-constant", "0.5,1,2"]
+    base += ["--camera", "0,0,30:0,0,0:30", "--width", "24"]
     base += ["--height", "24", "--spp", "256", "--out", "unused.exr"]
     for eta in ("1", "1.3"):
         image, _, seconds = render(parser.parse_args(base + clear + ["--eta", eta]))
