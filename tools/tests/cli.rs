@@ -2,41 +2,9 @@
 //! (any validation message makes the command fail). Small graphs and images keep this fast on
 //! lavapipe.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn translucent(args: &[&str], cache: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_translucent"))
-        .args(args)
-        .env("TRANSLUCENT_VALIDATION", "1")
-        .env("TRANSLUCENT_DEVICE", "llvmpipe")
-        .env("TRANSLUCENT_CACHE_DIR", cache)
-        .output()
-        .expect("run the translucent binary")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("translucent-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
-
-fn json_of(out: &Output) -> serde_json::Value {
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {stdout}\nstderr: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_str(stdout.trim()).unwrap_or_else(|e| panic!("{e}: {stdout}"))
-}
-
-fn rgb(v: &serde_json::Value) -> [f64; 3] {
-    let a = v.as_array().expect("array");
-    std::array::from_fn(|c| a[c].as_f64().expect("number"))
-}
+use common::{json_of, rgb, scratch, translucent};
 
 const SMALL: [&str; 10] = [
     "--resolution",

@@ -2,42 +2,12 @@
 //! decided on the GPU) from the command line, against `--solver cpu` on the same scene. Validation
 //! is on: any message fails the command.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn translucent(args: &[&str], cache: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_translucent"))
-        .args(args)
-        .env("TRANSLUCENT_VALIDATION", "1")
-        .env("TRANSLUCENT_DEVICE", "llvmpipe")
-        .env("TRANSLUCENT_CACHE_DIR", cache)
-        .output()
-        .expect("run the translucent binary")
-}
+use std::path::Path;
+use std::process::Output;
 
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("translucent-gpu-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
-
-fn json_of(out: &Output) -> serde_json::Value {
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {stdout}\nstderr: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_str(stdout.trim()).unwrap_or_else(|e| panic!("{e}: {stdout}"))
-}
-
-fn rgb(v: &serde_json::Value) -> [f64; 3] {
-    let a = v.as_array().expect("array");
-    std::array::from_fn(|c| a[c].as_f64().expect("number"))
-}
+use common::{json_of, rgb, scratch, translucent};
 
 fn render(dir: &Path, extra: &[&str]) -> Output {
     let png = dir.join("out.png");
@@ -67,7 +37,7 @@ fn render(dir: &Path, extra: &[&str]) -> Output {
 
 #[test]
 fn gpu_solver_renders_with_gpu_counted_iterations_and_matches_the_cpu_energy() {
-    let dir = scratch("render");
+    let dir = scratch("gpu-render");
     let gpu = json_of(&render(
         &dir,
         &["--solver", "gpu", "--frames", "2", "--tolerance", "1e-5"],
@@ -167,7 +137,7 @@ fn gpu_precision_modes_and_bad_combinations() {
 /// pixels, asserted: mean <= 0.25 / 255, 99th percentile <= 2 / 255. On failure, actual, reference and difference images go to target/test-output/.
 #[test]
 fn gpu_frame_image_matches_the_cpu_reference_image() {
-    let dir = scratch("image");
+    let dir = scratch("gpu-image");
     let (gpu_png, cpu_png) = (dir.join("gpu.png"), dir.join("cpu.png"));
     for (solver, out) in [("gpu", &gpu_png), ("cpu", &cpu_png)] {
         let o = translucent(
