@@ -554,17 +554,6 @@ impl SurfaceImages {
             vk::BufferUsageFlags::TRANSFER_SRC,
             &normal_bits,
         )?;
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(
-                vk::ImageSubresourceLayers::default()
-                    .aspect_mask(vk::ImageAspectFlags::COLOR)
-                    .layer_count(1),
-            )
-            .image_extent(vk::Extent3D {
-                width,
-                height: rows,
-                depth: 1,
-            });
         ctx.execute("upload surface images", |cb| {
             // SAFETY: `cb` is recording; images and staging buffers outlive the waited submission.
             unsafe {
@@ -580,13 +569,7 @@ impl SurfaceImages {
                 );
                 for (buffer, image) in [(&staged_positions, &position), (&staged_normals, &normal)]
                 {
-                    ctx.raw().cmd_copy_buffer_to_image(
-                        cb,
-                        buffer.raw,
-                        image.raw,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[region],
-                    );
+                    image.record_upload_from(ctx, cb, buffer);
                 }
                 barrier::record(
                     ctx,

@@ -137,28 +137,11 @@ impl LaplaceJacobiPass {
         )?;
         let [ping, pong] = &self.images;
         ctx.execute("jacobi upload", |cb| {
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(
-                    vk::ImageSubresourceLayers::default()
-                        .aspect_mask(vk::ImageAspectFlags::COLOR)
-                        .layer_count(1),
-                )
-                .image_extent(vk::Extent3D {
-                    width: self.width,
-                    height: self.height,
-                    depth: 1,
-                });
             // SAFETY: `cb` is recording; images and staging outlive the waited submission.
             unsafe {
                 // why: the copy writes the whole image; earlier contents are discarded (layout).
                 barrier::image(ctx, cb, ping, Access::Undefined, Access::TransferDst);
-                ctx.raw().cmd_copy_buffer_to_image(
-                    cb,
-                    staging.raw,
-                    ping.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                );
+                ping.record_upload_from(ctx, cb, &staging);
                 barrier::record(
                     ctx,
                     cb,

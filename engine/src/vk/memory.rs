@@ -193,6 +193,36 @@ pub fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
 }
 
 impl Image {
+    /// Records a copy of tightly packed texels from `buffer` into the whole image (color aspect,
+    /// mip 0, layer 0). The caller's barriers put the image in TRANSFER_DST first.
+    ///
+    /// # Safety
+    /// `cb` is recording, on `ctx`'s device; `buffer` holds at least `width * height` texels of the
+    /// image's format and outlives the command buffer's execution.
+    pub unsafe fn record_upload_from(&self, ctx: &Context, cb: vk::CommandBuffer, buffer: &Buffer) {
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(
+                vk::ImageSubresourceLayers::default()
+                    .aspect_mask(vk::ImageAspectFlags::COLOR)
+                    .layer_count(1),
+            )
+            .image_extent(vk::Extent3D {
+                width: self.width,
+                height: self.height,
+                depth: 1,
+            });
+        // SAFETY: the caller guarantees a recording command buffer and a large enough buffer.
+        unsafe {
+            ctx.raw().cmd_copy_buffer_to_image(
+                cb,
+                buffer.raw,
+                self.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            );
+        }
+    }
+
     pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image, VkError> {
         let limit = ctx.limits().max_image_dimension2_d;
         if desc.width == 0 || desc.height == 0 || desc.width > limit || desc.height > limit {

@@ -369,24 +369,7 @@ fn upload_images(ctx: &Context, name: &str, items: &[(&Image, Vec<u8>)]) -> Resu
             // why: the copies overwrite whole images; earlier contents are discarded (layout).
             barrier::record(ctx, cb, &[], &to_dst);
             for ((img, _), buf) in items.iter().zip(&staging) {
-                let region = vk::BufferImageCopy::default()
-                    .image_subresource(
-                        vk::ImageSubresourceLayers::default()
-                            .aspect_mask(vk::ImageAspectFlags::COLOR)
-                            .layer_count(1),
-                    )
-                    .image_extent(vk::Extent3D {
-                        width: img.width,
-                        height: img.height,
-                        depth: 1,
-                    });
-                ctx.raw().cmd_copy_buffer_to_image(
-                    cb,
-                    buf.raw,
-                    img.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                );
+                img.record_upload_from(ctx, cb, buf);
             }
             let to_general: Vec<_> = items
                 .iter()
@@ -1134,28 +1117,11 @@ impl GpuDiffusion {
         )?;
         let img = &l.q;
         ctx.execute("diffusion q upload", |cb| {
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(
-                    vk::ImageSubresourceLayers::default()
-                        .aspect_mask(vk::ImageAspectFlags::COLOR)
-                        .layer_count(1),
-                )
-                .image_extent(vk::Extent3D {
-                    width: img.width,
-                    height: img.height,
-                    depth: 1,
-                });
             // SAFETY: `cb` is recording; image and staging outlive the waited submission.
             unsafe {
                 // why: earlier solves read q (WAR); the copy needs TRANSFER_DST layout.
                 barrier::image(ctx, cb, img, Access::ComputeReadWrite, Access::TransferDst);
-                ctx.raw().cmd_copy_buffer_to_image(
-                    cb,
-                    staging.raw,
-                    img.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                );
+                img.record_upload_from(ctx, cb, &staging);
                 // why: the solve reads the new q (RAW) in GENERAL.
                 barrier::image(ctx, cb, img, Access::TransferDst, Access::ComputeReadWrite);
             }
