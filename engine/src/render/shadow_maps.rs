@@ -370,6 +370,13 @@ impl ShadowMaps {
         Ok(())
     }
 
+    /// Puts back views saved from [`ShadowMaps::views`] and [`ShadowMaps::light_views`] (undoing a
+    /// `set_lights` whose scene was then refused elsewhere).
+    pub fn restore(&mut self, (views, light_views): (Vec<ShadowView>, Vec<(u32, u32)>)) {
+        self.views = views;
+        self.light_views = light_views;
+    }
+
     /// The views of the current lights, in atlas order.
     pub fn views(&self) -> &[ShadowView] {
         &self.views

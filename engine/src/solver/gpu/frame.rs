@@ -46,6 +46,8 @@ pub struct GpuFrame {
     uniforms: GatherScene,
     q_scale: f32,
     eta: f32,
+    /// Bounding sphere of the finest level's nodes (centre, radius in mm): the shadow views' fit.
+    bounds: (glam::DVec3, f64),
 }
 
 /// What [`GpuFrame::report`] computes on the CPU from the GPU's finest-level phi.
@@ -82,7 +84,8 @@ impl GpuFrame {
                 ..ShadowMapsDesc::default()
             },
         )?;
-        shadows.set_lights(&scene.lights, level_bounds(graph.finest()), true)?;
+        let bounds = level_bounds(graph.finest());
+        shadows.set_lights(&scene.lights, bounds, true)?;
         let gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
         let mut levels = Vec::with_capacity(graph.levels.len());
         for h in 0..graph.levels.len() {
@@ -105,7 +108,46 @@ impl GpuFrame {
             uniforms,
             q_scale,
             eta: eta as f32,
+            bounds,
         })
+    }
+
+    /// New lights and environment for the next [`GpuFrame::record`]: refits the shadow views and
+    /// rewrites the gather's scene. The exposure stays unless the new scene's brightest q leaves
+    /// the fp16-safe band around it (a factor of 4 either way), so a light moving a little keeps
+    /// the last solution usable as a warm start. A bad scene is a typed error and leaves the
+    /// previous one in place.
+    pub fn set_lights(&mut self, graph: &QuadGraph, scene: &Scene) -> Result<(), Error> {
+        let previous = (
+            self.shadows.views().to_vec(),
+            self.shadows.light_views().to_vec(),
+        );
+        self.shadows.set_lights(&scene.lights, self.bounds, true)?;
+        let uniforms = match GatherScene::new(scene, &self.shadows) {
+            Ok(u) => u,
+            Err(e) => {
+                self.shadows.restore(previous);
+                return Err(e.into());
+            }
+        };
+        self.uniforms = uniforms;
+        let wanted = q_scale_for(scene, graph.finest(), f64::from(self.eta));
+        let ratio = wanted / self.q_scale;
+        if !(0.25..=4.0).contains(&ratio) {
+            self.q_scale = wanted;
+            self.solve.set_q_scale(wanted);
+        }
+        Ok(())
+    }
+
+    /// The exposure q and phi are stored at (see [`GpuDiffusion::q_scale`]).
+    pub fn q_scale(&self) -> f32 {
+        self.q_scale
+    }
+
+    /// Whether the current lights cast any shadow (otherwise the frame records no shadow pass).
+    pub fn casts_shadows(&self) -> bool {
+        self.shadows.any_shadows()
     }
 
     /// Records shadow maps (cast by `caster`, the displayed mesh), the gather of every level and

@@ -52,9 +52,11 @@
 //! # Ok(()) }
 //! ```
 
+pub mod edit;
 pub mod frame;
 pub mod textures;
 
+pub use edit::Deformation;
 pub use frame::{GpuFrame, GpuFrameReport};
 
 use ash::vk;
