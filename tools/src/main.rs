@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 
 mod bake;
+mod bench;
 mod info;
 mod material_args;
 mod object_args;
@@ -29,6 +30,8 @@ enum Command {
     Render(Box<render::RenderArgs>),
     /// Bake (or load from the cache) the QuadGraph of a mesh or shape.
     Bake(bake::BakeArgs),
+    /// Run time against error: sweep solver and bake settings, write CSV and a PNG plot.
+    Bench(Box<bench::BenchArgs>),
 }
 
 fn main() -> std::process::ExitCode {
@@ -37,6 +40,7 @@ fn main() -> std::process::ExitCode {
         Command::Info(args) => info::run(args),
         Command::Render(args) => render::run(args),
         Command::Bake(args) => bake::run(args),
+        Command::Bench(args) => bench::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
