@@ -1,1 +1,226 @@
-//! Benchmarks: see `benches/` and `benches/RESULTS.md`.
+//! Benchmarks: see `benches/` and `benches/RESULTS.md`. This library holds what the bench bins
+//! and `translucent bench` share: [`plot::error_vs_time`], the log-log chart of error against GPU
+//! time with the Pareto front.
+//!
+//! ```no_run
+//! use translucent_benches::plot::{error_vs_time, palette, Panel, Series};
+//! let panel = Panel {
+//!     series: vec![Series { colour: palette(0), points: vec![(10.0, 1e-2), (40.0, 1e-3)] }],
+//!     front: vec![(10.0, 1e-2), (40.0, 1e-3)],
+//!     floors: vec![5e-4],
+//! };
+//! error_vs_time(std::path::Path::new("plot.png"), &[panel]).expect("plot");
+//! ```
+
+pub mod plot {
+    //! Log-log plots without a font backend (this `plotters` build has none): decade tick labels
+    //! are drawn with a built-in 3x5 pixel font holding only digits, `.`, `-` and `e`; axis names
+    //! and series colours are written down where the plot is shown (benches/RESULTS.md).
+
+    use std::path::Path;
+
+    use plotters::coord::Shift;
+    use plotters::prelude::*;
+
+    type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+    /// Points of one family, joined in order of x.
+    pub struct Series {
+        pub colour: RGBColor,
+        pub points: Vec<(f64, f64)>,
+    }
+
+    /// One chart: x = GPU ms, y = error.
+    pub struct Panel {
+        pub series: Vec<Series>,
+        /// The Pareto front: drawn as a black line with ringed points.
+        pub front: Vec<(f64, f64)>,
+        /// Horizontal grey lines (e.g. the exact solution's error: the floor).
+        pub floors: Vec<f64>,
+    }
+
+    /// Colour `i` of the palette the CSVs name (`Palette99`).
+    pub fn palette(i: usize) -> RGBColor {
+        let (r, g, b) = Palette99::pick(i).rgb();
+        RGBColor(r, g, b)
+    }
+
+    /// `#rrggbb` of [`palette`]`(i)`.
+    pub fn palette_hex(i: usize) -> String {
+        let RGBColor(r, g, b) = palette(i);
+        format!("#{r:02x}{g:02x}{b:02x}")
+    }
+
+    /// Values at or below this are drawn at it (a log axis has no 0).
+    pub const LOG_FLOOR: f64 = 1e-7;
+
+    /// 3x5 glyphs, one row per 3 bits (top first).
+    fn glyph(c: char) -> Option<[u8; 5]> {
+        Some(match c {
+            '0' => [0b111, 0b101, 0b101, 0b101, 0b111],
+            '1' => [0b010, 0b110, 0b010, 0b010, 0b111],
+            '2' => [0b111, 0b001, 0b111, 0b100, 0b111],
+            '3' => [0b111, 0b001, 0b111, 0b001, 0b111],
+            '4' => [0b101, 0b101, 0b111, 0b001, 0b001],
+            '5' => [0b111, 0b100, 0b111, 0b001, 0b111],
+            '6' => [0b111, 0b100, 0b111, 0b101, 0b111],
+            '7' => [0b111, 0b001, 0b001, 0b001, 0b001],
+            '8' => [0b111, 0b101, 0b111, 0b101, 0b111],
+            '9' => [0b111, 0b101, 0b111, 0b001, 0b111],
+            '.' => [0b000, 0b000, 0b000, 0b000, 0b010],
+            '-' => [0b000, 0b000, 0b111, 0b000, 0b000],
+            'e' => [0b010, 0b101, 0b111, 0b100, 0b011],
+            _ => return None,
+        })
+    }
+
+    const SCALE: i32 = 2;
+
+    /// Width in pixels of `text` in the pixel font.
+    fn text_width(text: &str) -> i32 {
+        text.chars().count() as i32 * 4 * SCALE - SCALE
+    }
+
+    /// Draws `text` with its top-left corner at `at` (pixels of `area`).
+    fn draw_text(
+        area: &DrawingArea<BitMapBackend, Shift>,
+        text: &str,
+        at: (i32, i32),
+    ) -> Result<()> {
+        for (i, c) in text.chars().enumerate() {
+            let Some(rows) = glyph(c) else { continue };
+            let x0 = at.0 + i as i32 * 4 * SCALE;
+            for (y, bits) in rows.iter().enumerate() {
+                for x in 0..3 {
+                    if bits & (0b100 >> x) != 0 {
+                        let (px, py) = (x0 + x * SCALE, at.1 + y as i32 * SCALE);
+                        area.draw(&Rectangle::new(
+                            [(px, py), (px + SCALE, py + SCALE)],
+                            BLACK.filled(),
+                        ))?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `10^p` as a short label: plain between 0.01 and 1000, else `1eP`.
+    fn decade_label(p: i32) -> String {
+        match p {
+            -2 => "0.01".into(),
+            -1 => "0.1".into(),
+            0..=3 => 10u32.pow(p as u32).to_string(),
+            _ => format!("1e{p}"),
+        }
+    }
+
+    /// Writes a PNG of the panels side by side (800 x 560 each): log-log, decade grid with
+    /// labels, each series in its colour (lines and dots), the front in black, floors in grey.
+    pub fn error_vs_time(path: &Path, panels: &[Panel]) -> Result<()> {
+        let count = panels.len().max(1);
+        let root = BitMapBackend::new(path, (700 * count as u32, 560)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let areas = root.split_evenly((1, count));
+        for (panel, area) in panels.iter().zip(&areas) {
+            let all = panel
+                .series
+                .iter()
+                .flat_map(|s| s.points.iter().copied())
+                .chain(panel.front.iter().copied());
+            let (mut x0, mut x1, mut y0, mut y1) =
+                (f64::MAX, f64::MIN_POSITIVE, f64::MAX, LOG_FLOOR);
+            for (x, y) in all {
+                (x0, x1) = (x0.min(x.max(1e-3)), x1.max(x));
+                (y0, y1) = (y0.min(y.max(LOG_FLOOR)), y1.max(y));
+            }
+            for &f in &panel.floors {
+                (y0, y1) = (y0.min(f.max(LOG_FLOOR)), y1.max(f));
+            }
+            if x0 > x1 {
+                (x0, x1, y0, y1) = (1.0, 10.0, LOG_FLOOR, 1.0);
+            }
+            let (x0, x1, y0, y1) = (x0 * 0.8, x1 * 1.25, y0 * 0.5, y1 * 2.0);
+            // No label areas and no `configure_mesh`: both make plotters lay out text, which
+            // panics without a font. The margins leave room for the pixel-font labels.
+            let mut chart = ChartBuilder::on(area)
+                .margin(16)
+                .margin_left(64)
+                .margin_bottom(32)
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+            chart.draw_series(std::iter::once(PathElement::new(
+                vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)],
+                BLACK.stroke_width(1),
+            )))?;
+            let grey = RGBColor(225, 225, 225);
+            let decades =
+                |lo: f64, hi: f64| (lo.log10().ceil() as i32)..=(hi.log10().floor() as i32);
+            for p in decades(x0, x1) {
+                let x = 10f64.powi(p);
+                chart.draw_series(LineSeries::new([(x, y0), (x, y1)], grey.stroke_width(1)))?;
+                let (px, py) = chart.backend_coord(&(x, y0));
+                let label = decade_label(p);
+                draw_text(&root, &label, (px - text_width(&label) / 2, py + 6))?;
+            }
+            for p in decades(y0, y1) {
+                let y = 10f64.powi(p);
+                chart.draw_series(LineSeries::new([(x0, y), (x1, y)], grey.stroke_width(1)))?;
+                let (px, py) = chart.backend_coord(&(x0, y));
+                let label = decade_label(p);
+                draw_text(&root, &label, (px - text_width(&label) - 6, py - 5))?;
+            }
+            for &f in &panel.floors {
+                chart.draw_series(LineSeries::new(
+                    [(x0, f.max(LOG_FLOOR)), (x1, f.max(LOG_FLOOR))],
+                    RGBColor(150, 150, 150).stroke_width(2),
+                ))?;
+            }
+            for s in &panel.series {
+                let mut pts: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .map(|&(x, y)| (x, y.max(LOG_FLOOR)))
+                    .collect();
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                chart.draw_series(LineSeries::new(
+                    pts.iter().copied(),
+                    s.colour.stroke_width(1),
+                ))?;
+                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, s.colour.filled())))?;
+            }
+            let mut front: Vec<(f64, f64)> = panel
+                .front
+                .iter()
+                .map(|&(x, y)| (x, y.max(LOG_FLOOR)))
+                .collect();
+            front.sort_by(|a, b| a.0.total_cmp(&b.0));
+            chart.draw_series(LineSeries::new(
+                front.iter().copied(),
+                BLACK.stroke_width(2),
+            ))?;
+            chart.draw_series(
+                front
+                    .iter()
+                    .map(|&p| Circle::new(p, 8, BLACK.stroke_width(2))),
+            )?;
+        }
+        root.present()?;
+        Ok(())
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        #[test]
+        fn labels_use_only_drawable_characters() {
+            for p in -9..=9 {
+                let label = decade_label(p);
+                assert!(label.chars().all(|c| glyph(c).is_some()), "{label}");
+            }
+            assert_eq!(decade_label(-3), "1e-3");
+            assert_eq!(decade_label(2), "100");
+            assert_eq!(text_width("10"), 14);
+        }
+    }
+}

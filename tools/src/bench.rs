@@ -42,7 +42,6 @@ use anyhow::{bail, Context as _};
 use clap::Parser as _;
 use glam::DQuat;
 use indicatif::{ProgressBar, ProgressStyle};
-use plotters::prelude::*;
 use translucent::material::MaterialField;
 use translucent::quadgraph::cache::{self, CacheOutcome};
 use translucent::render::{Captured, FrameDesc, GpuMesh, HeadlessRenderer, Scene};
@@ -52,6 +51,7 @@ use translucent::solver::{self, CpuSolution, CpuSolveParams, Environment, Light,
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, LinearImage};
 use translucent::QuadGraph;
+use translucent_benches::plot::{error_vs_time, palette, palette_hex, Panel, Series};
 
 use crate::material_args::MaterialArgs;
 use crate::object_args::ObjectArgs;
@@ -203,9 +203,9 @@ const SUITES: [(&str, &str, &[&str]); 5] = [
             "--volume", "tests/reference/pt/milk-skin-split.vol", "--eta", "1",
             "--light", "dir:0.5,-1,-0.5:4,4,4", "--camera", PT_CAMERA, "--width", "96",
             "--height", "96", "--no-specular",
-            "--reference", "tests/reference/pt/split-sphere-dir-eta1.exr", "--resolution", "24,48",
-            "--levels", "1,3", "-K", "1", "--iterations", "2000",
-            "--tolerance", "3e-2,1e-2,3e-3,1e-3,1e-4", "--precision", "mixed,fp32",
+            "--reference", "tests/reference/pt/split-sphere-dir-eta1.exr", "--resolution", "24,32",
+            "--levels", "3", "-K", "1", "--iterations", "2000",
+            "--tolerance", "1e-2,3e-3,1e-3,1e-4", "--precision", "mixed,fp32",
             "--start", "cold,warm", "--repeats", "2",
         ],
     ),
@@ -215,9 +215,9 @@ const SUITES: [(&str, &str, &[&str]); 5] = [
         &[
             "--mesh", "@MESHES/cheburashka.obj", "--size-mm", "50", "--material", "veined-marble",
             "--width", "128", "--height", "128", "--no-specular", "--resolution", "32",
-            "--levels", "1,3", "-K", "0,1", "--iterations", "2000",
-            "--tolerance", "3e-2,1e-2,3e-3,1e-3,1e-4", "--precision", "mixed,fp32,fp16",
-            "--start", "cold,warm", "--repeats", "2",
+            "--levels", "3", "-K", "0,1", "--iterations", "2000",
+            "--tolerance", "1e-2,1e-3,1e-4", "--precision", "mixed,fp32,fp16",
+            "--start", "cold", "--repeats", "2",
         ],
     ),
     (
@@ -225,8 +225,8 @@ const SUITES: [(&str, &str, &[&str]); 5] = [
         "Stanford bunny (a scan with holes), skim milk, back and fill light",
         &[
             "--mesh", "@MESHES/stanford-bunny.obj", "--size-mm", "50", "--material", "skimmilk",
-            "--width", "128", "--height", "128", "--no-specular", "--resolution", "24,32",
-            "--levels", "3", "-K", "1", "--iterations", "8,32,128,512,2000", "--tolerance", "0",
+            "--width", "128", "--height", "128", "--no-specular", "--resolution", "24",
+            "--levels", "3", "-K", "1", "--iterations", "16,64,256,1024", "--tolerance", "0",
             "--scheme", "fv,paper", "--start", "cold,warm", "--repeats", "2",
         ],
     ),
@@ -238,7 +238,7 @@ const SUITES: [(&str, &str, &[&str]); 5] = [
             "--env-constant", "1,1,1", "--light", "dir:0,-1,0:0,0,0", "--camera", PT_CAMERA,
             "--width", "96", "--height", "96", "--no-specular",
             "--reference", "tests/reference/pt/marble-sphere-env-eta1.3.exr",
-            "--resolution", "16,24,32,48", "--levels", "3", "-K", "1", "--iterations", "2000",
+            "--resolution", "16,24,32", "--levels", "3", "-K", "1", "--iterations", "2000",
             "--tolerance", "1e-2,1e-3,1e-4", "--repeats", "2",
         ],
     ),
@@ -1004,8 +1004,7 @@ fn mark_pareto(rows: &mut [Row]) {
 }
 
 fn colour_name(family: usize) -> String {
-    let (r, g, b) = Palette99::pick(family).rgb();
-    format!("#{r:02x}{g:02x}{b:02x}")
+    palette_hex(family)
 }
 
 /// Runs every configuration on one bake: the exact rows first, then the GPU frames.
@@ -1291,95 +1290,49 @@ fn run_gpu(
     })
 }
 
-/// Log-log error against solve GPU ms: one colour per family (points joined in order of time),
-/// the Pareto front in black. Left: error (a); right (when any row has one): error (c) or (b),
-/// with each exact row's value (the floor) as a grey line.
+/// Log-log error against solve GPU ms (`translucent_benches::plot`): one colour per family, the
+/// Pareto front in black. Left: error (a); right (when any row has one): error (c) or (b), with
+/// each exact row's value (the floor) as a grey line.
 fn plot(path: &Path, rows: &[Row]) -> Result<(), Box<dyn std::error::Error>> {
-    let with_absolute = rows.iter().any(|r| r.absolute().is_some());
-    let size = if with_absolute {
-        (1400, 560)
-    } else {
-        (800, 560)
-    };
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE)?;
-    let panels: Vec<_> = if with_absolute {
-        root.split_evenly((1, 2))
-    } else {
-        vec![root.clone()]
-    };
+    type ErrorOf<'a> = &'a dyn Fn(&Row) -> Option<f64>;
+    type OnFront<'a> = &'a dyn Fn(&Row) -> bool;
     let discrete = |r: &Row| r.discrete[3];
     let absolute = |r: &Row| r.absolute();
-    type ErrorOf<'a> = &'a dyn Fn(&Row) -> Option<f64>;
-    let errors: [ErrorOf; 2] = [&discrete, &absolute];
-    let fronts = [|r: &Row| r.pareto_discrete, |r: &Row| r.pareto_image];
-    for (p, panel) in panels.iter().enumerate() {
-        let error = errors[p];
-        let points: Vec<(f64, f64)> = rows
-            .iter()
-            .filter_map(|r| Some((r.solve_gpu_ms?, error(r)?)))
-            .collect();
-        let floors: Vec<f64> = rows
-            .iter()
-            .filter(|r| r.solver == "exact")
-            .filter_map(error)
-            .filter(|&e| e > 0.0)
-            .collect();
-        // Zero errors cannot be drawn on a log axis: clamp them to the bottom.
-        const FLOOR: f64 = 1e-7;
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN_POSITIVE, f64::MAX, FLOOR);
-        for &(x, y) in &points {
-            (x0, x1) = (x0.min(x.max(1e-3)), x1.max(x));
-            (y0, y1) = (y0.min(y.max(FLOOR)), y1.max(y));
-        }
-        for &f in &floors {
-            (y0, y1) = (y0.min(f), y1.max(f));
-        }
-        if points.is_empty() {
-            (x0, x1, y0, y1) = (1.0, 10.0, FLOOR, 1.0);
-        }
-        let mut chart = ChartBuilder::on(panel).margin(20).build_cartesian_2d(
-            (x0 * 0.8..x1 * 1.25).log_scale(),
-            (y0 * 0.5..y1 * 2.0).log_scale(),
-        )?;
-        // No text: no font backend in this plotters build (the CSV carries the numbers).
-        chart.configure_mesh().x_labels(0).y_labels(0).draw()?;
-        for &f in &floors {
-            chart.draw_series(LineSeries::new(
-                [(x0 * 0.8, f), (x1 * 1.25, f)],
-                RGBColor(160, 160, 160).stroke_width(2),
-            ))?;
-        }
-        let families = rows.iter().map(|r| r.family).max().map_or(0, |m| m + 1);
-        for family in 0..families {
-            let mut pts: Vec<(f64, f64)> = rows
-                .iter()
-                .filter(|r| r.family == family)
-                .filter_map(|r| Some((r.solve_gpu_ms?, error(r)?.max(FLOOR))))
-                .collect();
-            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let colour = Palette99::pick(family).to_rgba();
-            chart.draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(1)))?;
-            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
-        }
-        let mut front: Vec<(f64, f64)> = rows
-            .iter()
-            .filter(|r| fronts[p](r))
-            .filter_map(|r| Some((r.solve_gpu_ms?, error(r)?.max(FLOOR))))
-            .collect();
-        front.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart.draw_series(LineSeries::new(
-            front.iter().copied(),
-            BLACK.stroke_width(2),
-        ))?;
-        chart.draw_series(
-            front
-                .iter()
-                .map(|&p| Circle::new(p, 8, BLACK.stroke_width(2))),
-        )?;
+    let mut kinds: Vec<(ErrorOf, OnFront)> = vec![(&discrete, &|r: &Row| r.pareto_discrete)];
+    if rows.iter().any(|r| r.absolute().is_some()) {
+        kinds.push((&absolute, &|r: &Row| r.pareto_image));
     }
-    root.present()?;
-    Ok(())
+    let families = rows.iter().map(|r| r.family).max().map_or(0, |m| m + 1);
+    let panels: Vec<Panel> = kinds
+        .iter()
+        .map(|(error, on_front)| {
+            let timed = |r: &Row| Some((r.solve_gpu_ms?, error(r)?));
+            Panel {
+                series: (0..families)
+                    .map(|f| Series {
+                        colour: palette(f),
+                        points: rows
+                            .iter()
+                            .filter(|r| r.family == f)
+                            .filter_map(timed)
+                            .collect(),
+                    })
+                    .collect(),
+                front: rows
+                    .iter()
+                    .filter(|r| on_front(r))
+                    .filter_map(timed)
+                    .collect(),
+                floors: rows
+                    .iter()
+                    .filter(|r| r.solver == "exact")
+                    .filter_map(error)
+                    .filter(|&e| e > 0.0)
+                    .collect(),
+            }
+        })
+        .collect();
+    error_vs_time(path, &panels)
 }
 
 #[cfg(test)]

@@ -13,7 +13,6 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use plotters::prelude::*;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
@@ -22,6 +21,7 @@ use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, Precision};
 use translucent::solver::{self, CpuSolveParams, Environment, Scene};
 use translucent::vk::{Context, ContextDesc, GpuProfiler};
 use translucent::QuadGraph;
+use translucent_benches::plot::{error_vs_time, palette, Panel, Series};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
@@ -164,29 +164,21 @@ fn multilevel(ctx: &Context, out: &Path, resolution: u32) -> Result<()> {
     Ok(())
 }
 
+/// One colour per level count, in the order of `series` (RESULTS.md names them).
 fn plot(path: &Path, series: &[(u32, Vec<(f64, f64)>)]) -> Result<()> {
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
-    for (_, pts) in series {
-        for &(x, y) in pts {
-            (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
-        }
-    }
-    let root = BitMapBackend::new(path, (800, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
-    // No text: the plotters build here has no font backend. Axes are log-log: x GPU ms, y error;
-    // series colours in order of `series` (RESULTS.md names them).
-    let mut chart = ChartBuilder::on(&root).margin(20).build_cartesian_2d(
-        (x0 * 0.8..x1 * 1.2).log_scale(),
-        (y0 * 0.5..y1 * 2.0).log_scale(),
-    )?;
-    chart.configure_mesh().x_labels(0).y_labels(0).draw()?;
-    for (i, (_, pts)) in series.iter().enumerate() {
-        let color = Palette99::pick(i).to_rgba();
-        chart.draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?;
-        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
-    }
-    root.present()?;
-    Ok(())
+    let panel = Panel {
+        series: series
+            .iter()
+            .enumerate()
+            .map(|(i, (_, points))| Series {
+                colour: palette(i),
+                points: points.clone(),
+            })
+            .collect(),
+        front: Vec::new(),
+        floors: Vec::new(),
+    };
+    error_vs_time(path, &[panel])
 }
 
 fn per_pass(ctx: &Context, mesh_dir: &Path, resolution: u32) -> Result<()> {
