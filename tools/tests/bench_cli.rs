@@ -33,7 +33,7 @@ const SCENE: &[&str] = &[
 
 const COLUMNS: &str =
     "solver,family,family_name,colour,k,levels,resolution,scheme,precision,start,\
-iterations_cap,tolerance,iterations_per_level,finest_nodes,finest_surface_nodes,solve_gpu_ms,\
+iterations_cap,tolerance,iterations_per_level,node_updates,finest_nodes,finest_surface_nodes,solve_gpu_ms,\
 frame_gpu_ms,cpu_s,gpu_bytes,bytes_per_node,discrete_r,discrete_g,discrete_b,discrete_all,\
 closed_form_r,closed_form_g,closed_form_b,closed_form_all,image_r,image_g,image_b,image_all,\
 pareto_discrete,pareto_image";
@@ -145,6 +145,12 @@ fn a_tiny_sweep_measures_all_three_errors_and_the_exact_row_is_its_own_zero() {
             .map(|v| v.parse().expect("iterations"))
             .collect();
         assert_eq!(per_level, vec![cap, cap], "tolerance 0 runs the cap");
+        let nodes = number(row, "finest_nodes");
+        let updates = number(row, "node_updates");
+        assert!(
+            updates > f64::from(cap) * nodes && updates < 2.0 * f64::from(cap) * nodes,
+            "{updates} node updates for {cap} iterations on 2 levels, {nodes} finest nodes"
+        );
     }
     let error = |start: &str, cap: &str| {
         let row = gpu
