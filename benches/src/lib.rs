@@ -24,7 +24,8 @@ pub mod plot {
 
     type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-    /// Points of one family, joined in order of x.
+    /// Points of one family, joined in the order given (e.g. of decreasing error: measured times
+    /// are noisy, and sorting by them would zigzag).
     pub struct Series {
         pub colour: RGBColor,
         pub points: Vec<(f64, f64)>,
@@ -176,12 +177,11 @@ pub mod plot {
                 ))?;
             }
             for s in &panel.series {
-                let mut pts: Vec<(f64, f64)> = s
+                let pts: Vec<(f64, f64)> = s
                     .points
                     .iter()
                     .map(|&(x, y)| (x, y.max(LOG_FLOOR)))
                     .collect();
-                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
                 chart.draw_series(LineSeries::new(
                     pts.iter().copied(),
                     s.colour.stroke_width(1),

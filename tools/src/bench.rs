@@ -161,6 +161,9 @@ pub struct BenchArgs {
     /// Print one JSON object (the rows, the front, the picks) instead of the summary lines.
     #[arg(long)]
     pub json: bool,
+    /// Only redraw `--out DIR`/bench.png from the bench.csv already there (nothing runs).
+    #[arg(long)]
+    pub replot: bool,
     /// Where baked QuadGraphs are cached (as for `render`).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
@@ -588,6 +591,37 @@ fn errs(e: Option<&Errors>) -> String {
 }
 
 impl Row {
+    fn empty() -> Row {
+        Row {
+            solver: "gpu",
+            family: 0,
+            family_name: String::new(),
+            colour: String::new(),
+            k: 0.0,
+            levels: 0,
+            resolution: 0,
+            scheme: "fv",
+            precision: None,
+            start: None,
+            iterations_cap: None,
+            tolerance: None,
+            iterations: Vec::new(),
+            node_updates: None,
+            finest_nodes: 0,
+            finest_surface_nodes: 0,
+            solve_gpu_ms: None,
+            frame_gpu_ms: None,
+            cpu_s: None,
+            gpu_bytes: None,
+            bytes_per_node: None,
+            discrete: [None; 4],
+            closed_form: None,
+            image: None,
+            pareto_discrete: false,
+            pareto_image: false,
+        }
+    }
+
     fn csv(&self) -> String {
         let iterations: Vec<String> = self.iterations.iter().map(u32::to_string).collect();
         [
@@ -774,6 +808,9 @@ struct Baked {
 }
 
 fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
+    if args.replot {
+        return replot(&args.out);
+    }
     // Everything a user can get wrong is checked before any work (and nothing is written then).
     let sweep = Sweep::parse(args)?;
     let configs = sweep.configs();
@@ -972,6 +1009,71 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Redraws `dir/bench.png` from `dir/bench.csv` (the columns the plot reads).
+fn replot(dir: &Path) -> anyhow::Result<()> {
+    let csv_path = dir.join("bench.csv");
+    let text = std::fs::read_to_string(&csv_path)
+        .with_context(|| format!("--replot: reading {}", csv_path.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let column = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .with_context(|| format!("{}: no column {name}", csv_path.display()))
+    };
+    let [solver, family, ms, discrete, closed, image, front_d, front_i] = [
+        "solver",
+        "family",
+        "solve_gpu_ms",
+        "discrete_all",
+        "closed_form_all",
+        "image_all",
+        "pareto_discrete",
+        "pareto_image",
+    ]
+    .map(column);
+    let (solver, family, ms, discrete) = (solver?, family?, ms?, discrete?);
+    let (closed, image, front_d, front_i) = (closed?, image?, front_d?, front_i?);
+    let mut rows = Vec::new();
+    for (n, line) in lines.enumerate() {
+        let cells: Vec<&str> = line.split(',').collect();
+        let bad = || anyhow::anyhow!("{} line {}: malformed", csv_path.display(), n + 2);
+        if cells.len() != header.len() {
+            return Err(bad());
+        }
+        let number = |i: usize| -> anyhow::Result<Option<f64>> {
+            match cells[i] {
+                "" => Ok(None),
+                v => v.parse::<f64>().map(Some).map_err(|_| bad()),
+            }
+        };
+        let all = |i: usize| -> anyhow::Result<Option<Errors>> {
+            Ok(number(i)?.map(|v| [None, None, None, Some(v)]))
+        };
+        rows.push(Row {
+            solver: if cells[solver] == "exact" {
+                "exact"
+            } else {
+                "gpu"
+            },
+            family: cells[family].parse().map_err(|_| bad())?,
+            solve_gpu_ms: number(ms)?,
+            discrete: all(discrete)?.unwrap_or([None; 4]),
+            closed_form: all(closed)?,
+            image: all(image)?,
+            pareto_discrete: cells[front_d] == "true",
+            pareto_image: cells[front_i] == "true",
+            ..Row::empty()
+        });
+    }
+    let png_path = dir.join("bench.png");
+    write_atomically(&png_path, |tmp| plot(tmp, &rows).map_err(|e| e.to_string()))
+        .with_context(|| format!("writing {}", png_path.display()))?;
+    println!("wrote {}", png_path.display());
+    Ok(())
+}
+
 /// Discrete error (a) below which the iterations are done for real time: 1%, well under the
 /// model's own error against path tracing (the RESULTS ptref section: 1.4-39%).
 const REALTIME: f64 = 1e-2;
@@ -1050,32 +1152,13 @@ fn bench_bake(
     let caster = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; vertices])?;
     let bake_name = format!("K{} L{} r{}", baked.k, baked.levels, baked.resolution);
     let base_row = |family_name: String| Row {
-        solver: "gpu",
-        family: 0,
         family_name,
-        colour: String::new(),
         k: baked.k,
         levels: baked.levels,
         resolution: baked.resolution,
-        scheme: "fv",
-        precision: None,
-        start: None,
-        iterations_cap: None,
-        tolerance: None,
-        iterations: Vec::new(),
-        node_updates: None,
         finest_nodes: finest.node_count(),
         finest_surface_nodes: finest.surface_count(),
-        solve_gpu_ms: None,
-        frame_gpu_ms: None,
-        cpu_s: None,
-        gpu_bytes: None,
-        bytes_per_node: None,
-        discrete: [None; 4],
-        closed_form: None,
-        image: None,
-        pareto_discrete: false,
-        pareto_image: false,
+        ..Row::empty()
     };
 
     let mut exact: BTreeMap<&'static str, CpuSolution> = BTreeMap::new();
@@ -1371,32 +1454,9 @@ mod tests {
     #[test]
     fn the_pareto_front_keeps_only_undominated_rows() {
         let row = |ms: f64, e: f64| Row {
-            solver: "gpu",
-            family: 0,
-            family_name: String::new(),
-            colour: String::new(),
-            k: 1.0,
-            levels: 1,
-            resolution: 8,
-            scheme: "fv",
-            precision: None,
-            start: None,
-            iterations_cap: None,
-            tolerance: None,
-            iterations: vec![],
-            node_updates: None,
-            finest_nodes: 0,
-            finest_surface_nodes: 0,
             solve_gpu_ms: Some(ms),
-            frame_gpu_ms: None,
-            cpu_s: None,
-            gpu_bytes: None,
-            bytes_per_node: None,
             discrete: [None, None, None, Some(e)],
-            closed_form: None,
-            image: None,
-            pareto_discrete: false,
-            pareto_image: false,
+            ..Row::empty()
         };
         let mut rows = vec![row(1.0, 0.1), row(2.0, 0.2), row(3.0, 0.01), row(3.0, 0.02)];
         mark_pareto(&mut rows);
