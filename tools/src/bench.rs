@@ -808,7 +808,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     run_sweep(&cli.args)
 }
 
-/// What one bake contributes: the graph and the exact solution per scheme.
+/// One bake of the sweep: its parameters and graph.
 struct Baked {
     k: f64,
     levels: u32,
@@ -822,6 +822,13 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
     }
     // Everything a user can get wrong is checked before any work (and nothing is written then).
     let sweep = Sweep::parse(args)?;
+    if args.out.exists() && !args.out.is_dir() {
+        return Err(BenchError::BadOption {
+            option: "--out",
+            problem: format!("{} exists and is not a directory", args.out.display()),
+        }
+        .into());
+    }
     let configs = sweep.configs();
     let lights = args.scene.lights()?;
     let mut frame_desc = args.scene.frame_desc()?;

@@ -224,5 +224,24 @@ fn bad_lists_are_errors_naming_the_option_and_write_nothing() {
         assert!(!stderr.contains("panicked"), "{bad:?}: {stderr}");
         assert!(!out_dir.exists(), "{bad:?} wrote {}", out_dir.display());
     }
+    // An output path that is a file: refused before anything runs, the file left as it was.
+    let file = dir.join("file.txt");
+    std::fs::write(&file, "keep").expect("write");
+    let result = translucent(
+        &[
+            "bench",
+            "--shape",
+            "sphere",
+            "--out",
+            file.to_str().expect("utf-8"),
+        ],
+        &dir,
+    );
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        !result.status.success() && stderr.contains("--out"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).expect("read"), "keep");
     let _ = std::fs::remove_dir_all(&dir);
 }
