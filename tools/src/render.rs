@@ -288,7 +288,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 if let Some(deg) = args.orbit_light {
                     report_scene = solver::Scene {
                         lights: orbit_lights(&solver_scene.lights, deg * f64::from(i)),
-                        environment: solver_scene.environment.clone(),
+                        environment: solver_scene.environment,
                     };
                     translucent.set_lights(&report_scene);
                 }
