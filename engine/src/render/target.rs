@@ -41,7 +41,9 @@ impl OffscreenTarget {
                 width,
                 height,
                 format: DEPTH_FORMAT,
-                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                // TRANSFER_DST: a host-style frame may clear it before an object tests against it.
+                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::TRANSFER_DST,
             },
         )?;
         Ok(OffscreenTarget {
