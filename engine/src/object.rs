@@ -85,9 +85,11 @@ pub const PASS_COARSE: &str = "coarse levels";
 pub const PASS_SHADING: &str = "shading";
 
 /// Below this many finest-level nodes a cold solve iterates the finest level only. Chosen by
-/// measurement (benches/RESULTS.md, "Host frames"): on the test shapes up to this size the
-/// single-level solve reached the tolerance in no more GPU time than the multi-level one.
-pub const SINGLE_LEVEL_NODES: usize = 2048;
+/// measurement (benches/RESULTS.md, "Host frames", part (c), lavapipe): a one-level cold solve of
+/// a sphere was faster at 4248 finest nodes (307 vs 363 ms), even at 11952 and 2x-5x slower from
+/// 26592 up, and it always runs more iterations (dispatches), which a GPU with per-dispatch cost
+/// pays for: the threshold stays below the smallest graph where it was measured to win.
+pub const SINGLE_LEVEL_NODES: usize = 4096;
 
 /// How to build a [`TranslucentObject`].
 #[derive(Clone, Debug)]

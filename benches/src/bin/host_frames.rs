@@ -8,8 +8,9 @@
 //!     sphere bakes of growing resolution.
 //!
 //! ```text
-//! cargo run --release -p translucent-benches --bin host_frames -- [RESOLUTION] [FRAMES] [DEGREES]
+//! cargo run --release -p translucent-benches --bin host_frames -- [RESOLUTION] [FRAMES] [DEGREES] [c]
 //! ```
+//! A fourth argument `c` runs part (c) only.
 //! Defaults: torus resolution 24 (3 levels), 8 frames, 3 degrees per frame. Prints markdown
 //! tables. `TRANSLUCENT_DEVICE` picks the Vulkan device.
 
@@ -102,6 +103,7 @@ fn main() -> Result<()> {
     let levels = nodes.len();
     println!("torus 50 mm, resolution {resolution}, nodes per level {nodes:?}");
     let mut host = HeadlessHost::new(&ctx, 128, 128)?;
+    let only_c = args.get(3).is_some_and(|a| a == "c");
 
     // (a) Moving light: warm (skips on) vs cold (skips off), same lights every frame.
     println!("\n(a) light orbiting {degrees} deg/frame, tolerance 1e-4, cap 2000 per level");
@@ -111,6 +113,9 @@ fn main() -> Result<()> {
         single_level_nodes: 0,
         ..ObjectParams::default()
     };
+    if only_c {
+        return small_graphs(&ctx, &mut host, &field);
+    }
     let mut warm = TranslucentObject::new(&ctx, graph.clone(), &field, &scene(0.0), &params)?;
     let mut cold = TranslucentObject::new(
         &ctx,
@@ -182,30 +187,34 @@ fn main() -> Result<()> {
     }
     drop((on, off));
 
+    small_graphs(&ctx, &mut host, &field)
+}
+
+fn small_graphs(ctx: &Context, host: &mut HeadlessHost, field: &MaterialField) -> Result<()> {
     // (c) Small graphs: one level vs all levels, cold.
-    println!("\n(c) cold solve of a 20 mm sphere (3 levels baked): one level vs all levels");
-    println!("| resolution | finest nodes | all levels: iterations, GPU ms | finest only: iterations, GPU ms |");
+    println!("\n(c) cold solve of a 20 mm sphere: one level vs all levels");
+    println!("| resolution, levels | finest nodes | all levels: iterations, GPU ms | finest only: iterations, GPU ms |");
     println!("|---|---|---|---|");
-    for r in [16, 20, 24, 28] {
-        let g = bake(Shape::Sphere { radius: 10.0 }, r, 3)?;
+    for (r, levels) in [(8, 2), (12, 2), (16, 2), (16, 3), (24, 3)] {
+        let g = bake(Shape::Sphere { radius: 10.0 }, r, levels)?;
         let lv = g.levels.len();
         let mut row = Vec::new();
         for threshold in [0, usize::MAX] {
             let mut o = TranslucentObject::new(
-                &ctx,
+                ctx,
                 g.clone(),
-                &field,
+                field,
                 &scene(0.0),
                 &ObjectParams {
                     single_level_nodes: threshold,
                     ..ObjectParams::default()
                 },
             )?;
-            let (c, its) = frame(&ctx, &mut host, &mut o, lv)?;
+            let (c, its) = frame(ctx, host, &mut o, lv)?;
             row.push(format!("{its:?}, {:.1}", frame_ms(&c)));
         }
         println!(
-            "| {r} | {} | {} | {} |",
+            "| {r}, {levels} | {} | {} | {} |",
             g.finest().node_count(),
             row[0],
             row[1]
