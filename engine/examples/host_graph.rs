@@ -606,7 +606,7 @@ pub fn run(out: &Path, validation: bool) -> Result<Outcome> {
 
             // 2. The translucent object, between the host's passes.
             if frame > 1 {
-                object.set_lights(&scene_at(frame - 1));
+                object.set_lights(&scene_at(frame - 1))?;
             }
             let general_for_compute = ImageState {
                 stage: S::COMPUTE_SHADER,

@@ -48,7 +48,7 @@
 //!     depth: None,
 //!     host_barriers: false,
 //! };
-//! object.set_lights(scene); // e.g. a light moved: the next frame warm-starts
+//! object.set_lights(scene)?; // e.g. a light moved: the next frame warm-starts
 //! // SAFETY: `cb` is recording outside a rendering scope; the object and the images outlive it.
 //! let report = unsafe {
 //!     object.record(&mut RecordCtx { ctx, cb, frame: 7, completed_frame: 5, profiler: None }, &targets)?
@@ -334,9 +334,23 @@ impl TranslucentObject {
         })
     }
 
-    /// New lights and environment; applied (shadow views refitted) at the next record.
-    pub fn set_lights(&mut self, scene: &Scene) {
+    /// New lights and environment; applied (shadow views refitted) at the next record. A bad
+    /// light or environment, or more than [`crate::render::MAX_LIGHTS`], is a typed error here and changes
+    /// nothing.
+    pub fn set_lights(&mut self, scene: &Scene) -> Result<(), Error> {
+        if scene.lights.len() > crate::render::MAX_LIGHTS {
+            return Err(invalid(
+                "lights",
+                format!(
+                    "{} lights; at most {} are supported",
+                    scene.lights.len(),
+                    crate::render::MAX_LIGHTS
+                ),
+            ));
+        }
+        scene.validate()?;
         self.pending.lights = Some(scene.clone());
+        Ok(())
     }
 
     /// A new material (homogeneous or heterogeneous); applied on the GPU at the next record.

@@ -22,6 +22,10 @@ use translucent::{ObjectParams, QuadGraph, SkipReason, TranslucentObject};
 use translucent_tests::GpuTest;
 
 const SIZE: u32 = 24;
+/// Tolerance between two solves that both stopped at the tolerance (estimated relative error
+/// 1e-4), relative to the brightest channel: 4 ulps of the RGBA16F colour target there (its ulp is
+/// 2^-11 relative). Measured: 4.5e-5 to 7.2e-4.
+const SOLVED: f32 = 4.0 / 2048.0;
 
 fn graph() -> Arc<QuadGraph> {
     let ball = Shape::Sphere { radius: 10.0 };
@@ -179,10 +183,9 @@ fn camera_move_records_only_the_shading() {
 }
 
 /// A light moving 5 degrees: shadow map, gather and a warm-started solve of the finest level
-/// only (no Shepard init, no coarse levels). Its image is within 1% of the brightest channel of
-/// a cold multi-level solve of the same lights (both stop at the tolerance 1e-4 of estimated
-/// relative error; 1% leaves room for the estimate being an estimate), and it needs fewer
-/// iterations than that cold solve.
+/// only (no Shepard init, no coarse levels). Its image is within `SOLVED` of a cold multi-level
+/// solve of the same lights, and it needs fewer iterations than that cold solve (fewer, not 5x:
+/// benches/RESULTS.md, "Host frames").
 #[test]
 fn light_change_warm_starts_the_finest_level() {
     let gpu = GpuTest::new();
@@ -191,7 +194,14 @@ fn light_change_warm_starts_the_finest_level() {
     let mut host = HeadlessHost::new(ctx, SIZE, SIZE).expect("host");
     let mut skipping = object(ctx, &graph, &field, &light_at(0.0), |_| {});
     host.render(ctx, &mut skipping).expect("frame 1");
-    skipping.set_lights(&light_at(5.0));
+    // A bad light is refused at once and leaves the pending change alone.
+    let mut nan = light_at(5.0);
+    nan.lights[0] = Light::Directional {
+        direction: DVec3::new(f64::NAN, -1.0, 0.0),
+        irradiance: [1.0; 3],
+    };
+    assert!(skipping.set_lights(&nan).is_err());
+    skipping.set_lights(&light_at(5.0)).expect("lights");
     let (warm, report) = host.render(ctx, &mut skipping).expect("frame 2");
     assert_eq!(
         report.passes,
@@ -229,7 +239,8 @@ fn light_change_warm_starts_the_finest_level() {
         cold_solve.iterations()
     );
     let d = relative_difference(&warm.image, &reference.image);
-    assert!(d <= 0.01, "difference {d}");
+    eprintln!("warm vs cold: {d:.2e}");
+    assert!(d <= SOLVED, "difference {d}");
     drop((skipping, full, host));
     gpu.finish();
 }
@@ -265,7 +276,7 @@ fn no_shadow_casting_light_records_no_shadow_pass() {
         direction: -DVec3::Y,
         irradiance: [0.0; 3],
     });
-    skipping.set_lights(&black);
+    skipping.set_lights(&black).expect("lights");
     let (_, report) = host.render(ctx, &mut skipping).expect("frame 2");
     assert!(!report.passes.contains(&PASS_SHADOW), "{report:?}");
     assert_eq!(
@@ -277,8 +288,7 @@ fn no_shadow_casting_light_records_no_shadow_pass() {
 }
 
 /// Converged: every level stops at the tolerance before its cap (GPU-side indirect dispatch);
-/// the image is within 1% of the brightest channel of the same solve run to the cap with
-/// tolerance 0 (never stops early).
+/// the image is within `SOLVED` of the same solve run to the cap with tolerance 0 (never stops early).
 #[test]
 fn converged_levels_stop_iterating() {
     let gpu = GpuTest::new();
@@ -312,13 +322,14 @@ fn converged_levels_stop_iterating() {
         .expect("solve");
     assert!(full.iterations().iter().all(|&n| n == cap), "{full:?}");
     let d = relative_difference(&stopped.image, &reference.image);
-    assert!(d <= 0.01, "difference {d}");
+    eprintln!("converged vs to the cap: {d:.2e}");
+    assert!(d <= SOLVED, "difference {d}");
     drop((early, to_cap, host));
     gpu.finish();
 }
 
 /// Small graph: a cold solve iterates only the finest level (the coarse level is left at zero:
-/// its iteration counter stays 0); within 1% of the multi-level solve.
+/// its iteration counter stays 0); within `SOLVED` of the multi-level solve.
 #[test]
 fn small_graph_solves_one_level() {
     let gpu = GpuTest::new();
@@ -347,15 +358,16 @@ fn small_graph_solves_one_level() {
     let (reference, report) = host.render(ctx, &mut multi).expect("multi-level");
     assert_eq!(report.levels_iterated, 2);
     let d = relative_difference(&single.image, &reference.image);
-    assert!(d <= 0.01, "difference {d}");
+    eprintln!("one level vs all levels: {d:.2e}");
+    assert!(d <= SOLVED, "difference {d}");
     drop((one, multi, host));
     gpu.finish();
 }
 
 /// A homogeneous material runs the homogeneous variant (kappa and mu from push constants, no
 /// per-node material reads); the same coefficients as a heterogeneous field (a split of marble
-/// and marble) run the per-node variant. Same physics, so the images agree within 1% (both stop
-/// at the tolerance; the weights are the same numbers computed on two paths).
+/// and marble) run the per-node variant. Same physics, so the images agree within `SOLVED` (the
+/// weights are the same numbers computed on two paths).
 #[test]
 fn homogeneous_material_runs_the_homogeneous_variant() {
     let gpu = GpuTest::new();
@@ -380,7 +392,8 @@ fn homogeneous_material_runs_the_homogeneous_variant() {
     let (reference, report) = host.render(ctx, &mut per_node).expect("heterogeneous");
     assert_eq!(report.material_variant, "heterogeneous");
     let d = relative_difference(&fast.image, &reference.image);
-    assert!(d <= 0.01, "difference {d}");
+    eprintln!("homogeneous vs per-node variant: {d:.2e}");
+    assert!(d <= SOLVED, "difference {d}");
     drop((homogeneous, per_node, host));
     gpu.finish();
 }

@@ -290,7 +290,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                         lights: orbit_lights(&solver_scene.lights, deg * f64::from(i)),
                         environment: solver_scene.environment,
                     };
-                    translucent.set_lights(&report_scene);
+                    translucent.set_lights(&report_scene)?;
                 }
                 if let Some(deg) = args.orbit_camera {
                     translucent.set_camera(Some(orbit_camera(base_camera, deg * f64::from(i))))?;

@@ -130,8 +130,8 @@ fn main() -> Result<()> {
     let (mut warm_sum, mut cold_sum) = ((0u32, 0.0), (0u32, 0.0));
     for i in 0..frames {
         let lights = scene(degrees * f64::from(i));
-        warm.set_lights(&lights);
-        cold.set_lights(&lights);
+        warm.set_lights(&lights)?;
+        cold.set_lights(&lights)?;
         let (wc, wi) = frame(&ctx, &mut host, &mut warm, levels)?;
         let wj = warm.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
         let (cc, ci) = frame(&ctx, &mut host, &mut cold, levels)?;
