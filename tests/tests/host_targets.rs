@@ -297,3 +297,26 @@ fn host_placed_barriers_from_declare_give_the_same_image() {
     drop((object, target, readback));
     gpu.finish();
 }
+
+/// A target of another size: our own depth buffer is re-made and the old one released only once
+/// the frame that used it completed (validation would report a destroyed image in use); nothing
+/// leaks (`finish` checks the device is gone).
+#[test]
+fn a_resized_target_remakes_our_depth_and_releases_the_old_one_after_its_frame() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let mut object = setup(ctx);
+    let mut small = HeadlessHost::new(ctx, SIZE, SIZE).expect("host");
+    let mut large = HeadlessHost::new(ctx, 2 * SIZE, SIZE).expect("host");
+    let (a, _) = small.render(ctx, &mut object).expect("small");
+    let (b, report) = large.render(ctx, &mut object).expect("large");
+    assert_eq!((a.image.width, b.image.width), (SIZE, 2 * SIZE));
+    assert_eq!(report.passes, ["shading"]);
+    assert!(b.image.pixels.iter().any(|p| p[0] > 0.0), "object drawn");
+    let (c, _) = small.render(ctx, &mut object).expect("small again");
+    assert_eq!(c.image.pixels, a.image.pixels, "same frame, same image");
+    ctx.frame_completed(ctx.frames().0);
+    assert_eq!(ctx.pending_releases(), 0);
+    drop((object, small, large));
+    gpu.finish();
+}
