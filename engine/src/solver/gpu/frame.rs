@@ -1,7 +1,10 @@
 //! [`GpuFrame`]: the whole QuadGraph frame of DESIGN section 5 on the GPU, for hosts and the CLI:
 //! shadow maps of the shadow-casting lights and the irradiance gather (part B's
 //! `render::shadow_maps` / `render::irradiance`) writing q into the solve's per-level q images,
-//! then the [`GpuDiffusion`] solve, in one command buffer.
+//! then the [`GpuDiffusion`] solve, in one command buffer. [`GpuFrame::record_parts`] records only
+//! the parts a frame needs (the skips of DESIGN section 5, decided by `crate::TranslucentObject`)
+//! and keeps per-frame copies of the solve's iteration counters for hosts with frames in flight
+//! ([`GpuFrame::completed_solves`]).
 //!
 //! ```no_run
 //! # use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
