@@ -13,9 +13,12 @@
 //! - [`vk`]: a thin owning layer over ash that knows nothing about translucency.
 //! - [`shader`]: embedded SPIR-V and its reflection.
 //! - [`render`]: passes (shadow map, shading, tone mapping, capture).
+//! - [`object`]: [`TranslucentObject`], the whole frame recorded into a host's command buffer,
+//!   skipping what the scene's changes do not need.
 
 pub mod material;
 pub mod mesh;
+pub mod object;
 pub mod quadgraph;
 pub mod render;
 pub mod shader;
@@ -23,6 +26,9 @@ pub mod solver;
 pub mod tet;
 pub mod vk;
 
+pub use object::{
+    FrameReport, ObjectParams, RecordCtx, SkipReason, TargetImage, Targets, TranslucentObject,
+};
 pub use quadgraph::graph::{GraphLevel, NodeKind, QuadGraph};
 
 /// Every error the library returns. Each module has its own typed error; this wraps them.

@@ -1,7 +1,7 @@
 #version 460
 // Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) J+ / (pi eta^2) (physical) or
 // F_t J+ / pi (paper Eq. 4), plus optional Cook-Torrance specular of one light, shadowed by the
-// light's depth map.
+// light's tile of the shadow atlas (light_view_proj maps onto the whole atlas).
 #include "optics.glsl"
 
 layout(location = 0) in vec3 v_position;

@@ -1,13 +1,16 @@
-//! The depth-only pass against the analytic depth of a sphere seen from a directional light.
+//! The shadow atlas's depth pass (the one the shading pass's specular shadow and the irradiance
+//! gather both read; the separate `ShadowPass` is gone) against the analytic depth of a sphere
+//! seen from a directional light.
 //!
-//! `Scene::shadow_light` builds an orthographic projection along the light direction d: the eye
-//! sits 2r before the centre (r: bounding radius), near 0, far 4r. The sphere's point nearest to
-//! the light is at distance 2r - R from the eye, so the map's centre texel holds
-//! (2r - R) / 4r = 0.25 for R = r. Tolerance 1e-3: the 64-segment triangulation lies inside the
-//! sphere by at most R (1 - cos(pi/128)) = 3e-4 R, i.e. 8e-5 in depth; depth bias and texel
-//! offset add less than 1e-5. Texels outside the silhouette keep the clear value 1.
+//! `ShadowMaps::set_lights` fits an orthographic view along the light direction d to the bounding
+//! sphere grown by 2% (r' = 1.02 r, r: bounding radius): the eye sits 2r' before the centre, near
+//! 0, far 4r'. The sphere's point nearest to the light is at distance 2r' - R from the eye, so the
+//! map's centre texel holds (2r' - R) / 4r' = 1.04 / 4.08 = 0.2549 for R = r. Tolerance 1e-3: the
+//! 64-segment triangulation lies inside the sphere by at most R (1 - cos(pi/128)) = 3e-4 R, i.e.
+//! 8e-5 in depth; depth bias and texel offset add less than 1e-5. Texels outside the silhouette
+//! keep the clear value 1.
 
-use translucent::render::{GpuMesh, Light, Scene, ShadowPass};
+use translucent::render::{GpuMesh, Light, Scene, ShadowMaps, ShadowMapsDesc};
 use translucent::vk::{Access, ImageReadback};
 use translucent_tests::GpuTest;
 
@@ -17,22 +20,37 @@ fn shadow_map_holds_the_analytic_depth_of_a_sphere() {
     let ctx = &gpu.ctx;
     let scene =
         Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3).expect("scene");
-    let (light_view_proj, _, _) = scene.shadow_light().expect("directional light");
     let mesh = GpuMesh::new(ctx, &scene.mesh, &scene.exitance).expect("mesh");
-    let mut shadow = ShadowPass::new(ctx, 128).expect("shadow pass");
+    let mut shadow = ShadowMaps::new(
+        ctx,
+        &ShadowMapsDesc {
+            tile_resolution: 128,
+            max_views: 1,
+        },
+    )
+    .expect("shadow maps");
+    shadow
+        .set_lights(&scene.lights, scene.bounding_sphere(), true)
+        .expect("one directional light");
+    assert_eq!(shadow.views().len(), 1);
+    assert_eq!((shadow.atlas.width, shadow.atlas.height), (128, 128));
     ctx.execute("depth pass", |cb| {
         // SAFETY: `cb` is recording; mesh and pass outlive the waited submission.
-        unsafe { shadow.record(ctx, cb, &mesh, &light_view_proj, None) };
+        unsafe { shadow.record(ctx, cb, &mesh, None) };
         Ok(())
     })
     .expect("render");
-    assert_eq!(shadow.map_state, Access::DepthSampledFragment);
-    let depth = ImageReadback::capture(ctx, &shadow.map, shadow.map_state).expect("read back");
+    assert_eq!(shadow.atlas_state, Access::DepthSampledShaders);
+    let depth = ImageReadback::capture(ctx, &shadow.atlas, shadow.atlas_state).expect("read back");
 
-    // Texel (64, 64) is centred 0.5 texel off the axis: on a 128-texel map spanning 2.02 r that
+    // Texel (64, 64) is centred 0.5 texel off the axis: on a 128-texel map spanning 2.04 r that
     // moves the surface by less than 1e-5 in depth.
+    let expected = (2.0 * 1.02 - 1.0) / (4.0 * 1.02);
     let centre = depth.pixel(64, 64)[0];
-    assert!((centre - 0.25).abs() < 1e-3, "centre depth {centre}");
+    assert!(
+        (centre - expected).abs() < 1e-3,
+        "centre depth {centre}, expected {expected}"
+    );
     for (x, y) in [(0, 0), (127, 0), (0, 127), (127, 127)] {
         assert_eq!(
             depth.pixel(x, y)[0],

@@ -5,18 +5,29 @@
 //! ```text
 //! translucent render --out marble.png --profile
 //! translucent render --shape torus --material skimmilk --light dir:0,-1,0:4,4,4 --out t.exr --json
+//! translucent render --shape torus --frames 8 --orbit-light 5 --json --out t.png
 //! ```
+//!
+//! The GPU path renders through [`TranslucentObject`] exactly as a host would (one command buffer
+//! per frame from a minimal headless host): `--frames N` shows the skips of DESIGN section 5
+//! (frames after the first run no shadow, gather or solve unless `--orbit-light` moves the lights),
+//! and `--json` lists per frame the passes run, the iterations and the skipped passes with reasons.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context as _};
+use std::sync::Arc;
 use translucent::quadgraph::cache::{self, CacheOutcome};
-use translucent::render::{GpuMesh, HeadlessRenderer, Scene};
-use translucent::solver::gpu::{GpuFrame, GpuSolveParams, Precision};
+
+use glam::{DQuat, DVec3};
+use translucent::render::{level_bounds, Camera, HeadlessHost, HeadlessRenderer, Scene};
+use translucent::solver::gpu::{GpuSolveParams, Precision};
+use translucent::solver::Light;
 use translucent::solver::{self, CpuSolveParams, Environment, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
+use translucent::{ObjectParams, TranslucentObject};
 
 use crate::material_args::MaterialArgs;
 use crate::object_args::ObjectArgs;
@@ -65,6 +76,17 @@ pub struct RenderArgs {
     /// Render this many frames of the same scene, as a host would; the last one is written.
     #[arg(long, default_value_t = 1)]
     pub frames: u32,
+    /// GPU solver: rotate every light about +Y by this many degrees per frame (the environment
+    /// stays), so later frames warm-start a new solve.
+    #[arg(long, value_name = "DEG")]
+    pub orbit_light: Option<f64>,
+    /// GPU solver: rotate the camera about +Y through its target by this many degrees per frame
+    /// (a camera-only change: shading only).
+    #[arg(long, value_name = "DEG")]
+    pub orbit_camera: Option<f64>,
+    /// GPU solver: turn every skip off (each frame a full cold solve), for comparisons.
+    #[arg(long)]
+    pub no_skip: bool,
     /// Print the per-pass GPU milliseconds of the last frame.
     #[arg(long)]
     pub profile: bool,
@@ -137,6 +159,22 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             args.tolerance
         );
     }
+    for (name, v) in [
+        ("--orbit-light", args.orbit_light),
+        ("--orbit-camera", args.orbit_camera),
+    ] {
+        if let Some(v) = v {
+            if !on_gpu {
+                bail!("{name} applies to the GPU solver (--solver gpu)");
+            }
+            if !v.is_finite() {
+                bail!("{name} {v}: must be a finite number of degrees");
+            }
+        }
+    }
+    if args.no_skip && !on_gpu {
+        bail!("--no-skip applies to the GPU solver (--solver gpu)");
+    }
     if args.iterations == Some(0) {
         bail!("--iterations 0: give at least one iteration per level");
     }
@@ -203,20 +241,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     let solve_s = start.elapsed().as_secs_f64();
 
-    let vertices = graph.surface.positions.len();
-    let scene = Scene {
-        mesh: graph.surface.clone(),
-        exitance: solution
-            .as_ref()
-            .map_or_else(|| vec![[0.0; 3]; vertices], |s| s.vertex_j_plus.clone()),
-        lights,
-        eta: field.eta(),
-    };
     let ctx = Context::headless(&ContextDesc {
         echo_validation: true,
         ..ContextDesc::default()
     })?;
-    let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
     let gpu_params = GpuSolveParams {
         scheme,
         precision: match args.precision.as_deref() {
@@ -229,58 +257,104 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         tolerance: args.tolerance as f32,
         ..GpuSolveParams::default()
     };
-    // The GPU frame writes J+ straight into the displayed mesh's vertices; the shadow maps are
-    // cast by the same surface (a mesh of its own: the renderer's is borrowed while recording).
-    let mut gpu = match on_gpu {
-        true => {
-            let mut frame = GpuFrame::new(&ctx, &graph, &field, &solver_scene, &gpu_params)?;
-            frame.solve.bind_mesh(&ctx, renderer.mesh())?;
-            let caster = GpuMesh::new(&ctx, &graph.surface, &vec![[0.0; 3]; vertices])?;
-            Some((frame, caster))
-        }
-        false => None,
-    };
+    let graph = Arc::new(graph);
     let level_count = graph.levels.len();
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     let mut last = None;
     let mut gpu_report = None;
-    for i in 0..args.frames {
-        // The scene does not change between frames: only the first one solves.
-        let captured = match (&mut gpu, i) {
-            (Some((frame, caster)), 0) => {
-                let mut failed = None;
-                let captured = renderer.render_frame_after(&ctx, |cb, profiler| {
-                    // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
-                    failed = unsafe { frame.record(&ctx, cb, caster, Some(profiler)) }.err();
-                })?;
-                if let Some(e) = failed {
-                    return Err(e.into());
+    let mut gpu_bytes = None;
+    let mut report_scene = solver_scene.clone();
+    if on_gpu {
+        let object_params = ObjectParams {
+            solve: gpu_params.clone(),
+            specular: frame_desc.specular,
+            roughness: frame_desc.roughness,
+            radiance: frame_desc.radiance,
+            skip: !args.no_skip,
+            ..ObjectParams::default()
+        };
+        let mut translucent =
+            TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
+        let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
+        let (centre, radius) = level_bounds(graph.finest());
+        let base_camera = frame_desc
+            .camera
+            .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
+        translucent.set_camera(frame_desc.camera)?;
+        let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
+        for i in 0..args.frames {
+            if i > 0 {
+                if let Some(deg) = args.orbit_light {
+                    report_scene = solver::Scene {
+                        lights: orbit_lights(&solver_scene.lights, deg * f64::from(i)),
+                        environment: solver_scene.environment,
+                    };
+                    translucent.set_lights(&report_scene)?;
                 }
-                gpu_report = Some(frame.report(
-                    &ctx,
-                    &graph,
-                    &field,
-                    &solver_scene,
-                    Some(object.solid.as_ref()),
-                    &gpu_params,
-                )?);
-                captured
+                if let Some(deg) = args.orbit_camera {
+                    translucent.set_camera(Some(orbit_camera(base_camera, deg * f64::from(i))))?;
+                }
             }
-            _ => renderer.render_frame(&ctx)?,
+            let (captured, report) = host.render(&ctx, &mut translucent)?;
+            // The host waited: this frame's own solve (if any) has completed.
+            let solves = translucent.completed_solves(ctx.frames().1)?;
+            let iterations = solves
+                .iter()
+                .find(|s| s.frame == captured.frame)
+                .map_or_else(|| vec![0; level_count], |s| s.iterations());
+            let skipped: serde_json::Map<String, serde_json::Value> = report
+                .skipped
+                .iter()
+                .map(|(pass, why)| (pass.to_string(), why.to_string().into()))
+                .collect();
+            frames.push(serde_json::json!({
+                "frame": captured.frame,
+                "passes": captured.passes,
+                "iterations": iterations,
+                "skipped": skipped,
+                "warm_start": report.warm_start,
+                "material_variant": report.material_variant,
+            }));
+            timings.extend(captured.timings.clone());
+            last = Some(captured);
+        }
+        gpu_report = Some(translucent.gpu_frame().report(
+            &ctx,
+            &graph,
+            &field,
+            &report_scene,
+            Some(object.solid.as_ref()),
+            &gpu_params,
+        )?);
+        gpu_bytes = Some(translucent.gpu_frame().solve.bytes().0);
+        drop(host);
+        drop(translucent);
+    } else {
+        let vertices = graph.surface.positions.len();
+        let scene = Scene {
+            mesh: graph.surface.clone(),
+            exitance: solution
+                .as_ref()
+                .map_or_else(|| vec![[0.0; 3]; vertices], |s| s.vertex_j_plus.clone()),
+            lights: solver_scene.lights.clone(),
+            eta: field.eta(),
         };
-        let iterations: Vec<usize> = match (&solution, &gpu_report, i) {
-            (Some(s), _, 0) => s.levels.iter().map(|l| l.jacobi_iterations).collect(),
-            (None, Some(r), 0) => r.iterations.iter().map(|&n| n as usize).collect(),
-            _ => vec![0; level_count],
-        };
-        frames.push(serde_json::json!({
-            "frame": captured.frame,
-            "passes": captured.passes,
-            "iterations": iterations,
-        }));
-        timings.extend(captured.timings.clone());
-        last = Some(captured);
+        let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
+        for i in 0..args.frames {
+            let captured = renderer.render_frame(&ctx)?;
+            let iterations: Vec<usize> = match (&solution, i) {
+                (Some(s), 0) => s.levels.iter().map(|l| l.jacobi_iterations).collect(),
+                _ => vec![0; level_count],
+            };
+            frames.push(serde_json::json!({
+                "frame": captured.frame,
+                "passes": captured.passes,
+                "iterations": iterations,
+            }));
+            timings.extend(captured.timings.clone());
+            last = Some(captured);
+        }
     }
     if let Some(path) = &args.trace {
         write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
@@ -343,7 +417,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "precision": on_gpu.then(|| format!("{:?}", gpu_params.precision).to_lowercase()),
-            "gpu_bytes": gpu.as_ref().map(|(f, _)| f.solve.bytes().0),
+            "gpu_bytes": gpu_bytes,
             "residual": residual,
             "energy": {
                 "transmitted_input": energy.transmitted_input,
@@ -357,13 +431,58 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         println!("{out}");
     }
     let messages = ctx.take_validation_messages();
-    drop(gpu);
-    drop(renderer);
     drop(ctx);
     if !messages.is_empty() {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
+}
+
+/// `lights` rotated about +Y by `degrees` (directions and positions).
+fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
+    let q = DQuat::from_rotation_y(degrees.to_radians());
+    lights
+        .iter()
+        .map(|l| match *l {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Light::Directional {
+                direction: q * direction,
+                irradiance,
+            },
+            Light::Point {
+                position,
+                intensity,
+            } => Light::Point {
+                position: q * position,
+                intensity,
+            },
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            } => Light::Spot {
+                position: q * position,
+                direction: q * direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            },
+        })
+        .collect()
+}
+
+/// `camera` with its eye rotated about the vertical line through its target.
+fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
+    let q = DQuat::from_rotation_y(degrees.to_radians());
+    let offset: DVec3 = camera.eye - camera.target;
+    Camera {
+        eye: camera.target + q * offset,
+        ..camera
+    }
 }
 
 fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {

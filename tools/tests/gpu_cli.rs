@@ -204,3 +204,92 @@ fn gpu_frame_image_matches_the_cpu_reference_image() {
         );
     }
 }
+
+fn passes_of(frame: &serde_json::Value) -> Vec<String> {
+    frame["passes"]
+        .as_object()
+        .expect("passes")
+        .keys()
+        .cloned()
+        .collect()
+}
+
+/// DESIGN section 5 from the command line: `--frames 4` of an unchanged torus solves once, the
+/// later frames run no shadow, gather or solve pass and say why; `--orbit-light` makes every
+/// frame warm-start a new solve; `--no-skip` solves every frame cold.
+#[test]
+fn frames_of_an_unchanged_scene_skip_the_solve_and_say_why() {
+    let dir = scratch("skip-frames");
+    let torus = |extra: &[&str]| {
+        let png = dir.join("torus.png");
+        let mut args = vec![
+            "render",
+            "--shape",
+            "torus",
+            "--resolution",
+            "16",
+            "--levels",
+            "2",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--frames",
+            "4",
+            "--json",
+            "--out",
+            png.to_str().expect("utf-8 path"),
+        ];
+        args.extend(extra);
+        json_of(&translucent(&args, &dir))
+    };
+    let still = torus(&[]);
+    let frames = still["frames"].as_array().expect("frames");
+    assert_eq!(frames.len(), 4);
+    let first = passes_of(&frames[0]);
+    for pass in ["shadow_map", "gather_q", "diffusion jacobi", "shading"] {
+        assert!(first.iter().any(|p| p == pass), "{pass}: {first:?}");
+    }
+    assert!(frames[0]["iterations"][1].as_u64().expect("count") > 0);
+    for f in &frames[1..] {
+        let passes = passes_of(f);
+        for pass in passes.iter().filter(|p| p.as_str() != "capture") {
+            assert_eq!(pass, "shading", "frame {}: {passes:?}", f["frame"]);
+        }
+        for pass in ["shadow_map", "gather_q", "solve"] {
+            assert_eq!(f["skipped"][pass], "nothing changed", "{f}");
+        }
+        assert_eq!(f["iterations"], serde_json::json!([0, 0]));
+    }
+
+    let moving = torus(&["--orbit-light", "3", "--orbit-camera", "5"]);
+    for f in &moving["frames"].as_array().expect("frames")[1..] {
+        let passes = passes_of(f);
+        assert!(passes.iter().any(|p| p == "diffusion jacobi"), "{passes:?}");
+        assert!(!passes.iter().any(|p| p == "diffusion init"), "{passes:?}");
+        assert_eq!(f["warm_start"], true);
+        assert_eq!(f["skipped"]["diffusion init"], "warm start");
+        assert_eq!(f["iterations"][0], 0, "coarse level not re-solved: {f}");
+    }
+
+    let full = torus(&["--no-skip"]);
+    for f in full["frames"].as_array().expect("frames") {
+        assert_eq!(f["skipped"], serde_json::json!({}), "{f}");
+        assert!(passes_of(f).iter().any(|p| p == "diffusion init"));
+    }
+
+    // The frame options are the GPU solver's; bad values name the option.
+    for bad in [
+        &["--solver", "cpu", "--orbit-light", "3"][..],
+        &["--orbit-camera", "nan"],
+        &["--solver", "cpu", "--no-skip"],
+    ] {
+        let out = render(&dir, bad);
+        assert!(!out.status.success(), "{bad:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains("--orbit") || stderr.contains("--no-skip"),
+            "{bad:?}: {stderr}"
+        );
+    }
+}

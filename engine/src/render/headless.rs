@@ -1,5 +1,7 @@
 //! Headless rendering: [`HeadlessRenderer`] records shadow map, shading and capture into one
 //! command buffer per frame, submits, waits and returns the linear image and per-pass GPU times.
+//! [`HeadlessRenderer::render_object`] does the same for a [`crate::TranslucentObject`], which
+//! records into the renderer's command buffer and target exactly as into a host's.
 
 use std::collections::BTreeMap;
 
@@ -7,10 +9,10 @@ use glam::Vec3;
 
 use super::mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms};
 use super::scene::{Camera, FrameDesc, RadianceMode, Scene};
-use super::shadow_pass::ShadowPass;
-use super::target::OffscreenTarget;
+use super::shadow_maps::{ShadowMaps, ShadowMapsDesc};
+use super::target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 use super::RenderError;
-use crate::vk::{Context, FrameTimings, GpuProfiler, ImageReadback, LinearImage};
+use crate::vk::{Access, Context, FrameTimings, GpuProfiler, ImageReadback, LinearImage};
 
 // Only the specular term reads it; 512 keeps lavapipe (CI) fast.
 const SHADOW_RESOLUTION: u32 = 512;
@@ -30,14 +32,14 @@ pub struct Captured {
 /// Persistent passes and target for rendering a [`Scene`] repeatedly, as a host would.
 pub struct HeadlessRenderer {
     mesh: GpuMesh,
-    shadow: ShadowPass,
+    /// One view: the specular light's (the shading pass's shadow lookup).
+    shadow: ShadowMaps,
     shading: MeshPass,
     target: OffscreenTarget,
     readback: ImageReadback,
     profiler: GpuProfiler,
     uniforms: ShadeUniforms,
     push: ShadePush,
-    shadow_light: Option<glam::Mat4>,
     /// The displayed mesh, kept for [`HeadlessRenderer::set_exitance`].
     surface: crate::mesh::TriMesh,
 }
@@ -75,16 +77,40 @@ impl HeadlessRenderer {
         camera.validate()?;
         let target = OffscreenTarget::new(ctx, frame.width, frame.height)?;
         let mesh = GpuMesh::new(ctx, &scene.mesh, &scene.exitance)?;
-        let shadow = ShadowPass::new(ctx, SHADOW_RESOLUTION)?;
-        let shading = MeshPass::new(ctx, &shadow)?;
+        let mut shadow = ShadowMaps::new(
+            ctx,
+            &ShadowMapsDesc {
+                tile_resolution: SHADOW_RESOLUTION,
+                max_views: 1,
+            },
+        )?;
+        let shading = MeshPass::new(ctx, &shadow.atlas, COLOR_FORMAT, DEPTH_FORMAT)?;
         let readback = ImageReadback::new(ctx, &target.color)?;
         // Room for a GPU solve recorded before the frame (scopes per Jacobi block).
         let profiler = GpuProfiler::new(ctx, "headless frame", 4096)?;
 
-        let light = scene.shadow_light().filter(|_| frame.specular);
-        let (light_view_proj, light_dir, irradiance) = match light {
-            Some((m, d, e)) => (m, d.extend(1.0), e),
-            None => (glam::Mat4::IDENTITY, Vec3::ZERO.extend(0.0), [0.0; 3]),
+        // Only the specular light casts a shadow here: the first directional one.
+        let light = scene
+            .lights
+            .iter()
+            .find(|l| matches!(l, crate::solver::Light::Directional { .. }))
+            .filter(|_| frame.specular);
+        let specular_light: Vec<crate::solver::Light> = light.into_iter().cloned().collect();
+        shadow.set_lights(&specular_light, scene.bounding_sphere(), true)?;
+        let view = shadow.atlas_view_proj(0);
+        let (light_view_proj, light_dir, irradiance) = match (light, view) {
+            (
+                Some(crate::solver::Light::Directional {
+                    direction,
+                    irradiance,
+                }),
+                Some(m),
+            ) => (
+                m,
+                direction.normalize().as_vec3().extend(1.0),
+                irradiance.map(|e| e as f32),
+            ),
+            _ => (glam::Mat4::IDENTITY, Vec3::ZERO.extend(0.0), [0.0; 3]),
         };
         let uniforms = ShadeUniforms {
             view_proj: camera.view_proj(aspect, centre, radius).to_cols_array(),
@@ -100,7 +126,7 @@ impl HeadlessRenderer {
                 RadianceMode::Paper => 1,
             },
             roughness: frame.roughness,
-            specular: u32::from(light.is_some()),
+            specular: u32::from(view.is_some()),
         };
         Ok(HeadlessRenderer {
             mesh,
@@ -111,7 +137,6 @@ impl HeadlessRenderer {
             profiler,
             uniforms,
             push,
-            shadow_light: light.map(|l| l.0),
             surface: scene.mesh.clone(),
         })
     }
@@ -153,21 +178,20 @@ impl HeadlessRenderer {
             unsafe {
                 p.begin_frame(cb, frame);
                 before(cb, p);
-                match &self.shadow_light {
-                    Some(m) => self.shadow.record(ctx, cb, &self.mesh, m, Some(p)),
-                    // No shadow-casting light: the pass is skipped (and absent from the timings).
-                    None => self.shadow.record_unused(ctx, cb),
-                }
-                self.shading.record(
-                    ctx,
-                    cb,
-                    &self.mesh,
-                    &mut self.target,
-                    &self.shadow,
-                    &self.uniforms,
-                    &self.push,
-                    Some(p),
-                );
+                // No specular light: no pass (and absent from the timings), only the first
+                // frame's layout change.
+                self.shadow.record(ctx, cb, &self.mesh, Some(p));
+                self.shading
+                    .record(
+                        ctx,
+                        cb,
+                        &self.mesh,
+                        &mut self.target,
+                        &self.uniforms,
+                        &self.push,
+                        Some(p),
+                    )
+                    .map_err(|e| crate::vk::VkError::invalid("shading", e.to_string()))?;
                 p.begin_scope(cb, "capture");
                 self.readback
                     .record(ctx, cb, &self.target.color, self.target.color_state);
@@ -206,4 +230,145 @@ pub fn render_headless(
     frame: &FrameDesc,
 ) -> Result<Captured, RenderError> {
     HeadlessRenderer::new(ctx, scene, frame)?.render_frame(ctx)
+}
+
+/// A minimal host for a [`crate::TranslucentObject`]: owns a colour target, and per frame clears
+/// it to black, lets the object record into the same command buffer exactly as into a host's
+/// (colour handed over from a transfer clear, our own depth), submits, waits and reads back.
+///
+/// ```no_run
+/// # fn f(ctx: &translucent::vk::Context, object: &mut translucent::TranslucentObject)
+/// #      -> Result<(), translucent::Error> {
+/// let mut host = translucent::render::HeadlessHost::new(ctx, 64, 64)?;
+/// let (captured, report) = host.render(ctx, object)?; // first frame: solves
+/// let (_, report) = host.render(ctx, object)?; // nothing changed: shading only
+/// assert!(report.skipped.contains_key("solve"));
+/// # Ok(()) }
+/// ```
+pub struct HeadlessHost {
+    target: OffscreenTarget,
+    readback: ImageReadback,
+    profiler: GpuProfiler,
+}
+
+impl HeadlessHost {
+    pub fn new(ctx: &Context, width: u32, height: u32) -> Result<HeadlessHost, RenderError> {
+        if width == 0 || height == 0 {
+            return Err(RenderError::Invalid {
+                what: "target".into(),
+                problem: format!("{width}x{height} has no pixels"),
+            });
+        }
+        let target = OffscreenTarget::new(ctx, width, height)?;
+        let readback = ImageReadback::new(ctx, &target.color)?;
+        // Room for a whole solve (scopes per Jacobi block) per frame.
+        let profiler = GpuProfiler::new(ctx, "headless host frame", 4096)?;
+        Ok(HeadlessHost {
+            target,
+            readback,
+            profiler,
+        })
+    }
+
+    /// Renders one frame of `object`, waits, reads back.
+    pub fn render(
+        &mut self,
+        ctx: &Context,
+        object: &mut crate::TranslucentObject,
+    ) -> Result<(Captured, crate::FrameReport), crate::Error> {
+        use ash::vk;
+        let mut result = None;
+        let submission = ctx.submit("headless host frame", |cb| {
+            let (frame, completed) = ctx.frames();
+            let p = &mut self.profiler;
+            let color = &self.target.color;
+            // SAFETY: `cb` is recording; the target, read-back and `object` outlive the waited
+            // submission.
+            unsafe {
+                p.begin_frame(cb, frame);
+                // why: the clear overwrites what the last frame's capture read (WAR), in
+                // TRANSFER_DST layout.
+                crate::vk::barrier::image(
+                    ctx,
+                    cb,
+                    color,
+                    self.target.color_state,
+                    Access::TransferDst,
+                );
+                ctx.raw().cmd_clear_color_image(
+                    cb,
+                    color.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &vk::ClearColorValue { float32: [0.0; 4] },
+                    &[vk::ImageSubresourceRange {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        base_mip_level: 0,
+                        level_count: 1,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    }],
+                );
+                let targets = crate::object::Targets {
+                    color: crate::object::TargetImage {
+                        image: color.raw,
+                        view: color.view,
+                        format: color.format,
+                        extent: color.extent(),
+                        before: Access::TransferDst.into(),
+                        after: Access::TransferSrc.into(),
+                    },
+                    depth: None,
+                    host_barriers: false,
+                };
+                let report = object.record(
+                    &mut crate::object::RecordCtx {
+                        ctx,
+                        cb,
+                        frame,
+                        completed_frame: completed,
+                        profiler: Some(p),
+                    },
+                    &targets,
+                );
+                let ok = report.is_ok();
+                result = Some(report);
+                if ok {
+                    p.begin_scope(cb, "capture");
+                    self.readback.record(ctx, cb, color, Access::TransferSrc);
+                    p.end_scope(cb);
+                }
+            }
+            Ok(())
+        })?;
+        let frame = submission.frame();
+        submission.wait()?;
+        self.target.color_state = Access::TransferSrc;
+        self.profiler.frame_completed(frame);
+        let report = result.ok_or_else(|| RenderError::Invalid {
+            what: "frame".into(),
+            problem: "not recorded".into(),
+        })??;
+        let timings = self.profiler.latest().filter(|t| t.frame == frame).cloned();
+        let passes = timings.as_ref().map(|t| t.passes()).unwrap_or_default();
+        let image = self.readback.read()?;
+        Ok((
+            Captured {
+                image,
+                passes,
+                timings,
+                frame,
+            },
+            report,
+        ))
+    }
+
+    /// Solves that completed by the last waited frame (their iterations), for the last frame's
+    /// report: a frame's own solve is only known once it completed.
+    pub fn completed_solves(
+        &self,
+        ctx: &Context,
+        object: &mut crate::TranslucentObject,
+    ) -> Result<Vec<crate::object::CompletedSolve>, crate::Error> {
+        object.completed_solves(ctx.frames().1)
+    }
 }

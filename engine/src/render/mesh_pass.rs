@@ -1,16 +1,22 @@
 //! [`MeshPass`]: the final-shading pass of DESIGN section 5. Draws a [`GpuMesh`] (positions,
 //! normals, per-vertex exitance J+) into an [`OffscreenTarget`] with
 //! `L_o = F_t(eta, theta_o) J+ / (pi eta^2)` (or the paper's `F_t J+ / pi`), plus optional
-//! Cook-Torrance specular of one directional light, shadowed by the [`ShadowPass`] map.
+//! Cook-Torrance specular of one directional light, shadowed by that light's tile of the
+//! [`super::ShadowMaps`] atlas (the one the irradiance gather samples: no second depth pass).
+//!
+//! [`MeshPass::record`] draws into an [`OffscreenTarget`] (cleared); [`MeshPass::record_into`]
+//! draws into any colour/depth views (a host's), loading or clearing them, with the attachment
+//! barriers left to the caller.
 
 use ash::vk;
 
-use super::shadow_pass::ShadowPass;
-use super::target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use super::target::OffscreenTarget;
 use super::RenderError;
 use crate::mesh::TriMesh;
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse, Sampler};
+use crate::vk::{
+    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse, Sampler,
+};
 
 /// One vertex as the shaders read it (f32; the mesh is f64 on the CPU).
 #[repr(C)]
@@ -136,6 +142,7 @@ impl GpuMesh {
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ShadeUniforms {
     pub view_proj: [f32; 16],
+    /// The specular light's view onto the whole shadow atlas ([`super::ShadowMaps::atlas_view_proj`]).
     pub light_view_proj: [f32; 16],
     pub camera_pos: [f32; 4],
     /// xyz: direction the light travels (unit); w: 1 if there is a specular light.
@@ -155,6 +162,20 @@ pub struct ShadePush {
     pub specular: u32,
 }
 
+/// Where [`MeshPass::record_into`] draws: views already in attachment layouts.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadeAttachments {
+    pub color: vk::ImageView,
+    /// Keep the colour's contents (a host background) or clear to black.
+    pub load_color: bool,
+    pub depth: vk::ImageView,
+    /// Depth-test against the depth's contents (a host's) or clear to 1.
+    pub load_depth: bool,
+    /// Keep our depth writes (a host reads them later) or let them go.
+    pub store_depth: bool,
+    pub extent: vk::Extent2D,
+}
+
 /// The shading pipeline, its uniform buffer, the shadow sampler and descriptor set.
 pub struct MeshPass {
     pipeline: GraphicsPipeline<ShadePush>,
@@ -162,11 +183,44 @@ pub struct MeshPass {
     #[allow(dead_code, reason = "owned here: the descriptor set refers to it")]
     sampler: Sampler,
     set: vk::DescriptorSet,
+    color_format: vk::Format,
+    depth_format: vk::Format,
 }
 
 impl MeshPass {
-    /// The pass, reading `shadow`'s map for the specular term.
-    pub fn new(ctx: &Context, shadow: &ShadowPass) -> Result<MeshPass, RenderError> {
+    /// The pass for colour and depth attachments of these formats, reading `shadow_atlas`
+    /// (a [`super::ShadowMaps`] atlas, sampled in [`Access::DepthSampledShaders`]) for the
+    /// specular term's shadow.
+    pub fn new(
+        ctx: &Context,
+        shadow_atlas: &Image,
+        color_format: vk::Format,
+        depth_format: vk::Format,
+    ) -> Result<MeshPass, RenderError> {
+        let renderable = ctx.format_supports(
+            color_format,
+            vk::FormatFeatureFlags::COLOR_ATTACHMENT
+                | vk::FormatFeatureFlags::COLOR_ATTACHMENT_BLEND,
+        );
+        if !renderable {
+            return Err(RenderError::Invalid {
+                what: "colour format".into(),
+                problem: format!(
+                    "{color_format:?} is not a colour attachment format on this device"
+                ),
+            });
+        }
+        if !ctx.format_supports(
+            depth_format,
+            vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT,
+        ) {
+            return Err(RenderError::Invalid {
+                what: "depth format".into(),
+                problem: format!(
+                    "{depth_format:?} is not a depth attachment format on this device"
+                ),
+            });
+        }
         let pipeline = GraphicsPipeline::new(
             ctx,
             &GraphicsPipelineDesc {
@@ -191,8 +245,8 @@ impl MeshPass {
                         offset: 24,
                     },
                 ],
-                color_formats: &[COLOR_FORMAT],
-                depth_format: Some(DEPTH_FORMAT),
+                color_formats: &[color_format],
+                depth_format: Some(depth_format),
                 depth_bias: None,
                 // Closed meshes only show front faces anyway; no culling keeps either winding working.
                 cull_mode: vk::CullModeFlags::NONE,
@@ -210,7 +264,7 @@ impl MeshPass {
             },
         )?;
         let linear = ctx.format_supports(
-            shadow.map.format,
+            shadow_atlas.format,
             vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR,
         );
         let filter = if linear {
@@ -224,7 +278,7 @@ impl MeshPass {
             .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_BORDER)
-            // Outside the map is the far plane: lit.
+            // Outside the atlas is the far plane: lit.
             .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE)
             .compare_enable(true)
             .compare_op(vk::CompareOp::LESS_OR_EQUAL)
@@ -239,7 +293,7 @@ impl MeshPass {
                 },
                 DescriptorWrite::SampledImage {
                     name: "shadow_map",
-                    image: &shadow.map,
+                    image: shadow_atlas,
                     sampler: sampler.raw,
                     layout: vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
                 },
@@ -250,16 +304,22 @@ impl MeshPass {
             uniforms,
             sampler,
             set,
+            color_format,
+            depth_format,
         })
     }
 
-    /// Updates the uniforms in the command stream, then draws `mesh` into `target` (cleared to
-    /// black, depth to 1). `shadow` must be in [`Access::DepthSampledFragment`]. Leaves the color
-    /// in [`Access::ColorAttachmentWrite`].
+    /// The attachment formats the pipeline was built for.
+    pub fn formats(&self) -> (vk::Format, vk::Format) {
+        (self.color_format, self.depth_format)
+    }
+
+    /// Draws `mesh` into `target` (cleared to black, depth to 1). The shadow atlas must be in
+    /// [`Access::DepthSampledShaders`]. Leaves the color in [`Access::ColorAttachmentWrite`].
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope; everything passed in and `self` must
-    /// outlive its execution; `shadow` must be the pass given to [`MeshPass::new`].
+    /// outlive its execution.
     #[allow(clippy::too_many_arguments)]
     pub unsafe fn record(
         &mut self,
@@ -267,26 +327,96 @@ impl MeshPass {
         cb: vk::CommandBuffer,
         mesh: &GpuMesh,
         target: &mut OffscreenTarget,
-        shadow: &ShadowPass,
         uniforms: &ShadeUniforms,
         push: &ShadePush,
         profiler: Option<&mut GpuProfiler>,
-    ) {
-        debug_assert_eq!(shadow.map_state, Access::DepthSampledFragment);
-        let extent = target.extent();
+    ) -> Result<(), RenderError> {
+        // SAFETY: the caller's contract.
+        unsafe {
+            barrier::record(
+                ctx,
+                cb,
+                &[],
+                &[
+                    // why: the clear and draws write color after whatever used it last (WAW/WAR),
+                    // in COLOR_ATTACHMENT layout.
+                    barrier::image_barrier(
+                        &target.color,
+                        target.color_state,
+                        Access::ColorAttachmentWrite,
+                    ),
+                    // why: same for depth (cleared, so old contents may be discarded).
+                    barrier::image_barrier(
+                        &target.depth,
+                        target.depth_state,
+                        Access::DepthAttachmentWrite,
+                    ),
+                ],
+            );
+        }
+        target.color_state = Access::ColorAttachmentWrite;
+        target.depth_state = Access::DepthAttachmentWrite;
+        let attachments = ShadeAttachments {
+            color: target.color.view,
+            load_color: false,
+            depth: target.depth.view,
+            load_depth: false,
+            store_depth: false,
+            extent: target.extent(),
+        };
+        // SAFETY: the caller's contract; the attachments are in attachment layouts now.
+        unsafe { self.record_into(ctx, cb, mesh, &attachments, uniforms, push, profiler) }
+    }
+
+    /// Updates the uniforms in the command stream, then draws `mesh` into `attachments` (in
+    /// `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL`, their earlier uses ordered by the
+    /// caller's barriers). Profiler scope `shading`.
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope; the views' images, `mesh` and `self`
+    /// must outlive its execution; the views must have this pass's formats.
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn record_into(
+        &mut self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        mesh: &GpuMesh,
+        attachments: &ShadeAttachments,
+        uniforms: &ShadeUniforms,
+        push: &ShadePush,
+        profiler: Option<&mut GpuProfiler>,
+    ) -> Result<(), RenderError> {
+        let extent = attachments.extent;
+        if extent.width == 0 || extent.height == 0 {
+            return Err(RenderError::Invalid {
+                what: "shading extent".into(),
+                problem: format!("{}x{} has no pixels", extent.width, extent.height),
+            });
+        }
+        let load = |keep: bool| {
+            if keep {
+                vk::AttachmentLoadOp::LOAD
+            } else {
+                vk::AttachmentLoadOp::CLEAR
+            }
+        };
         let color = [vk::RenderingAttachmentInfo::default()
-            .image_view(target.color.view)
+            .image_view(attachments.color)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .load_op(load(attachments.load_color))
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(vk::ClearValue {
                 color: vk::ClearColorValue { float32: [0.0; 4] },
             })];
         let depth = vk::RenderingAttachmentInfo::default()
-            .image_view(target.depth.view)
+            .image_view(attachments.depth)
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .load_op(load(attachments.load_depth))
+            .store_op(if attachments.store_depth {
+                vk::AttachmentStoreOp::STORE
+            } else {
+                vk::AttachmentStoreOp::DONT_CARE
+            })
             .clear_value(vk::ClearValue {
                 depth_stencil: vk::ClearDepthStencilValue {
                     depth: 1.0,
@@ -312,30 +442,8 @@ impl MeshPass {
             barrier::memory(ctx, cb, Access::GraphicsUniformRead, Access::TransferDst);
             ctx.raw()
                 .cmd_update_buffer(cb, self.uniforms.raw, 0, bytemuck::bytes_of(uniforms));
-            barrier::record(
-                ctx,
-                cb,
-                // why: the shaders read the uniforms just written (RAW).
-                &[barrier::memory_barrier(
-                    Access::TransferDst,
-                    Access::GraphicsUniformRead,
-                )],
-                &[
-                    // why: the clear and draws write color after whatever used it last (WAW/WAR),
-                    // in COLOR_ATTACHMENT layout.
-                    barrier::image_barrier(
-                        &target.color,
-                        target.color_state,
-                        Access::ColorAttachmentWrite,
-                    ),
-                    // why: same for depth (cleared, so old contents may be discarded).
-                    barrier::image_barrier(
-                        &target.depth,
-                        target.depth_state,
-                        Access::DepthAttachmentWrite,
-                    ),
-                ],
-            );
+            // why: the shaders read the uniforms just written (RAW).
+            barrier::memory(ctx, cb, Access::TransferDst, Access::GraphicsUniformRead);
             ctx.raw().cmd_begin_rendering(cb, &rendering);
             self.pipeline.bind(ctx, cb, self.set, push, extent);
             mesh.draw(ctx, cb);
@@ -345,7 +453,6 @@ impl MeshPass {
             }
             ctx.end_label(cb);
         }
-        target.color_state = Access::ColorAttachmentWrite;
-        target.depth_state = Access::DepthAttachmentWrite;
+        Ok(())
     }
 }

@@ -4,10 +4,10 @@
 //! inputs and outputs; barriers inside a pass are its own, and each resource carries the
 //! [`crate::vk::Access`] state it was left in for the next user.
 //!
-//! - [`ShadowPass`]: depth-only, the mesh from the first directional light.
 //! - [`ShadowMaps`]: a depth map per shadow-casting light (directional, spot, point cube) in one
 //!   atlas; [`IrradiancePass`]: q at the surface nodes of a level from lights, shadows, environment.
-//! - [`MeshPass`]: the final shading of DESIGN section 5 from per-vertex exitance J+.
+//! - [`MeshPass`]: the final shading of DESIGN section 5 from per-vertex exitance J+; its
+//!   specular shadow reads the same atlas (no separate depth pass).
 //! - [`HeadlessRenderer`] / [`render_headless`]: a whole frame into an [`OffscreenTarget`],
 //!   read back with per-pass GPU times. Until the diffusion solver exists, J+ comes from
 //!   [`lambert_exitance`]; a solver's per-vertex J+ goes into [`Scene::exitance`].
@@ -33,23 +33,21 @@ mod laplace;
 mod mesh_pass;
 mod scene;
 mod shadow_maps;
-mod shadow_pass;
 mod target;
 
-pub use headless::{render_headless, Captured, HeadlessRenderer};
+pub use headless::{render_headless, Captured, HeadlessHost, HeadlessRenderer};
 pub use irradiance::{
     level_bounds, q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView,
     IrradiancePass, SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT,
     SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
-pub use mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms, Vertex};
+pub use mesh_pass::{GpuMesh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms, Vertex};
 pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT,
 };
-pub use shadow_pass::{DepthPush, ShadowPass};
 pub use target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 
 /// Bad scene or frame description, or a failing pass.

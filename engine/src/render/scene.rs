@@ -1,7 +1,7 @@
 //! What to render: a mesh with per-vertex exitance J+, lights, a camera (DESIGN section 8
 //! conventions: millimetres, +Y up, right-handed, the camera looks from eye to target).
 
-use glam::{DVec3, Mat4, Vec3};
+use glam::{DVec3, Mat4};
 
 use super::RenderError;
 use crate::material::fresnel;
@@ -228,31 +228,6 @@ impl Scene {
             .map(|p| p.distance(centre))
             .fold(0.0, f64::max);
         (centre, radius.max(1e-3))
-    }
-
-    /// The first directional light's orthographic view-projection covering the object, for the
-    /// shadow map, with its direction and irradiance.
-    pub fn shadow_light(&self) -> Option<(Mat4, Vec3, [f32; 3])> {
-        let (centre, radius) = self.bounding_sphere();
-        self.lights.iter().find_map(|l| match *l {
-            Light::Directional {
-                direction,
-                irradiance,
-            } => {
-                let d = direction.normalize();
-                let up = if d.cross(DVec3::Y).length() < 1e-6 {
-                    DVec3::Z
-                } else {
-                    DVec3::Y
-                };
-                let eye = centre - d * 2.0 * radius;
-                let view = Mat4::look_at_rh(eye.as_vec3(), centre.as_vec3(), up.as_vec3());
-                let r = (radius * 1.01) as f32;
-                let proj = Mat4::orthographic_rh(-r, r, -r, r, 0.0, (4.0 * radius) as f32);
-                Some((proj * view, d.as_vec3(), irradiance.map(|e| e as f32)))
-            }
-            _ => None,
-        })
     }
 }
 

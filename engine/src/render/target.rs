@@ -27,8 +27,10 @@ impl OffscreenTarget {
                 width,
                 height,
                 format: COLOR_FORMAT,
+                // TRANSFER_DST: a host-style frame clears it before an object draws over it.
                 usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
                     | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST
                     | vk::ImageUsageFlags::SAMPLED,
             },
         )?;
@@ -39,7 +41,9 @@ impl OffscreenTarget {
                 width,
                 height,
                 format: DEPTH_FORMAT,
-                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                // TRANSFER_DST: a host-style frame may clear it before an object tests against it.
+                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::TRANSFER_DST,
             },
         )?;
         Ok(OffscreenTarget {

@@ -118,6 +118,9 @@ pub struct Context {
     submitter: Option<Mutex<vk::CommandPool>>,
     info: DeviceInfo,
     frames_in_flight: u32,
+    /// A host context whose host lent its queue for setup work ([`Context::lend_queue_for_setup`]):
+    /// those submissions leave the host's frame counters alone.
+    lent_queue: bool,
 }
 
 struct Messages(Arc<Mutex<Vec<ValidationMessage>>>, bool);
@@ -399,8 +402,10 @@ impl Context {
     }
 
     /// Wraps a host's Vulkan objects. We never destroy them, never submit to `queue_family`'s queue
-    /// and never wait on it; the host drives frames with [`Context::begin_frame`] and
-    /// [`Context::frame_completed`]. The host must have enabled Vulkan 1.3 with synchronization2,
+    /// and never wait on it (unless the host lends it for setup work with
+    /// [`Context::lend_queue_for_setup`]); the host drives frames with [`Context::begin_frame`] and
+    /// [`Context::frame_completed`]. The instance must have `VK_EXT_debug_utils` enabled (passes
+    /// are labelled). The host must have enabled Vulkan 1.3 with synchronization2,
     /// dynamicRendering and maintenance4 (checked here as device support).
     ///
     /// # Safety
@@ -433,6 +438,42 @@ impl Context {
             frames_in_flight,
             false,
         )
+    }
+
+    /// Host contexts: the host lends its queue for setup work outside its frames. Creating an
+    /// object uploads its textures and headless reports read results back; with this, those calls
+    /// submit their own command buffers to the queue and wait for them (the host's frames are
+    /// still recorded only into the host's command buffers, never submitted by us). Such
+    /// submissions do not advance or complete the host's frames: what they drop is released when
+    /// the host completes its current frame.
+    ///
+    /// # Safety
+    /// While any of our calls that may submit runs (constructors, `set_material`, `deform`,
+    /// read-backs), the host must not access the queue from another thread (Vulkan's external
+    /// synchronization of `vkQueueSubmit`).
+    pub unsafe fn lend_queue_for_setup(&mut self) -> Result<(), VkError> {
+        if self.submitter.is_some() {
+            return Ok(());
+        }
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(self.device.queue_family)
+            .flags(
+                vk::CommandPoolCreateFlags::TRANSIENT
+                    | vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER,
+            );
+        // SAFETY: live device; destroyed in `Drop for Context`.
+        let pool = unsafe { self.raw().create_command_pool(&info, None) }
+            .map_err(VkError::call("vkCreateCommandPool"))?;
+        self.submitter = Some(Mutex::new(pool));
+        self.lent_queue = true;
+        Ok(())
+    }
+
+    /// Completes `frame` unless the submission ran on a lent host queue (the host owns frames).
+    fn complete_submission(&self, frame: u64) {
+        if !self.lent_queue {
+            self.frame_completed(frame);
+        }
     }
 
     fn choose_device(
@@ -563,6 +604,7 @@ impl Context {
             submitter,
             info,
             frames_in_flight: frames_in_flight.max(1),
+            lent_queue: false,
         })
     }
 
@@ -720,7 +762,9 @@ impl Context {
         self.set_name(cb, name);
         let frame = {
             let mut frames = self.device.lock_frames();
-            frames.current += 1;
+            if !self.lent_queue {
+                frames.current += 1;
+            }
             frames.current
         };
         let begin = vk::CommandBufferBeginInfo::default()
@@ -728,7 +772,7 @@ impl Context {
         // SAFETY: fresh command buffer.
         if let Err(result) = unsafe { raw.begin_command_buffer(cb, &begin) } {
             free(None);
-            self.frame_completed(frame);
+            self.complete_submission(frame);
             return Err(VkError::Call {
                 call: "vkBeginCommandBuffer",
                 result,
@@ -740,7 +784,7 @@ impl Context {
         });
         if let Err(e) = recorded {
             free(None);
-            self.frame_completed(frame);
+            self.complete_submission(frame);
             return Err(e);
         }
         // SAFETY: plain object creation.
@@ -751,7 +795,7 @@ impl Context {
         // SAFETY: we own the queue (headless) and the pool lock serializes queue access too.
         if let Err(result) = unsafe { raw.queue_submit2(self.device.queue, &[submit], fence) } {
             free(Some(fence));
-            self.frame_completed(frame);
+            self.complete_submission(frame);
             return Err(VkError::Call {
                 call: "vkQueueSubmit2",
                 result,
@@ -814,7 +858,7 @@ impl Submission<'_> {
             }
         }
         result?;
-        self.ctx.frame_completed(self.frame);
+        self.ctx.complete_submission(self.frame);
         Ok(())
     }
 }

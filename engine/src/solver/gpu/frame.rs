@@ -1,7 +1,10 @@
 //! [`GpuFrame`]: the whole QuadGraph frame of DESIGN section 5 on the GPU, for hosts and the CLI:
 //! shadow maps of the shadow-casting lights and the irradiance gather (part B's
 //! `render::shadow_maps` / `render::irradiance`) writing q into the solve's per-level q images,
-//! then the [`GpuDiffusion`] solve, in one command buffer.
+//! then the [`GpuDiffusion`] solve, in one command buffer. [`GpuFrame::record_parts`] records only
+//! the parts a frame needs (the skips of DESIGN section 5, decided by `crate::TranslucentObject`)
+//! and keeps per-frame copies of the solve's iteration counters for hosts with frames in flight
+//! ([`GpuFrame::completed_solves`]).
 //!
 //! ```no_run
 //! # use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
@@ -25,7 +28,7 @@
 
 use ash::vk;
 
-use super::{GpuDiffusion, GpuSolveParams};
+use super::{GpuDiffusion, GpuSolveParams, LevelControl};
 use crate::material::MaterialField;
 use crate::render::{
     level_bounds, q_scale_for, GatherLevel, GatherScene, GpuMesh, IrradiancePass, ShadowMaps,
@@ -34,7 +37,7 @@ use crate::render::{
 use crate::solver::cpu::Energy;
 use crate::solver::operator::LevelOperator;
 use crate::solver::Scene;
-use crate::vk::{Access, Context, GpuProfiler};
+use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
 use crate::{Error, QuadGraph};
 
 /// Shadow maps + irradiance gather + GPU solve of one object.
@@ -48,6 +51,84 @@ pub struct GpuFrame {
     eta: f32,
     /// Bounding sphere of the finest level's nodes (centre, radius in mm): the shadow views' fit.
     bounds: (glam::DVec3, f64),
+    /// Per-frame copies of the solve's control records (one slot per frame in flight, plus one):
+    /// the iterations a host frame ran are read once the host reports it complete.
+    control_copies: Vec<ControlCopy>,
+}
+
+/// One slot of [`GpuFrame`]'s control copies: the frame that wrote it, if not read yet.
+struct ControlCopy {
+    buffer: Buffer,
+    frame: Option<u64>,
+}
+
+/// Which parts of a frame [`GpuFrame::record_parts`] records (DESIGN section 5 skips).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameParts {
+    /// Render the shadow maps (ignored, with nothing recorded, when no light casts shadows).
+    pub shadows: bool,
+    /// Gather q at the surface nodes of every level.
+    pub gather: bool,
+    /// Solve, and how.
+    pub solve: Option<SolvePlan>,
+}
+
+impl FrameParts {
+    /// Everything, cold: what [`GpuFrame::record`] records.
+    pub const ALL: FrameParts = FrameParts {
+        shadows: true,
+        gather: true,
+        solve: Some(SolvePlan {
+            warm: false,
+            finest_only: false,
+        }),
+    };
+}
+
+/// How one frame's solve runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SolvePlan {
+    /// Start from the last solution (light, material or shape changed a little). Ignored, cold
+    /// instead, when there is no last solution at the current exposure.
+    pub warm: bool,
+    /// Iterate only the finest level. With a warm start the coarse levels would only re-solve
+    /// a problem whose answer the finest level already holds; cold, it is the small-graph skip
+    /// (the finest level starts from zero).
+    pub finest_only: bool,
+}
+
+/// What [`GpuFrame::record_parts`] actually recorded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecordedParts {
+    pub shadows: bool,
+    pub gather: bool,
+    pub solve: bool,
+    /// The solve started from the last solution.
+    pub warm: bool,
+    /// Levels iterated (1 when only the finest).
+    pub levels_iterated: u32,
+}
+
+/// The control records of a solve that completed (see [`GpuFrame::completed_solves`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompletedSolve {
+    /// The host frame that ran it.
+    pub frame: u64,
+    /// Per level, coarsest first.
+    pub levels: Vec<LevelControl>,
+}
+
+impl CompletedSolve {
+    /// Iterations run per level.
+    pub fn iterations(&self) -> Vec<u32> {
+        self.levels.iter().map(|l| l.iterations).collect()
+    }
+    /// Whether every level that iterated stopped at the tolerance before its cap.
+    pub fn converged(&self) -> bool {
+        self.levels
+            .iter()
+            .all(|l| l.iterations == 0 || l.stopped_early != 0)
+    }
 }
 
 /// What [`GpuFrame::report`] computes on the CPU from the GPU's finest-level phi.
@@ -100,6 +181,23 @@ impl GpuFrame {
             )?);
         }
         let uniforms = GatherScene::new(scene, &shadows)?;
+        let control_bytes = solve.control.size;
+        let control_copies = (0..=ctx.frames_in_flight())
+            .map(|_| {
+                Ok(ControlCopy {
+                    buffer: Buffer::new(
+                        ctx,
+                        &BufferDesc {
+                            name: "diffusion control copy",
+                            size: control_bytes,
+                            usage: vk::BufferUsageFlags::TRANSFER_DST,
+                            memory: MemoryUse::Readback,
+                        },
+                    )?,
+                    frame: None,
+                })
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
         Ok(Self {
             solve,
             shadows,
@@ -109,6 +207,7 @@ impl GpuFrame {
             q_scale,
             eta: eta as f32,
             bounds,
+            control_copies,
         })
     }
 
@@ -150,8 +249,34 @@ impl GpuFrame {
         self.shadows.any_shadows()
     }
 
+    /// The shadow atlas (the shading pass reads it for the specular term's shadow).
+    pub fn shadows(&self) -> &ShadowMaps {
+        &self.shadows
+    }
+
+    /// Whether the solve holds a solution at the current exposure (a warm start can use it).
+    pub fn has_solution(&self) -> bool {
+        self.solve.solved
+    }
+
+    /// Nodes of the finest level (the small-graph skip's measure).
+    pub fn finest_nodes(&self) -> usize {
+        self.solve.levels.last().map_or(0, |l| l.node_count)
+    }
+
+    /// The material variant the solve's iteration shaders run: `homogeneous` reads kappa and mu
+    /// from push constants (no per-node material reads), `heterogeneous` reads weights per node.
+    pub fn material_variant(&self) -> &'static str {
+        // A homogeneous material's q gain (4 / (1 - F_dr) > 0) is the only non-zero mu_gain.a.
+        if self.solve.mu_gain[3] != 0.0 {
+            "homogeneous"
+        } else {
+            "heterogeneous"
+        }
+    }
+
     /// Records shadow maps (cast by `caster`, the displayed mesh), the gather of every level and
-    /// the solve.
+    /// a cold solve of every level.
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope; `self` and `caster` must outlive its
@@ -161,33 +286,151 @@ impl GpuFrame {
         ctx: &Context,
         cb: vk::CommandBuffer,
         caster: &GpuMesh,
-        mut profiler: Option<&mut GpuProfiler>,
+        profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), Error> {
+        let (frame, _) = ctx.frames();
+        // SAFETY: the caller's contract.
+        unsafe { self.record_parts(ctx, cb, caster, &FrameParts::ALL, frame, profiler) }?;
+        Ok(())
+    }
+
+    /// Records the parts of the frame `parts` asks for. The shadow atlas and q images keep
+    /// their contents from the last frame that wrote them, so a skipped part leaves what the
+    /// following parts read valid as long as its inputs did not change. A recorded solve also
+    /// copies its control records for [`GpuFrame::completed_solves`] (keyed by `frame`).
+    ///
+    /// # Safety
+    /// As [`GpuFrame::record`].
+    pub unsafe fn record_parts(
+        &mut self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        caster: &GpuMesh,
+        parts: &FrameParts,
+        frame: u64,
+        mut profiler: Option<&mut GpuProfiler>,
+    ) -> Result<RecordedParts, Error> {
+        let mut done = RecordedParts::default();
         // SAFETY: the caller's contract.
         unsafe {
-            self.shadows
-                .record(ctx, cb, caster, profiler.as_deref_mut());
-            self.gather.record_scene(ctx, cb, &self.uniforms);
-            for (h, level) in self.levels.iter().enumerate() {
-                let Some(q) = self.solve.q_image(h) else {
-                    continue;
-                };
-                // q stays in GENERAL between frames; the solve's first barrier orders its reads.
-                self.gather.record(
-                    ctx,
-                    cb,
-                    level,
-                    &self.shadows,
-                    q,
-                    Access::ComputeReadWrite,
-                    self.q_scale,
-                    self.eta,
-                    profiler.as_deref_mut(),
-                )?;
+            // The first frame always runs it: it also moves the atlas into the layout the
+            // descriptors name (with no shadow-casting light that is all it records).
+            if parts.shadows || self.shadows.atlas_state == Access::Undefined {
+                done.shadows = self.shadows.any_shadows();
+                self.shadows
+                    .record(ctx, cb, caster, profiler.as_deref_mut());
             }
-            self.solve.record(ctx, cb, profiler);
+            if parts.gather {
+                done.gather = true;
+                self.gather.record_scene(ctx, cb, &self.uniforms);
+                for (h, level) in self.levels.iter().enumerate() {
+                    let Some(q) = self.solve.q_image(h) else {
+                        continue;
+                    };
+                    // q stays in GENERAL between frames; the solve's first barrier orders its reads.
+                    self.gather.record(
+                        ctx,
+                        cb,
+                        level,
+                        &self.shadows,
+                        q,
+                        Access::ComputeReadWrite,
+                        self.q_scale,
+                        self.eta,
+                        profiler.as_deref_mut(),
+                    )?;
+                }
+            }
+            if let Some(plan) = parts.solve {
+                let warm = plan.warm && self.solve.solved;
+                let levels = self.solve.levels.len();
+                let caps = self.solve.blocks.clone();
+                if plan.finest_only {
+                    for b in &mut self.solve.blocks[..levels - 1] {
+                        *b = 0;
+                    }
+                }
+                let previous_warm = self.solve.params.warm_start;
+                self.solve.params.warm_start = warm;
+                self.solve.record(ctx, cb, profiler);
+                self.solve.params.warm_start = previous_warm;
+                self.solve.blocks = caps;
+                done.solve = true;
+                done.warm = warm;
+                done.levels_iterated = if plan.finest_only { 1 } else { levels as u32 };
+                self.record_control_copy(ctx, cb, frame);
+            }
         }
-        Ok(())
+        Ok(done)
+    }
+
+    /// Copies the control records into the slot of `frame` for a later host read.
+    ///
+    /// # Safety
+    /// As [`GpuFrame::record`], after the solve.
+    unsafe fn record_control_copy(&mut self, ctx: &Context, cb: vk::CommandBuffer, frame: u64) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        let slots = self.control_copies.len() as u64;
+        let slot = &mut self.control_copies[(frame % slots) as usize];
+        slot.frame = Some(frame);
+        let size = self.solve.control.size;
+        let to_copy = vk::MemoryBarrier2::default()
+            .src_stage_mask(S::COMPUTE_SHADER)
+            .src_access_mask(A::SHADER_STORAGE_WRITE)
+            .dst_stage_mask(S::COPY)
+            .dst_access_mask(A::TRANSFER_READ);
+        let to_host = barrier::memory_barrier(Access::TransferDst, Access::HostRead);
+        // SAFETY: the caller's contract; both buffers hold `size` bytes.
+        unsafe {
+            // why: the copy reads the control records the reductions wrote (RAW).
+            barrier::record(ctx, cb, &[to_copy], &[]);
+            ctx.raw().cmd_copy_buffer(
+                cb,
+                self.solve.control.raw,
+                slot.buffer.raw,
+                &[vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: 0,
+                    size,
+                }],
+            );
+            // why: the host reads the copy after the frame's fence (host visibility), and the
+            // next frame's control reset must not overwrite the source before the copy (WAR).
+            barrier::record(
+                ctx,
+                cb,
+                &[
+                    to_host,
+                    vk::MemoryBarrier2::default()
+                        .src_stage_mask(S::COPY)
+                        .dst_stage_mask(S::COPY | S::CLEAR),
+                ],
+                &[],
+            );
+        }
+    }
+
+    /// The control records of every recorded solve whose frame is `<= completed` and was not
+    /// returned before, oldest first. Reads host memory only: no wait, no submission.
+    pub fn completed_solves(&mut self, completed: u64) -> Result<Vec<CompletedSolve>, Error> {
+        let mut out = Vec::new();
+        for slot in &mut self.control_copies {
+            let Some(frame) = slot.frame.filter(|&f| f <= completed) else {
+                continue;
+            };
+            slot.frame = None;
+            let bytes = slot.buffer.read_bytes()?;
+            out.push(CompletedSolve {
+                frame,
+                levels: bytes
+                    .chunks_exact(std::mem::size_of::<LevelControl>())
+                    .map(bytemuck::pod_read_unaligned)
+                    .collect(),
+            });
+        }
+        out.sort_by_key(|s| s.frame);
+        Ok(out)
     }
 
     /// Headless, after the frame completed: residual and energy of the finest level from the GPU's

@@ -484,7 +484,9 @@ impl GpuDiffusion {
                 size: (levels.len() * std::mem::size_of::<LevelControl>()) as u64,
                 usage: vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::INDIRECT_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST,
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    // TRANSFER_SRC: GpuFrame copies it per frame in flight (host frame reports).
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
                 memory: MemoryUse::Readback,
             },
         )?;

@@ -1,0 +1,224 @@
+//! Host-frame measurements for `benches/RESULTS.md` ("Host frames: warm start and skipping"),
+//! through `TranslucentObject` recorded into a headless host's command buffer:
+//! (a) a light orbiting a few degrees per frame: iterations per level and GPU ms of each frame,
+//!     warm start (the default skips) against a cold multi-level solve every frame (`skip =
+//!     false`), and the warm J+ against the cold one;
+//! (b) a static scene: GPU ms per frame with skipping on and off;
+//! (c) the small-graph threshold: a cold solve iterating one level against all levels, for
+//!     sphere bakes of growing resolution.
+//!
+//! ```text
+//! cargo run --release -p translucent-benches --bin host_frames -- [RESOLUTION] [FRAMES] [DEGREES] [c]
+//! ```
+//! A fourth argument `c` runs part (c) only.
+//! Defaults: torus resolution 24 (3 levels), 8 frames, 3 degrees per frame. Prints markdown
+//! tables. `TRANSLUCENT_DEVICE` picks the Vulkan device.
+
+use std::sync::Arc;
+
+use translucent::material::{Material, MaterialField};
+use translucent::mesh::shapes::Shape;
+use translucent::quadgraph::BakeParams;
+use translucent::render::{Captured, HeadlessHost};
+use translucent::solver::{Environment, Light, Scene};
+use translucent::vk::{Context, ContextDesc};
+use translucent::{ObjectParams, QuadGraph, TranslucentObject};
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+fn scene(degrees: f64) -> Scene {
+    let a = degrees.to_radians();
+    Scene {
+        // glam is not a dependency here: the light goes through its command-line form.
+        lights: vec![format!("dir:{},-0.7,{}:3,3,3", a.sin(), -a.cos())
+            .parse::<Light>()
+            .expect("a finite direction")],
+        environment: Environment::Constant([0.02; 3]),
+    }
+}
+
+fn bake(shape: Shape, resolution: u32, levels: u32) -> Result<Arc<QuadGraph>> {
+    let params = BakeParams {
+        resolution,
+        levels,
+        ..Default::default()
+    };
+    Ok(Arc::new(
+        QuadGraph::bake(&shape.triangulate(96), &shape, &params, &mut |_| {})?.0,
+    ))
+}
+
+/// GPU ms of a frame's own passes (the capture is the headless host's, not ours).
+fn frame_ms(c: &Captured) -> f64 {
+    c.passes
+        .iter()
+        .filter(|(k, _)| k.as_str() != "capture")
+        .map(|(_, v)| v)
+        .sum()
+}
+
+fn shading_ms(c: &Captured) -> f64 {
+    c.passes.get("shading").copied().unwrap_or(0.0)
+}
+
+/// Renders one frame; returns the capture and the iterations its solve ran (zeros: none).
+fn frame(
+    ctx: &Context,
+    host: &mut HeadlessHost,
+    object: &mut TranslucentObject,
+    levels: usize,
+) -> Result<(Captured, Vec<u32>)> {
+    let (captured, _) = host.render(ctx, object)?;
+    let its = object
+        .completed_solves(ctx.frames().1)?
+        .into_iter()
+        .find(|s| s.frame == captured.frame)
+        .map_or_else(|| vec![0; levels], |s| s.iterations());
+    Ok((captured, its))
+}
+
+fn max_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let peak = b.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .map(|(x, y)| f64::from((x - y).abs() / peak.max(f32::MIN_POSITIVE)))
+        .fold(0.0, f64::max)
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let resolution: u32 = args.first().map_or(Ok(24), |s| s.parse())?;
+    let frames: u32 = args.get(1).map_or(Ok(8), |s| s.parse())?;
+    let degrees: f64 = args.get(2).map_or(Ok(3.0), |s| s.parse())?;
+    let ctx = Context::headless(&ContextDesc::default())?;
+    println!("device: {}", ctx.info().device_name);
+    let field = MaterialField::Homogeneous(Material::preset("marble")?);
+    let torus = Shape::Torus {
+        major: 17.5,
+        minor: 7.5,
+    };
+    let graph = bake(torus, resolution, 3)?;
+    let nodes: Vec<usize> = graph.levels.iter().map(|l| l.node_count()).collect();
+    let levels = nodes.len();
+    println!("torus 50 mm, resolution {resolution}, nodes per level {nodes:?}");
+    let mut host = HeadlessHost::new(&ctx, 128, 128)?;
+    let only_c = args.get(3).is_some_and(|a| a == "c");
+
+    // (a) Moving light: warm (skips on) vs cold (skips off), same lights every frame.
+    println!("\n(a) light orbiting {degrees} deg/frame, tolerance 1e-4, cap 2000 per level");
+    println!("| frame | warm iterations | warm GPU ms | cold iterations | cold GPU ms | max |J+ warm - J+ cold| / max J+ |");
+    println!("|---|---|---|---|---|---|");
+    let params = ObjectParams {
+        single_level_nodes: 0,
+        ..ObjectParams::default()
+    };
+    if only_c {
+        return small_graphs(&ctx, &mut host, &field);
+    }
+    let mut warm = TranslucentObject::new(&ctx, graph.clone(), &field, &scene(0.0), &params)?;
+    let mut cold = TranslucentObject::new(
+        &ctx,
+        graph.clone(),
+        &field,
+        &scene(0.0),
+        &ObjectParams {
+            skip: false,
+            ..params.clone()
+        },
+    )?;
+    let (mut warm_sum, mut cold_sum) = ((0u32, 0.0), (0u32, 0.0));
+    for i in 0..frames {
+        let lights = scene(degrees * f64::from(i));
+        warm.set_lights(&lights)?;
+        cold.set_lights(&lights)?;
+        let (wc, wi) = frame(&ctx, &mut host, &mut warm, levels)?;
+        let wj = warm.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
+        let (cc, ci) = frame(&ctx, &mut host, &mut cold, levels)?;
+        let cj = cold.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
+        let (wms, cms) = (frame_ms(&wc), frame_ms(&cc));
+        if i > 0 {
+            warm_sum.0 += wi.iter().sum::<u32>();
+            warm_sum.1 += wms;
+            cold_sum.0 += ci.iter().sum::<u32>();
+            cold_sum.1 += cms;
+        }
+        println!(
+            "| {i} | {wi:?} | {wms:.1} | {ci:?} | {cms:.1} | {:.2e} |",
+            max_relative(&wj, &cj)
+        );
+    }
+    let n = f64::from(frames.saturating_sub(1).max(1));
+    println!(
+        "frames 1..{}: mean iterations warm {:.0}, cold {:.0}; mean GPU ms warm {:.1}, cold {:.1}",
+        frames - 1,
+        f64::from(warm_sum.0) / n,
+        f64::from(cold_sum.0) / n,
+        warm_sum.1 / n,
+        cold_sum.1 / n
+    );
+    drop((warm, cold));
+
+    // (b) Static scene: skipping on and off.
+    println!("\n(b) static scene, {frames} frames");
+    println!("| frame | skip on: GPU ms (shading ms) | skip off: GPU ms (shading ms) |");
+    println!("|---|---|---|");
+    let mut on = TranslucentObject::new(&ctx, graph.clone(), &field, &scene(0.0), &params)?;
+    let mut off = TranslucentObject::new(
+        &ctx,
+        graph.clone(),
+        &field,
+        &scene(0.0),
+        &ObjectParams {
+            skip: false,
+            ..params.clone()
+        },
+    )?;
+    for i in 0..frames {
+        let (a, _) = frame(&ctx, &mut host, &mut on, levels)?;
+        let (b, _) = frame(&ctx, &mut host, &mut off, levels)?;
+        println!(
+            "| {i} | {:.2} ({:.2}) | {:.1} ({:.2}) |",
+            frame_ms(&a),
+            shading_ms(&a),
+            frame_ms(&b),
+            shading_ms(&b)
+        );
+    }
+    drop((on, off));
+
+    small_graphs(&ctx, &mut host, &field)
+}
+
+fn small_graphs(ctx: &Context, host: &mut HeadlessHost, field: &MaterialField) -> Result<()> {
+    // (c) Small graphs: one level vs all levels, cold.
+    println!("\n(c) cold solve of a 20 mm sphere: one level vs all levels");
+    println!("| resolution, levels | finest nodes | all levels: iterations, GPU ms | finest only: iterations, GPU ms |");
+    println!("|---|---|---|---|");
+    for (r, levels) in [(8, 2), (12, 2), (16, 2), (16, 3), (24, 3)] {
+        let g = bake(Shape::Sphere { radius: 10.0 }, r, levels)?;
+        let lv = g.levels.len();
+        let mut row = Vec::new();
+        for threshold in [0, usize::MAX] {
+            let mut o = TranslucentObject::new(
+                ctx,
+                g.clone(),
+                field,
+                &scene(0.0),
+                &ObjectParams {
+                    single_level_nodes: threshold,
+                    ..ObjectParams::default()
+                },
+            )?;
+            let (c, its) = frame(ctx, host, &mut o, lv)?;
+            row.push(format!("{its:?}, {:.1}", frame_ms(&c)));
+        }
+        println!(
+            "| {r}, {levels} | {} | {} | {} |",
+            g.finest().node_count(),
+            row[0],
+            row[1]
+        );
+    }
+    Ok(())
+}
