@@ -265,17 +265,20 @@ fn object_sizes_from_1_mm_to_10_m() {
     gpu.finish();
 }
 
-/// Light from 1e-8 to 1e8 (fp16 overflows at 65504 and is subnormal below 6e-5): the exposure
+/// Light from 1e-37 to 1e30 (fp16 overflows at 65504 and is subnormal below 6e-5): the exposure
 /// keeps J+ linear in the light at every precision; pixels stay finite everywhere and linear
 /// within 5e-3 over the 1e-4 .. 1e4 (outside it the RGBA16F target saturates or flushes).
 #[test]
-fn light_from_1e_minus_8_to_1e8_scales_linearly() {
+fn light_from_1e_minus_37_to_1e30_scales_linearly() {
     let gpu = GpuTest::new();
     let graph = sphere(20.0);
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
-    for precision in PRECISIONS {
+    // fp32 shares mixed's exposure path (the full matrix runs all three from 1e-8 to 1e8).
+    for precision in [Precision::Mixed, Precision::Fp16] {
         let unit = gpu_frame(&gpu.ctx, &graph, &field, &lit(1.0), precision);
-        for e in [1e-8, 1e-4, 1e4, 1e8] {
+        // 1e-37 and 1e30: 2048 / q leaves f32 below ~6e-36, where `q_scale_for` used to fall
+        // back to exposure 1 and q flushed to zero in fp16; it now clamps to f32::MAX.
+        for e in [1e-37, 1e-4, 1e4, 1e30] {
             let out = gpu_frame(&gpu.ctx, &graph, &field, &lit(e), precision);
             let scaled: Vec<[f64; 3]> = out
                 .j_plus
@@ -292,7 +295,9 @@ fn light_from_1e_minus_8_to_1e8_scales_linearly() {
             }
             let pixels = (d2 / r2).sqrt();
             println!("E = {e:e}, {precision:?}: J+ linearity {err:.1e}, pixels {pixels:.1e}");
-            assert!(err <= 1e-4, "E = {e} {precision:?}: J+ / E off by {err}");
+            // At 1e-37 the environment term (1e-38) is an f32 subnormal on the GPU: 5e-3.
+            let bound = if e < 1e-30 { 5e-3 } else { 1e-4 };
+            assert!(err <= bound, "E = {e} {precision:?}: J+ / E off by {err}");
             if (1e-4..=1e4).contains(&e) {
                 assert!(
                     pixels <= 5e-3,
