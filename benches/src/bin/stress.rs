@@ -13,7 +13,8 @@
 //! Writes `OUT_DIR/stress.csv` and `OUT_DIR/stress.md` and prints the markdown table. `--quick`
 //! leaves out the beyond-the-issue extremes (sizes and lights past 1 mm .. 10 m and 1e-4 .. 1e4);
 //! `--only absorption|contrast|size|light|geometry|input|cli` runs one group.
-//! `TRANSLUCENT_DEVICE` picks the Vulkan device. The CI-sized subset is `tests/tests/stress_*.rs`.
+//! `TRANSLUCENT_DEVICE` picks the Vulkan device; `STRESS_CAP=N` sets the GPU's iteration cap per
+//! level (default 3000). The CI-sized subset is `tests/tests/stress_*.rs`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -239,9 +240,14 @@ fn gpu(
     scene: &Scene,
     precision: Precision,
 ) -> Result<GpuOut> {
+    // The per-level cap; `STRESS_CAP=N` raises it to see what optically thin objects need.
+    let cap = std::env::var("STRESS_CAP")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(3000);
     let params = GpuSolveParams {
         precision,
-        iterations: vec![3000],
+        iterations: vec![cap],
         tolerance: 1e-5,
         ..Default::default()
     };
