@@ -1223,7 +1223,8 @@ fn case_cli(rows: &mut Vec<Row>, dir: &Path) -> Result<()> {
                     .env("TRANSLUCENT_CACHE_DIR", dir.join("cache"))
                     .output()?;
                 let mut row = Row::new("command line", variant.clone(), format!("cli {solver}"));
-                row.reference = "exit status, no file on error, no null in JSON";
+                row.reference =
+                    "exit status; no file on error; else problems: null in JSON, EXR not finite, no file";
                 row.error_expected = expect_error;
                 let stderr = String::from_utf8_lossy(&run.stderr);
                 let stdout = String::from_utf8_lossy(&run.stdout);
@@ -1235,10 +1236,20 @@ fn case_cli(rows: &mut Vec<Row>, dir: &Path) -> Result<()> {
                         - stdout.matches("\"precision\":null").count()
                         - stdout.matches("\"gpu_bytes\":null").count();
                     row.note = if written {
-                        "file written".into()
+                        // The library's EXR reader refuses any texel that is not finite and >= 0.
+                        match Environment::load_exr(&out) {
+                            Ok(_) => "EXR finite and >= 0".into(),
+                            Err(e) => {
+                                row.nonfinite += 1;
+                                format!("EXR: {e}")
+                            }
+                        }
                     } else {
                         "NO FILE".into()
                     };
+                    // Problems found: NaN/Inf in the JSON or the EXR, or no file.
+                    row.error = Some((row.nonfinite + usize::from(!written)) as f64);
+                    row.tolerance = Some(0.0);
                 } else {
                     let message = stderr
                         .lines()
