@@ -95,20 +95,48 @@ fn extreme_materials_sizes_and_lights_stay_finite() {
 }
 
 #[test]
-fn irradiance_beyond_f64_sums_is_an_error_not_a_nan() {
+fn irradiance_beyond_the_supported_range_is_an_error_not_a_nan() {
+    use translucent::solver::scene::MAX_LIGHT_COLOUR;
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
     let graph = cube(5.0, 3);
-    for e in [1e150, 1e200, 1e300] {
-        let scene = Scene {
-            lights: vec![format!("dir:0,-1,0:{e},{e},{e}").parse().unwrap()],
-            environment: Environment::None,
-        };
-        match solver::solve(&graph, &field, &scene, None, &CpuSolveParams::default()) {
-            Ok(sol) => assert!(all_finite(&sol), "E = {e}"),
-            Err(SolverError::NonFinite { .. }) => {}
-            Err(other) => panic!("E = {e}: {other}"),
-        }
+    // Parsed lights above the bound are refused where they are parsed...
+    for e in [1e31, 1e150, 1e300] {
+        let parsed = format!("dir:0,-1,0:{e},{e},{e}").parse::<solver::Light>();
+        assert!(
+            matches!(parsed, Err(SolverError::BadScene { .. })),
+            "E = {e}: {parsed:?}"
+        );
     }
+    // ...and lights built by hand are refused by the solve, before any arithmetic.
+    for e in [MAX_LIGHT_COLOUR * 2.0, 1e300] {
+        let scene = Scene {
+            lights: vec![solver::Light::Directional {
+                direction: DVec3::NEG_Y,
+                irradiance: [e; 3],
+            }],
+            environment: Environment::Constant([0.0; 3]),
+        };
+        let e = solver::solve(&graph, &field, &scene, None, &CpuSolveParams::default())
+            .expect_err("refused");
+        assert!(e.to_string().contains("above the supported"), "{e}");
+    }
+    let sh = Scene {
+        lights: vec![],
+        environment: Environment::SphericalHarmonics([[1e31; 3]; 9]),
+    };
+    assert!(matches!(
+        solver::solve(&graph, &field, &sh, None, &CpuSolveParams::default()),
+        Err(SolverError::BadScene { .. })
+    ));
+    // At the bound itself the solve is finite.
+    let scene = Scene {
+        lights: vec![format!("dir:0,-1,0:{MAX_LIGHT_COLOUR:e},0,1")
+            .parse()
+            .unwrap()],
+        environment: Environment::None,
+    };
+    let sol = solver::solve(&graph, &field, &scene, None, &CpuSolveParams::default()).unwrap();
+    assert!(all_finite(&sol));
 }
 
 #[test]

@@ -18,7 +18,7 @@ pub struct ObjectArgs {
     /// Procedural shape instead of a mesh: sphere, torus, box, capsule (render's default: torus).
     #[arg(long, value_name = "NAME")]
     pub shape: Option<String>,
-    /// Longest side of the object in millimetres.
+    /// Longest side of the object in millimetres (1e-4 to 1e8).
     #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
     pub size_mm: f64,
     /// Grading K: 0 keeps the interior lattice uniform; larger values coarsen it faster.
@@ -85,8 +85,14 @@ impl ObjectArgs {
 
     /// Loads the mesh (or builds the shape; `default_shape` when neither is given).
     pub fn load(&self, default_shape: Option<&str>) -> anyhow::Result<Object> {
-        if !(self.size_mm.is_finite() && self.size_mm > 0.0) {
-            anyhow::bail!("--size-mm must be a positive number, got {}", self.size_mm);
+        let range = translucent::mesh::SIZE_RANGE_MM;
+        if !range.contains(&self.size_mm) {
+            anyhow::bail!(
+                "--size-mm {}: must be a number of millimetres from {} to {}",
+                self.size_mm,
+                range.start(),
+                range.end()
+            );
         }
         match (&self.mesh, self.shape.as_deref().or(default_shape)) {
             (Some(path), _) => self.load_mesh(path),

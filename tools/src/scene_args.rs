@@ -49,6 +49,9 @@ fn numbers<const N: usize>(option: &str, text: &str) -> anyhow::Result<[f64; N]>
     Ok(values)
 }
 
+/// The largest camera coordinate `--camera` accepts (mm).
+pub const MAX_CAMERA_MM: f64 = 1e10;
+
 fn vec3(option: &str, text: &str) -> anyhow::Result<DVec3> {
     Ok(DVec3::from_array(numbers::<3>(option, text)?))
 }
@@ -86,6 +89,11 @@ pub fn parse_camera(text: &str) -> anyhow::Result<Camera> {
         target: vec3("--camera target", target)?,
         fovy_deg,
     };
+    // The view matrix is f32: an eye at 1e300 mm passed `Camera::validate` and rendered an empty
+    // image. 1e10 mm is a hundred times the largest object (`mesh::SIZE_RANGE_MM`).
+    if camera.eye.abs().max(camera.target.abs()).max_element() > MAX_CAMERA_MM {
+        bail!("--camera {text:?}: coordinates must be within +-{MAX_CAMERA_MM:e} mm");
+    }
     camera
         .validate()
         .with_context(|| format!("--camera {text:?}"))?;
@@ -160,7 +168,13 @@ mod tests {
         }
         let cam = parse_camera("0,0,100:0,0,0:40").expect("camera");
         assert_eq!(cam.fovy_deg, 40.0);
-        for bad in ["0,0,100:0,0,0", "0,0,0:0,0,0:40", "0,0,1:0,0,0:200"] {
+        for bad in [
+            "0,0,100:0,0,0",
+            "0,0,0:0,0,0:40",
+            "0,0,1:0,0,0:200",
+            "0,0,1e300:0,0,0:40",
+            "0,0,100:1e11,0,0:40",
+        ] {
             assert!(parse_camera(bad)
                 .expect_err(bad)
                 .to_string()

@@ -33,6 +33,14 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
+/// Object sizes (longest side, mm) accepted by [`TriMesh::normalized`], the bake and the CLI's
+/// `--size-mm`: the range the numerical stress matrix measured (`benches/src/bin/stress.rs`;
+/// README "Numerical stress"). Outside it the bake's lattice arithmetic leaves f64 and the GPU's
+/// f32 (a 1e300 mm sphere was killed for memory in the bake; 1e-300 mm gave zero volumes), so it
+/// is refused, not attempted. Inside it, objects below about one mean free path need many more
+/// Jacobi iterations on the GPU than the default cap (see the README).
+pub const SIZE_RANGE_MM: std::ops::RangeInclusive<f64> = 1e-4..=1e8;
+
 /// An indexed triangle mesh in f64 (converted to f32 at upload). Counter-clockwise faces seen from
 /// outside; `normals` are per-vertex unit normals (same length as `positions`).
 #[derive(Clone, Debug, Default)]
@@ -129,7 +137,11 @@ pub enum MeshError {
         shape: shapes::Shape,
         problem: &'static str,
     },
-    #[error("mesh size must be a finite number of millimetres > 0, got {0}")]
+    #[error(
+        "object size (longest side) must be a finite number of millimetres within {min} to {max}, got {0}",
+        min = SIZE_RANGE_MM.start(),
+        max = SIZE_RANGE_MM.end()
+    )]
     InvalidSize(f64),
     #[error("the mesh has zero extent (all its vertices coincide)")]
     ZeroExtent,

@@ -304,10 +304,10 @@ impl TriMesh {
     }
 
     /// A copy centred and scaled as in DESIGN section 3.2: bounding-box centre at the origin,
-    /// longest side `size_mm` millimetres; with the transform applied. Normals are unchanged (the
-    /// scale is uniform).
+    /// longest side `size_mm` millimetres (within [`super::SIZE_RANGE_MM`]); with the transform
+    /// applied. Normals are unchanged (the scale is uniform).
     pub fn normalized(&self, size_mm: f64) -> Result<(TriMesh, Normalization), MeshError> {
-        if !size_mm.is_finite() || size_mm <= 0.0 {
+        if !super::SIZE_RANGE_MM.contains(&size_mm) {
             return Err(MeshError::InvalidSize(size_mm));
         }
         self.check_structure()?;

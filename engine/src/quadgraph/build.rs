@@ -191,6 +191,15 @@ impl QuadGraph {
                 "the solid's bounds {lo} .. {hi} are empty or not finite"
             )));
         }
+        // Beyond this range the lattice's volumes and distances leave f64/f32 (a 1e300 mm solid
+        // exhausted memory instead of failing).
+        if !crate::mesh::SIZE_RANGE_MM.contains(&longest) {
+            return Err(BakeError::Invalid(format!(
+                "the solid's longest side is {longest} mm; sizes from {} to {} mm are supported",
+                crate::mesh::SIZE_RANGE_MM.start(),
+                crate::mesh::SIZE_RANGE_MM.end()
+            )));
+        }
         if surface.indices.is_empty() {
             return Err(BakeError::Invalid(
                 "the surface mesh has no triangles".into(),

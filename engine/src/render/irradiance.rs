@@ -250,12 +250,15 @@ pub fn q_scale_for(scene: &Scene, level: &GraphLevel, eta: f64) -> f32 {
         .iter()
         .flatten()
         .fold(0.0f64, |m, &v| m.max(v));
-    let scale = 2048.0 / max_q;
-    if max_q > 0.0 && scale.is_finite() && (scale as f32).is_finite() && scale as f32 > 0.0 {
-        scale as f32
-    } else {
-        1.0
+    if !(max_q > 0.0 && max_q.is_finite()) {
+        return 1.0;
     }
+    // Clamped to normal f32 rather than replaced by 1: an unrepresentable 2048 / max_q used to
+    // fall back to exposure 1, under which q below 6e-8 (fp16's smallest subnormal) flushed to
+    // zero (J+ = 0 for a light of 1e-37) and q above 65504 saturated. The upper clamp bites for
+    // light dimmer than ~6e-36; the lower one, lights being bounded by
+    // `solver::scene::MAX_LIGHT_COLOUR`, only for point lights almost touching the surface.
+    (2048.0 / max_q).clamp(f64::from(f32::MIN_POSITIVE), f64::from(f32::MAX)) as f32
 }
 
 /// A descriptor set of the gather for one level's images.

@@ -78,8 +78,20 @@ fn bad(what: &str, problem: impl Into<String>) -> SolverError {
     }
 }
 
+/// The largest light or environment colour component accepted. The GPU takes colours as f32 and
+/// phi reaches ~7 q, so q must stay far below f32::MAX (3.4e38); the CPU's f64 residual sums
+/// overflowed from 1e150. Before this bound a `dir:0,-1,0:1e300,..` light reached the GPU as an
+/// f32 infinity and the command line wrote an image and a JSON report with NaN (`null`) in it.
+pub const MAX_LIGHT_COLOUR: f64 = 1e30;
+
 fn check_colour(what: &str, c: [f64; 3]) -> Result<(), SolverError> {
     if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        if c.iter().any(|&v| v > MAX_LIGHT_COLOUR) {
+            return Err(bad(
+                what,
+                format!("colour {c:?} is above the supported {MAX_LIGHT_COLOUR:e}"),
+            ));
+        }
         Ok(())
     } else {
         Err(bad(what, format!("colour {c:?} must be finite and >= 0")))
@@ -269,10 +281,16 @@ impl Environment {
             Environment::None => Ok(()),
             Environment::Constant(l) => check_colour("constant environment", *l),
             Environment::SphericalHarmonics(c) => {
-                if c.iter().flatten().all(|v| v.is_finite()) {
+                if c.iter()
+                    .flatten()
+                    .all(|v| v.is_finite() && v.abs() <= MAX_LIGHT_COLOUR)
+                {
                     Ok(())
                 } else {
-                    Err(bad("SH environment", "coefficients must be finite"))
+                    Err(bad(
+                        "SH environment",
+                        format!("coefficients must be finite and within +-{MAX_LIGHT_COLOUR:e}"),
+                    ))
                 }
             }
         }
