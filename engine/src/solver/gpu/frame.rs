@@ -48,6 +48,8 @@ pub struct GpuFrame {
     eta: f32,
     /// Bounding sphere of the finest level's nodes (centre, radius in mm): the shadow views' fit.
     bounds: (glam::DVec3, f64),
+    /// The scene of the last `set_lights` (a deformation refits its shadow views).
+    scene: Scene,
 }
 
 /// What [`GpuFrame::report`] computes on the CPU from the GPU's finest-level phi.
@@ -109,6 +111,7 @@ impl GpuFrame {
             q_scale,
             eta: eta as f32,
             bounds,
+            scene: scene.clone(),
         })
     }
 
@@ -131,6 +134,7 @@ impl GpuFrame {
             }
         };
         self.uniforms = uniforms;
+        self.scene = scene.clone();
         let wanted = q_scale_for(scene, graph.finest(), f64::from(self.eta));
         let ratio = wanted / self.q_scale;
         if !(0.25..=4.0).contains(&ratio) {
@@ -165,6 +169,9 @@ impl GpuFrame {
     ) -> Result<(), Error> {
         // SAFETY: the caller's contract.
         unsafe {
+            // Staged material and deformation edits first: the shadow pass draws the deformed
+            // caster, the gather reads the deformed surface nodes.
+            self.solve.record_edits(ctx, cb, profiler.as_deref_mut());
             self.shadows
                 .record(ctx, cb, caster, profiler.as_deref_mut());
             self.gather.record_scene(ctx, cb, &self.uniforms);
@@ -233,5 +240,21 @@ impl GpuFrame {
             clamped: self.solve.clamped(ctx)?,
             iterations: self.solve.iterations_run(ctx)?,
         })
+    }
+}
+
+/// Hooks of the live edits (`edit.rs`, branch gpuedit).
+impl GpuFrame {
+    /// The gather's eta after a material edit.
+    pub(super) fn set_eta(&mut self, eta: f64) {
+        self.eta = eta as f32;
+    }
+
+    /// Refits the shadow views to a deformed object's bounding sphere.
+    pub(super) fn refit_bounds(&mut self, bounds: (glam::DVec3, f64)) -> Result<(), Error> {
+        self.shadows.set_lights(&self.scene.lights, bounds, true)?;
+        self.uniforms = GatherScene::new(&self.scene, &self.shadows)?;
+        self.bounds = bounds;
+        Ok(())
     }
 }
