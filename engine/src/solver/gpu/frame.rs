@@ -250,6 +250,11 @@ impl GpuFrame {
         self.eta = eta as f32;
     }
 
+    /// The bounding sphere (centre, radius in mm) the shadow views are fitted to.
+    pub fn shadow_bounds(&self) -> (glam::DVec3, f64) {
+        self.bounds
+    }
+
     /// Refits the shadow views to a deformed object's bounding sphere.
     pub(super) fn refit_bounds(&mut self, bounds: (glam::DVec3, f64)) -> Result<(), Error> {
         self.shadows.set_lights(&self.scene.lights, bounds, true)?;
