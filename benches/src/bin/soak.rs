@@ -152,6 +152,15 @@ fn main() -> Result<()> {
         "soak: {frames} frames, sphere r = 10 mm, resolution {resolution}, {} levels, {nodes} nodes, {n} display vertices, validation {validation}",
         graph.levels.len()
     );
+    let texels: u64 = graph
+        .levels
+        .iter()
+        .map(|l| u64::from(l.packing.width) * u64::from(l.packing.height))
+        .sum();
+    let (b0, per_node0) = frame.solve.bytes();
+    println!(
+        "GPU bytes at start (homogeneous, rest pose): {b0} = {per_node0:.1} B/node ({texels} texels for {nodes} nodes)"
+    );
     let start = Instant::now();
     let mut at_frame_10 = ctx.allocator_usage();
     let at_start = at_frame_10;
@@ -204,6 +213,10 @@ fn main() -> Result<()> {
         }
     }
     let wall = start.elapsed().as_secs_f64();
+    let (b1, per_node1) = frame.solve.bytes();
+    println!(
+        "GPU bytes at the end (heterogeneous textures and deformation data allocated): {b1} = {per_node1:.1} B/node"
+    );
     let end = ctx.allocator_usage();
     println!(
         "\n| frames | wall s | ms/frame | allocator at start | at frame 10 | at end | validation messages | NaN/Inf |"
