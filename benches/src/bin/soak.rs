@@ -202,10 +202,11 @@ fn main() -> Result<()> {
                 return Err(format!("frame {i}: NaN or Inf in J+ or the image").into());
             }
             println!(
-                "frame {:6}: {:8.1} s, allocator {:?}, messages {messages}",
+                "frame {:6}: {:8.1} s, allocator {:?}, messages {messages}, iterations {:?}",
                 i + 1,
                 start.elapsed().as_secs_f64(),
-                ctx.allocator_usage()
+                ctx.allocator_usage(),
+                frame.solve.iterations_run(&ctx)?
             );
         }
         if i == 10 {

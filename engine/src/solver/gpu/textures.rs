@@ -19,9 +19,9 @@
 //! Why the weights are derived on the GPU and still stored per channel for a heterogeneous
 //! material: a material edit or a deformation then costs one pass over the level (no f64 re-bake,
 //! no upload of weights), while the Jacobi iteration, which runs hundreds of times per edit, keeps
-//! one multiply-add and three texel reads per neighbour. Computing the harmonic kappa inside the
-//! iteration instead would read 5 material texels more per node and iteration (see README, "Live
-//! edits"). A homogeneous material reads `weight_geo` only, with kappa and mu in push constants.
+//! one multiply-add per neighbour and three weight reads per node. Computing the harmonic kappa
+//! inside the iteration instead would read 8 texels per node and iteration for its weights (see
+//! README, "Live edits"). A homogeneous material reads `weight_geo` only, with kappa and mu in push constants.
 //! kappa and mu are fp32, not the paper's fp16: kappa = 1/(3 sigma_t') of a dense medium (3e-5 mm
 //! at sigma_t' = 1e4/mm) is below fp16's normal range (6.1e-5).
 //!
