@@ -11,7 +11,7 @@
 //!
 //! ```text
 //! cargo run --release -p translucent-benches --bin soak -- [--frames 10000] [--resolution 10]
-//!     [--check-every 100] [--no-validation]
+//!     [--segments 24] [--check-every 100] [--no-validation]
 //! ```
 
 use std::collections::BTreeMap;
@@ -104,6 +104,8 @@ fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let frames: usize = arg(&args, "--frames", 10_000)?;
     let resolution: u32 = arg(&args, "--resolution", 10)?;
+    // Segments of the triangulated display sphere (its vertex count: the mesh copies).
+    let segments: u32 = arg(&args, "--segments", 24)?;
     let check_every: usize = arg(&args, "--check-every", 100)?.max(1);
     let validation = !args.iter().any(|a| a == "--no-validation");
     let ctx = Context::headless(&ContextDesc {
@@ -118,7 +120,8 @@ fn main() -> Result<()> {
         levels: 2,
         ..Default::default()
     };
-    let graph: QuadGraph = QuadGraph::bake(&shape.triangulate(24), &shape, &bake, &mut |_| {})?.0;
+    let graph: QuadGraph =
+        QuadGraph::bake(&shape.triangulate(segments), &shape, &bake, &mut |_| {})?.0;
     let params = GpuSolveParams {
         iterations: vec![48],
         tolerance: 1e-4,

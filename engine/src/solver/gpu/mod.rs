@@ -140,7 +140,7 @@ pub struct LevelPush {
     pub size: [i32; 2],
     pub width: u32,
     pub surface_rows: u32,
-    /// Homogeneous material only (`graph_weights.glsl`): kappa per channel (a unused).
+    /// Homogeneous material only (`graph_weights.glsl`): kappa per channel, 2A in a.
     pub kappa: [f32; 4],
     /// Homogeneous material only: mu per channel, q_gain = 4 / (1 - F_dr) in a.
     pub mu_gain: [f32; 4],
@@ -517,12 +517,12 @@ impl GpuDiffusion {
         };
         let pipelines = Self::pipelines(ctx, params.precision, graph.levels.len() as u32)?;
         let mut levels: Vec<GpuLevel> = Vec::with_capacity(graph.levels.len());
-        let (mut f_dr, mut a, mut q_gain) = (0.0, 0.0, 0.0);
+        let (mut f_dr, mut a) = (0.0, 0.0);
         for (h, level) in graph.levels.iter().enumerate() {
             // The f64 operator validates geometry and material (typed errors naming the node).
             let op =
                 LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
-            (f_dr, a, q_gain) = (op.f_dr, op.a, op.q_gain);
+            (f_dr, a) = (op.f_dr, op.a);
             drop(op);
             let coarse = levels.last().map(|l| &l.packing);
             if h > 0 && level.from_coarser.is_none() {
@@ -725,7 +725,6 @@ impl GpuDiffusion {
             poison,
             edits: edit::EditState::default(),
         };
-        let _ = (f_dr, q_gain);
         // The material goes in exactly as a later edit does (heterogeneous weights derived on the
         // GPU by the first record), so a fresh solve and an edited one are the same computation.
         out.set_material(ctx, graph, material)?;
