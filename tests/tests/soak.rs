@@ -131,6 +131,19 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
             })
             .unwrap();
         assert!(failed.is_none(), "frame {i}: {failed:?}");
+        // Each edit pass shows in the profiler exactly in the frames that need it.
+        let has = |name: &str| captured.passes.contains_key(name);
+        assert_eq!(
+            has("edit derive weights"),
+            i % 4 == 3,
+            "frame {i}: {:?}",
+            captured.passes
+        );
+        assert_eq!(has("edit deform"), i % 10 != 5, "frame {i}");
+        assert!(
+            has("edit deform mesh") && has("diffusion jacobi"),
+            "frame {i}"
+        );
         if i % CHECK_EVERY == CHECK_EVERY - 1 || i + 1 == FRAMES {
             let j = frame.solve.read_j_plus(ctx).unwrap();
             assert!(
