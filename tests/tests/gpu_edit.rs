@@ -468,3 +468,40 @@ fn frame_deform_moves_the_meshes_and_refits_the_shadows() {
     drop((frame, mesh, caster));
     gpu.finish();
 }
+
+#[test]
+fn the_homogeneous_specialization_solves_like_the_per_node_path() {
+    // The same material through both variants: HOMOGENEOUS = true (push constants, no per-node
+    // reads) and the per-node path (a split with marble on both sides). The skip must not change
+    // the answer beyond fp32 rounding of the weights.
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(10, 2);
+    let marble = Material::preset("marble").unwrap();
+    let per_node = MaterialField::procedural(
+        Procedural::Split {
+            normal: DVec3::Y,
+            offset: 0.0,
+            below: marble.coefficients(),
+            above: marble.coefficients(),
+        },
+        marble.eta,
+    )
+    .unwrap();
+    let mut s = GpuDiffusion::new(
+        ctx,
+        &graph,
+        &MaterialField::Homogeneous(marble),
+        &params(Scheme::Fv),
+    )
+    .unwrap();
+    let skipped = solve(ctx, &mut s, &graph, 1.3);
+    s.set_material(ctx, &graph, &per_node).unwrap();
+    let full = solve(ctx, &mut s, &graph, 1.3);
+    let reference: Vec<[f64; 3]> = full.iter().map(|v| v.map(f64::from)).collect();
+    let err = rel_rms(&skipped, &reference);
+    println!("homogeneous specialization vs per-node path: rel RMS {err:.2e}");
+    assert!(err <= 1e-4, "{err}");
+    drop(s);
+    gpu.finish();
+}
