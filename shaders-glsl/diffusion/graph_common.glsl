@@ -12,8 +12,8 @@ layout(push_constant) uniform LevelPush {
     ivec2 size;
     uint width;
     uint surface_rows;
-    // Homogeneous material only (graph_weights.glsl with HOMOGENEOUS): kappa and mu per channel,
-    // q_gain = 4 / (1 - F_dr) in mu_gain.a.
+    // Homogeneous material only (graph_weights.glsl with HOMOGENEOUS): kappa per channel and the
+    // Robin coefficient 2A in kappa.a; mu per channel and q_gain = 4 / (1 - F_dr) in mu_gain.a.
     vec4 kappa;
     vec4 mu_gain;
 } pc;

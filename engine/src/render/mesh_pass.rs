@@ -97,7 +97,11 @@ impl GpuMesh {
                 "mesh vertices",
                 // STORAGE: the GPU diffusion solve writes the exitance field in place
                 // (solver::gpu::GpuDiffusion::bind_mesh), so the solved J+ never visits the CPU.
-                vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+                // TRANSFER_DST: a deformation copies new positions and normals in
+                // (solver::gpu::edit).
+                vk::BufferUsageFlags::VERTEX_BUFFER
+                    | vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST,
                 &vertices,
             )?,
             index_count: indices.len() as u32,

@@ -34,7 +34,7 @@ pub mod hot_reload;
 
 pub use pipeline::{
     ComputePipeline, ComputePipelineDesc, DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc,
-    NoPushConstants, VertexAttribute,
+    NoPushConstants, SpecConstant, VertexAttribute,
 };
 pub use reflect::{BindingInfo, Reflection};
 
@@ -174,6 +174,26 @@ mod tests {
             .and_then(|b| b.uniform_size);
         let rust = std::mem::size_of::<crate::render::ShadeUniforms>();
         assert_eq!(uniform, Some(rust), "std140 layout of ShadeUniforms");
+    }
+
+    #[test]
+    fn the_diffusion_passes_declare_the_homogeneous_specialization_constant() {
+        // One module per pass (DESIGN section 5): the material kind is constant_id 0, not a copy
+        // of the shader compiled with a define.
+        for name in [
+            "diffusion/jacobi_fp16.comp",
+            "diffusion/jacobi_fp32.comp",
+            "diffusion/correction_sweep_mixed.comp",
+            "diffusion/residual_fp32.comp",
+        ] {
+            let r = Reflection::new(&embedded(name).expect("embedded")).expect("reflects");
+            assert_eq!(
+                r.spec_constants,
+                vec![("HOMOGENEOUS".to_string(), 0)],
+                "{name}"
+            );
+        }
+        assert!(!embedded_names().any(|n| n.ends_with("_h.comp")));
     }
 
     #[test]

@@ -401,10 +401,67 @@ pub struct ComputePipeline<P> {
     _push: PhantomData<P>,
 }
 
+/// One specialization constant (`layout(constant_id = id) const ...`): a 32-bit value (a GLSL
+/// `bool` is a `VkBool32`, 0 or 1; `int`, `uint` and `float` their bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpecConstant {
+    pub id: u32,
+    pub value: u32,
+}
+
+impl SpecConstant {
+    pub fn bool(id: u32, value: bool) -> Self {
+        SpecConstant {
+            id,
+            value: u32::from(value),
+        }
+    }
+}
+
 impl<P: bytemuck::Pod> ComputePipeline<P> {
     pub fn new(ctx: &Context, desc: &ComputePipelineDesc<'_>) -> Result<Self, ShaderError> {
+        Self::new_specialized(ctx, desc, &[])
+    }
+
+    /// [`ComputePipeline::new`] with specialization constants (DESIGN section 5: one shader per
+    /// pass, variants chosen at pipeline creation, e.g. `HOMOGENEOUS` removing per-node material
+    /// reads). Every id must be declared by the shader (checked against reflection). A separate
+    /// argument rather than a field of [`ComputePipelineDesc`], so that existing descriptor
+    /// literals keep compiling.
+    pub fn new_specialized(
+        ctx: &Context,
+        desc: &ComputePipelineDesc<'_>,
+        constants: &[SpecConstant],
+    ) -> Result<Self, ShaderError> {
         let spirv = embedded(desc.shader)?;
         let reflection = Reflection::new(&spirv)?;
+        for c in constants {
+            if !reflection.spec_constants.iter().any(|(_, id)| *id == c.id) {
+                return Err(ShaderError::Invalid {
+                    shader: desc.shader.into(),
+                    message: format!(
+                        "no specialization constant with id {} (declared: {:?})",
+                        c.id, reflection.spec_constants
+                    ),
+                });
+            }
+        }
+        let entries: Vec<vk::SpecializationMapEntry> = constants
+            .iter()
+            .enumerate()
+            .map(|(i, c)| vk::SpecializationMapEntry {
+                constant_id: c.id,
+                offset: (i * 4) as u32,
+                size: 4,
+            })
+            .collect();
+        let data: Vec<u8> = constants
+            .iter()
+            .flat_map(|c| c.value.to_le_bytes())
+            .collect();
+        let specialization = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(&data);
         let workgroup_size = reflection
             .workgroup_size
             .ok_or_else(|| ShaderError::Invalid {
@@ -425,6 +482,11 @@ impl<P: bytemuck::Pod> ComputePipeline<P> {
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(&entry);
+        let stage = if constants.is_empty() {
+            stage
+        } else {
+            stage.specialization_info(&specialization)
+        };
         let info = vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(interface.layout);

@@ -28,6 +28,8 @@ pub struct Reflection {
     pub bindings: Vec<BindingInfo>,
     pub push_constant_size: Option<usize>,
     pub workgroup_size: Option<[u32; 3]>,
+    /// Specialization constants: (name, constant_id), sorted by id.
+    pub spec_constants: Vec<(String, u32)>,
 }
 
 fn descriptor_type(t: &DescriptorType) -> vk::DescriptorType {
@@ -83,6 +85,7 @@ impl Reflection {
         };
         let mut bindings = Vec::new();
         let mut push_constant_size = None;
+        let mut spec_constants = Vec::new();
         for var in &entry.vars {
             match var {
                 Variable::Descriptor {
@@ -111,9 +114,13 @@ impl Reflection {
                             invalid("push-constant block of unknown size".into())
                         })?);
                 }
+                Variable::SpecConstant { name, spec_id, .. } => {
+                    spec_constants.push((name.clone().unwrap_or_default(), *spec_id));
+                }
                 _ => {}
             }
         }
+        spec_constants.sort_by_key(|(_, id)| *id);
         bindings.sort_by_key(|b| (b.set, b.binding));
         let workgroup_size = entry
             .exec_modes
@@ -137,6 +144,7 @@ impl Reflection {
             bindings,
             push_constant_size,
             workgroup_size,
+            spec_constants,
         })
     }
 }

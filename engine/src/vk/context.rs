@@ -694,6 +694,22 @@ impl Context {
             .map_or(0, |a| a.generate_report().allocations.len())
     }
 
+    /// gpu-allocator's totals: (live allocations, bytes they use, bytes of memory blocks held).
+    /// For soak tests: all three stay flat when nothing leaks.
+    pub fn allocator_usage(&self) -> (usize, u64, u64) {
+        self.device
+            .lock_allocator()
+            .as_ref()
+            .map_or((0, 0, 0), |a| {
+                let r = a.generate_report();
+                (
+                    r.allocations.len(),
+                    r.total_allocated_bytes,
+                    r.total_capacity_bytes,
+                )
+            })
+    }
+
     /// Gives `handle` a debug-utils name.
     pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         self.device.set_name(handle, name);

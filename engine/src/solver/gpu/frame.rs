@@ -54,6 +54,8 @@ pub struct GpuFrame {
     /// Per-frame copies of the solve's control records (one slot per frame in flight, plus one):
     /// the iterations a host frame ran are read once the host reports it complete.
     control_copies: Vec<ControlCopy>,
+    /// The scene of the last `set_lights` (a deformation refits its shadow views).
+    scene: Scene,
 }
 
 /// One slot of [`GpuFrame`]'s control copies: the frame that wrote it, if not read yet.
@@ -208,6 +210,7 @@ impl GpuFrame {
             eta: eta as f32,
             bounds,
             control_copies,
+            scene: scene.clone(),
         })
     }
 
@@ -230,6 +233,7 @@ impl GpuFrame {
             }
         };
         self.uniforms = uniforms;
+        self.scene = scene.clone();
         let wanted = q_scale_for(scene, graph.finest(), f64::from(self.eta));
         let ratio = wanted / self.q_scale;
         if !(0.25..=4.0).contains(&ratio) {
@@ -267,8 +271,7 @@ impl GpuFrame {
     /// The material variant the solve's iteration shaders run: `homogeneous` reads kappa and mu
     /// from push constants (no per-node material reads), `heterogeneous` reads weights per node.
     pub fn material_variant(&self) -> &'static str {
-        // A homogeneous material's q gain (4 / (1 - F_dr) > 0) is the only non-zero mu_gain.a.
-        if self.solve.mu_gain[3] != 0.0 {
+        if self.solve.homogeneous {
             "homogeneous"
         } else {
             "heterogeneous"
@@ -313,6 +316,9 @@ impl GpuFrame {
         let mut done = RecordedParts::default();
         // SAFETY: the caller's contract.
         unsafe {
+            // Staged material and deformation edits first: the shadow pass draws the deformed
+            // caster, the gather reads the deformed surface nodes.
+            self.solve.record_edits(ctx, cb, profiler.as_deref_mut());
             // The first frame always runs it: it also moves the atlas into the layout the
             // descriptors name (with no shadow-casting light that is all it records).
             if parts.shadows || self.shadows.atlas_state == Access::Undefined {
@@ -476,5 +482,26 @@ impl GpuFrame {
             clamped: self.solve.clamped(ctx)?,
             iterations: self.solve.iterations_run(ctx)?,
         })
+    }
+}
+
+/// Hooks of the live edits (`edit.rs`, branch gpuedit).
+impl GpuFrame {
+    /// The gather's eta after a material edit.
+    pub(super) fn set_eta(&mut self, eta: f64) {
+        self.eta = eta as f32;
+    }
+
+    /// The bounding sphere (centre, radius in mm) the shadow views are fitted to.
+    pub fn shadow_bounds(&self) -> (glam::DVec3, f64) {
+        self.bounds
+    }
+
+    /// Refits the shadow views to a deformed object's bounding sphere.
+    pub(super) fn refit_bounds(&mut self, bounds: (glam::DVec3, f64)) -> Result<(), Error> {
+        self.shadows.set_lights(&self.scene.lights, bounds, true)?;
+        self.uniforms = GatherScene::new(&self.scene, &self.shadows)?;
+        self.bounds = bounds;
+        Ok(())
     }
 }

@@ -68,7 +68,7 @@ use super::SolverError;
 use crate::material::MaterialField;
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
 use crate::render::{GpuMesh, Vertex};
-use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::vk::{
     barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, ImageReadback,
     MemoryUse,
@@ -140,7 +140,7 @@ pub struct LevelPush {
     pub size: [i32; 2],
     pub width: u32,
     pub surface_rows: u32,
-    /// Homogeneous material only (`graph_weights.glsl`): kappa per channel (a unused).
+    /// Homogeneous material only (`graph_weights.glsl`): kappa per channel, 2A in a.
     pub kappa: [f32; 4],
     /// Homogeneous material only: mu per channel, q_gain = 4 / (1 - F_dr) in a.
     pub mu_gain: [f32; 4],
@@ -237,25 +237,36 @@ pub struct GpuLevel {
     state: [Image; 2],
     /// Mixed: phi (RGBA32F) and the fp32 residual.
     phi: Option<Image>,
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
     residual: Option<Image>,
     q: Image,
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
-    connectivity: Image,
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
-    /// Three per-channel weight sets, or one of geometric factors (homogeneous material).
-    weights: Vec<Image>,
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
+    pub(crate) connectivity: Image,
+    /// Geometric factors (`textures.rs` table): read by the homogeneous iteration and by the
+    /// weight derivation.
+    pub(crate) geo: Image,
+    /// fv fractions of the harmonic face kappa: heterogeneous or deformed levels only.
+    pub(crate) frac: Option<Image>,
+    /// Heterogeneous only: per-node kappa and mu.
+    pub(crate) material: Option<[Image; 2]>,
+    /// Heterogeneous only: per-channel Jacobi weights derived on the GPU.
+    pub(crate) weights: Option<[Image; 3]>,
     links: [Image; 2],
-    #[allow(dead_code)] // owned here: descriptor sets refer to it
     link_weights: [Image; 2],
-    surface_position: Image,
-    surface_normal: Image,
-    /// Per dispatch kind, the sets: see [`GpuDiffusion::record`].
-    iterate_sets: Vec<vk::DescriptorSet>,
+    pub(crate) surface_position: Image,
+    pub(crate) surface_normal: Image,
+    /// Per material variant (0 heterogeneous, 1 homogeneous), once created: the iteration sets
+    /// (two ping-pong directions, then in Mixed the residual's).
+    iterate_sets: [Vec<vk::DescriptorSet>; 2],
+    /// Mixed: phi += delta.
+    apply_set: vk::DescriptorSet,
     init_set: vk::DescriptorSet,
     reduce_set: vk::DescriptorSet,
-    bytes: u64,
+    /// Heterogeneous: the weight derivation's set (`edit/derive_weights.comp`).
+    pub(crate) derive_set: Option<vk::DescriptorSet>,
+    /// The rest pose's texels (host copy): restores `Deformation::Identity` exactly and seeds
+    /// textures allocated on a later edit.
+    pub(crate) rest: LevelTexels,
+    /// Deformation data, created on the first deformation (`edit.rs`).
+    pub(crate) deform: Option<edit::LevelDeform>,
 }
 
 impl GpuLevel {
@@ -272,16 +283,51 @@ impl GpuLevel {
             mu_gain: [0.0; 4],
         }
     }
-    fn extent(&self) -> [u32; 3] {
+    pub(crate) fn extent(&self) -> [u32; 3] {
         [self.packing.width, self.packing.height, 1]
+    }
+    /// GPU bytes of this level's textures and buffers.
+    fn bytes(&self) -> u64 {
+        let images = self
+            .state
+            .iter()
+            .chain(&self.phi)
+            .chain(&self.residual)
+            .chain([
+                &self.q,
+                &self.connectivity,
+                &self.geo,
+                &self.surface_position,
+                &self.surface_normal,
+            ])
+            .chain(&self.frac)
+            .chain(self.material.iter().flatten())
+            .chain(self.weights.iter().flatten())
+            .chain(&self.links)
+            .chain(&self.link_weights);
+        images
+            .map(|i| u64::from(i.width) * u64::from(i.height) * texel_bytes(i.format))
+            .sum::<u64>()
+            + self.deform.as_ref().map_or(0, edit::LevelDeform::bytes)
     }
 }
 
-struct Pipelines {
+/// The pipelines that read weights, specialized for one material kind (`HOMOGENEOUS`).
+pub(crate) struct Variant {
     iterate: ComputePipeline<LevelPush>,
-    /// Mixed only: residual (iteration 1 of a block) and apply (phi += delta).
+    /// Mixed only: the residual (iteration 1 of a block).
     residual: Option<ComputePipeline<LevelPush>>,
+}
+
+pub(crate) struct Pipelines {
+    /// Index 0 heterogeneous, 1 homogeneous; created when a material of that kind is first used.
+    variants: [Option<Variant>; 2],
+    /// Mixed only: apply (phi += delta).
     apply: Option<ComputePipeline<LevelPush>>,
+    /// Heterogeneous weight derivation (`edit/derive_weights.comp`), created on first use.
+    pub(crate) derive: Option<ComputePipeline<edit::DerivePush>>,
+    /// Deformation passes, created on the first deformation.
+    pub(crate) edit: Option<edit::DeformPipelines>,
     init: ComputePipeline<ShepardPush>,
     reduce: ComputePipeline<ReducePush>,
     j_plus: ComputePipeline<JPlusPush>,
@@ -291,8 +337,8 @@ struct Pipelines {
 /// The GPU solve of one QuadGraph with one material (see the module doc).
 pub struct GpuDiffusion {
     params: GpuSolveParams,
-    pipelines: Pipelines,
-    levels: Vec<GpuLevel>,
+    pub(crate) pipelines: Pipelines,
+    pub(crate) levels: Vec<GpuLevel>,
     /// Per level [`LevelControl`]; indirect arguments, host-readable after the frame.
     control: Buffer,
     /// Surface nodes clamped at J+ = 0 per channel (finest level).
@@ -312,18 +358,25 @@ pub struct GpuDiffusion {
     /// phi holds a previous solve's result at the current exposure (for warm starts).
     solved: bool,
     q_scale: f32,
-    f_dr: f64,
-    a: f64,
-    /// Push-constant material of the homogeneous weight path (zero otherwise).
-    kappa: [f32; 4],
-    mu_gain: [f32; 4],
+    pub(crate) f_dr: f64,
+    pub(crate) a: f64,
+    /// Push-constant material of the homogeneous weight path: kappa rgb and 2A; mu rgb and q_gain.
+    pub(crate) kappa: [f32; 4],
+    pub(crate) mu_gain: [f32; 4],
+    /// Which variant the iterations use.
+    pub(crate) homogeneous: bool,
+    /// A 1x1 RGBA32F of NaN bound to the per-channel weight slots of the homogeneous variant:
+    /// the specialized shader never reads it, and a read would turn phi into NaN.
+    poison: Image,
+    /// Edits waiting to be recorded in front of the next solve (`edit.rs`).
+    pub(crate) edits: edit::EditState,
 }
 
-fn bad_param(name: &'static str, problem: String) -> Error {
+pub(crate) fn bad_param(name: &'static str, problem: String) -> Error {
     Error::Solver(SolverError::BadParameter { name, problem })
 }
 
-fn image(
+pub(crate) fn image(
     ctx: &Context,
     name: &'static str,
     p: &Packing,
@@ -344,12 +397,17 @@ fn image(
 fn texel_bytes(format: vk::Format) -> u64 {
     match format {
         vk::Format::R16G16B16A16_SFLOAT => 8,
+        vk::Format::R32_UINT | vk::Format::R32_SFLOAT => 4,
         _ => 16,
     }
 }
 
 /// Uploads every `(image, bytes)` in one submission and leaves the images in GENERAL.
-fn upload_images(ctx: &Context, name: &str, items: &[(&Image, Vec<u8>)]) -> Result<(), Error> {
+pub(crate) fn upload_images(
+    ctx: &Context,
+    name: &str,
+    items: &[(&Image, Vec<u8>)],
+) -> Result<(), Error> {
     let staging: Vec<Buffer> = items
         .iter()
         .map(|(_, bytes)| {
@@ -387,13 +445,22 @@ fn upload_images(ctx: &Context, name: &str, items: &[(&Image, Vec<u8>)]) -> Resu
     Ok(())
 }
 
-fn bytes_of<T: bytemuck::Pod>(v: &[T]) -> Vec<u8> {
+pub(crate) fn bytes_of<T: bytemuck::Pod>(v: &[T]) -> Vec<u8> {
     bytemuck::cast_slice(v).to_vec()
+}
+
+/// The surface rows of a level (what `surface_position` and `surface_normal` cover).
+pub(crate) fn surface_packing(p: &Packing) -> Packing {
+    Packing {
+        width: p.width,
+        height: p.surface_rows.max(1),
+        ..Packing::default()
+    }
 }
 
 /// A raw synchronization2 memory barrier (for the indirect-argument and host hazards that
 /// [`Access`] has no state for).
-fn raw_barrier(
+pub(crate) fn raw_barrier(
     src_stage: vk::PipelineStageFlags2,
     src_access: vk::AccessFlags2,
     dst_stage: vk::PipelineStageFlags2,
@@ -448,28 +515,39 @@ impl GpuDiffusion {
             }
             _ => None,
         };
-        let pipelines = Self::pipelines(
-            ctx,
-            params.precision,
-            homogeneous.is_some(),
-            graph.levels.len() as u32,
-        )?;
+        let pipelines = Self::pipelines(ctx, params.precision, graph.levels.len() as u32)?;
         let mut levels: Vec<GpuLevel> = Vec::with_capacity(graph.levels.len());
-        let (mut f_dr, mut a, mut q_gain) = (0.0, 0.0, 0.0);
+        let (mut f_dr, mut a) = (0.0, 0.0);
         for (h, level) in graph.levels.iter().enumerate() {
+            // The f64 operator validates geometry and material (typed errors naming the node).
             let op =
                 LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
-            (f_dr, a, q_gain) = (op.f_dr, op.a, op.q_gain);
+            (f_dr, a) = (op.f_dr, op.a);
+            drop(op);
             let coarse = levels.last().map(|l| &l.packing);
             if h > 0 && level.from_coarser.is_none() {
                 return Err(SolverError::MissingLinks { level: h }.into());
             }
             let texels =
-                LevelTexels::build(level, &op, coarse, homogeneous).map_err(|e| e.at_level(h))?;
-            let gpu =
-                Self::upload_level(ctx, &pipelines, params.precision, &texels, levels.last(), h)?;
+                LevelTexels::build(level, params.scheme, coarse).map_err(|e| e.at_level(h))?;
+            let gpu = Self::upload_level(ctx, &pipelines, params.precision, texels, levels.last())?;
             levels.push(gpu);
         }
+        let poison = Image::new(
+            ctx,
+            &ImageDesc {
+                name: "diffusion poison",
+                width: 1,
+                height: 1,
+                format: vk::Format::R32G32B32A32_SFLOAT,
+                usage: STORAGE_IMAGE,
+            },
+        )?;
+        upload_images(
+            ctx,
+            "diffusion poison upload",
+            &[(&poison, bytes_of(&[f32::NAN; 4]))],
+        )?;
         let finest = levels.last().ok_or(SolverError::EmptyGraph)?;
         let j_plus = image(
             ctx,
@@ -623,7 +701,7 @@ impl GpuDiffusion {
                 cap.div_ceil(params.block)
             })
             .collect();
-        Ok(Self {
+        let mut out = Self {
             params: params.clone(),
             pipelines,
             levels,
@@ -643,73 +721,120 @@ impl GpuDiffusion {
             q_scale: 1.0,
             f_dr,
             a,
-            kappa: homogeneous.map_or([0.0; 4], |m| {
-                [m.kappa[0] as f32, m.kappa[1] as f32, m.kappa[2] as f32, 0.0]
-            }),
-            mu_gain: homogeneous.map_or([0.0; 4], |m| {
-                [
-                    m.mu[0] as f32,
-                    m.mu[1] as f32,
-                    m.mu[2] as f32,
-                    q_gain as f32,
-                ]
-            }),
-        })
+            kappa: [0.0; 4],
+            mu_gain: [0.0; 4],
+            homogeneous: homogeneous.is_some(),
+            poison,
+            edits: edit::EditState::default(),
+        };
+        // The material goes in exactly as a later edit does (heterogeneous weights derived on the
+        // GPU by the first record), so a fresh solve and an edited one are the same computation.
+        out.set_material(ctx, graph, material)?;
+        Ok(out)
     }
 
-    fn pipelines(
+    /// Push constants of the homogeneous path (kappa, 2A, mu, q_gain), zero kappa otherwise.
+    pub(crate) fn set_constants(
+        &mut self,
+        homogeneous: Option<HomogeneousMaterial>,
+        a: f64,
+        q_gain: f64,
+    ) {
+        let (k, m) = homogeneous.map_or(([0.0; 3], [0.0; 3]), |h| (h.kappa, h.mu));
+        self.kappa = [k[0] as f32, k[1] as f32, k[2] as f32, (2.0 * a) as f32];
+        self.mu_gain = [m[0] as f32, m[1] as f32, m[2] as f32, q_gain as f32];
+    }
+
+    /// Creates the pipelines of one material variant (specialization constant `HOMOGENEOUS`) and
+    /// their descriptor sets on every level, once. The heterogeneous variant needs every level's
+    /// per-channel weights to exist.
+    pub(crate) fn ensure_variant(&mut self, ctx: &Context, homogeneous: bool) -> Result<(), Error> {
+        let v = usize::from(homogeneous);
+        if self.pipelines.variants[v].is_none() {
+            self.pipelines.variants[v] = Some(Self::variant(
+                ctx,
+                self.params.precision,
+                homogeneous,
+                self.levels.len() as u32,
+            )?);
+        }
+        let Some(variant) = &self.pipelines.variants[v] else {
+            return Ok(());
+        };
+        for l in &mut self.levels {
+            if !l.iterate_sets[v].is_empty() {
+                continue;
+            }
+            let weights: [&Image; 3] = match (&l.weights, homogeneous) {
+                (_, true) => [&self.poison; 3],
+                (Some(w), false) => [&w[0], &w[1], &w[2]],
+                (None, false) => {
+                    return Err(bad_param(
+                        "material",
+                        "heterogeneous variant without per-channel weights".into(),
+                    ))
+                }
+            };
+            let weight_writes = [
+                DescriptorWrite::storage_image("weight_geo", &l.geo),
+                DescriptorWrite::storage_image("weight_r", weights[0]),
+                DescriptorWrite::storage_image("weight_g", weights[1]),
+                DescriptorWrite::storage_image("weight_b", weights[2]),
+            ];
+            let mut sets = Vec::new();
+            for (src, dst) in [(&l.state[0], &l.state[1]), (&l.state[1], &l.state[0])] {
+                let mut w = vec![
+                    DescriptorWrite::storage_image("src", src),
+                    DescriptorWrite::storage_image("dst", dst),
+                    DescriptorWrite::storage_image("connectivity", &l.connectivity),
+                ];
+                w.extend(weight_writes);
+                match &l.residual {
+                    Some(r) => w.push(DescriptorWrite::storage_image("residual", r)),
+                    None => w.push(DescriptorWrite::storage_image("q", &l.q)),
+                }
+                sets.push(variant.iterate.allocate_set(ctx, &w)?);
+            }
+            if let (Some(phi), Some(residual), Some(rp)) = (&l.phi, &l.residual, &variant.residual)
+            {
+                let mut w = vec![
+                    DescriptorWrite::storage_image("phi", phi),
+                    DescriptorWrite::storage_image("residual", residual),
+                    DescriptorWrite::storage_image("delta", &l.state[0]),
+                    DescriptorWrite::storage_image("q", &l.q),
+                    DescriptorWrite::storage_image("connectivity", &l.connectivity),
+                ];
+                w.extend(weight_writes);
+                sets.push(rp.allocate_set(ctx, &w)?);
+            }
+            l.iterate_sets[v] = sets;
+        }
+        Ok(())
+    }
+
+    fn variant(
         ctx: &Context,
         precision: Precision,
         homogeneous: bool,
         levels: u32,
-    ) -> Result<Pipelines, Error> {
+    ) -> Result<Variant, Error> {
         let sets = 2 * levels + 2;
-        let (iterate, init, reduce, j_plus) = match precision {
-            Precision::Mixed => (
-                if homogeneous {
-                    "diffusion/correction_sweep_mixed_h.comp"
-                } else {
-                    "diffusion/correction_sweep_mixed.comp"
-                },
-                "shepard/init_phi_fp32.comp",
-                "reduce/convergence_mixed.comp",
-                "diffusion/j_plus_fp32.comp",
-            ),
-            Precision::Fp32 => (
-                if homogeneous {
-                    "diffusion/jacobi_fp32_h.comp"
-                } else {
-                    "diffusion/jacobi_fp32.comp"
-                },
-                "shepard/init_phi_fp32.comp",
-                "reduce/convergence_fp32.comp",
-                "diffusion/j_plus_fp32.comp",
-            ),
-            Precision::Fp16 => (
-                if homogeneous {
-                    "diffusion/jacobi_fp16_h.comp"
-                } else {
-                    "diffusion/jacobi_fp16.comp"
-                },
-                "shepard/init_phi_fp16.comp",
-                "reduce/convergence_fp16.comp",
-                "diffusion/j_plus_fp16.comp",
-            ),
+        let spec = [SpecConstant::bool(0, homogeneous)];
+        let iterate = match precision {
+            Precision::Mixed => "diffusion/correction_sweep_mixed.comp",
+            Precision::Fp32 => "diffusion/jacobi_fp32.comp",
+            Precision::Fp16 => "diffusion/jacobi_fp16.comp",
         };
-        let weight_names: &[&str] = if homogeneous {
-            &["weight_geo"]
-        } else {
-            &["weight_r", "weight_g", "weight_b"]
-        };
+        let weights = ["weight_geo", "weight_r", "weight_g", "weight_b"];
         let with_weights = |names: &[&'static str]| -> Vec<&'static str> {
-            names.iter().chain(weight_names).copied().collect()
+            names.iter().chain(&weights).copied().collect()
         };
         let graph_bindings = if precision == Precision::Mixed {
             with_weights(&["src", "dst", "residual", "connectivity"])
         } else {
             with_weights(&["src", "dst", "q", "connectivity"])
         };
-        let iterate = ComputePipeline::new(
+        let iterate = ComputePipeline::new_specialized(
             ctx,
             &ComputePipelineDesc {
                 name: PASS_JACOBI,
@@ -717,39 +842,61 @@ impl GpuDiffusion {
                 bindings: &graph_bindings,
                 max_sets: sets,
             },
+            &spec,
         )?;
-        let (residual, apply) = if precision == Precision::Mixed {
-            (
-                Some(ComputePipeline::new(
-                    ctx,
-                    &ComputePipelineDesc {
-                        name: "diffusion residual",
-                        shader: if homogeneous {
-                            "diffusion/residual_fp32_h.comp"
-                        } else {
-                            "diffusion/residual_fp32.comp"
-                        },
-                        bindings: &with_weights(&["phi", "residual", "delta", "q", "connectivity"]),
-                        max_sets: sets,
-                    },
-                )?),
-                Some(ComputePipeline::new(
-                    ctx,
-                    &ComputePipelineDesc {
-                        name: "diffusion apply correction",
-                        shader: "diffusion/apply_correction.comp",
-                        bindings: &["delta", "phi"],
-                        max_sets: sets,
-                    },
-                )?),
-            )
+        let residual = if precision == Precision::Mixed {
+            Some(ComputePipeline::new_specialized(
+                ctx,
+                &ComputePipelineDesc {
+                    name: "diffusion residual",
+                    shader: "diffusion/residual_fp32.comp",
+                    bindings: &with_weights(&["phi", "residual", "delta", "q", "connectivity"]),
+                    max_sets: sets,
+                },
+                &spec,
+            )?)
         } else {
-            (None, None)
+            None
+        };
+        Ok(Variant { iterate, residual })
+    }
+
+    fn pipelines(ctx: &Context, precision: Precision, levels: u32) -> Result<Pipelines, Error> {
+        let sets = 2 * levels + 2;
+        let (init, reduce, j_plus) = match precision {
+            Precision::Mixed | Precision::Fp32 => (
+                "shepard/init_phi_fp32.comp",
+                if precision == Precision::Mixed {
+                    "reduce/convergence_mixed.comp"
+                } else {
+                    "reduce/convergence_fp32.comp"
+                },
+                "diffusion/j_plus_fp32.comp",
+            ),
+            Precision::Fp16 => (
+                "shepard/init_phi_fp16.comp",
+                "reduce/convergence_fp16.comp",
+                "diffusion/j_plus_fp16.comp",
+            ),
+        };
+        let apply = if precision == Precision::Mixed {
+            Some(ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: "diffusion apply correction",
+                    shader: "diffusion/apply_correction.comp",
+                    bindings: &["delta", "phi"],
+                    max_sets: sets,
+                },
+            )?)
+        } else {
+            None
         };
         Ok(Pipelines {
-            iterate,
-            residual,
+            variants: [None, None],
             apply,
+            derive: None,
+            edit: None,
             init: ComputePipeline::new(
                 ctx,
                 &ComputePipelineDesc {
@@ -800,9 +947,8 @@ impl GpuDiffusion {
         ctx: &Context,
         pipelines: &Pipelines,
         precision: Precision,
-        t: &LevelTexels,
+        t: LevelTexels,
         coarser: Option<&GpuLevel>,
-        h: usize,
     ) -> Result<GpuLevel, Error> {
         use vk::Format as F;
         let p = &t.packing;
@@ -824,30 +970,7 @@ impl GpuDiffusion {
         };
         let q = image(ctx, "diffusion q", p, F::R16G16B16A16_SFLOAT)?;
         let connectivity = image(ctx, "diffusion connectivity", p, F::R32G32B32A32_UINT)?;
-        let (weights, weight_data): (Vec<Image>, Vec<&[[f32; 4]]>) = match &t.weight_geo {
-            Some(geo) => (
-                vec![image(
-                    ctx,
-                    "diffusion weight geo",
-                    p,
-                    F::R32G32B32A32_SFLOAT,
-                )?],
-                vec![geo],
-            ),
-            None => (
-                vec![
-                    image(ctx, "diffusion weight r", p, F::R32G32B32A32_SFLOAT)?,
-                    image(ctx, "diffusion weight g", p, F::R32G32B32A32_SFLOAT)?,
-                    image(ctx, "diffusion weight b", p, F::R32G32B32A32_SFLOAT)?,
-                ],
-                t.weights.iter().map(Vec::as_slice).collect(),
-            ),
-        };
-        let weight_names: &[&str] = if weights.len() == 1 {
-            &["weight_geo"]
-        } else {
-            &["weight_r", "weight_g", "weight_b"]
-        };
+        let geo = image(ctx, "diffusion weight geo", p, F::R32G32B32A32_SFLOAT)?;
         let links = [
             image(ctx, "diffusion links lo", p, F::R32G32B32A32_UINT)?,
             image(ctx, "diffusion links hi", p, F::R32G32B32A32_UINT)?,
@@ -858,11 +981,7 @@ impl GpuDiffusion {
         ];
         // Only the surface rows: the gather writes nothing below them (saves 24 bytes per inner
         // texel; the gather accepts images with at least `surface_rows` rows).
-        let surface = Packing {
-            width: p.width,
-            height: p.surface_rows.max(1),
-            ..Packing::default()
-        };
+        let surface = surface_packing(p);
         let surface_texels = (surface.width * surface.height) as usize;
         let surface_position = image(ctx, "surface position", &surface, F::R32G32B32A32_SFLOAT)?;
         let surface_normal = image(ctx, "surface normal", &surface, F::R16G16B16A16_SFLOAT)?;
@@ -874,6 +993,7 @@ impl GpuDiffusion {
             (&state[1], state_zero),
             (&q, zeros16),
             (&connectivity, bytes_of(&t.connectivity)),
+            (&geo, bytes_of(&t.geo)),
             (&links[0], bytes_of(&t.links[0])),
             (&links[1], bytes_of(&t.links[1])),
             (&link_weights[0], bytes_of(&t.link_weights[0])),
@@ -887,69 +1007,22 @@ impl GpuDiffusion {
                 bytes_of(&t.surface_normal[..surface_texels.min(n)]),
             ),
         ];
-        for (img, data) in weights.iter().zip(&weight_data) {
-            items.push((img, bytes_of(data)));
-        }
         for img in phi.iter().chain(&residual) {
             items.push((img, vec![0u8; n * 16]));
         }
-        let bytes: u64 = items.iter().map(|(_, b)| b.len() as u64).sum();
         upload_images(ctx, "diffusion level upload", &items)?;
         drop(items);
-
-        let mut iterate_sets = Vec::new();
-        for (src, dst) in [(&state[0], &state[1]), (&state[1], &state[0])] {
-            let mut w = vec![
-                DescriptorWrite::storage_image("src", src),
-                DescriptorWrite::storage_image("dst", dst),
-                DescriptorWrite::storage_image("connectivity", &connectivity),
-            ];
-            w.extend(
-                weight_names
-                    .iter()
-                    .zip(&weights)
-                    .map(|(&n, img)| DescriptorWrite::storage_image(n, img)),
-            );
-            match &residual {
-                Some(r) => w.push(DescriptorWrite::storage_image("residual", r)),
-                None => {
-                    w.push(DescriptorWrite::storage_image("q", &q));
-                }
-            }
-            iterate_sets.push(pipelines.iterate.allocate_set(ctx, &w)?);
-        }
-        if let (Some(phi), Some(residual), Some(rp), Some(ap)) =
-            (&phi, &residual, &pipelines.residual, &pipelines.apply)
-        {
-            iterate_sets.push(
-                rp.allocate_set(
-                    ctx,
-                    &[
-                        DescriptorWrite::storage_image("phi", phi),
-                        DescriptorWrite::storage_image("residual", residual),
-                        DescriptorWrite::storage_image("delta", &state[0]),
-                        DescriptorWrite::storage_image("q", &q),
-                        DescriptorWrite::storage_image("connectivity", &connectivity),
-                    ]
-                    .into_iter()
-                    .chain(
-                        weight_names
-                            .iter()
-                            .zip(&weights)
-                            .map(|(&n, img)| DescriptorWrite::storage_image(n, img)),
-                    )
-                    .collect::<Vec<_>>(),
-                )?,
-            );
+        let apply_set = match (&phi, &pipelines.apply) {
             // k - 1 (odd) sweeps from state[0] leave the last correction in state[1].
-            iterate_sets.push(ap.allocate_set(
+            (Some(phi), Some(ap)) => ap.allocate_set(
                 ctx,
                 &[
                     DescriptorWrite::storage_image("delta", &state[1]),
                     DescriptorWrite::storage_image("phi", phi),
                 ],
-            )?);
-        }
+            )?,
+            _ => vk::DescriptorSet::null(),
+        };
         let dst = phi.as_ref().unwrap_or(&state[0]);
         // The coarsest level never reads `coarse` (zero init); any image of the right format binds.
         let coarse = match coarser {
@@ -967,7 +1040,6 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
             ],
         )?;
-        let _ = h;
         Ok(GpuLevel {
             packing: t.packing.clone(),
             node_count: t.packing.texels.len(),
@@ -982,15 +1054,21 @@ impl GpuDiffusion {
             residual,
             q,
             connectivity,
-            weights,
+            geo,
+            frac: None,
+            material: None,
+            weights: None,
             links,
             link_weights,
             surface_position,
             surface_normal,
-            iterate_sets,
+            iterate_sets: [Vec::new(), Vec::new()],
+            apply_set,
             init_set,
             reduce_set: vk::DescriptorSet::null(),
-            bytes,
+            derive_set: None,
+            rest: t,
+            deform: None,
         })
     }
 
@@ -1000,12 +1078,12 @@ impl GpuDiffusion {
 
     /// GPU bytes of level `level`'s textures (state, q, graph, links, surface geometry).
     pub fn level_bytes(&self, level: usize) -> u64 {
-        self.levels.get(level).map_or(0, |l| l.bytes)
+        self.levels.get(level).map_or(0, GpuLevel::bytes)
     }
 
     /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
     pub fn bytes(&self) -> (u64, f64) {
-        let total: u64 = self.levels.iter().map(|l| l.bytes).sum();
+        let total: u64 = self.levels.iter().map(GpuLevel::bytes).sum();
         let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
         (total, total as f64 / nodes.max(1) as f64)
     }
@@ -1150,6 +1228,9 @@ impl GpuDiffusion {
     ) {
         use vk::AccessFlags2 as A;
         use vk::PipelineStageFlags2 as S;
+        // Edits staged since the last record (none when GpuFrame::record already did them).
+        // SAFETY: the caller's contract.
+        unsafe { self.record_edits(ctx, cb, profiler.as_deref_mut()) };
         let raw = ctx.raw();
         let k = self.params.block;
         let mut stats = RecordStats::default();
@@ -1211,6 +1292,11 @@ impl GpuDiffusion {
                     mu_gain: self.mu_gain,
                     ..level.push()
                 };
+                let v = usize::from(self.homogeneous);
+                let Some(variant) = &self.pipelines.variants[v] else {
+                    continue;
+                };
+                let sets = &level.iterate_sets[v];
                 let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
                 if !warm {
                     scope(cb, Some(PASS_INIT));
@@ -1239,8 +1325,7 @@ impl GpuDiffusion {
                     scope(cb, Some(PASS_JACOBI));
                     match self.params.precision {
                         Precision::Mixed => {
-                            let (Some(rp), Some(ap)) =
-                                (&self.pipelines.residual, &self.pipelines.apply)
+                            let (Some(rp), Some(ap)) = (&variant.residual, &self.pipelines.apply)
                             else {
                                 continue;
                             };
@@ -1252,14 +1337,7 @@ impl GpuDiffusion {
                                 Access::ComputeWrite,
                                 Access::ComputeReadWrite,
                             );
-                            rp.dispatch_indirect(
-                                ctx,
-                                cb,
-                                level.iterate_sets[2],
-                                &push,
-                                &self.control,
-                                offset,
-                            );
+                            rp.dispatch_indirect(ctx, cb, sets[2], &push, &self.control, offset);
                             stats.iteration_barriers += 1;
                             stats.iteration_dispatches += 1;
                             for j in 1..k {
@@ -1271,8 +1349,8 @@ impl GpuDiffusion {
                                     Access::ComputeWrite,
                                     Access::ComputeReadWrite,
                                 );
-                                let set = level.iterate_sets[((j - 1) % 2) as usize];
-                                self.pipelines.iterate.dispatch_indirect(
+                                let set = sets[((j - 1) % 2) as usize];
+                                variant.iterate.dispatch_indirect(
                                     ctx,
                                     cb,
                                     set,
@@ -1293,7 +1371,7 @@ impl GpuDiffusion {
                             ap.dispatch_indirect(
                                 ctx,
                                 cb,
-                                level.iterate_sets[3],
+                                level.apply_set,
                                 &push,
                                 &self.control,
                                 offset,
@@ -1311,8 +1389,8 @@ impl GpuDiffusion {
                                     Access::ComputeWrite,
                                     Access::ComputeReadWrite,
                                 );
-                                let set = level.iterate_sets[(j % 2) as usize];
-                                self.pipelines.iterate.dispatch_indirect(
+                                let set = sets[(j % 2) as usize];
+                                variant.iterate.dispatch_indirect(
                                     ctx,
                                     cb,
                                     set,

@@ -7,18 +7,23 @@
 //! | texture | format | channels |
 //! |---|---|---|
 //! | `connectivity` | RGBA32UI | the 4 neighbours' linear texel indices `v * width + u` (one 32-bit index instead of a (u, v) pair: half the bytes of the paper's two textures, no 16-bit limit on the width) |
-//! | `weight_r/g/b` | RGBA32F | per channel, the Jacobi weights `off_ik / diag_i` of the 4 neighbours (f64 on the CPU, then f32); a surface node has one neighbour (slot 0) and keeps its source gain `q_gain / diag_s` (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9) in slot 1 |
-//! | `weight_geo` | RGBA32F | homogeneous material only, instead of `weight_r/g/b`: the geometric factors `off_ik / kappa` (`A_f / (V_i d_ij)` for fv, `1 / d_ij^2` for the paper scheme, `2 A / d_sk` on surface rows); the shader rebuilds the weights with kappa and mu from push constants |
+//! | `weight_geo` | RGBA32F | per slot the geometric factor `g_ik` (`A_f / (V_i d_ij)` for fv, `1 / d_ij^2` for the paper scheme, `1 / d_sk` in slot 0 of surface rows): the material-free half of the weights, recomputed on the GPU by a deformation |
+//! | `weight_frac` | RGBA32F | heterogeneous or deformed only, fv: per slot `t_ij = delta_i / (delta_i + delta_j)` (1 towards a surface node), which turns the two kappas into the harmonic face kappa |
+//! | `kappa`, `mu` | RGBA32F | heterogeneous only ([`MaterialTexels`]): per node kappa and mu (rgb) |
+//! | `weight_r/g/b` | RGBA32F | heterogeneous only: per channel, the Jacobi weights `a_ik / a_ii` of the 4 neighbours, derived on the GPU from the rows above (`edit/derive_weights.comp`); a surface node has one neighbour (slot 0) and keeps its source gain `q_gain / a_ss` (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9) in slot 1 |
 //! | `links_lo/hi` | RGBA32UI | 8 linear texel indices into the coarser level (paper Eq. 10) |
 //! | `link_weights_lo/hi` | RGBA16F | their Shepard weights (renormalized on the GPU) |
 //! | `surface_position` | RGBA32F | rgb: surface node position (mm), a: 1 on surface nodes |
 //! | `surface_normal` | RGBA16F | rgb: outward unit normal of surface nodes |
 //!
-//! Why three weight textures (heterogeneous) and no material textures: with a heterogeneous material, the `fv`
-//! weights `A_f kappa_ij / (V_i d_ij)` use a harmonic kappa per channel, so they differ per channel;
-//! folding material, geometry and the diagonal (with mu) into f64-computed weights keeps one
-//! multiply-add per neighbour and channel and makes the GPU iteration the CPU reference's
-//! `LevelOperator::jacobi_sweep` up to f32 rounding. Editing the material re-uploads these weights.
+//! Why the weights are derived on the GPU and still stored per channel for a heterogeneous
+//! material: a material edit or a deformation then costs one pass over the level (no f64 re-bake,
+//! no upload of weights), while the Jacobi iteration, which runs hundreds of times per edit, keeps
+//! one multiply-add per neighbour and three weight reads per node. Computing the harmonic kappa
+//! inside the iteration instead would read 8 texels per node and iteration for its weights (see
+//! README, "Live edits"). A homogeneous material reads `weight_geo` only, with kappa and mu in push constants.
+//! kappa and mu are fp32, not the paper's fp16: kappa = 1/(3 sigma_t') of a dense medium (3e-5 mm
+//! at sigma_t' = 1e4/mm) is below fp16's normal range (6.1e-5).
 //!
 //! ```
 //! use glam::DVec3;
@@ -27,37 +32,42 @@
 //! use translucent::solver::operator::{LevelOperator, Scheme};
 //! use translucent::{tet::TetMesh, GraphLevel};
 //! let level = GraphLevel::from_tets(TetMesh::bcc_box(DVec3::ZERO, DVec3::splat(4.0), [3, 3, 3]), 1.0, |c, n| (c, n));
-//! let op = LevelOperator::build(&level, &MaterialField::Homogeneous(Material::preset("marble")?), Scheme::Fv)?;
-//! let t = LevelTexels::build(&level, &op, None, None)?;
+//! let marble = Material::preset("marble")?;
+//! let op = LevelOperator::build(&level, &MaterialField::Homogeneous(marble.clone()), Scheme::Fv)?;
+//! let t = LevelTexels::build(&level, Scheme::Fv, None)?;
+//! let kappa = marble.coefficients().kappa()[0];
 //! let width = t.packing.width;
 //! for (node, &[u, v]) in t.packing.texels.iter().enumerate() {
 //!     let texel = (v * width + u) as usize;
 //!     let surface = node >= level.inner_count();
 //!     assert_eq!(surface, v < t.packing.surface_rows); // the node type is a row test
-//!     let row_sum: f32 = (0..if surface { 1 } else { 4 }).map(|k| t.weights[0][texel][k]).sum();
-//!     assert!(row_sum < 1.0); // Jacobi weights a_ik / a_ii of an M-matrix row
-//!     if surface {
-//!         assert!(t.weights[0][texel][1] > 0.0); // the source gain, Eq. 9
+//!     // The geometric factors times the material give the f64 operator back.
+//!     let scale = if surface { 2.0 * op.a * kappa } else { kappa };
+//!     for k in 0..if surface { 1 } else { 4 } {
+//!         let off = op.off[node][k][0];
+//!         assert!((scale * f64::from(t.geo[texel][k]) - off).abs() <= 1e-6 * off);
 //!     }
 //! }
 //! // Padding texels point to themselves with weight 0.
 //! let used: std::collections::HashSet<u32> = t.packing.texels.iter().map(|&[u, v]| v * width + u).collect();
 //! for texel in (0..t.texel_count() as u32).filter(|x| !used.contains(x)) {
 //!     assert_eq!(t.connectivity[texel as usize], [texel; 4]);
-//!     assert!(t.weights.iter().all(|w| w[texel as usize] == [0.0; 4]));
+//!     assert_eq!(t.geo[texel as usize], [0.0; 4]);
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use glam::DVec3;
 use half::f16;
 
+use crate::material::{check_pair, MaterialField};
 use crate::quadgraph::graph::{GraphLevel, Packing, NO_NODE};
 use crate::quadgraph::packing;
-use crate::solver::operator::LevelOperator;
+use crate::solver::operator::Scheme;
 use crate::solver::SolverError;
 
-/// One material everywhere: the GPU computes the weights from one RGBA32F of geometric factors and
-/// these constants (`diffusion/graph_weights.glsl`), 32 bytes per texel less than three weight sets.
+/// One material everywhere: the GPU computes the weights from `weight_geo` and these constants
+/// (`diffusion/graph_weights.glsl`, specialization constant `HOMOGENEOUS`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HomogeneousMaterial {
     pub kappa: [f64; 3],
@@ -67,18 +77,27 @@ pub struct HomogeneousMaterial {
 /// Block size of the packing used when a level comes without one (test fixtures).
 pub const FALLBACK_BLOCK: u32 = 32;
 
-/// The CPU-side contents of one level's textures, row-major, `width * height` texels each.
+/// The CPU-side contents of one level's geometry and graph textures, row-major, `width * height`
+/// texels each (material-free: see [`MaterialTexels`]).
 #[derive(Clone, Debug)]
 pub struct LevelTexels {
     pub packing: Packing,
     pub connectivity: Vec<[u32; 4]>,
-    pub weights: [Vec<[f32; 4]>; 3],
-    /// Homogeneous material only: the geometric factors `off_ik / kappa` (see [`HomogeneousMaterial`]).
-    pub weight_geo: Option<Vec<[f32; 4]>>,
+    /// Geometric factors `g_ik` (module table).
+    pub geo: Vec<[f32; 4]>,
+    /// fv harmonic-mean fractions `t_ik` (module table; 0 for the paper scheme).
+    pub frac: Vec<[f32; 4]>,
     pub links: [Vec<[u32; 4]>; 2],
     pub link_weights: [Vec<[f16; 4]>; 2],
     pub surface_position: Vec<[f32; 4]>,
     pub surface_normal: Vec<[f16; 4]>,
+}
+
+/// Per-node kappa and mu of a heterogeneous material, in the level's texel layout (rgb; padding 0).
+#[derive(Clone, Debug)]
+pub struct MaterialTexels {
+    pub kappa: Vec<[f32; 4]>,
+    pub mu: Vec<[f32; 4]>,
 }
 
 /// The level's packing, or a breadth-first one when the level was never packed.
@@ -97,15 +116,106 @@ fn bad(problem: String) -> SolverError {
     }
 }
 
+fn degenerate(node: usize, problem: String) -> SolverError {
+    SolverError::DegenerateGeometry {
+        level: usize::MAX,
+        node,
+        problem,
+    }
+}
+
+/// `v > min`, false for NaN.
+fn above(v: f64, min: f64) -> bool {
+    v.is_finite() && v > min
+}
+
+/// Per node, the geometric factors and the fv fractions of its 4 slots.
+pub type NodeFactors = ([f64; 4], [f64; 4]);
+
+/// The geometric factors and fv fractions of every node of `level` (node order), in f64: the
+/// material-free part of `LevelOperator::build`'s coefficients, with the same degeneracy checks.
+pub fn geometric_factors(
+    level: &GraphLevel,
+    scheme: Scheme,
+) -> Result<Vec<NodeFactors>, SolverError> {
+    let inner = level.inner_count();
+    let face = |t: usize, f: usize| {
+        let [p0, p1, p2] = level.face_vertices(t, f);
+        let n2 = (p1 - p0).cross(p2 - p0);
+        (0.5 * n2.length(), n2.normalize_or_zero(), p0)
+    };
+    let min_d = 1e-12 * level.spacing.max(1e-9);
+    let mut out = vec![([0.0; 4], [0.0; 4]); level.node_count()];
+    for (i, row) in out.iter_mut().enumerate().take(inner) {
+        let volume = crate::tet::structured::signed_volume(&level.tets, i);
+        if !above(volume, 0.0) {
+            return Err(degenerate(
+                i,
+                format!("tetrahedron volume {volume} (must be > 0)"),
+            ));
+        }
+        let xi = level.positions[i];
+        for f in 0..4 {
+            let j = level.neighbors[i][f] as usize;
+            let xj: DVec3 = level.positions[j];
+            let (area, n, p0) = face(i, f);
+            if !above(area, 0.0) {
+                return Err(degenerate(i, format!("face {f} has zero area")));
+            }
+            match scheme {
+                Scheme::Fv => {
+                    let dij = n.dot(xj - xi).abs();
+                    if !above(dij, min_d) {
+                        return Err(degenerate(
+                            i,
+                            format!("neighbour {j} lies in the plane of face {f}"),
+                        ));
+                    }
+                    let (di, dj) = (n.dot(xi - p0).abs(), n.dot(xj - p0).abs());
+                    row.0[f] = area / (volume * dij);
+                    row.1[f] = if j < inner { di / (di + dj) } else { 1.0 };
+                }
+                Scheme::Paper => {
+                    let d2 = xj.distance_squared(xi);
+                    if !above(d2, 0.0) {
+                        return Err(degenerate(
+                            i,
+                            format!("neighbour {j} coincides with the node"),
+                        ));
+                    }
+                    row.0[f] = 1.0 / d2;
+                }
+            }
+        }
+    }
+    for (s, &(t, f)) in level.surface_faces.iter().enumerate() {
+        let (k, node) = (t as usize, inner + s);
+        let (xs, xk) = (level.positions[node], level.positions[k]);
+        let (_, n, _) = face(k, f as usize);
+        let dsk = match scheme {
+            Scheme::Fv => n.dot(xs - xk).abs(),
+            Scheme::Paper => xs.distance(xk),
+        };
+        if !above(dsk, min_d) {
+            return Err(degenerate(
+                node,
+                format!("surface node at distance {dsk} from its cell's centroid"),
+            ));
+        }
+        out[node].0[0] = 1.0 / dsk;
+    }
+    Ok(out)
+}
+
 impl LevelTexels {
-    /// Builds the texels of `level` from its operator; `coarse` is the coarser level's packing
-    /// (for the Shepard links), `None` on the coarsest level.
+    /// Builds the texels of `level`; `coarse` is the coarser level's packing (for the Shepard
+    /// links), `None` on the coarsest level.
     pub fn build(
         level: &GraphLevel,
-        op: &LevelOperator,
+        scheme: Scheme,
         coarse: Option<&Packing>,
-        homogeneous: Option<HomogeneousMaterial>,
     ) -> Result<Self, SolverError> {
+        crate::solver::operator::check_level(level)?;
         let packing = packing_of(level);
         let (w, h) = (packing.width as usize, packing.height as usize);
         let texels = w * h;
@@ -122,12 +232,13 @@ impl LevelTexels {
         if let Some(&t) = linear.iter().find(|&&t| t as usize >= texels) {
             return Err(bad(format!("texel {t} outside the {w}x{h} texture")));
         }
+        let factors = geometric_factors(level, scheme)?;
         let inner = level.inner_count();
         let surface_rows = packing.surface_rows as usize * w;
         let mut out = LevelTexels {
             connectivity: (0..texels as u32).map(|t| [t; 4]).collect(),
-            weights: std::array::from_fn(|_| vec![[0.0; 4]; texels]),
-            weight_geo: homogeneous.map(|_| vec![[0.0; 4]; texels]),
+            geo: vec![[0.0; 4]; texels],
+            frac: vec![[0.0; 4]; texels],
             links: std::array::from_fn(|_| vec![[0; 4]; texels]),
             link_weights: std::array::from_fn(|_| vec![[f16::ZERO; 4]; texels]),
             surface_position: vec![[0.0; 4]; texels],
@@ -144,54 +255,23 @@ impl LevelTexels {
                     if is_surface { "surface" } else { "inner" }
                 )));
             }
-            let diag = op.diag[node];
-            for (k, &j) in op.neighbors[node].iter().enumerate() {
-                if j == NO_NODE {
-                    continue;
-                }
-                out.connectivity[t][k] = linear[j as usize];
-                for (c, weights) in out.weights.iter_mut().enumerate() {
-                    weights[t][k] = (op.off[node][k][c] / diag[c]) as f32;
-                }
-            }
-            if let (Some(m), Some(geo)) = (homogeneous, out.weight_geo.as_mut()) {
-                // g_ik = off_ik / kappa; the shader rebuilds a_ii from g, kappa and mu: check here
-                // that this reproduces the f64 operator in every channel.
-                let mut g = [0.0f64; 4];
-                for (k, gk) in g.iter_mut().enumerate() {
-                    *gk = op.off[node][k][0] / m.kappa[0];
-                }
-                for (c, &d) in diag.iter().enumerate() {
-                    let rebuilt = if is_surface {
-                        1.0 + m.kappa[c] * g[0]
-                    } else {
-                        m.kappa[c] * g.iter().sum::<f64>() + m.mu[c]
-                    };
-                    let off_ok = (0..4).all(|k| {
-                        (m.kappa[c] * g[k] - op.off[node][k][c]).abs()
-                            <= 1e-9 * op.off[node][k][c].abs()
-                    });
-                    if !off_ok || (rebuilt - d).abs() > 1e-9 * d.abs() {
-                        return Err(bad(format!(
-                            "node {node}: the operator is not that of the homogeneous material"
-                        )));
-                    }
-                }
-                geo[t] = g.map(|v| v as f32);
-            }
+            let (g, fr) = factors[node];
+            out.geo[t] = g.map(|v| v as f32);
+            out.frac[t] = fr.map(|v| v as f32);
             if is_surface {
                 let s = node - inner;
-                if op.neighbors[node][1..].iter().any(|&j| j != NO_NODE) {
-                    return Err(bad(format!("surface node {s} has more than one neighbour")));
-                }
-                // Surface rows use slot 0 only; slot 1 carries the source gain (Eq. 9).
-                for (c, weights) in out.weights.iter_mut().enumerate() {
-                    weights[t][1] = (op.q_gain / diag[c]) as f32;
-                }
+                let (k, _) = level.surface_faces[s];
+                out.connectivity[t][0] = linear[k as usize];
                 let p = level.positions[node];
                 let n = level.surface_normals[s];
                 out.surface_position[t] = [p.x as f32, p.y as f32, p.z as f32, 1.0];
                 out.surface_normal[t] = [n.x, n.y, n.z, 0.0].map(f16::from_f64);
+            } else {
+                for (k, &j) in level.neighbors[node].iter().enumerate() {
+                    if j != NO_NODE {
+                        out.connectivity[t][k] = linear[j as usize];
+                    }
+                }
             }
         }
         if let (Some(coarse), Some(links)) = (coarse, level.from_coarser.as_ref()) {
@@ -219,16 +299,9 @@ impl LevelTexels {
                 }
             }
         }
-        let finite = out
-            .weights
-            .iter()
-            .flatten()
-            .chain(out.weight_geo.iter().flatten())
-            .flatten()
-            .all(|v| v.is_finite());
-        if !finite {
+        if !out.geo.iter().flatten().all(|v| v.is_finite()) {
             return Err(SolverError::NonFinite {
-                what: "GPU weights (an f64 coefficient overflows f32)".into(),
+                what: "GPU geometric factors (an f64 factor overflows f32)".into(),
             });
         }
         Ok(out)
@@ -236,5 +309,44 @@ impl LevelTexels {
 
     pub fn texel_count(&self) -> usize {
         self.packing.width as usize * self.packing.height as usize
+    }
+}
+
+impl MaterialTexels {
+    /// Samples `field` at every node of `level` (rest positions) into `packing`'s layout. Invalid
+    /// coefficients are a typed error naming the node; values that overflow f32 too.
+    pub fn build(
+        level: &GraphLevel,
+        packing: &Packing,
+        field: &MaterialField,
+    ) -> Result<Self, SolverError> {
+        let texels = packing.width as usize * packing.height as usize;
+        let mut out = MaterialTexels {
+            kappa: vec![[0.0; 4]; texels],
+            mu: vec![[0.0; 4]; texels],
+        };
+        for (node, &p) in level.positions.iter().enumerate() {
+            let c = field.sample(p);
+            check_pair(c.sigma_s, c.sigma_a).map_err(|source| SolverError::BadMaterialAt {
+                node,
+                position: p,
+                source,
+            })?;
+            let t = packing.linear_index(node as u32) as usize;
+            if t >= texels {
+                return Err(bad(format!("node {node} outside the level's texture")));
+            }
+            let (k, m) = (c.kappa(), c.mu());
+            out.kappa[t] = [k[0] as f32, k[1] as f32, k[2] as f32, 0.0];
+            out.mu[t] = [m[0] as f32, m[1] as f32, m[2] as f32, 0.0];
+            let ok = |v: &[f32; 4]| v.iter().all(|x| x.is_finite());
+            if !(ok(&out.kappa[t]) && ok(&out.mu[t]) && out.kappa[t][..3].iter().all(|&x| x > 0.0))
+            {
+                return Err(SolverError::NonFinite {
+                    what: format!("material at node {node} ({p}) in f32"),
+                });
+            }
+        }
+        Ok(out)
     }
 }
