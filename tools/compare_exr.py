@@ -27,6 +27,8 @@ import os
 import sys
 from pathlib import Path
 
+# Importing pt_reference must not leave a tools/__pycache__ in the working tree.
+sys.dont_write_bytecode = True
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pt_reference import ensure_mitsuba  # noqa: E402
 
