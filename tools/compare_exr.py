@@ -7,8 +7,9 @@ Wang et al. 2010, Fig. 13): sqrt(sum (a - r)^2 / sum r^2), per channel and over 
 
 `--sphere-reflection X,Y,Z:TX,TY,TZ:FOVY:RADIUS:ETA:R,G,B` subtracts from the reference the
 exact mirror reflection of a constant environment (radiance R,G,B) off a sphere of that radius at
-the origin seen by that camera (Fresnel, unpolarized, per pixel centre): `translucent render` draws
-no reflection of the environment, so this isolates the diffusion part of a dielectric reference.
+the origin seen by that camera (Fresnel, unpolarized, per pixel centre). `translucent render`
+draws that reflection itself unless `--no-specular`; with `--no-specular` this option isolates the
+diffusion part of a dielectric reference.
 
 Object pixels (`--mask`): `alpha` (default; reference alpha >= 0.999, i.e. pixels the object
 covers fully, so anti-aliased silhouette pixels, where a rasterizer and a path tracer differ by
@@ -26,6 +27,8 @@ import os
 import sys
 from pathlib import Path
 
+# Importing pt_reference must not leave a tools/__pycache__ in the working tree.
+sys.dont_write_bytecode = True
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pt_reference import ensure_mitsuba  # noqa: E402
 

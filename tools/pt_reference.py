@@ -29,7 +29,10 @@ Scene mapping (units: mm and 1/mm, +Y up, right-handed; pixel (0,0) top-left):
   from sigma_t, which differs slightly from interpolating sigma_s'.
 
 Output: linear RGBA EXR (alpha = pixel coverage by the object), black background, written to a
-temporary file and renamed. The script prints the equivalent `translucent render` command.
+temporary file and renamed. The script prints the equivalent `translucent render` command: the
+real-time default (GPU frame, specular on, so a dielectric's mirror reflection of the environment
+is drawn as the reference has it; at eta = 1 the Fresnel reflectance and so every specular term is
+0); add `--solver cpu` for the f64 discrete solution.
 """
 
 from __future__ import annotations
@@ -389,7 +392,7 @@ def scene_dict(args, work: Path, channel: int | None = None) -> tuple[dict, floa
 
 
 def equivalent_render(args, eta: float, out: str) -> str:
-    cmd = ["target/release/translucent", "render", "--solver", "cpu"]
+    cmd = ["target/release/translucent", "render"]
     cmd += ["--mesh", str(args.mesh)] if args.mesh else ["--shape", args.shape or "torus"]
     cmd += ["--size-mm", f"{args.size_mm:g}"]
     if args.volume:
@@ -407,7 +410,7 @@ def equivalent_render(args, eta: float, out: str) -> str:
             # render adds its default lights when none is given: a black one keeps the scene.
             cmd += ["--light", "dir:0,-1,0:0,0,0"]
     cmd += ["--camera", args.camera, "--width", str(args.width), "--height", str(args.height)]
-    cmd += ["--no-specular", "--out", out]
+    cmd += ["--out", out]
     return " ".join(cmd)
 
 

@@ -64,9 +64,10 @@ use ash::vk;
 
 use crate::material::MaterialField;
 use crate::render::{
-    level_bounds, Camera, GpuMesh, MeshPass, RadianceMode, RenderError, ShadeAttachments,
-    ShadePush, ShadeUniforms, COLOR_FORMAT, DEPTH_FORMAT,
+    environment_sh, level_bounds, Camera, GpuMesh, MeshPass, RadianceMode, RenderError,
+    ShadeAttachments, ShadePush, ShadeUniforms, COLOR_FORMAT, DEPTH_FORMAT,
 };
+
 use crate::solver::gpu::frame::{FrameParts, SolvePlan};
 use crate::solver::gpu::{Deformation, GpuFrame, GpuSolveParams};
 use crate::solver::{Light, Scene};
@@ -278,6 +279,8 @@ pub struct TranslucentObject {
     shading: MeshPass,
     params: ObjectParams,
     lights: Vec<Light>,
+    /// The environment's mirror reflection in the shading's basis (zero without specular).
+    env_sh: [[f32; 4]; 9],
     eta: f32,
     camera: Option<Camera>,
     pending: Pending,
@@ -327,6 +330,7 @@ impl TranslucentObject {
             shading,
             params: params.clone(),
             lights: scene.lights.clone(),
+            env_sh: environment_sh(&scene.environment),
             camera: None,
             pending: Pending::default(),
             own_depth: None,
@@ -494,6 +498,7 @@ impl TranslucentObject {
         let shape = pending.deformation.is_some();
         if let Some(scene) = pending.lights {
             self.frame.set_lights(&self.graph, &scene)?;
+            self.env_sh = environment_sh(&scene.environment);
             self.lights = scene.lights;
         }
         if let Some(field) = pending.material {
@@ -546,6 +551,10 @@ impl TranslucentObject {
                 camera_pos: camera.eye.as_vec3().extend(1.0).to_array(),
                 light_dir: light_dir.to_array(),
                 light_irradiance: [irradiance[0], irradiance[1], irradiance[2], 0.0],
+                env_sh: match self.params.specular {
+                    true => self.env_sh,
+                    false => [[0.0; 4]; 9],
+                },
             },
             specular.is_some(),
         )

@@ -1,7 +1,8 @@
 #version 460
 // Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) J+ / (pi eta^2) (physical) or
 // F_t J+ / pi (paper Eq. 4), plus optional Cook-Torrance specular of one light, shadowed by the
-// light's tile of the shadow atlas (light_view_proj maps onto the whole atlas).
+// light's tile of the shadow atlas (light_view_proj maps onto the whole atlas), plus the mirror
+// reflection of the environment F_r(eta, theta_o) L_env(r).
 #include "optics.glsl"
 
 layout(location = 0) in vec3 v_position;
@@ -14,6 +15,9 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
     vec4 camera_pos;
     vec4 light_dir;
     vec4 light_irradiance;
+    // Environment radiance as order-2 real SH (rgb; solver::Environment's basis and order), for
+    // its mirror reflection; all zero when there is no environment or no specular.
+    vec4 env_sh[9];
 } frame;
 layout(set = 0, binding = 1) uniform sampler2DShadow shadow_map;
 
@@ -30,6 +34,18 @@ float ggx_g1(float n_x, float a2) {
     return 2.0 * n_x / (n_x + sqrt(a2 + (1.0 - a2) * n_x * n_x));
 }
 
+// Radiance of the order-2 SH environment arriving from direction d (clamped: a truncated
+// expansion can dip below zero).
+vec3 sh_radiance(vec3 d) {
+    vec3 l = frame.env_sh[0].rgb * 0.282095
+        + 0.488603 * (frame.env_sh[1].rgb * d.y + frame.env_sh[2].rgb * d.z + frame.env_sh[3].rgb * d.x)
+        + 1.092548 * (frame.env_sh[4].rgb * d.x * d.y + frame.env_sh[5].rgb * d.y * d.z
+                      + frame.env_sh[7].rgb * d.x * d.z)
+        + 0.315392 * frame.env_sh[6].rgb * (3.0 * d.z * d.z - 1.0)
+        + 0.546274 * frame.env_sh[8].rgb * (d.x * d.x - d.y * d.y);
+    return max(l, vec3(0.0));
+}
+
 void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(frame.camera_pos.xyz - v_position);
@@ -41,6 +57,10 @@ void main() {
     float f_t = fresnel_transmittance(pc.eta, n_v);
     float scale = pc.radiance_mode == 0u ? 1.0 / (PI * pc.eta * pc.eta) : 1.0 / PI;
     vec3 radiance = f_t * max(v_exitance, vec3(0.0)) * scale;
+    // The smooth boundary mirrors the environment: the part F_r = 1 - F_t of the light arriving
+    // from the reflected direction (F_t above is the same unpolarized Fresnel term). The object
+    // does not occlude its own reflection (exact for convex shapes).
+    radiance += (1.0 - f_t) * sh_radiance(reflect(-v, n));
 
     if (pc.specular == 1u && frame.light_dir.w > 0.0) {
         vec3 l = -frame.light_dir.xyz;

@@ -10,6 +10,7 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
     vec4 camera_pos;
     vec4 light_dir;        // xyz: direction the light travels (unit); w: 1 if there is a light
     vec4 light_irradiance; // rgb: irradiance on a surface facing the light
+    vec4 env_sh[9];        // environment radiance, order-2 SH (fragment stage only)
 } frame;
 
 layout(location = 0) out vec3 v_position;

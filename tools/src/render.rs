@@ -70,6 +70,10 @@ pub struct RenderArgs {
     /// projected onto order-2 spherical harmonics.
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
+    /// Experiment (CPU solver only): the lights' transmitted light as a volume source along the
+    /// unscattered beam (solver::cpu::beam_source) instead of a boundary flux.
+    #[arg(long)]
+    pub beam_source: bool,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -150,6 +154,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     let on_gpu = args.solver == "gpu";
+    if args.beam_source && on_gpu {
+        bail!("--beam-source is a CPU solver experiment: add --solver cpu");
+    }
     if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");
     }
@@ -221,6 +228,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or(CpuSolveParams::default().iterations[0])],
         tolerance: args.tolerance,
         exact: args.iterations.is_none(),
+        beam_source: args.beam_source,
         ..CpuSolveParams::default()
     };
     let solver_scene = solver::Scene {
@@ -341,6 +349,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             eta: field.eta(),
         };
         let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
+        // The environment's mirror reflection off the boundary (off with --no-specular).
+        renderer.set_environment(&solver_scene.environment)?;
         for i in 0..args.frames {
             let captured = renderer.render_frame(&ctx)?;
             let iterations: Vec<usize> = match (&solution, i) {

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 
 use glam::Vec3;
 
-use super::mesh_pass::{GpuMesh, MeshPass, ShadePush, ShadeUniforms};
+use super::mesh_pass::{environment_sh, GpuMesh, MeshPass, ShadePush, ShadeUniforms};
 use super::scene::{Camera, FrameDesc, RadianceMode, Scene};
 use super::shadow_maps::{ShadowMaps, ShadowMapsDesc};
 use super::target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
@@ -42,6 +42,8 @@ pub struct HeadlessRenderer {
     push: ShadePush,
     /// The displayed mesh, kept for [`HeadlessRenderer::set_exitance`].
     surface: crate::mesh::TriMesh,
+    /// `FrameDesc::specular`: also gates the environment's mirror reflection.
+    specular: bool,
 }
 
 impl HeadlessRenderer {
@@ -118,6 +120,7 @@ impl HeadlessRenderer {
             camera_pos: camera.eye.as_vec3().extend(1.0).to_array(),
             light_dir: light_dir.to_array(),
             light_irradiance: [irradiance[0], irradiance[1], irradiance[2], 0.0],
+            env_sh: [[0.0; 4]; 9],
         };
         let push = ShadePush {
             eta: scene.eta as f32,
@@ -138,7 +141,23 @@ impl HeadlessRenderer {
             uniforms,
             push,
             surface: scene.mesh.clone(),
+            specular: frame.specular,
         })
+    }
+
+    /// Draws the mirror reflection of `environment` (F_r(eta, theta_o) L_env(r), r the view ray
+    /// reflected about the normal; an SH environment's order-2 radiance) from the next frame on,
+    /// unless the frame was created without specular. Without this call nothing is reflected.
+    pub fn set_environment(
+        &mut self,
+        environment: &crate::solver::Environment,
+    ) -> Result<(), RenderError> {
+        environment.validate()?;
+        self.uniforms.env_sh = match self.specular {
+            true => environment_sh(environment),
+            false => [[0.0; 4]; 9],
+        };
+        Ok(())
     }
 
     /// Replaces the per-vertex exitance J+ (one per vertex of the scene's mesh), e.g. with a

@@ -14,6 +14,7 @@ use super::target::OffscreenTarget;
 use super::RenderError;
 use crate::mesh::TriMesh;
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
+use crate::solver::Environment;
 use crate::vk::{
     barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse, Sampler,
 };
@@ -152,6 +153,33 @@ pub struct ShadeUniforms {
     /// xyz: direction the light travels (unit); w: 1 if there is a specular light.
     pub light_dir: [f32; 4],
     pub light_irradiance: [f32; 4],
+    /// Environment radiance as order-2 SH (rgb, w unused) for its mirror reflection
+    /// F_r(eta, theta_o) L_env(r); zero: none. See [`environment_sh`].
+    pub env_sh: [[f32; 4]; 9],
+}
+
+/// The [`ShadeUniforms::env_sh`] of an environment: its radiance in the basis and order of
+/// [`Environment::SphericalHarmonics`] (a constant radiance L is c_00 = L / Y_00).
+pub fn environment_sh(environment: &Environment) -> [[f32; 4]; 9] {
+    let mut sh = [[0.0; 4]; 9];
+    match environment {
+        Environment::None => {}
+        Environment::Constant(l) => {
+            // Y_00 = 1 / sqrt(4 pi) = 0.282095, the constant the shader multiplies c_00 by.
+            sh[0] = [
+                (l[0] / 0.282095) as f32,
+                (l[1] / 0.282095) as f32,
+                (l[2] / 0.282095) as f32,
+                0.0,
+            ];
+        }
+        Environment::SphericalHarmonics(c) => {
+            for (out, c) in sh.iter_mut().zip(c) {
+                *out = [c[0] as f32, c[1] as f32, c[2] as f32, 0.0];
+            }
+        }
+    }
+    sh
 }
 
 /// Push constants of `mesh/shade_mesh.frag`.

@@ -42,7 +42,9 @@ pub use irradiance::{
     SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
-pub use mesh_pass::{GpuMesh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms, Vertex};
+pub use mesh_pass::{
+    environment_sh, GpuMesh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms, Vertex,
+};
 pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,

@@ -89,6 +89,10 @@ pub struct CpuSolveParams {
     pub exact_max_iterations: usize,
     /// Initial phi on the coarsest level (node order of that level); zero when `None`.
     pub initial: Option<Vec<[f64; 3]>>,
+    /// Opt-in experiment (issue 6): deposit the lights' transmitted light as a volume source along
+    /// the unscattered beam instead of as the boundary flux q (see [`beam_source`]). The
+    /// environment stays a boundary flux. Needs the `occluder` (entry points are ray-cast).
+    pub beam_source: bool,
 }
 
 impl Default for CpuSolveParams {
@@ -101,6 +105,7 @@ impl Default for CpuSolveParams {
             exact_tolerance: 1e-10,
             exact_max_iterations: 100_000,
             initial: None,
+            beam_source: false,
         }
     }
 }
@@ -267,8 +272,31 @@ pub fn solve(
     for (h, level) in graph.levels.iter().enumerate() {
         check_level(level).map_err(|e| e.at_level(h))?;
         let op = LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
-        let q = scene.surface_irradiance(level, eta, occluder);
-        let b = op.rhs(&q);
+        let (q, b, beam_power) = if params.beam_source {
+            let occluder = occluder.ok_or_else(|| SolverError::BadParameter {
+                name: "beam_source",
+                problem: "needs the solid (occluder) to find where each beam enters".into(),
+            })?;
+            let environment = Scene {
+                lights: Vec::new(),
+                environment: scene.environment,
+            };
+            let q = environment.surface_irradiance(level, eta, Some(occluder));
+            let mut b = op.rhs(&q);
+            let source = beam_source(level, material, &scene.lights, &op, occluder, eta);
+            let mut power = [0.0; 3];
+            for ((bi, si), v) in b.iter_mut().zip(&source).zip(&op.volumes) {
+                *bi = *si;
+                for c in 0..3 {
+                    power[c] += si[c] * v;
+                }
+            }
+            (q, b, power)
+        } else {
+            let q = scene.surface_irradiance(level, eta, occluder);
+            let b = op.rhs(&q);
+            (q, b, [0.0; 3])
+        };
         phi = if h == 0 {
             match &params.initial {
                 Some(guess) if guess.len() == level.node_count() => guess.clone(),
@@ -302,10 +330,10 @@ pub fn solve(
             jacobi_error_estimate: estimate,
         });
         if h == finest {
-            last = Some((op, q, b));
+            last = Some((op, q, b, beam_power));
         }
     }
-    let Some((op, q, b)) = last else {
+    let Some((op, q, b, beam_power)) = last else {
         return Err(SolverError::EmptyGraph);
     };
     let exact = params.exact.then(|| {
@@ -352,7 +380,11 @@ pub fn solve(
             })
         })
         .collect();
-    let mut energy = Energy::default();
+    // The beam source's scattered power enters through the volume (zero without it).
+    let mut energy = Energy {
+        transmitted_input: beam_power,
+        ..Energy::default()
+    };
     for s in 0..level.surface_count() {
         for c in 0..3 {
             energy.transmitted_input[c] += q[s][c] * op.areas[s];
@@ -422,4 +454,83 @@ pub fn shade_vertices(
             Ok(acc.map(|x| x as f32))
         })
         .collect()
+}
+
+/// The opt-in beam source (issue 6, [`CpuSolveParams::beam_source`]): per inner node, the power
+/// per unit volume that the lights' unscattered beams scatter there, sigma_s'(x) E F_t exp(-tau),
+/// tau the optical depth from where the beam enters (the first boundary crossing towards the
+/// light; nothing if the light is occluded beyond it). The diffusion approximation's classic
+/// extended source: the boundary flux q puts all transmitted light on the surface as if it were
+/// already diffuse, while a collimated beam scatters first at about one transport mean free path
+/// below it. The beam is not refracted (exact for eta = 1, where the path-traced references
+/// with delta lights are). Per channel the deposit is scaled so that the extinguished power,
+/// sum sigma_t' E F_t exp(-tau) V_i, equals the power the boundary flux would bring in, sum q A,
+/// which removes the cell-centred quadrature error of the exponential (the object is assumed
+/// optically thick along every beam).
+pub fn beam_source(
+    level: &GraphLevel,
+    material: &MaterialField,
+    lights: &[super::Light],
+    op: &LevelOperator,
+    occluder: &dyn Solid,
+    eta: f64,
+) -> Vec<[f64; 3]> {
+    let inner = level.inner_count();
+    let offset = 1e-4 * level.spacing.max(1e-6);
+    let mut total = vec![[0.0; 3]; inner];
+    for light in lights {
+        let single = Scene {
+            lights: vec![*light],
+            environment: super::Environment::None,
+        };
+        let q = single.surface_irradiance(level, eta, Some(occluder));
+        // (extinction density, scattering density) per node.
+        let deposit: Vec<([f64; 3], [f64; 3])> = (0..inner)
+            .into_par_iter()
+            .map(|i| {
+                let x = level.positions[i];
+                let (e, l, dist) = light.arriving(x);
+                let Some((t, normal)) = occluder.ray_hit(x, l, dist) else {
+                    return ([0.0; 3], [0.0; 3]);
+                };
+                let entry = x + l * (t + offset);
+                if occluder.occluded(entry, l, dist - t - offset) {
+                    return ([0.0; 3], [0.0; 3]);
+                }
+                let f_t = fresnel::transmittance(eta, normal.dot(l));
+                // Optical depth by the midpoint rule (exact for homogeneous materials).
+                let steps = ((t / (0.5 * level.spacing.max(1e-6))).ceil() as usize).clamp(1, 16);
+                let mut tau = [0.0; 3];
+                for k in 0..steps {
+                    let c = material.sample(x + l * (t * (k as f64 + 0.5) / steps as f64));
+                    for (ch, tau) in tau.iter_mut().enumerate() {
+                        *tau += (c.sigma_s[ch] + c.sigma_a[ch]) * t / steps as f64;
+                    }
+                }
+                let here = material.sample(x);
+                let beam: [f64; 3] = std::array::from_fn(|c| e[c] * f_t * (-tau[c]).exp());
+                (
+                    std::array::from_fn(|c| (here.sigma_s[c] + here.sigma_a[c]) * beam[c]),
+                    std::array::from_fn(|c| here.sigma_s[c] * beam[c]),
+                )
+            })
+            .collect();
+        for c in 0..3 {
+            let incoming: f64 = q.iter().zip(&op.areas).map(|(q, a)| q[c] * a).sum();
+            let extinguished: f64 = deposit
+                .iter()
+                .zip(&op.volumes)
+                .map(|(d, v)| d.0[c] * v)
+                .sum();
+            let scale = if extinguished > 0.0 {
+                incoming / extinguished
+            } else {
+                0.0
+            };
+            for (t, d) in total.iter_mut().zip(&deposit) {
+                t[c] += scale * d.1[c];
+            }
+        }
+    }
+    total
 }
