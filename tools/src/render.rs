@@ -307,10 +307,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             let (captured, report) = host.render(&ctx, &mut translucent)?;
             // The host waited: this frame's own solve (if any) has completed.
             let solves = translucent.completed_solves(ctx.frames().1)?;
-            let iterations = solves
-                .iter()
-                .find(|s| s.frame == captured.frame)
-                .map_or_else(|| vec![0; level_count], |s| s.iterations());
+            let solve = solves.iter().find(|s| s.frame == captured.frame);
+            let iterations = solve.map_or_else(|| vec![0; level_count], |s| s.iterations());
+            // A level that ran to its cap did not reach --tolerance (optically thin objects need
+            // many more Jacobi iterations than the default cap): say so rather than stay silent.
+            let converged = solve.map(|s| s.converged());
+            if converged == Some(false) && !args.json {
+                eprintln!(
+                    "warning: frame {}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations",
+                    captured.frame
+                );
+            }
             let skipped: serde_json::Map<String, serde_json::Value> = report
                 .skipped
                 .iter()
@@ -320,6 +327,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "frame": captured.frame,
                 "passes": captured.passes,
                 "iterations": iterations,
+                "converged": converged,
                 "skipped": skipped,
                 "warm_start": report.warm_start,
                 "material_variant": report.material_variant,

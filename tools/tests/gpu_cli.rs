@@ -251,7 +251,13 @@ fn frames_of_an_unchanged_scene_skip_the_solve_and_say_why() {
         assert!(first.iter().any(|p| p == pass), "{pass}: {first:?}");
     }
     assert!(frames[0]["iterations"][1].as_u64().expect("count") > 0);
+    assert_eq!(frames[0]["converged"], true, "{}", frames[0]);
     for f in &frames[1..] {
+        assert_eq!(
+            f["converged"],
+            serde_json::Value::Null,
+            "no solve, no verdict: {f}"
+        );
         let passes = passes_of(f);
         for pass in passes.iter().filter(|p| p.as_str() != "capture") {
             assert_eq!(pass, "shading", "frame {}: {passes:?}", f["frame"]);
@@ -271,6 +277,14 @@ fn frames_of_an_unchanged_scene_skip_the_solve_and_say_why() {
         assert_eq!(f["skipped"]["diffusion init"], "warm start");
         assert_eq!(f["iterations"][0], 0, "coarse level not re-solved: {f}");
     }
+
+    // Two iterations per level (one block) cannot reach the tolerance: the frame says so.
+    let capped = torus(&["--iterations", "2"]);
+    assert_eq!(
+        capped["frames"][0]["converged"], false,
+        "{}",
+        capped["frames"][0]
+    );
 
     let full = torus(&["--no-skip"]);
     for f in full["frames"].as_array().expect("frames") {

@@ -45,7 +45,7 @@ pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{
     environment_sh, GpuMesh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms, Vertex,
 };
-pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene};
+pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene, MAX_CAMERA_MM};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT,

@@ -28,6 +28,9 @@ pub struct Camera {
     pub fovy_deg: f64,
 }
 
+/// The largest camera coordinate [`Camera::validate`] accepts (mm).
+pub const MAX_CAMERA_MM: f64 = 1e10;
+
 impl Camera {
     /// Frames the sphere (`centre`, `radius`) from the front, slightly above.
     pub fn framing(centre: DVec3, radius: f64, aspect: f64) -> Camera {
@@ -53,6 +56,11 @@ impl Camera {
         };
         if !self.eye.is_finite() || !self.target.is_finite() || !self.fovy_deg.is_finite() {
             return bad("values must be finite");
+        }
+        // The view matrix is f32: an eye at 1e300 mm is finite but renders nothing. 1e10 mm is a
+        // hundred times the largest object (`mesh::SIZE_RANGE_MM`).
+        if self.eye.abs().max(self.target.abs()).max_element() > MAX_CAMERA_MM {
+            return bad("coordinates must be within +-1e10 mm");
         }
         if (self.eye - self.target).length() < 1e-9 {
             return bad("eye and target coincide");
@@ -278,6 +286,12 @@ mod tests {
             fovy_deg: 40.0,
         };
         assert!(cam.validate().is_err());
+        let far = Camera {
+            eye: DVec3::new(0.0, 0.0, 1e300),
+            target: DVec3::ZERO,
+            fovy_deg: 30.0,
+        };
+        assert!(far.validate().is_err(), "an eye at 1e300 mm is refused");
     }
 
     #[test]
