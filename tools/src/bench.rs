@@ -720,38 +720,7 @@ fn rgb(option: &'static str, text: &str) -> Result<[f64; 3], BenchError> {
 /// The lights turned by `degrees` about +Y through the origin (the previous frame of a warm start).
 fn turned(lights: &[Light], degrees: f64) -> Vec<Light> {
     let q = DQuat::from_rotation_y(degrees.to_radians());
-    lights
-        .iter()
-        .map(|l| match *l {
-            Light::Directional {
-                direction,
-                irradiance,
-            } => Light::Directional {
-                direction: q * direction,
-                irradiance,
-            },
-            Light::Point {
-                position,
-                intensity,
-            } => Light::Point {
-                position: q * position,
-                intensity,
-            },
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                inner_deg,
-                outer_deg,
-            } => Light::Spot {
-                position: q * position,
-                direction: q * direction,
-                intensity,
-                inner_deg,
-                outer_deg,
-            },
-        })
-        .collect()
+    lights.iter().map(|l| l.rotated(q)).collect()
 }
 
 fn dark(l: &Light) -> bool {

@@ -459,38 +459,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 /// `lights` rotated about +Y by `degrees` (directions and positions).
 fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
     let q = DQuat::from_rotation_y(degrees.to_radians());
-    lights
-        .iter()
-        .map(|l| match *l {
-            Light::Directional {
-                direction,
-                irradiance,
-            } => Light::Directional {
-                direction: q * direction,
-                irradiance,
-            },
-            Light::Point {
-                position,
-                intensity,
-            } => Light::Point {
-                position: q * position,
-                intensity,
-            },
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                inner_deg,
-                outer_deg,
-            } => Light::Spot {
-                position: q * position,
-                direction: q * direction,
-                intensity,
-                inner_deg,
-                outer_deg,
-            },
-        })
-        .collect()
+    lights.iter().map(|l| l.rotated(q)).collect()
 }
 
 /// `camera` with its eye rotated about the vertical line through its target.

@@ -110,6 +110,40 @@ fn check_direction(what: &str, d: DVec3) -> Result<(), SolverError> {
 }
 
 impl Light {
+    /// The light turned by `rotation` about the origin of the object frame (directions and
+    /// positions; colours and cone angles unchanged): an orbiting light, frame after frame.
+    pub fn rotated(&self, rotation: glam::DQuat) -> Light {
+        match *self {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Light::Directional {
+                direction: rotation * direction,
+                irradiance,
+            },
+            Light::Point {
+                position,
+                intensity,
+            } => Light::Point {
+                position: rotation * position,
+                intensity,
+            },
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            } => Light::Spot {
+                position: rotation * position,
+                direction: rotation * direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            },
+        }
+    }
+
     /// Checks finiteness, non-negative colours, non-zero directions and cone angles.
     pub fn validate(&self) -> Result<(), SolverError> {
         match *self {
@@ -393,6 +427,42 @@ impl Scene {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn rotated_turns_directions_and_positions_and_keeps_the_rest() {
+        let q = glam::DQuat::from_rotation_y(PI / 2.0); // +X -> -Z
+        let spot = Light::Spot {
+            position: DVec3::new(2.0, 1.0, 0.0),
+            direction: DVec3::X,
+            intensity: [1.0, 2.0, 3.0],
+            inner_deg: 10.0,
+            outer_deg: 20.0,
+        };
+        let Light::Spot {
+            position,
+            direction,
+            intensity,
+            inner_deg,
+            outer_deg,
+        } = spot.rotated(q)
+        else {
+            panic!("a spot stays a spot");
+        };
+        assert!(
+            (position - DVec3::new(0.0, 1.0, -2.0)).length() < 1e-12,
+            "{position}"
+        );
+        assert!((direction - DVec3::NEG_Z).length() < 1e-12, "{direction}");
+        assert_eq!(
+            (intensity, inner_deg, outer_deg),
+            ([1.0, 2.0, 3.0], 10.0, 20.0)
+        );
+        let sun = Light::Directional {
+            direction: DVec3::X,
+            irradiance: [4.0; 3],
+        };
+        assert_eq!(sun.rotated(glam::DQuat::IDENTITY), sun);
+    }
 
     #[test]
     fn sh_irradiance_is_exact_for_constant_and_linear_radiance() {
