@@ -9,8 +9,9 @@
 //! section 5) and says in its [`FrameReport`] what ran and, per skipped pass, why:
 //! - nothing changed: no shadow map, gather or solve, only the shading;
 //! - camera only: the same (the view-dependent Fresnel term is in the shading);
-//! - lights or material changed: a warm-started solve of the finest level only (the coarse
-//!   levels' answer is already in the finest level's last solution);
+//! - lights, material or shape changed: a warm-started solve: every level from its own last
+//!   solution, each finer level first corrected by the coarser level's change (the smooth part
+//!   of the change, which the finest level's Jacobi damps slowest; one level on a small graph);
 //! - no shadow-casting light: no shadow pass;
 //! - converged: no more iterations (decided on the GPU; [`CompletedSolve::converged`]);
 //! - a small graph: a cold solve iterates one level;
@@ -603,7 +604,7 @@ impl TranslucentObject {
                 gather: true,
                 solve: Some(SolvePlan {
                     warm: true,
-                    finest_only: true,
+                    finest_only: small,
                 }),
             }
         } else {

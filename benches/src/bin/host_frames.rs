@@ -1,8 +1,9 @@
 //! Host-frame measurements for `benches/RESULTS.md` ("Host frames: warm start and skipping"),
 //! through `TranslucentObject` recorded into a headless host's command buffer:
 //! (a) a light orbiting a few degrees per frame: iterations per level and GPU ms of each frame,
-//!     warm start (the default skips) against a cold multi-level solve every frame (`skip =
-//!     false`), and the warm J+ against the cold one;
+//!     warm start (the default skips: every level from its last solution, corrected by the
+//!     coarser level's change) against a cold multi-level solve every frame (`skip = false`), and
+//!     the warm J+ against the cold one;
 //! (b) a static scene: GPU ms per frame with skipping on and off;
 //! (c) the small-graph threshold: a cold solve iterating one level against all levels, for
 //!     sphere bakes of growing resolution.
@@ -10,7 +11,7 @@
 //! ```text
 //! cargo run --release -p translucent-benches --bin host_frames -- [RESOLUTION] [FRAMES] [DEGREES] [c]
 //! ```
-//! A fourth argument `c` runs part (c) only.
+//! A fourth argument `a` runs part (a) only, `c` part (c) only.
 //! Defaults: torus resolution 24 (3 levels), 8 frames, 3 degrees per frame. Prints markdown
 //! tables. `TRANSLUCENT_DEVICE` picks the Vulkan device.
 
@@ -104,6 +105,7 @@ fn main() -> Result<()> {
     println!("torus 50 mm, resolution {resolution}, nodes per level {nodes:?}");
     let mut host = HeadlessHost::new(&ctx, 128, 128)?;
     let only_c = args.get(3).is_some_and(|a| a == "c");
+    let only_a = args.get(3).is_some_and(|a| a == "a");
 
     // (a) Moving light: warm (skips on) vs cold (skips off), same lights every frame.
     println!("\n(a) light orbiting {degrees} deg/frame, tolerance 1e-4, cap 2000 per level");
@@ -158,6 +160,9 @@ fn main() -> Result<()> {
         cold_sum.1 / n
     );
     drop((warm, cold));
+    if only_a {
+        return Ok(());
+    }
 
     // (b) Static scene: skipping on and off.
     println!("\n(b) static scene, {frames} frames");
