@@ -599,7 +599,10 @@ fn warm_start_for_a_moving_light_corrects_by_the_coarse_change() {
         let mut warm = GpuDiffusion::new(ctx, &graph, &field, &warm_params).unwrap();
         warm.set_q_scale(scale);
         solve_with(ctx, &mut warm, &before);
-        assert!(!warm.record_stats().warm, "the first solve has nothing to start from");
+        assert!(
+            !warm.record_stats().warm,
+            "the first solve has nothing to start from"
+        );
         let j = solve_with(ctx, &mut warm, &after);
         let warm_its = warm.iterations_run(ctx).unwrap();
         let stats = warm.record_stats();
