@@ -247,7 +247,36 @@ fn light_change_warm_starts_every_level_with_the_coarse_correction() {
     let d = relative_difference(&warm.image, &reference.image);
     eprintln!("warm vs cold: {d:.2e}");
     assert!(d <= SOLVED, "difference {d}");
-    drop((skipping, full, host));
+
+    // Below `single_level_nodes` the warm start stays on the finest level (no coarse solution
+    // exists to correct from: the cold frame left the coarse level at zero).
+    let mut small = object(ctx, &graph, &field, &light_at(0.0), |p| {
+        p.single_level_nodes = 20_000;
+    });
+    host.render(ctx, &mut small).expect("small frame 1");
+    small.set_lights(&light_at(5.0)).expect("lights");
+    let (one, report) = host.render(ctx, &mut small).expect("small frame 2");
+    assert!(report.warm_start);
+    assert_eq!(report.levels_iterated, 1);
+    assert_eq!(
+        report.skipped.get(PASS_COARSE),
+        Some(&SkipReason::WarmStart)
+    );
+    assert_no_scopes(
+        &one.passes,
+        &["diffusion init", "diffusion warm correction"],
+    );
+    let solve = small
+        .completed_solves(ctx.frames().1)
+        .expect("read")
+        .pop()
+        .expect("small solve");
+    assert_eq!(solve.levels[0].iterations, 0, "{solve:?}");
+    assert!(solve.converged(), "{solve:?}");
+    let d = relative_difference(&one.image, &reference.image);
+    eprintln!("one-level warm vs cold: {d:.2e}");
+    assert!(d <= SOLVED, "difference {d}");
+    drop((skipping, full, small, host));
     gpu.finish();
 }
 
