@@ -283,7 +283,8 @@ impl GpuFrame {
     }
 
     /// Records shadow maps (cast by `caster`, the displayed mesh), the gather of every level and
-    /// a cold solve of every level.
+    /// a solve of every level: cold, or warm when [`GpuSolveParams::warm_start`] is set (and a
+    /// last solution exists).
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope; `self` and `caster` must outlive its
@@ -296,8 +297,15 @@ impl GpuFrame {
         profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), Error> {
         let (frame, _) = ctx.frames();
+        let parts = FrameParts {
+            solve: Some(SolvePlan {
+                warm: self.solve.params.warm_start,
+                finest_only: false,
+            }),
+            ..FrameParts::ALL
+        };
         // SAFETY: the caller's contract.
-        unsafe { self.record_parts(ctx, cb, caster, &FrameParts::ALL, frame, profiler) }?;
+        unsafe { self.record_parts(ctx, cb, caster, &parts, frame, profiler) }?;
         Ok(())
     }
 
