@@ -80,7 +80,8 @@ pub use crate::solver::gpu::frame::CompletedSolve;
 pub const PASS_SHADOW: &str = "shadow_map";
 pub const PASS_GATHER: &str = "gather_q";
 pub const PASS_SOLVE: &str = "solve";
-/// Sub-parts of the solve that a warm start or a small graph leaves out.
+/// Sub-parts of the solve that a warm start (the Shepard init) or a small graph (the coarse
+/// levels) leaves out.
 pub const PASS_INIT: &str = "diffusion init";
 pub const PASS_COARSE: &str = "coarse levels";
 pub const PASS_SHADING: &str = "shading";
@@ -217,7 +218,7 @@ pub enum SkipReason {
     NoShadowCaster,
     /// The lights and the shape did not change (the last shadow maps still hold).
     ShadowsUnchanged,
-    /// Started from the last solution (no Shepard initialisation, no coarse levels).
+    /// Started from the last solution (no Shepard initialisation).
     WarmStart,
     /// The finest level has fewer than [`ObjectParams::single_level_nodes`] nodes.
     SmallGraph,
@@ -686,12 +687,9 @@ impl TranslucentObject {
                 skipped.insert(PASS_INIT, SkipReason::WarmStart);
             }
             if done.levels_iterated < self.graph.levels.len() as u32 {
-                let reason = if done.warm {
-                    SkipReason::WarmStart
-                } else {
-                    SkipReason::SmallGraph
-                };
-                skipped.insert(PASS_COARSE, reason);
+                // Only a small graph leaves the coarse levels out (cold or warm): a warm start
+                // iterates them for the finer levels' correction.
+                skipped.insert(PASS_COARSE, SkipReason::SmallGraph);
             }
         }
 

@@ -260,8 +260,9 @@ fn light_change_warm_starts_every_level_with_the_coarse_correction() {
     assert_eq!(report.levels_iterated, 1);
     assert_eq!(
         report.skipped.get(PASS_COARSE),
-        Some(&SkipReason::WarmStart)
+        Some(&SkipReason::SmallGraph)
     );
+    assert_eq!(report.skipped.get(PASS_INIT), Some(&SkipReason::WarmStart));
     assert_no_scopes(
         &one.passes,
         &["diffusion init", "diffusion warm correction"],
