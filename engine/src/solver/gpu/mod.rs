@@ -1,5 +1,7 @@
 //! The GPU diffusion solve of a baked QuadGraph (paper sections 4.3 and 5; DESIGN sections 4 and 5):
-//! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10), pure Jacobi
+//! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10) or, warm
+//! ([`GpuSolveParams::warm_start`]), the level's last solution plus the Shepard-prolonged change
+//! of the coarser level's solution (`shepard/warm_correct.glsl`), pure Jacobi
 //! ping-pong (Eqs. 8/9 in the `fv` or `paper` form, surface and inner nodes in one dispatch, told
 //! apart by their row), convergence decided on the GPU with indirect dispatch; then J+ at the
 //! surface nodes (clamped at 0, counted) and per display vertex through the shading weights.
@@ -20,8 +22,9 @@
 //! Synchronization: every image stays in GENERAL; exactly one global memory barrier (compute write
 //! -> compute read|write) before every dispatch of the loop (in `Mixed` a block of k iterations has
 //! k + 1 dispatches: residual, k - 1 sweeps, apply); around each convergence reduction one barrier
-//! before it (compute write -> read) and one after it (compute write -> indirect read). The counts
-//! are in [`GpuDiffusion::record_stats`]; synchronization validation checks they suffice.
+//! before it (compute write -> read) and one after it (compute write -> indirect read); one before
+//! each init or warm correction (it reads the coarser level's result, rewrites this level's phi).
+//! The counts are in [`GpuDiffusion::record_stats`]; synchronization validation checks they suffice.
 //!
 //! Interface with the irradiance gather (part B, `render::irradiance`): per level,
 //! [`GpuDiffusion::surface_position`] (RGBA32F, rgb = surface node position in mm in the object
