@@ -619,7 +619,12 @@ fn warm_start_for_a_moving_light_corrects_by_the_coarse_change() {
         if precision != Precision::Fp16 {
             let total = |v: &[u32]| v.iter().sum::<u32>();
             assert!(total(&warm_its) < total(&cold_its));
-            assert!(warm_its[2] < cold_its[2], "{warm_its:?} vs {cold_its:?}");
+            // Without the correction the finest level needs more than the cold solve (measured
+            // [72, 208, 680] against [208, 312, 392]): the correction is what saves it.
+            assert!(
+                2 * warm_its[2] < cold_its[2],
+                "{warm_its:?} vs {cold_its:?}"
+            );
         }
         drop(warm);
     }
