@@ -9,8 +9,9 @@
 //! section 5) and says in its [`FrameReport`] what ran and, per skipped pass, why:
 //! - nothing changed: no shadow map, gather or solve, only the shading;
 //! - camera only: the same (the view-dependent Fresnel term is in the shading);
-//! - lights or material changed: a warm-started solve of the finest level only (the coarse
-//!   levels' answer is already in the finest level's last solution);
+//! - lights, material or shape changed: a warm-started solve: every level from its own last
+//!   solution, each finer level first corrected by the coarser level's change (the smooth part
+//!   of the change, which the finest level's Jacobi damps slowest; one level on a small graph);
 //! - no shadow-casting light: no shadow pass;
 //! - converged: no more iterations (decided on the GPU; [`CompletedSolve::converged`]);
 //! - a small graph: a cold solve iterates one level;
@@ -80,7 +81,8 @@ pub use crate::solver::gpu::frame::CompletedSolve;
 pub const PASS_SHADOW: &str = "shadow_map";
 pub const PASS_GATHER: &str = "gather_q";
 pub const PASS_SOLVE: &str = "solve";
-/// Sub-parts of the solve that a warm start or a small graph leaves out.
+/// Sub-parts of the solve that a warm start (the Shepard init) or a small graph (the coarse
+/// levels) leaves out.
 pub const PASS_INIT: &str = "diffusion init";
 pub const PASS_COARSE: &str = "coarse levels";
 pub const PASS_SHADING: &str = "shading";
@@ -217,7 +219,7 @@ pub enum SkipReason {
     NoShadowCaster,
     /// The lights and the shape did not change (the last shadow maps still hold).
     ShadowsUnchanged,
-    /// Started from the last solution (no Shepard initialisation, no coarse levels).
+    /// Started from the last solution (no Shepard initialisation).
     WarmStart,
     /// The finest level has fewer than [`ObjectParams::single_level_nodes`] nodes.
     SmallGraph,
@@ -612,7 +614,7 @@ impl TranslucentObject {
                 gather: true,
                 solve: Some(SolvePlan {
                     warm: true,
-                    finest_only: true,
+                    finest_only: small,
                 }),
             }
         } else {
@@ -694,12 +696,9 @@ impl TranslucentObject {
                 skipped.insert(PASS_INIT, SkipReason::WarmStart);
             }
             if done.levels_iterated < self.graph.levels.len() as u32 {
-                let reason = if done.warm {
-                    SkipReason::WarmStart
-                } else {
-                    SkipReason::SmallGraph
-                };
-                skipped.insert(PASS_COARSE, reason);
+                // Only a small graph leaves the coarse levels out (cold or warm): a warm start
+                // iterates them for the finer levels' correction.
+                skipped.insert(PASS_COARSE, SkipReason::SmallGraph);
             }
         }
 

@@ -1,8 +1,8 @@
 //! The example host (`engine/examples/host_graph.rs`, included here for its `run`): its own
 //! instance and device with validation and synchronization validation, a render graph of its own
 //! (background, our object, tone-map post pass) with two frames in flight and a light moving every
-//! frame. Passes when the layer reported nothing, every frame after the first warm-started a solve
-//! of the finest level only, and the written image holds more than the background.
+//! frame. Passes when the layer reported nothing, every frame solved (after the first, warm-started:
+//! every level from its last solution), and the written image holds more than the background.
 
 #[path = "../../engine/examples/host_graph.rs"]
 mod host_graph;
@@ -28,13 +28,8 @@ fn host_graph_example_runs_clean_under_validation_and_draws_the_object() {
     let frames: Vec<u64> = outcome.iterations.iter().map(|(f, _)| *f).collect();
     assert_eq!(frames, (1..=6).collect::<Vec<_>>(), "one solve per frame");
     for (frame, its) in &outcome.iterations {
-        assert!(its[1] > 0, "frame {frame}: {its:?}");
-        if *frame > 1 {
-            assert_eq!(
-                its[0], 0,
-                "frame {frame}: warm start skips the coarse level"
-            );
-        }
+        // The warm start iterates every level (the coarse one gives the finer its correction).
+        assert!(its.iter().all(|&n| n > 0), "frame {frame}: {its:?}");
     }
     let png = image::open(&out).expect("the PNG was written").to_rgb8();
     assert_eq!(png.dimensions(), (160, 120));

@@ -1,8 +1,9 @@
 //! Host-frame measurements for `benches/RESULTS.md` ("Host frames: warm start and skipping"),
 //! through `TranslucentObject` recorded into a headless host's command buffer:
 //! (a) a light orbiting a few degrees per frame: iterations per level and GPU ms of each frame,
-//!     warm start (the default skips) against a cold multi-level solve every frame (`skip =
-//!     false`), and the warm J+ against the cold one;
+//!     warm start (the default skips: every level from its last solution, corrected by the
+//!     coarser level's change) against a cold multi-level solve every frame (`skip = false`), and
+//!     the warm J+ against the cold one;
 //! (b) a static scene: GPU ms per frame with skipping on and off;
 //! (c) the small-graph threshold: a cold solve iterating one level against all levels, for
 //!     sphere bakes of growing resolution.
@@ -10,7 +11,8 @@
 //! ```text
 //! cargo run --release -p translucent-benches --bin host_frames -- [RESOLUTION] [FRAMES] [DEGREES] [c]
 //! ```
-//! A fourth argument `c` runs part (c) only.
+//! A fourth argument `a` runs part (a) only, `c` part (c) only (`-`: all); a fifth sets the
+//! iterations per convergence block (default 8).
 //! Defaults: torus resolution 24 (3 levels), 8 frames, 3 degrees per frame. Prints markdown
 //! tables. `TRANSLUCENT_DEVICE` picks the Vulkan device.
 
@@ -104,15 +106,19 @@ fn main() -> Result<()> {
     println!("torus 50 mm, resolution {resolution}, nodes per level {nodes:?}");
     let mut host = HeadlessHost::new(&ctx, 128, 128)?;
     let only_c = args.get(3).is_some_and(|a| a == "c");
+    let only_a = args.get(3).is_some_and(|a| a == "a");
 
     // (a) Moving light: warm (skips on) vs cold (skips off), same lights every frame.
     println!("\n(a) light orbiting {degrees} deg/frame, tolerance 1e-4, cap 2000 per level");
-    println!("| frame | warm iterations | warm GPU ms | cold iterations | cold GPU ms | max |J+ warm - J+ cold| / max J+ |");
-    println!("|---|---|---|---|---|---|");
-    let params = ObjectParams {
+    println!("| frame | warm iterations | warm GPU ms | cold iterations | cold GPU ms | max |J+ warm - J+ cold| / max J+ | finest-only warm: iterations, GPU ms |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut params = ObjectParams {
         single_level_nodes: 0,
         ..ObjectParams::default()
     };
+    if let Some(block) = args.get(4) {
+        params.solve.block = block.parse()?;
+    }
     if only_c {
         return small_graphs(&ctx, &mut host, &field);
     }
@@ -127,25 +133,44 @@ fn main() -> Result<()> {
             ..params.clone()
         },
     )?;
+    // The previous warm start, for comparison: the finest level alone from its last solution
+    // (the small-graph path; its first, cold frame iterates the finest level from zero).
+    let mut finest = TranslucentObject::new(
+        &ctx,
+        graph.clone(),
+        &field,
+        &scene(0.0),
+        &ObjectParams {
+            single_level_nodes: usize::MAX,
+            ..params.clone()
+        },
+    )?;
     let (mut warm_sum, mut cold_sum) = ((0u32, 0.0), (0u32, 0.0));
+    let (mut warm_finest, mut cold_finest, mut finest_sum) = (0u32, 0u32, 0u32);
     for i in 0..frames {
         let lights = scene(degrees * f64::from(i));
         warm.set_lights(&lights)?;
         cold.set_lights(&lights)?;
+        finest.set_lights(&lights)?;
+        let (fc, fi) = frame(&ctx, &mut host, &mut finest, levels)?;
         let (wc, wi) = frame(&ctx, &mut host, &mut warm, levels)?;
         let wj = warm.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
         let (cc, ci) = frame(&ctx, &mut host, &mut cold, levels)?;
         let cj = cold.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
         let (wms, cms) = (frame_ms(&wc), frame_ms(&cc));
         if i > 0 {
+            warm_finest += wi[levels - 1];
+            cold_finest += ci[levels - 1];
+            finest_sum += fi.iter().sum::<u32>();
             warm_sum.0 += wi.iter().sum::<u32>();
             warm_sum.1 += wms;
             cold_sum.0 += ci.iter().sum::<u32>();
             cold_sum.1 += cms;
         }
         println!(
-            "| {i} | {wi:?} | {wms:.1} | {ci:?} | {cms:.1} | {:.2e} |",
-            max_relative(&wj, &cj)
+            "| {i} | {wi:?} | {wms:.1} | {ci:?} | {cms:.1} | {:.2e} | {fi:?}, {:.1} |",
+            max_relative(&wj, &cj),
+            frame_ms(&fc)
         );
     }
     let n = f64::from(frames.saturating_sub(1).max(1));
@@ -157,7 +182,16 @@ fn main() -> Result<()> {
         warm_sum.1 / n,
         cold_sum.1 / n
     );
-    drop((warm, cold));
+    println!(
+        "cold / warm: {:.2}x total iterations, {:.2}x finest level; finest-only warm: mean {:.0} iterations",
+        f64::from(cold_sum.0) / f64::from(warm_sum.0.max(1)),
+        f64::from(cold_finest) / f64::from(warm_finest.max(1)),
+        f64::from(finest_sum) / n
+    );
+    drop((warm, cold, finest));
+    if only_a {
+        return Ok(());
+    }
 
     // (b) Static scene: skipping on and off.
     println!("\n(b) static scene, {frames} frames");

@@ -90,12 +90,14 @@ impl FrameParts {
 /// How one frame's solve runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SolvePlan {
-    /// Start from the last solution (light, material or shape changed a little). Ignored, cold
-    /// instead, when there is no last solution at the current exposure.
+    /// Start from the last solution (light, material or shape changed a little): every level
+    /// iterates from its own last phi, each finer one first corrected by the coarser level's
+    /// change (see [`GpuSolveParams::warm_start`]). Ignored, cold instead, when a level to
+    /// iterate has no last solution at the current exposure.
     pub warm: bool,
-    /// Iterate only the finest level. With a warm start the coarse levels would only re-solve
-    /// a problem whose answer the finest level already holds; cold, it is the small-graph skip
-    /// (the finest level starts from zero).
+    /// Iterate only the finest level: the small-graph skip (cold, the finest level starts from
+    /// zero; warm, from its own last phi with no coarse correction). Measured against the
+    /// corrected multi-level warm start in benches/RESULTS.md, "Host frames".
     pub finest_only: bool,
 }
 
@@ -109,6 +111,8 @@ pub struct RecordedParts {
     pub warm: bool,
     /// Levels iterated (1 when only the finest).
     pub levels_iterated: u32,
+    /// Warm start: levels whose start was corrected by the coarser level's change.
+    pub corrected_levels: u32,
 }
 
 /// The control records of a solve that completed (see [`GpuFrame::completed_solves`]).
@@ -279,8 +283,8 @@ impl GpuFrame {
     }
 
     /// Records shadow maps (cast by `caster`, the displayed mesh), the gather of every level and
-    /// a solve of every level (warm-started when `GpuSolveParams::warm_start` asks and a last
-    /// solution exists).
+    /// a solve of every level: cold, or warm when [`GpuSolveParams::warm_start`] is set (and a
+    /// last solution exists).
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope; `self` and `caster` must outlive its
@@ -293,7 +297,6 @@ impl GpuFrame {
         profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), Error> {
         let (frame, _) = ctx.frames();
-        // Everything, warm-started when the solve's parameters ask for it (`GpuSolveParams::warm_start`).
         let parts = FrameParts {
             solve: Some(SolvePlan {
                 warm: self.solve.params.warm_start,
@@ -357,7 +360,6 @@ impl GpuFrame {
                 }
             }
             if let Some(plan) = parts.solve {
-                let warm = plan.warm && self.solve.solved;
                 let levels = self.solve.levels.len();
                 let caps = self.solve.blocks.clone();
                 if plan.finest_only {
@@ -366,13 +368,15 @@ impl GpuFrame {
                     }
                 }
                 let previous_warm = self.solve.params.warm_start;
-                self.solve.params.warm_start = warm;
+                self.solve.params.warm_start = plan.warm;
                 self.solve.record(ctx, cb, profiler);
+                let warm = self.solve.stats.warm;
                 self.solve.params.warm_start = previous_warm;
                 self.solve.blocks = caps;
                 done.solve = true;
                 done.warm = warm;
                 done.levels_iterated = if plan.finest_only { 1 } else { levels as u32 };
+                done.corrected_levels = self.solve.stats.corrected_levels;
                 self.record_control_copy(ctx, cb, frame);
             }
         }

@@ -1,5 +1,7 @@
 //! The GPU diffusion solve of a baked QuadGraph (paper sections 4.3 and 5; DESIGN sections 4 and 5):
-//! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10), pure Jacobi
+//! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10) or, warm
+//! ([`GpuSolveParams::warm_start`]), the level's last solution plus the Shepard-prolonged change
+//! of the coarser level's solution (`shepard/warm_correct.glsl`), pure Jacobi
 //! ping-pong (Eqs. 8/9 in the `fv` or `paper` form, surface and inner nodes in one dispatch, told
 //! apart by their row), convergence decided on the GPU with indirect dispatch; then J+ at the
 //! surface nodes (clamped at 0, counted) and per display vertex through the shading weights.
@@ -20,8 +22,9 @@
 //! Synchronization: every image stays in GENERAL; exactly one global memory barrier (compute write
 //! -> compute read|write) before every dispatch of the loop (in `Mixed` a block of k iterations has
 //! k + 1 dispatches: residual, k - 1 sweeps, apply); around each convergence reduction one barrier
-//! before it (compute write -> read) and one after it (compute write -> indirect read). The counts
-//! are in [`GpuDiffusion::record_stats`]; synchronization validation checks they suffice.
+//! before it (compute write -> read) and one after it (compute write -> indirect read); one before
+//! each init or warm correction (it reads the coarser level's result, rewrites this level's phi).
+//! The counts are in [`GpuDiffusion::record_stats`]; synchronization validation checks they suffice.
 //!
 //! Interface with the irradiance gather (part B, `render::irradiance`): per level,
 //! [`GpuDiffusion::surface_position`] (RGBA32F, rgb = surface node position in mm in the object
@@ -114,9 +117,10 @@ pub struct GpuSolveParams {
     /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
     pub tolerance: f32,
     /// Start every level from the previous solve's phi instead of Shepard resampling (DESIGN
-    /// section 5: light or material changes); the first solve, and the first after
-    /// [`GpuDiffusion::set_q_scale`], still initialises. The skipped init is absent from the
-    /// profiler output.
+    /// section 5: light or material changes), each finer level corrected by the coarser level's
+    /// change, phi_h += P(phi_(h-1),new - phi_(h-1),prev) (`shepard/warm_correct.glsl`); the first
+    /// solve, and the first after [`GpuDiffusion::set_q_scale`], still initialises. The skipped
+    /// init is absent from the profiler output; the correction is [`PASS_WARM`].
     pub warm_start: bool,
 }
 
@@ -155,6 +159,22 @@ pub struct ShepardPush {
     /// 1: write zero (coarsest level, no warm start).
     pub zero: u32,
 }
+
+/// Push constants of `shepard/warm_correct*.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct WarmPush {
+    pub size: [i32; 2],
+    pub coarse_width: u32,
+    /// Bit 0 ([`WARM_CORRECT`]): add the coarser level's change; bit 1 ([`WARM_SAVE`]): first
+    /// save this level's phi for the next finer level's correction.
+    pub flags: u32,
+}
+
+/// [`WarmPush::flags`]: add P(coarse new - coarse previous) to this level's phi.
+pub const WARM_CORRECT: u32 = 1;
+/// [`WarmPush::flags`]: save this level's phi (before the correction) for the finer level.
+pub const WARM_SAVE: u32 = 2;
 
 /// Push constants of `reduce/convergence*.comp`.
 #[repr(C)]
@@ -213,10 +233,17 @@ pub struct RecordStats {
     pub blocks: u32,
     /// Iterations the recorded blocks can run at most (blocks x k).
     pub iterations_recorded: u32,
+    /// The solve started from the previous solution (a requested warm start falls back to a cold
+    /// one when a level to iterate holds no solution at the current exposure).
+    pub warm: bool,
+    /// Warm start: levels whose start was corrected by the coarser level's change.
+    pub corrected_levels: u32,
 }
 
 /// Pass names: profiler scopes and debug labels.
 pub const PASS_INIT: &str = "diffusion init";
+/// The warm start's coarse-change correction (and save of a coarse level's previous phi).
+pub const PASS_WARM: &str = "diffusion warm correction";
 pub const PASS_JACOBI: &str = "diffusion jacobi";
 pub const PASS_CONVERGENCE: &str = "diffusion convergence";
 pub const PASS_J_PLUS: &str = "diffusion j+";
@@ -259,6 +286,11 @@ pub struct GpuLevel {
     /// Mixed: phi += delta.
     apply_set: vk::DescriptorSet,
     init_set: vk::DescriptorSet,
+    /// Coarse levels: the phi of the previous solve, saved by the warm start before this level
+    /// iterates again (the finer level's correction reads new - saved).
+    saved: Option<Image>,
+    /// `shepard/warm_correct*.comp` of this level.
+    warm_set: vk::DescriptorSet,
     reduce_set: vk::DescriptorSet,
     /// Heterogeneous: the weight derivation's set (`edit/derive_weights.comp`).
     pub(crate) derive_set: Option<vk::DescriptorSet>,
@@ -293,6 +325,7 @@ impl GpuLevel {
             .iter()
             .chain(&self.phi)
             .chain(&self.residual)
+            .chain(&self.saved)
             .chain([
                 &self.q,
                 &self.connectivity,
@@ -329,6 +362,7 @@ pub(crate) struct Pipelines {
     /// Deformation passes, created on the first deformation.
     pub(crate) edit: Option<edit::DeformPipelines>,
     init: ComputePipeline<ShepardPush>,
+    warm: ComputePipeline<WarmPush>,
     reduce: ComputePipeline<ReducePush>,
     j_plus: ComputePipeline<JPlusPush>,
     vertex: ComputePipeline<VertexPush>,
@@ -357,6 +391,11 @@ pub struct GpuDiffusion {
     stats: RecordStats,
     /// phi holds a previous solve's result at the current exposure (for warm starts).
     solved: bool,
+    /// Per level, the solve (a count of [`Self::record`] calls) whose iterations its phi holds;
+    /// `None`: no solution at the current exposure. A warm correction of level h needs levels h
+    /// and h - 1 to hold solutions of the same solve (their difference is the coarse change).
+    level_solve: Vec<Option<u64>>,
+    records: u64,
     q_scale: f32,
     pub(crate) f_dr: f64,
     pub(crate) a: f64,
@@ -530,7 +569,15 @@ impl GpuDiffusion {
             }
             let texels =
                 LevelTexels::build(level, params.scheme, coarse).map_err(|e| e.at_level(h))?;
-            let gpu = Self::upload_level(ctx, &pipelines, params.precision, texels, levels.last())?;
+            let finest = h + 1 == graph.levels.len();
+            let gpu = Self::upload_level(
+                ctx,
+                &pipelines,
+                params.precision,
+                texels,
+                levels.last(),
+                finest,
+            )?;
             levels.push(gpu);
         }
         let poison = Image::new(
@@ -718,6 +765,8 @@ impl GpuDiffusion {
             blocks,
             stats: RecordStats::default(),
             solved: false,
+            level_solve: vec![None; graph.levels.len()],
+            records: 0,
             q_scale: 1.0,
             f_dr,
             a,
@@ -863,9 +912,10 @@ impl GpuDiffusion {
 
     fn pipelines(ctx: &Context, precision: Precision, levels: u32) -> Result<Pipelines, Error> {
         let sets = 2 * levels + 2;
-        let (init, reduce, j_plus) = match precision {
+        let (init, warm, reduce, j_plus) = match precision {
             Precision::Mixed | Precision::Fp32 => (
                 "shepard/init_phi_fp32.comp",
+                "shepard/warm_correct_fp32.comp",
                 if precision == Precision::Mixed {
                     "reduce/convergence_mixed.comp"
                 } else {
@@ -875,6 +925,7 @@ impl GpuDiffusion {
             ),
             Precision::Fp16 => (
                 "shepard/init_phi_fp16.comp",
+                "shepard/warm_correct_fp16.comp",
                 "reduce/convergence_fp16.comp",
                 "diffusion/j_plus_fp16.comp",
             ),
@@ -905,6 +956,24 @@ impl GpuDiffusion {
                     bindings: &[
                         "coarse",
                         "dst",
+                        "links_lo",
+                        "links_hi",
+                        "link_weights_lo",
+                        "link_weights_hi",
+                    ],
+                    max_sets: sets,
+                },
+            )?,
+            warm: ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_WARM,
+                    shader: warm,
+                    bindings: &[
+                        "phi",
+                        "saved",
+                        "coarse_new",
+                        "coarse_prev",
                         "links_lo",
                         "links_hi",
                         "link_weights_lo",
@@ -949,6 +1018,7 @@ impl GpuDiffusion {
         precision: Precision,
         t: LevelTexels,
         coarser: Option<&GpuLevel>,
+        finest: bool,
     ) -> Result<GpuLevel, Error> {
         use vk::Format as F;
         let p = &t.packing;
@@ -985,6 +1055,16 @@ impl GpuDiffusion {
         let surface_texels = (surface.width * surface.height) as usize;
         let surface_position = image(ctx, "surface position", &surface, F::R32G32B32A32_SFLOAT)?;
         let surface_normal = image(ctx, "surface normal", &surface, F::R16G16B16A16_SFLOAT)?;
+        // The phi format: what a level's result is stored in (`GpuLevel::result`).
+        let phi_format = match precision {
+            Precision::Mixed | Precision::Fp32 => F::R32G32B32A32_SFLOAT,
+            Precision::Fp16 => F::R16G16B16A16_SFLOAT,
+        };
+        let saved = if finest {
+            None
+        } else {
+            Some(image(ctx, "diffusion saved phi", p, phi_format)?)
+        };
         let n = t.texel_count();
         let zeros16 = vec![0u8; n * 8];
         let state_zero = vec![0u8; n * texel_bytes(state_format) as usize];
@@ -1010,6 +1090,9 @@ impl GpuDiffusion {
         for img in phi.iter().chain(&residual) {
             items.push((img, vec![0u8; n * 16]));
         }
+        if let Some(img) = &saved {
+            items.push((img, vec![0u8; n * texel_bytes(phi_format) as usize]));
+        }
         upload_images(ctx, "diffusion level upload", &items)?;
         drop(items);
         let apply_set = match (&phi, &pipelines.apply) {
@@ -1029,6 +1112,26 @@ impl GpuDiffusion {
             Some(c) => c.result(),
             None => residual.as_ref().unwrap_or(&state[1]),
         };
+        // Bound but never touched (flags): the finest level saves nothing, the coarsest level
+        // corrects from nothing; any image of the phi format stands in.
+        let spare = residual.as_ref().unwrap_or(&state[1]);
+        let (coarse_new, coarse_prev) = match coarser {
+            Some(c) => (c.result(), c.saved.as_ref().unwrap_or(spare)),
+            None => (spare, spare),
+        };
+        let warm_set = pipelines.warm.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::storage_image("phi", dst),
+                DescriptorWrite::storage_image("saved", saved.as_ref().unwrap_or(spare)),
+                DescriptorWrite::storage_image("coarse_new", coarse_new),
+                DescriptorWrite::storage_image("coarse_prev", coarse_prev),
+                DescriptorWrite::storage_image("links_lo", &links[0]),
+                DescriptorWrite::storage_image("links_hi", &links[1]),
+                DescriptorWrite::storage_image("link_weights_lo", &link_weights[0]),
+                DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
+            ],
+        )?;
         let init_set = pipelines.init.allocate_set(
             ctx,
             &[
@@ -1065,6 +1168,8 @@ impl GpuDiffusion {
             iterate_sets: [Vec::new(), Vec::new()],
             apply_set,
             init_set,
+            saved,
+            warm_set,
             reduce_set: vk::DescriptorSet::null(),
             derive_set: None,
             rest: t,
@@ -1116,6 +1221,7 @@ impl GpuDiffusion {
             self.q_scale = scale;
             // phi is stored times the exposure: last solve's phi is no longer a start.
             self.solved = false;
+            self.level_solve.fill(None);
         }
     }
     /// A power-of-two exposure mapping the largest q to about 1024: phi (about 7 q at most) then
@@ -1234,7 +1340,25 @@ impl GpuDiffusion {
         let raw = ctx.raw();
         let k = self.params.block;
         let mut stats = RecordStats::default();
-        let warm = self.params.warm_start && self.solved;
+        let n = self.levels.len();
+        let iterate: Vec<bool> = self.blocks.iter().map(|&b| b > 0).collect();
+        let prior = self.level_solve.clone();
+        // Warm only when every level that iterates holds a solution to start from.
+        let warm = self.params.warm_start
+            && self.solved
+            && (0..n).all(|h| !iterate[h] || prior[h].is_some());
+        // Per level, the warm start's flags: correct by the coarser level's change when both
+        // hold solutions of the same solve and the coarser one iterates now; save this level's
+        // phi when the finer level will correct from it.
+        let same = |a: usize, b: usize| prior[a].is_some() && prior[a] == prior[b];
+        let warm_flags: Vec<u32> = (0..n)
+            .map(|h| {
+                let correct = h > 0 && iterate[h - 1] && same(h - 1, h);
+                let save = h + 1 < n && iterate[h + 1] && same(h, h + 1);
+                (u32::from(correct) * WARM_CORRECT) | (u32::from(save) * WARM_SAVE)
+            })
+            .collect();
+        stats.warm = warm;
         let initial: Vec<LevelControl> = self
             .levels
             .iter()
@@ -1319,6 +1443,32 @@ impl GpuDiffusion {
                         },
                         level.extent(),
                     );
+                    scope(cb, None);
+                } else if iterate[h] && warm_flags[h] != 0 {
+                    scope(cb, Some(PASS_WARM));
+                    // why: the correction reads the coarser level's last iteration (RAW) and its
+                    // saved phi (RAW), and rewrites this level's phi and saved copy, which the
+                    // previous solve's J+, reductions and finer correction read (WAR).
+                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+                    let coarse_width = if h > 0 {
+                        self.levels[h - 1].packing.width
+                    } else {
+                        1
+                    };
+                    self.pipelines.warm.dispatch(
+                        ctx,
+                        cb,
+                        level.warm_set,
+                        &WarmPush {
+                            size: push.size,
+                            coarse_width,
+                            flags: warm_flags[h],
+                        },
+                        level.extent(),
+                    );
+                    if warm_flags[h] & WARM_CORRECT != 0 {
+                        stats.corrected_levels += 1;
+                    }
                     scope(cb, None);
                 }
                 for _ in 0..self.blocks[h] {
@@ -1498,6 +1648,15 @@ impl GpuDiffusion {
         }
         self.stats = stats;
         self.solved = true;
+        self.records += 1;
+        for (solve, &iterated) in self.level_solve.iter_mut().zip(&iterate) {
+            if iterated {
+                *solve = Some(self.records);
+            } else if !warm {
+                // A cold start initialised this level without iterating it (one-level solve).
+                *solve = None;
+            }
+        }
     }
 
     /// What the last [`Self::record`] recorded.
