@@ -68,8 +68,8 @@ use crate::scene_args::SceneArgs;
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
-    /// A fixed, documented sweep (heterogeneous, thin, scan, sphere-env, multilevel): it sets
-    /// the scene and the lists; options given beside it override the suite's.
+    /// A fixed, documented sweep (heterogeneous, thin, scan, scan-reference, sphere-env,
+    /// multilevel): it sets the scene and the lists; options given beside it override the suite's.
     #[arg(long, value_name = "NAME")]
     pub suite: Option<String>,
     /// OBJ file (validated, then normalized to --size-mm).
@@ -206,7 +206,7 @@ const PT_CAMERA: &str = "0,20,60:0,0,0:30";
 /// The suites: name, what it shows, its options. Paths are relative to the repository root;
 /// meshes come from `$TRANSLUCENT_MESH_DIR` (default `../shared/meshes`).
 #[rustfmt::skip]
-const SUITES: [(&str, &str, &[&str]); 5] = [
+const SUITES: [(&str, &str, &[&str]); 6] = [
     (
         "heterogeneous",
         "skim milk / skin1 split sphere (.vol), directional light, against its path-traced reference",
@@ -240,6 +240,19 @@ const SUITES: [(&str, &str, &[&str]); 5] = [
             "--width", "128", "--height", "128", "--no-specular", "--resolution", "24",
             "--levels", "3", "-K", "1", "--iterations", "16,64,256,1024", "--tolerance", "0",
             "--scheme", "fv,paper", "--start", "cold,warm", "--repeats", "2",
+        ],
+    ),
+    (
+        "scan-reference",
+        "Stanford bunny lit from the side through its thin ears, marble, against its path-traced reference",
+        &[
+            "--mesh", "@MESHES/stanford-bunny.obj", "--size-mm", "20", "--material", "marble",
+            "--eta", "1", "--light", "dir:1,-0.2,0:5,5,5", "--camera", PT_CAMERA,
+            "--width", "96", "--height", "96", "--no-specular",
+            "--reference", "tests/reference/pt/bunny-marble-side-eta1.exr", "--resolution", "24,32",
+            "--levels", "3", "-K", "1", "--iterations", "2000",
+            "--tolerance", "1e-2,1e-3,1e-4", "--precision", "mixed", "--start", "cold,warm",
+            "--repeats", "2",
         ],
     ),
     (
