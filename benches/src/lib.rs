@@ -1,6 +1,7 @@
 //! Benchmarks: see `benches/` and `benches/RESULTS.md`. This library holds what the bench bins
 //! and `translucent bench` share: [`plot::error_vs_time`], the log-log chart of error against GPU
-//! time with the Pareto front.
+//! time with the Pareto front; and [`soak`], the per-frame schedule the soak bin and the CI soak
+//! test (`tests/tests/soak.rs`) both run.
 //!
 //! ```no_run
 //! use translucent_benches::plot::{error_vs_time, palette, Panel, Series};
@@ -221,6 +222,71 @@ pub mod plot {
             assert_eq!(decade_label(-3), "1e-3");
             assert_eq!(decade_label(2), "100");
             assert_eq!(text_width("10"), 14);
+        }
+    }
+}
+
+pub mod soak {
+    //! The soak's schedule (issue 6 item 4): what changes in frame `i`. One definition for the
+    //! long run (`benches/src/bin/soak.rs`) and its CI-sized version (`tests/tests/soak.rs`), so
+    //! the test exercises exactly what the recorded 10,000-frame result measured.
+
+    use glam::{DVec3, Mat4, Vec3};
+    use translucent::material::{Material, MaterialField, Procedural};
+    use translucent::solver::gpu::Deformation;
+    use translucent::solver::{Environment, Light, Scene};
+
+    /// A directional light turning 0.2 rad per frame, brightness 1 +- 0.5, a dim environment.
+    pub fn scene_at(i: usize) -> Scene {
+        let a = 0.2 * i as f64;
+        let e = 1.0 + 0.5 * (0.3 * i as f64).sin();
+        Scene {
+            lights: vec![Light::Directional {
+                direction: DVec3::new(a.cos(), -1.0, a.sin()),
+                irradiance: [e, 0.9 * e, 0.8 * e],
+            }],
+            environment: Environment::Constant([0.05; 3]),
+        }
+    }
+
+    /// Marble with drifting coefficients; every fourth frame a heterogeneous split (marble /
+    /// skin1, moving plane) with eta 1.4.
+    pub fn material_at(i: usize) -> Result<MaterialField, translucent::material::MaterialError> {
+        let t = i as f64;
+        let mut m = Material::preset("marble")?;
+        for c in 0..3 {
+            m.sigma_a[c] *= 1.0 + 0.5 * (0.1 * t).sin();
+            m.sigma_s[c] *= 1.0 + 0.3 * (0.13 * t).cos();
+        }
+        if i % 4 == 3 {
+            MaterialField::procedural(
+                Procedural::Split {
+                    normal: DVec3::new(0.3, 1.0, 0.0).normalize(),
+                    offset: 3.0 * (0.05 * t).sin(),
+                    below: m.coefficients(),
+                    above: Material::preset("skin1")?.coefficients(),
+                },
+                1.4,
+            )
+        } else {
+            Ok(MaterialField::Homogeneous(m))
+        }
+    }
+
+    /// A twist of 0.03 sin(0.07 i) rad/mm; every tenth frame the identity, every tenth an affine
+    /// squash of y by up to 20%.
+    pub fn deformation_at(i: usize) -> Deformation {
+        let t = i as f32;
+        match i % 10 {
+            5 => Deformation::Identity,
+            7 => Deformation::Affine(Mat4::from_scale(Vec3::new(
+                1.0,
+                1.0 - 0.2 * (0.1 * t).sin().abs(),
+                1.0,
+            ))),
+            _ => Deformation::Twist {
+                radians_per_mm: 0.03 * (0.07 * t).sin(),
+            },
         }
     }
 }

@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use translucent::vk::{Context, ContextDesc, ValidationLog};
+use translucent::vk::{Context, ContextDesc, LinearImage, ValidationLog};
 
 /// The workspace root (parent of this crate).
 pub fn workspace_root() -> PathBuf {
@@ -212,4 +212,24 @@ pub fn compare_to_reference(
         ));
     }
     Ok(diff)
+}
+
+/// Largest per-channel difference between two renders of the same frame, relative to the
+/// reference's brightest channel; asserts every pixel of both images is finite (no NaN or Inf
+/// leaves the shading) and that the reference is not black (so the comparison can fail).
+pub fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32 {
+    let peak = reference
+        .pixels
+        .iter()
+        .flat_map(|p| p[..3].iter().copied())
+        .fold(0.0f32, f32::max);
+    assert!(peak > 0.0, "the reference is black");
+    let mut worst = 0.0f32;
+    for (a, r) in actual.pixels.iter().zip(&reference.pixels) {
+        for c in 0..3 {
+            assert!(a[c].is_finite() && r[c].is_finite(), "{a:?} {r:?}");
+            worst = worst.max((a[c] - r[c]).abs() / peak);
+        }
+    }
+    worst
 }

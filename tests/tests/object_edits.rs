@@ -17,7 +17,7 @@ use translucent::solver::gpu::Deformation;
 use translucent::solver::{Environment, Light, Scene};
 use translucent::vk::{Context, LinearImage};
 use translucent::{ObjectParams, QuadGraph, SkipReason, TranslucentObject};
-use translucent_tests::GpuTest;
+use translucent_tests::{relative_difference, GpuTest};
 
 const SIZE: u32 = 24;
 /// A warm-started solve against a cold one of the same scene, both stopped at an estimated
@@ -80,25 +80,6 @@ fn object(
         ..ObjectParams::default()
     };
     TranslucentObject::new(ctx, graph.clone(), field, &scene(), &params).expect("object")
-}
-
-/// Largest per-channel difference relative to the reference's brightest channel; every pixel of
-/// both images finite.
-fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32 {
-    let peak = reference
-        .pixels
-        .iter()
-        .flat_map(|p| p[..3].iter().copied())
-        .fold(0.0f32, f32::max);
-    assert!(peak > 0.0, "the reference is black");
-    let mut worst = 0.0f32;
-    for (a, r) in actual.pixels.iter().zip(&reference.pixels) {
-        for c in 0..3 {
-            assert!(a[c].is_finite() && r[c].is_finite(), "{a:?} {r:?}");
-            worst = worst.max((a[c] - r[c]).abs() / peak);
-        }
-    }
-    worst
 }
 
 /// Pixels the object covers (any non-zero channel; the background is black).

@@ -17,9 +17,9 @@ use translucent::object::{PASS_COARSE, PASS_GATHER, PASS_INIT, PASS_SHADOW, PASS
 use translucent::quadgraph::BakeParams;
 use translucent::render::{Camera, HeadlessHost};
 use translucent::solver::{Environment, Light, Scene};
-use translucent::vk::{Context, LinearImage};
+use translucent::vk::Context;
 use translucent::{ObjectParams, QuadGraph, SkipReason, TranslucentObject};
-use translucent_tests::GpuTest;
+use translucent_tests::{relative_difference, GpuTest};
 
 const SIZE: u32 = 24;
 /// Tolerance between two solves that both stopped at the tolerance (estimated relative error
@@ -66,25 +66,6 @@ fn object(
     let mut params = ObjectParams::default();
     tweak(&mut params);
     TranslucentObject::new(ctx, graph.clone(), field, scene, &params).expect("object")
-}
-
-/// Largest per-channel difference relative to the reference's brightest channel; every pixel
-/// of both images finite (no NaN or Inf leaves the shading).
-fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32 {
-    let peak = reference
-        .pixels
-        .iter()
-        .flat_map(|p| p[..3].iter().copied())
-        .fold(0.0f32, f32::max);
-    assert!(peak > 0.0, "the reference is black");
-    let mut worst = 0.0f32;
-    for (a, r) in actual.pixels.iter().zip(&reference.pixels) {
-        for c in 0..3 {
-            assert!(a[c].is_finite() && r[c].is_finite(), "{a:?} {r:?}");
-            worst = worst.max((a[c] - r[c]).abs() / peak);
-        }
-    }
-    worst
 }
 
 fn assert_no_scopes(passes: &std::collections::BTreeMap<String, f64>, absent: &[&str]) {

@@ -8,68 +8,17 @@
 //! 10 frames and at the end, and the allocator flat: live allocations, allocated bytes and memory
 //! blocks identical at frame 10 and at the end.
 
-use glam::{Mat4, Vec3};
-use translucent::material::{Material, MaterialField, Procedural};
+use translucent::material::MaterialField;
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer};
-use translucent::solver::gpu::{Deformation, GpuFrame, GpuSolveParams};
-use translucent::solver::{Environment, Light, Scene};
+use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
 use translucent::QuadGraph;
+use translucent_benches::soak::{deformation_at, material_at, scene_at};
 use translucent_tests::GpuTest;
 
 const FRAMES: usize = 100;
 const CHECK_EVERY: usize = 10;
-
-fn scene_at(i: usize) -> Scene {
-    let a = 0.2 * i as f64;
-    let e = 1.0 + 0.5 * (0.3 * i as f64).sin();
-    Scene {
-        lights: vec![Light::Directional {
-            direction: glam::DVec3::new(a.cos(), -1.0, a.sin()),
-            irradiance: [e, 0.9 * e, 0.8 * e],
-        }],
-        environment: Environment::Constant([0.05; 3]),
-    }
-}
-
-fn material_at(i: usize) -> MaterialField {
-    let t = i as f64;
-    let mut m = Material::preset("marble").unwrap();
-    for c in 0..3 {
-        m.sigma_a[c] *= 1.0 + 0.5 * (0.1 * t).sin();
-        m.sigma_s[c] *= 1.0 + 0.3 * (0.13 * t).cos();
-    }
-    if i % 4 == 3 {
-        MaterialField::procedural(
-            Procedural::Split {
-                normal: glam::DVec3::new(0.3, 1.0, 0.0).normalize(),
-                offset: 3.0 * (0.05 * t).sin(),
-                below: m.coefficients(),
-                above: Material::preset("skin1").unwrap().coefficients(),
-            },
-            1.4,
-        )
-        .unwrap()
-    } else {
-        MaterialField::Homogeneous(m)
-    }
-}
-
-fn deformation_at(i: usize) -> Deformation {
-    let t = i as f32;
-    match i % 10 {
-        5 => Deformation::Identity,
-        7 => Deformation::Affine(Mat4::from_scale(Vec3::new(
-            1.0,
-            1.0 - 0.2 * (0.1 * t).sin().abs(),
-            1.0,
-        ))),
-        _ => Deformation::Twist {
-            radians_per_mm: 0.03 * (0.07 * t).sin(),
-        },
-    }
-}
 
 #[test]
 fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() {
@@ -92,7 +41,7 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
         warm_start: true,
         ..Default::default()
     };
-    let field = material_at(0);
+    let field = material_at(0).expect("material");
     let scene = scene_at(0);
     let n = graph.surface.positions.len();
     let mut renderer = HeadlessRenderer::new(
@@ -117,7 +66,7 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
     let mut kinds = [0usize; 2];
     for i in 0..FRAMES {
         frame.set_lights(&graph, &scene_at(i)).unwrap();
-        let field = material_at(i);
+        let field = material_at(i).expect("material");
         kinds[usize::from(matches!(field, MaterialField::Homogeneous(_)))] += 1;
         frame.set_material(ctx, &graph, &field).unwrap();
         frame

@@ -17,70 +17,15 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use translucent::material::{Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer};
-use translucent::solver::gpu::{Deformation, GpuFrame, GpuSolveParams};
-use translucent::solver::{Environment, Light, Scene};
+use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;
+use translucent_benches::soak::{deformation_at, material_at, scene_at};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
-
-fn scene_at(i: usize) -> Scene {
-    let a = 0.2 * i as f64;
-    let e = 1.0 + 0.5 * (0.3 * i as f64).sin();
-    Scene {
-        lights: vec![Light::Directional {
-            direction: glam_dvec3(a.cos(), -1.0, a.sin()),
-            irradiance: [e, 0.9 * e, 0.8 * e],
-        }],
-        environment: Environment::Constant([0.05; 3]),
-    }
-}
-
-fn glam_dvec3(x: f64, y: f64, z: f64) -> glam::DVec3 {
-    glam::DVec3::new(x, y, z)
-}
-
-fn material_at(i: usize) -> Result<MaterialField> {
-    let t = i as f64;
-    let mut m = Material::preset("marble")?;
-    for c in 0..3 {
-        m.sigma_a[c] *= 1.0 + 0.5 * (0.1 * t).sin();
-        m.sigma_s[c] *= 1.0 + 0.3 * (0.13 * t).cos();
-    }
-    Ok(if i % 4 == 3 {
-        MaterialField::procedural(
-            Procedural::Split {
-                normal: glam_dvec3(0.3, 1.0, 0.0).normalize(),
-                offset: 3.0 * (0.05 * t).sin(),
-                below: m.coefficients(),
-                above: Material::preset("skin1")?.coefficients(),
-            },
-            1.4,
-        )?
-    } else {
-        MaterialField::Homogeneous(m)
-    })
-}
-
-fn deformation_at(i: usize) -> Deformation {
-    use glam::{Mat4, Vec3};
-    let t = i as f32;
-    match i % 10 {
-        5 => Deformation::Identity,
-        7 => Deformation::Affine(Mat4::from_scale(Vec3::new(
-            1.0,
-            1.0 - 0.2 * (0.1 * t).sin().abs(),
-            1.0,
-        ))),
-        _ => Deformation::Twist {
-            radians_per_mm: 0.03 * (0.07 * t).sin(),
-        },
-    }
-}
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<T> {
     match args.iter().position(|a| a == name) {

@@ -1422,16 +1422,13 @@ impl GpuDiffusion {
                 };
                 let sets = &level.iterate_sets[v];
                 let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
+                // Shepard init and the warm correction both read the coarser level (none at 0).
+                let coarse_width = h.checked_sub(1).map_or(1, |c| self.levels[c].packing.width);
                 if !warm {
                     scope(cb, Some(PASS_INIT));
                     // why: init overwrites this level's phi, which the previous frame's J+ or
                     // reduction read (WAR), and reads the coarser level's last iteration (RAW).
                     barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    let coarse_width = if h > 0 {
-                        self.levels[h - 1].packing.width
-                    } else {
-                        1
-                    };
                     self.pipelines.init.dispatch(
                         ctx,
                         cb,
@@ -1450,11 +1447,6 @@ impl GpuDiffusion {
                     // saved phi (RAW), and rewrites this level's phi and saved copy, which the
                     // previous solve's J+, reductions and finer correction read (WAR).
                     barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    let coarse_width = if h > 0 {
-                        self.levels[h - 1].packing.width
-                    } else {
-                        1
-                    };
                     self.pipelines.warm.dispatch(
                         ctx,
                         cb,
