@@ -36,11 +36,21 @@ fn scene() -> Scene {
 
 /// q per level, by surface index, as the CPU reference computes it.
 fn q_levels(graph: &QuadGraph, field: &MaterialField, scale: f64) -> Vec<Vec<[f32; 3]>> {
+    q_levels_of(&scene(), graph, field, scale)
+}
+
+/// q per level of `scene`, times `scale`.
+fn q_levels_of(
+    scene: &Scene,
+    graph: &QuadGraph,
+    field: &MaterialField,
+    scale: f64,
+) -> Vec<Vec<[f32; 3]>> {
     graph
         .levels
         .iter()
         .map(|l| {
-            scene()
+            scene
                 .surface_irradiance(l, field.eta(), None)
                 .iter()
                 .map(|q| q.map(|v| (v * scale) as f32))
@@ -60,16 +70,7 @@ fn gpu_solve(
     let q = q_levels(graph, field, q_scale);
     let mut gpu = GpuDiffusion::new(ctx, graph, field, params).expect("GpuDiffusion::new");
     gpu.set_q_scale(GpuDiffusion::exposure_for(q.iter().flatten()));
-    for (h, q) in q.iter().enumerate() {
-        gpu.upload_q(ctx, h, q).expect("upload q");
-    }
-    ctx.execute("gpu solve", |cb| {
-        // SAFETY: `cb` is recording; `gpu` outlives the waited submission.
-        unsafe { gpu.record(ctx, cb, None) };
-        Ok(())
-    })
-    .expect("solve");
-    let j = gpu.read_j_plus(ctx).expect("read J+");
+    let j = solve_with(ctx, &mut gpu, &q);
     let it = gpu.iterations_run(ctx).expect("iterations");
     (j, it, gpu)
 }
@@ -524,27 +525,18 @@ fn warm_start_stops_after_two_blocks_on_an_unchanged_scene() {
     gpu.finish();
 }
 
-/// q per level for a directional light turned `degrees` about +Y from `scene()`'s.
+/// q per level for `scene()`'s lights turned `degrees` about +Y.
 fn q_turned(graph: &QuadGraph, field: &MaterialField, degrees: f64) -> Vec<Vec<[f32; 3]>> {
-    let (s, c) = degrees.to_radians().sin_cos();
-    let (x, z) = (-0.3 * c + 0.2 * s, 0.3 * s + 0.2 * c);
+    let turn = glam::DQuat::from_rotation_y(degrees.to_radians());
+    let base = scene();
     let turned = Scene {
-        lights: vec![format!("dir:{x},-1,{z}:1,1,1").parse().unwrap()],
-        environment: Environment::Constant([0.05; 3]),
+        lights: base.lights.iter().map(|l| l.rotated(turn)).collect(),
+        ..base
     };
-    graph
-        .levels
-        .iter()
-        .map(|l| {
-            turned
-                .surface_irradiance(l, field.eta(), None)
-                .iter()
-                .map(|q| q.map(|v| v as f32))
-                .collect()
-        })
-        .collect()
+    q_levels_of(&turned, graph, field, 1.0)
 }
 
+/// Uploads `q` (per level), records and waits for one solve, returns J+ per surface node.
 fn solve_with(ctx: &Context, solve: &mut GpuDiffusion, q: &[Vec<[f32; 3]>]) -> Vec<[f32; 3]> {
     for (h, q) in q.iter().enumerate() {
         solve.upload_q(ctx, h, q).expect("upload q");
