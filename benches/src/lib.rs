@@ -1,7 +1,8 @@
 //! Benchmarks: see `benches/` and `benches/RESULTS.md`. This library holds what the bench bins
 //! and `translucent bench` share: [`plot::error_vs_time`], the log-log chart of error against GPU
-//! time with the Pareto front; and [`soak`], the per-frame schedule the soak bin and the CI soak
-//! test (`tests/tests/soak.rs`) both run.
+//! time with the Pareto front; [`soak`], the per-frame schedule the soak bin and the CI soak
+//! test (`tests/tests/soak.rs`) both run; and [`fixtures`], the hand-made OBJ meshes of the stress
+//! matrix (`stress` bin) and its CI tests (`tests/tests/stress_geometry.rs`).
 //!
 //! ```no_run
 //! use translucent_benches::plot::{error_vs_time, palette, Panel, Series};
@@ -288,5 +289,57 @@ pub mod soak {
                 radians_per_mm: 0.03 * (0.07 * t).sin(),
             },
         }
+    }
+}
+
+pub mod fixtures {
+    //! Small OBJ fixtures written by the stress matrix and its CI tests: raw vertex and face
+    //! arrays (not `mesh::shapes`, whose boxes are subdivided), so a test can perturb one vertex
+    //! or add one degenerate face and write exactly that.
+
+    use std::fmt::Write as _;
+    use std::path::Path;
+
+    use glam::DVec3;
+
+    /// Writes a Wavefront OBJ (1-based faces).
+    pub fn write_obj(path: &Path, vertices: &[DVec3], faces: &[[u32; 3]]) -> std::io::Result<()> {
+        let mut text = String::new();
+        for v in vertices {
+            // Writing into a String cannot fail.
+            let _ = writeln!(text, "v {} {} {}", v.x, v.y, v.z);
+        }
+        for f in faces {
+            let _ = writeln!(text, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
+        }
+        std::fs::write(path, text)
+    }
+
+    /// An axis-aligned box centred at the origin: 8 vertices, 12 outward triangles.
+    pub fn box_mesh(half: DVec3) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let v = (0..8)
+            .map(|i| {
+                DVec3::new(
+                    if i & 1 == 1 { half.x } else { -half.x },
+                    if i & 2 == 2 { half.y } else { -half.y },
+                    if i & 4 == 4 { half.z } else { -half.z },
+                )
+            })
+            .collect();
+        let f = vec![
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 5, 7],
+            [4, 7, 6],
+            [0, 1, 5],
+            [0, 5, 4],
+            [2, 6, 7],
+            [2, 7, 3],
+            [0, 4, 6],
+            [0, 6, 2],
+            [1, 3, 7],
+            [1, 7, 5],
+        ];
+        (v, f)
     }
 }

@@ -15,6 +15,7 @@ use translucent::mesh::{MeshError, MeshSolid, TriMesh, ValidateOptions, SIZE_RAN
 use translucent::quadgraph::{BakeError, BakeParams};
 use translucent::solver::{self, CpuSolveParams, Environment, Scene};
 use translucent::QuadGraph;
+use translucent_benches::fixtures::{box_mesh, write_obj};
 
 fn scratch(name: &str) -> PathBuf {
     let dir =
@@ -22,45 +23,6 @@ fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn write_obj(path: &Path, vertices: &[DVec3], faces: &[[u32; 3]]) {
-    let mut text = String::new();
-    for v in vertices {
-        writeln!(text, "v {} {} {}", v.x, v.y, v.z).unwrap();
-    }
-    for f in faces {
-        writeln!(text, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1).unwrap();
-    }
-    std::fs::write(path, text).unwrap();
-}
-
-/// An axis-aligned box: 8 vertices, 12 outward triangles.
-fn box_mesh(half: DVec3) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let v = (0..8)
-        .map(|i| {
-            DVec3::new(
-                if i & 1 == 1 { half.x } else { -half.x },
-                if i & 2 == 2 { half.y } else { -half.y },
-                if i & 4 == 4 { half.z } else { -half.z },
-            )
-        })
-        .collect();
-    let f = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-    ];
-    (v, f)
 }
 
 /// The CLI's path: load, validate (default options), normalize to `size`, bake.
@@ -133,7 +95,7 @@ fn thin_and_near_degenerate_meshes_bake_and_solve_or_are_typed_errors() {
     ] {
         let path = dir.join(format!("{name}.obj"));
         let (v, f) = box_mesh(half);
-        write_obj(&path, &v, &f);
+        write_obj(&path, &v, &f).expect("write OBJ");
         let e = load_and_bake(&path, 50.0, 16, 2).expect_err(name);
         assert!(
             e.contains("no tetrahedra") && e.contains("--resolution"),
@@ -143,7 +105,7 @@ fn thin_and_near_degenerate_meshes_bake_and_solve_or_are_typed_errors() {
     // ...and works once the lattice resolves it (a 1 mm plate at 64 cells across 50 mm).
     let path = dir.join("plate.obj");
     let (v, f) = box_mesh(DVec3::new(25.0, 0.5, 25.0));
-    write_obj(&path, &v, &f);
+    write_obj(&path, &v, &f).expect("write OBJ");
     let graph = load_and_bake(&path, 50.0, 64, 1).expect("a resolved plate bakes");
     solve_finite(&graph, "plate");
 
@@ -168,7 +130,7 @@ fn thin_and_near_degenerate_meshes_bake_and_solve_or_are_typed_errors() {
         ("sliver triangles", sliver),
     ] {
         let path = dir.join(format!("{name}.obj"));
-        write_obj(&path, &v, &f);
+        write_obj(&path, &v, &f).expect("write OBJ");
         match load_and_bake(&path, 50.0, 12, 2) {
             Ok(graph) => solve_finite(&graph, name),
             // A typed error must name the problem; none of these is expected to need one.
@@ -181,7 +143,8 @@ fn thin_and_near_degenerate_meshes_bake_and_solve_or_are_typed_errors() {
         &path,
         &[DVec3::ZERO, DVec3::X, DVec3::X * 2.0],
         &[[0, 1, 2], [0, 2, 1]],
-    );
+    )
+    .expect("write OBJ");
     assert!(load_and_bake(&path, 50.0, 12, 1).is_err());
     let _ = std::fs::remove_dir_all(&dir);
 }

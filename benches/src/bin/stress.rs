@@ -31,6 +31,7 @@ use translucent::solver::gpu::{GpuDiffusion, GpuFrame, GpuSolveParams, Precision
 use translucent::solver::{self, CpuSolution, CpuSolveParams, Environment, Light, Scene};
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;
+use translucent_benches::fixtures::{box_mesh, write_obj};
 
 type Result<T, E = Box<dyn std::error::Error>> = std::result::Result<T, E>;
 
@@ -772,47 +773,6 @@ fn case_light(rows: &mut Vec<Row>, ctx: &Context, lights: &[f64]) -> Result<()> 
         }
     }
     Ok(())
-}
-
-/// Writes a Wavefront OBJ (1-based faces).
-fn write_obj(path: &Path, vertices: &[DVec3], faces: &[[u32; 3]]) -> Result<()> {
-    let mut text = String::new();
-    for v in vertices {
-        writeln!(text, "v {} {} {}", v.x, v.y, v.z)?;
-    }
-    for f in faces {
-        writeln!(text, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1)?;
-    }
-    std::fs::write(path, text)?;
-    Ok(())
-}
-
-/// An axis-aligned box as 8 vertices and 12 outward triangles.
-fn box_mesh(half: DVec3) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let v: Vec<DVec3> = (0..8)
-        .map(|i| {
-            DVec3::new(
-                if i & 1 == 1 { half.x } else { -half.x },
-                if i & 2 == 2 { half.y } else { -half.y },
-                if i & 4 == 4 { half.z } else { -half.z },
-            )
-        })
-        .collect();
-    let f = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-    ];
-    (v, f)
 }
 
 /// The near-degenerate OBJ fixtures: (name, vertices, faces).
