@@ -281,6 +281,9 @@ pub struct TranslucentObject {
     shading: MeshPass,
     params: ObjectParams,
     lights: Vec<Light>,
+    /// The rest pose's bounding sphere: what the automatic camera frames (computed once: it
+    /// walks every finest-level node).
+    framing: (glam::DVec3, f64),
     /// The environment's mirror reflection in the shading's basis (zero without specular).
     env_sh: [[f32; 4]; 9],
     eta: f32,
@@ -325,6 +328,7 @@ impl TranslucentObject {
             params.depth_format,
         )?;
         Ok(TranslucentObject {
+            framing: level_bounds(graph.finest()),
             eta: field.eta() as f32,
             graph,
             frame,
@@ -517,7 +521,7 @@ impl TranslucentObject {
     /// atlas tile for the specular shadow.
     fn uniforms(&self, extent: vk::Extent2D) -> (ShadeUniforms, bool) {
         let aspect = f64::from(extent.width) / f64::from(extent.height.max(1));
-        let (centre, radius) = level_bounds(self.graph.finest());
+        let (centre, radius) = self.framing;
         let camera = self
             .camera
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));

@@ -225,7 +225,13 @@ impl GatherScene {
 
 /// The bounding sphere (centre, radius in mm) of a level's nodes, for [`ShadowMaps::set_lights`].
 pub fn level_bounds(level: &GraphLevel) -> (DVec3, f64) {
-    let (lo, hi) = level.positions.iter().fold(
+    point_bounds(&level.positions)
+}
+
+/// The bounding sphere (centre of the bounding box, radius in mm, at least 1e-3) of `points`;
+/// (origin, 1) when there is none or one is not finite.
+pub fn point_bounds(points: &[DVec3]) -> (DVec3, f64) {
+    let (lo, hi) = points.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
     );
@@ -233,8 +239,7 @@ pub fn level_bounds(level: &GraphLevel) -> (DVec3, f64) {
         return (DVec3::ZERO, 1.0);
     }
     let centre = (lo + hi) * 0.5;
-    let radius = level
-        .positions
+    let radius = points
         .iter()
         .map(|p| p.distance(centre))
         .fold(0.0, f64::max);

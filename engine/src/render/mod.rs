@@ -37,8 +37,8 @@ mod target;
 
 pub use headless::{render_headless, Captured, HeadlessHost, HeadlessRenderer};
 pub use irradiance::{
-    level_bounds, q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView,
-    IrradiancePass, SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT,
+    level_bounds, point_bounds, q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene,
+    GatherView, IrradiancePass, SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT,
     SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};

@@ -58,7 +58,7 @@ use super::{
 };
 use crate::material::{fresnel, MaterialField};
 use crate::quadgraph::graph::{GraphLevel, NO_NODE};
-use crate::render::{GpuMesh, Vertex};
+use crate::render::{point_bounds, GpuMesh, Vertex};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::solver::operator::Scheme;
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse};
@@ -1351,22 +1351,4 @@ impl GpuFrame {
         };
         self.refit_bounds(point_bounds(&points))
     }
-}
-
-/// The bounding sphere (centre of the box, radius in mm) of `points`, as
-/// `render::level_bounds` computes it for the rest pose.
-pub fn point_bounds(points: &[DVec3]) -> (DVec3, f64) {
-    let (lo, hi) = points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    if !(lo.is_finite() && hi.is_finite()) {
-        return (DVec3::ZERO, 1.0);
-    }
-    let centre = (lo + hi) * 0.5;
-    let radius = points
-        .iter()
-        .map(|p| p.distance(centre))
-        .fold(0.0, f64::max);
-    (centre, radius.max(1e-3))
 }
