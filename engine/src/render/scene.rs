@@ -60,7 +60,9 @@ impl Camera {
         // The view matrix is f32: an eye at 1e300 mm is finite but renders nothing. 1e10 mm is a
         // hundred times the largest object (`mesh::SIZE_RANGE_MM`).
         if self.eye.abs().max(self.target.abs()).max_element() > MAX_CAMERA_MM {
-            return bad("coordinates must be within +-1e10 mm");
+            return bad(&format!(
+                "coordinates must be within +-{MAX_CAMERA_MM:e} mm"
+            ));
         }
         if (self.eye - self.target).length() < 1e-9 {
             return bad("eye and target coincide");
