@@ -704,19 +704,6 @@ impl Row {
     }
 }
 
-fn default_cache_dir() -> PathBuf {
-    // Same rule as `render` (its helper is private to that module).
-    let env = |k: &str| {
-        std::env::var_os(k)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
-    env("TRANSLUCENT_CACHE_DIR")
-        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("translucent")))
-        .or_else(|| env("HOME").map(|d| d.join(".cache").join("translucent")))
-        .unwrap_or_else(|| std::env::temp_dir().join("translucent-cache"))
-}
-
 fn rgb(option: &'static str, text: &str) -> Result<[f64; 3], BenchError> {
     let v = list(option, text, |s| {
         s.parse::<f64>()
@@ -860,7 +847,10 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         _ => None,
     };
 
-    let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
+    let cache_dir = args
+        .cache_dir
+        .clone()
+        .unwrap_or_else(crate::render::default_cache_dir);
     std::fs::create_dir_all(&cache_dir)
         .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
     let ctx = Context::headless(&ContextDesc {

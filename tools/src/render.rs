@@ -111,7 +111,8 @@ pub struct RenderArgs {
 const DEFAULT_SHAPE: &str = "torus";
 const DEFAULT_MATERIAL: &str = "skimmilk";
 
-fn default_cache_dir() -> PathBuf {
+/// Where baked QuadGraphs are cached without `--cache-dir` (shared by `render` and `bench`).
+pub(crate) fn default_cache_dir() -> PathBuf {
     let env = |k: &str| {
         std::env::var_os(k)
             .filter(|v| !v.is_empty())
