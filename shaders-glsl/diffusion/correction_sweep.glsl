@@ -22,8 +22,6 @@ void main() {
     vec3 gain;
     node_weights(p, surface, w, gain);
     vec3 acc = imageLoad(residual, p).rgb;
-    for (int k = 0; k < (surface ? 1 : 4); ++k) {
-        acc += w[k] * imageLoad(src, texel_of(nb[k])).rgb;
-    }
+    ADD_NEIGHBOUR_SUM(acc, src, nb, w, surface);
     imageStore(dst, p, vec4(acc, 0.0));
 }

@@ -46,4 +46,12 @@ void node_weights(ivec2 p, bool surface, out vec3 w[4], out vec3 gain) {
     }
 }
 
+// Eqs. 8/9's neighbour sum, ACC += sum_k w_ik x_nbr(i,k), of image IMG (surface rows have one
+// neighbour; padding has zero weights). A macro, not a function: the Jacobi, residual and
+// correction passes each read a different image (the ping-pong state, phi, the correction).
+#define ADD_NEIGHBOUR_SUM(ACC, IMG, NB, W, SURFACE)                          \
+    for (int k_ = 0; k_ < ((SURFACE) ? 1 : 4); ++k_) {                       \
+        ACC += W[k_] * imageLoad(IMG, texel_of(NB[k_])).rgb;                 \
+    }
+
 #endif

@@ -24,8 +24,6 @@ void main() {
     node_weights(p, surface, w, gain);
     // Eq. 9's source term on surface rows (zero weights on padding).
     vec3 acc = surface ? gain * imageLoad(q, p).rgb : vec3(0.0);
-    for (int k = 0; k < (surface ? 1 : 4); ++k) {
-        acc += w[k] * imageLoad(src, texel_of(nb[k])).rgb;
-    }
+    ADD_NEIGHBOUR_SUM(acc, src, nb, w, surface);
     imageStore(dst, p, vec4(acc, 0.0));
 }

@@ -23,9 +23,7 @@ void main() {
     vec3 gain;
     node_weights(p, surface, w, gain);
     vec3 acc = surface ? gain * imageLoad(q, p).rgb : vec3(0.0);
-    for (int k = 0; k < (surface ? 1 : 4); ++k) {
-        acc += w[k] * imageLoad(phi, texel_of(nb[k])).rgb;
-    }
+    ADD_NEIGHBOUR_SUM(acc, phi, nb, w, surface);
     vec3 r = acc - imageLoad(phi, p).rgb;
     imageStore(residual, p, vec4(r, 0.0));
     imageStore(delta, p, vec4(r, 0.0));
