@@ -86,8 +86,11 @@ fn jacobi_converges_to_the_exact_solve() {
             diffs.push(max_rel_diff(&sol.phi, &exact.phi));
         }
         println!("{scheme:?}: relative difference to the exact solve after 25..6400 iterations: {diffs:?}");
+        // Once Jacobi has converged, the difference is the exact solve's own error: its
+        // residual tolerance (1e-10, BiCGSTAB for `paper`) leaves ~1e-10 in phi, not 1e-12.
+        let floor = 1e-9;
         assert!(
-            diffs.windows(2).all(|w| w[1] < w[0] || w[1] < 1e-12),
+            diffs.windows(2).all(|w| w[1] < w[0] || w[1] < floor),
             "{scheme:?}: {diffs:?}"
         );
         assert!(diffs[diffs.len() - 1] < 1e-6, "{scheme:?}: {diffs:?}");
