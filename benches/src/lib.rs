@@ -234,8 +234,8 @@ pub mod soak {
 
     use glam::{DVec3, Mat4, Vec3};
     use translucent::material::{Material, MaterialField, Procedural};
+    use translucent::scene::{Environment, Light, Scene};
     use translucent::solver::gpu::Deformation;
-    use translucent::solver::{Environment, Light, Scene};
 
     /// A directional light turning 0.2 rad per frame, brightness 1 +- 0.5, a dim environment.
     pub fn scene_at(i: usize) -> Scene {

@@ -21,6 +21,7 @@ pub mod mesh;
 pub mod object;
 pub mod quadgraph;
 pub mod render;
+pub mod scene;
 pub mod shader;
 pub mod solver;
 pub mod tet;
@@ -48,6 +49,8 @@ pub enum Error {
     Shader(#[from] shader::ShaderError),
     #[error(transparent)]
     Render(#[from] render::RenderError),
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
 }
 
 /// Result with the crate's [`Error`].

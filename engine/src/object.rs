@@ -33,7 +33,7 @@
 //! use translucent::object::{ObjectParams, RecordCtx, TargetImage, Targets, TranslucentObject};
 //! use translucent::vk::Access;
 //! # fn f(ctx: &translucent::vk::Context, graph: Arc<translucent::QuadGraph>,
-//! #      field: &translucent::material::MaterialField, scene: &translucent::solver::Scene,
+//! #      field: &translucent::material::MaterialField, scene: &translucent::scene::Scene,
 //! #      cb: ash::vk::CommandBuffer, color: ash::vk::Image, view: ash::vk::ImageView)
 //! #      -> Result<(), translucent::Error> {
 //! let mut object = TranslucentObject::new(ctx, graph, field, scene, &ObjectParams::default())?;
@@ -65,14 +65,15 @@ use ash::vk;
 
 use crate::material::MaterialField;
 use crate::render::{
-    environment_sh, level_bounds, Camera, GpuMesh, MeshPass, RadianceMode, RenderError,
-    ShadeAttachments, ShadePush, ShadeUniforms, COLOR_FORMAT, DEPTH_FORMAT,
+    environment_sh, MeshPass, RenderError, ShadeAttachments, ShadePush, ShadeUniforms,
+    COLOR_FORMAT, DEPTH_FORMAT,
 };
 
+use crate::mesh::GpuMesh;
+use crate::scene::{Camera, Light, RadianceMode, Scene};
 use crate::solver::gpu::frame::{FrameParts, SolvePlan};
 use crate::solver::gpu::{Deformation, GpuFrame, GpuSolveParams};
-use crate::solver::{Light, Scene};
-use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc};
+use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc, ImageState};
 use crate::{Error, QuadGraph};
 
 pub use crate::solver::gpu::frame::CompletedSolve;
@@ -143,25 +144,6 @@ pub struct RecordCtx<'a> {
     pub completed_frame: u64,
     /// The host's profiler (its frame begun): our passes add named scopes.
     pub profiler: Option<&'a mut GpuProfiler>,
-}
-
-/// A synchronization2 state of an image: stage, access and layout.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ImageState {
-    pub stage: vk::PipelineStageFlags2,
-    pub access: vk::AccessFlags2,
-    pub layout: vk::ImageLayout,
-}
-
-impl From<Access> for ImageState {
-    fn from(a: Access) -> Self {
-        let (stage, access, layout) = a.info();
-        ImageState {
-            stage,
-            access,
-            layout,
-        }
-    }
 }
 
 /// One host image we render into, with the state it comes in and must leave in.
@@ -328,7 +310,7 @@ impl TranslucentObject {
             params.depth_format,
         )?;
         Ok(TranslucentObject {
-            framing: level_bounds(graph.finest()),
+            framing: graph.finest().bounding_sphere(),
             eta: field.eta() as f32,
             graph,
             frame,
@@ -791,32 +773,5 @@ fn host_barrier(
     from: ImageState,
     to: ImageState,
 ) -> vk::ImageMemoryBarrier2<'static> {
-    let aspect = match target.format {
-        vk::Format::D16_UNORM | vk::Format::D32_SFLOAT | vk::Format::X8_D24_UNORM_PACK32 => {
-            vk::ImageAspectFlags::DEPTH
-        }
-        vk::Format::D16_UNORM_S8_UINT
-        | vk::Format::D24_UNORM_S8_UINT
-        | vk::Format::D32_SFLOAT_S8_UINT => {
-            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
-        }
-        _ => vk::ImageAspectFlags::COLOR,
-    };
-    vk::ImageMemoryBarrier2::default()
-        .src_stage_mask(from.stage)
-        .src_access_mask(from.access)
-        .dst_stage_mask(to.stage)
-        .dst_access_mask(to.access)
-        .old_layout(from.layout)
-        .new_layout(to.layout)
-        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .image(target.image)
-        .subresource_range(vk::ImageSubresourceRange {
-            aspect_mask: aspect,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: 1,
-        })
+    barrier::raw_image_barrier(target.image, target.format, from, to)
 }

@@ -10,8 +10,9 @@
 use translucent::material::{Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
+use translucent::scene::{Environment, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::vk::Context;
 use translucent::QuadGraph;
 use translucent_tests::GpuTest;
@@ -369,7 +370,8 @@ fn bad_parameters_and_q_are_typed_errors() {
 /// the CPU reference's vertex J+ uploaded with `set_exitance`, on the same schedule.
 #[test]
 fn mesh_pass_draws_the_gpu_written_exitance() {
-    use translucent::render::{FrameDesc, HeadlessRenderer, Light, Scene as RenderScene};
+    use translucent::render::{FrameDesc, HeadlessRenderer, Scene as RenderScene};
+    use translucent::scene::Light;
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 2);

@@ -11,10 +11,11 @@
 use glam::{DVec3, Mat4, Vec3};
 use translucent::material::{Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::GpuMesh;
+use translucent::scene::{Environment, Scene};
 use translucent::solver::gpu::{Deformation, GpuDiffusion, GpuFrame, GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::vk::{Access, Context, ImageReadback};
 use translucent::QuadGraph;
 use translucent_tests::GpuTest;
@@ -419,14 +420,14 @@ fn frame_deform_moves_the_meshes_and_refits_the_shadows() {
     assert!((c1.x - c0.x - 5.0).abs() < 0.5, "{c0} -> {c1}");
     assert!(r1 > 1.6 * r0 && r1 < 2.2 * r0, "{r0} -> {r1}");
     record(&mut frame);
-    let read = |mesh: &GpuMesh| -> Vec<translucent::render::Vertex> {
+    let read = |mesh: &GpuMesh| -> Vec<translucent::mesh::Vertex> {
         let b = mesh.vertex_buffer().read_bytes().unwrap();
         let f: Vec<f32> = b
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect();
         f.chunks_exact(9)
-            .map(|v| translucent::render::Vertex {
+            .map(|v| translucent::mesh::Vertex {
                 position: [v[0], v[1], v[2]],
                 normal: [v[3], v[4], v[5]],
                 exitance: [v[6], v[7], v[8]],

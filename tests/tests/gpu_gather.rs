@@ -6,12 +6,12 @@
 
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{
-    level_bounds, q_scale_for, GatherScene, GpuMesh, IrradiancePass, ShadowMaps, ShadowMapsDesc,
-};
+use translucent::render::{q_scale_for, GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc};
+use translucent::scene::{Environment, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::vk::{Access, VkError};
 use translucent::QuadGraph;
 use translucent_tests::GpuTest;
@@ -58,7 +58,7 @@ fn gathered_q_feeds_the_gpu_solve() {
     .unwrap();
     let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default()).unwrap();
     shadows
-        .set_lights(&scene.lights, level_bounds(graph.finest()), true)
+        .set_lights(&scene.lights, graph.finest().bounding_sphere(), true)
         .unwrap();
     let levels = graph.levels.len();
     let pass = IrradiancePass::new(ctx, levels as u32).unwrap();

@@ -6,7 +6,8 @@
 //!   whose normal faces the camera, L_o = F_t(eta, 0) J+ / (pi eta^2) (physical) and F_t J+ / pi
 //!   (paper, DESIGN section 2), to fp16 precision.
 
-use translucent::render::{render_headless, FrameDesc, Light, RadianceMode, Scene};
+use translucent::render::{render_headless, FrameDesc, Scene};
+use translucent::scene::{Light, RadianceMode};
 use translucent_tests::{compare_to_reference, workspace_root, GpuTest, ImageTolerance};
 
 /// The reference was rendered on lavapipe; other drivers rasterize and round slightly
@@ -74,7 +75,7 @@ fn uniform_exitance_gives_the_exact_fresnel_radiance_at_normal_view() {
     let j = [0.8f32, 0.4, 0.2];
     scene.exitance = vec![j; scene.mesh.positions.len()];
     // The camera on the +Z axis: the centre pixel sees the sphere's normal (0, 0, 1) head on.
-    let camera = translucent::render::Camera {
+    let camera = translucent::scene::Camera {
         eye: glam::DVec3::new(0.0, 0.0, 200.0),
         target: glam::DVec3::ZERO,
         fovy_deg: 30.0,
@@ -157,7 +158,7 @@ fn specular_of_a_light_behind_the_camera_matches_cook_torrance_at_normal_view() 
     };
     let mut scene = Scene::procedural("sphere", 50.0, vec![light], eta).expect("scene");
     scene.exitance = vec![[0.1; 3]; scene.mesh.positions.len()];
-    let camera = translucent::render::Camera {
+    let camera = translucent::scene::Camera {
         eye: glam::DVec3::new(0.0, 0.0, 200.0),
         target: glam::DVec3::ZERO,
         fovy_deg: 30.0,
@@ -208,7 +209,7 @@ fn the_shadow_map_removes_the_specular_of_an_occluded_point_only() {
     let mut scene = Scene::procedural("torus", 40.0, vec![light], eta).expect("scene");
     scene.exitance = vec![[0.1; 3]; scene.mesh.positions.len()];
     let eye = glam::DVec3::new(30.0, 60.0, 0.0);
-    let camera = translucent::render::Camera {
+    let camera = translucent::scene::Camera {
         eye,
         target: glam::DVec3::new(6.0, 0.0, 0.0),
         fovy_deg: 50.0,

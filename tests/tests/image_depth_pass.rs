@@ -10,7 +10,9 @@
 //! 8e-5 in depth; depth bias and texel offset add less than 1e-5. Texels outside the silhouette
 //! keep the clear value 1.
 
-use translucent::render::{GpuMesh, Light, Scene, ShadowMaps, ShadowMapsDesc};
+use translucent::mesh::GpuMesh;
+use translucent::render::{Scene, ShadowMaps, ShadowMapsDesc};
+use translucent::scene::Light;
 use translucent::vk::{Access, ImageReadback};
 use translucent_tests::GpuTest;
 

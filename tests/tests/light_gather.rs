@@ -1,5 +1,5 @@
 //! The GPU irradiance gather and shadow maps against the f64 CPU reference
-//! (`solver::Scene::surface_irradiance`, exact ray-cast visibility through the `Solid` trait).
+//! (`scene::Scene::surface_irradiance`, exact ray-cast visibility through the `Solid` trait).
 //!
 //! Tolerances. Where a node is lit and unshadowed, the GPU q differs from the reference only by
 //! fp32 arithmetic and the final fp16 store: one fp16 ulp, relative 2^-10 = 9.8e-4 (Vulkan lets
@@ -16,13 +16,13 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
 use translucent::quadgraph::BakeParams;
 use translucent::render::{
-    q_scale_for, GatherScene, GpuMesh, IrradiancePass, ShadowMaps, ShadowMapsDesc, SurfaceImages,
-    MAX_LIGHTS,
+    q_scale_for, GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc, SurfaceImages, MAX_LIGHTS,
 };
-use translucent::solver::{Environment, Light, Scene};
+use translucent::scene::{Environment, Light, Scene};
 use translucent::vk::{Access, Context, GpuProfiler, VkError};
 use translucent::{GraphLevel, QuadGraph};
 use translucent_tests::GpuTest;

@@ -19,10 +19,13 @@ use std::path::Path;
 use glam::DVec3;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{Camera, FrameDesc, GpuMesh, HeadlessRenderer, RadianceMode, Scene};
+use translucent::render::{FrameDesc, HeadlessRenderer, Scene};
+use translucent::scene::{self, Camera, RadianceMode};
+use translucent::scene::{Environment, Light};
 use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
-use translucent::solver::{self, CpuSolveParams, Environment, Light, SolverError};
+use translucent::solver::{self, CpuSolveParams, SolverError};
 use translucent::vk::LinearImage;
 use translucent::QuadGraph;
 use translucent_tests::{workspace_root, GpuTest};
@@ -227,7 +230,7 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
         )
         .unwrap(),
     );
-    let scene = solver::Scene {
+    let scene = scene::Scene {
         lights: vec![],
         environment: Environment::Constant([1.0; 3]),
     };
@@ -275,7 +278,7 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
     let milk = Material::preset("skimmilk").unwrap();
     let field = MaterialField::Homogeneous(Material::new(milk.sigma_s, milk.sigma_a, 1.0).unwrap());
     let light: Light = "dir:0.5,-1,-0.5:4,4,4".parse().unwrap();
-    let scene = solver::Scene {
+    let scene = scene::Scene {
         lights: vec![light],
         environment: Environment::None,
     };

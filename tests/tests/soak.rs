@@ -10,8 +10,9 @@
 
 use translucent::material::MaterialField;
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer};
+use translucent::render::{FrameDesc, HeadlessRenderer};
 use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
 use translucent::QuadGraph;
 use translucent_benches::soak::{deformation_at, material_at, scene_at};

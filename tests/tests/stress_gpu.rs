@@ -17,10 +17,12 @@
 use glam::DVec3;
 use translucent::material::{fresnel, Coefficients, Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer, Scene as RenderScene};
+use translucent::render::{FrameDesc, HeadlessRenderer, Scene as RenderScene};
+use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::{GpuFrame, GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolveParams, Environment, Light, Scene};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
 use translucent_tests::GpuTest;

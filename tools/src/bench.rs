@@ -50,13 +50,15 @@ use clap::Parser as _;
 use glam::DQuat;
 use indicatif::{ProgressBar, ProgressStyle};
 use translucent::material::MaterialField;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::cache::{self, CacheOutcome};
-use translucent::render::{Captured, FrameDesc, GpuMesh, HeadlessRenderer, Scene};
+use translucent::render::{Captured, FrameDesc, HeadlessRenderer, Scene};
+use translucent::scene::{self, Environment, Light};
 use translucent::solver::analytic::Homogeneous;
 use translucent::solver::gpu::{GpuFrame, GpuSolveParams, Precision};
 use translucent::solver::krylov;
 use translucent::solver::operator::LevelOperator;
-use translucent::solver::{self, CpuSolution, CpuSolveParams, Environment, Light, Scheme};
+use translucent::solver::{self, CpuSolution, CpuSolveParams, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Access, Context, ContextDesc, ImageReadback, LinearImage};
 use translucent::QuadGraph;
@@ -823,12 +825,12 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         force: args.force,
     };
     let object = object_args.load(Some("torus"))?;
-    let scene = solver::Scene {
+    let scene = scene::Scene {
         lights: lights.clone(),
         environment,
     };
     scene.validate()?;
-    let previous = solver::Scene {
+    let previous = scene::Scene {
         lights: turned(&lights, -args.warm_degrees),
         environment,
     };
@@ -1116,8 +1118,8 @@ fn bench_bake(
     ctx: &Context,
     baked: &Baked,
     field: &MaterialField,
-    scene: &solver::Scene,
-    previous: &solver::Scene,
+    scene: &scene::Scene,
+    previous: &scene::Scene,
     solid: &dyn translucent::mesh::Solid,
     frame_desc: &FrameDesc,
     lights: &[Light],
@@ -1348,8 +1350,8 @@ fn run_gpu(
     ctx: &Context,
     graph: &QuadGraph,
     field: &MaterialField,
-    scene: &solver::Scene,
-    previous: &solver::Scene,
+    scene: &scene::Scene,
+    previous: &scene::Scene,
     renderer: &mut HeadlessRenderer,
     caster: &GpuMesh,
     config: &Config,

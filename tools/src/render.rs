@@ -19,12 +19,15 @@ use std::time::Instant;
 use anyhow::{bail, Context as _};
 use std::sync::Arc;
 use translucent::quadgraph::cache::{self, CacheOutcome};
+use translucent::scene;
 
 use glam::{DQuat, DVec3};
-use translucent::render::{level_bounds, Camera, HeadlessHost, HeadlessRenderer, Scene};
+use translucent::render::{HeadlessHost, HeadlessRenderer, Scene};
+use translucent::scene::Camera;
+use translucent::scene::Environment;
+use translucent::scene::Light;
 use translucent::solver::gpu::{GpuSolveParams, Precision};
-use translucent::solver::Light;
-use translucent::solver::{self, CpuSolveParams, Environment, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 use translucent::{ObjectParams, TranslucentObject};
@@ -232,7 +235,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         beam_source: args.beam_source,
         ..CpuSolveParams::default()
     };
-    let solver_scene = solver::Scene {
+    let solver_scene = scene::Scene {
         lights: lights.clone(),
         environment,
     };
@@ -286,7 +289,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-        let (centre, radius) = level_bounds(graph.finest());
+        let (centre, radius) = graph.finest().bounding_sphere();
         let base_camera = frame_desc
             .camera
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
@@ -295,7 +298,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         for i in 0..args.frames {
             if i > 0 {
                 if let Some(deg) = args.orbit_light {
-                    report_scene = solver::Scene {
+                    report_scene = scene::Scene {
                         lights: orbit_lights(&solver_scene.lights, deg * f64::from(i)),
                         environment: solver_scene.environment,
                     };

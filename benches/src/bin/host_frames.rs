@@ -22,7 +22,7 @@ use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::render::{Captured, HeadlessHost};
-use translucent::solver::{Environment, Light, Scene};
+use translucent::scene::{Environment, Light, Scene};
 use translucent::vk::{Context, ContextDesc};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 

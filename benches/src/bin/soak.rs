@@ -18,8 +18,9 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer};
+use translucent::render::{FrameDesc, HeadlessRenderer};
 use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;

@@ -7,11 +7,13 @@ use std::collections::BTreeMap;
 
 use glam::Vec3;
 
-use super::mesh_pass::{environment_sh, GpuMesh, MeshPass, ShadePush, ShadeUniforms};
-use super::scene::{Camera, FrameDesc, RadianceMode, Scene};
+use super::mesh_pass::{environment_sh, MeshPass, ShadePush, ShadeUniforms};
+use super::scene::{FrameDesc, Scene};
 use super::shadow_maps::{ShadowMaps, ShadowMapsDesc};
 use super::target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 use super::RenderError;
+use crate::mesh::GpuMesh;
+use crate::scene::{Camera, RadianceMode};
 use crate::vk::{Access, Context, FrameTimings, GpuProfiler, ImageReadback, LinearImage};
 
 // Only the specular term reads it; 512 keeps lavapipe (CI) fast.
@@ -95,14 +97,14 @@ impl HeadlessRenderer {
         let light = scene
             .lights
             .iter()
-            .find(|l| matches!(l, crate::solver::Light::Directional { .. }))
+            .find(|l| matches!(l, crate::scene::Light::Directional { .. }))
             .filter(|_| frame.specular);
-        let specular_light: Vec<crate::solver::Light> = light.into_iter().cloned().collect();
+        let specular_light: Vec<crate::scene::Light> = light.into_iter().cloned().collect();
         shadow.set_lights(&specular_light, scene.bounding_sphere(), true)?;
         let view = shadow.atlas_view_proj(0);
         let (light_view_proj, light_dir, irradiance) = match (light, view) {
             (
-                Some(crate::solver::Light::Directional {
+                Some(crate::scene::Light::Directional {
                     direction,
                     irradiance,
                 }),
@@ -150,7 +152,7 @@ impl HeadlessRenderer {
     /// unless the frame was created without specular. Without this call nothing is reflected.
     pub fn set_environment(
         &mut self,
-        environment: &crate::solver::Environment,
+        environment: &crate::scene::Environment,
     ) -> Result<(), RenderError> {
         environment.validate()?;
         self.uniforms.env_sh = match self.specular {
@@ -236,7 +238,8 @@ impl HeadlessRenderer {
 /// Renders `scene` once, headless.
 ///
 /// ```no_run
-/// use translucent::render::{render_headless, FrameDesc, Light, Scene};
+/// use translucent::render::{render_headless, FrameDesc, Scene};
+/// use translucent::scene::Light;
 /// # fn f(ctx: &translucent::vk::Context) -> Result<(), translucent::render::RenderError> {
 /// let scene = Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3)?;
 /// let captured = render_headless(ctx, &scene, &FrameDesc::default())?;

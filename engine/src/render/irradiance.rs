@@ -4,7 +4,7 @@
 //! times `q_scale`, into an RGBA16F storage image. Visibility is 3x3 PCF in the light's
 //! [`ShadowMaps`] view; the environment is constant (`E = pi L`) or order-2 spherical harmonics
 //! (Ramamoorthi and Hanrahan 2001, Eq. 13), with no visibility, exactly as the f64 reference
-//! [`crate::solver::Scene::surface_irradiance`].
+//! [`crate::scene::Scene::surface_irradiance`].
 //!
 //! Interface with the solver (one set of images per level, texel (u, v) = `packing.texels`):
 //! - `surface_position`: RGBA32F, rgb = node position (mm), a = 1 at a surface node, else 0;
@@ -17,14 +17,14 @@
 //!
 //! ```no_run
 //! use translucent::render::{GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc, SurfaceImages};
-//! use translucent::solver::{Environment, Scene};
+//! use translucent::scene::{Environment, Scene};
 //! use translucent::vk::Access;
 //! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph, cb: ash::vk::CommandBuffer,
-//! #      caster: &translucent::render::GpuMesh) -> Result<(), translucent::Error> {
+//! #      caster: &translucent::mesh::GpuMesh) -> Result<(), translucent::Error> {
 //! let scene = Scene { lights: vec!["dir:1,-1,0:3,3,3".parse()?], environment: Environment::Constant([0.1; 3]) };
 //! let level = graph.finest();
 //! let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
-//! shadows.set_lights(&scene.lights, translucent::render::level_bounds(level), true)?;
+//! shadows.set_lights(&scene.lights, level.bounding_sphere(), true)?;
 //! let gather = IrradiancePass::new(ctx, 4)?;
 //! let images = SurfaceImages::upload(ctx, level)?;
 //! let set = gather.bind_level(ctx, &shadows, &images.position, &images.normal, &images.q, images.surface_rows)?;
@@ -46,8 +46,8 @@ use super::shadow_maps::{ShadowMaps, MAX_LIGHTS, MAX_SHADOW_VIEWS};
 use super::RenderError;
 use crate::material::fresnel;
 use crate::quadgraph::graph::GraphLevel;
+use crate::scene::{Environment, Light, Scene};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
-use crate::solver::{Environment, Light, Scene};
 use crate::vk::{
     barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, MemoryUse, Sampler,
 };
@@ -221,29 +221,6 @@ impl GatherScene {
     fn zeroed() -> GatherScene {
         bytemuck::Zeroable::zeroed()
     }
-}
-
-/// The bounding sphere (centre, radius in mm) of a level's nodes, for [`ShadowMaps::set_lights`].
-pub fn level_bounds(level: &GraphLevel) -> (DVec3, f64) {
-    point_bounds(&level.positions)
-}
-
-/// The bounding sphere (centre of the bounding box, radius in mm, at least 1e-3) of `points`;
-/// (origin, 1) when there is none or one is not finite.
-pub fn point_bounds(points: &[DVec3]) -> (DVec3, f64) {
-    let (lo, hi) = points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    if !(lo.is_finite() && hi.is_finite()) {
-        return (DVec3::ZERO, 1.0);
-    }
-    let centre = (lo + hi) * 0.5;
-    let radius = points
-        .iter()
-        .map(|p| p.distance(centre))
-        .fold(0.0, f64::max);
-    (centre, radius.max(1e-3))
 }
 
 /// A q scale for fp16 storage: the largest unshadowed q over the level's surface nodes maps to

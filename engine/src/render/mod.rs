@@ -14,7 +14,8 @@
 //! - [`LaplaceJacobiPass`]: the ping-pong compute pattern on a problem with a known solution.
 //!
 //! ```no_run
-//! use translucent::render::{FrameDesc, HeadlessRenderer, Light, Scene};
+//! use translucent::render::{FrameDesc, HeadlessRenderer, Scene};
+//! use translucent::scene::Light;
 //! use translucent::vk::{Context, ContextDesc};
 //! # fn main() -> Result<(), translucent::Error> {
 //! let ctx = Context::headless(&ContextDesc::default())?;
@@ -37,15 +38,12 @@ mod target;
 
 pub use headless::{render_headless, Captured, HeadlessHost, HeadlessRenderer};
 pub use irradiance::{
-    level_bounds, point_bounds, q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene,
-    GatherView, IrradiancePass, SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT,
-    SURFACE_POSITION_FORMAT,
+    q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView, IrradiancePass,
+    SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT, SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
-pub use mesh_pass::{
-    environment_sh, GpuMesh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms, Vertex,
-};
-pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene, MAX_CAMERA_MM};
+pub use mesh_pass::{environment_sh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms};
+pub use scene::{lambert_exitance, FrameDesc, Scene};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT,
@@ -62,5 +60,5 @@ pub enum RenderError {
     #[error(transparent)]
     Shader(#[from] crate::shader::ShaderError),
     #[error(transparent)]
-    Scene(#[from] crate::solver::SolverError),
+    Scene(#[from] crate::scene::SceneError),
 }

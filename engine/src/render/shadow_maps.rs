@@ -14,7 +14,8 @@
 //!
 //! ```no_run
 //! use glam::DVec3;
-//! use translucent::render::{GpuMesh, ShadowMaps, ShadowMapsDesc};
+//! use translucent::render::{ShadowMaps, ShadowMapsDesc};
+//! use translucent::mesh::GpuMesh;
 //! # fn f(ctx: &translucent::vk::Context, mesh: &translucent::mesh::TriMesh, cb: ash::vk::CommandBuffer,
 //! #      profiler: &mut translucent::vk::GpuProfiler) -> Result<(), translucent::render::RenderError> {
 //! let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
@@ -30,10 +31,10 @@
 use ash::vk;
 use glam::{DVec3, Mat4, Vec3};
 
-use super::mesh_pass::{GpuMesh, Vertex};
 use super::RenderError;
+use crate::mesh::{GpuMesh, Vertex};
+use crate::scene::Light;
 use crate::shader::{GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::solver::Light;
 use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc};
 
 /// Depth format of the atlas.

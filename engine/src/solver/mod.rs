@@ -3,21 +3,17 @@
 //! - [`analytic`]: closed-form solutions (sphere, slab, semi-infinite medium), the oracles.
 //! - [`operator`]: the assembled linear system of one level (`fv` or `paper` scheme).
 //! - [`krylov`]: exact solves (PCG, BiCGSTAB) of that system.
-//! - [`scene`]: lights and environments, irradiance q at surface nodes.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
 
 pub mod analytic;
 pub mod cpu;
-pub mod environment_map;
 pub mod gpu;
 pub mod krylov;
 pub mod operator;
-pub mod scene;
 
-pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, RadianceMode};
+pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy};
 pub use operator::Scheme;
-pub use scene::{Environment, Light, Scene};
 
 /// Solver failures: bad graphs, materials, scenes or parameters, each naming the problem.
 #[derive(Debug, thiserror::Error)]
@@ -43,8 +39,8 @@ pub enum SolverError {
     },
     #[error("solver: {0}")]
     Material(#[from] crate::material::MaterialError),
-    #[error("solver: {what}: {problem}")]
-    BadScene { what: String, problem: String },
+    #[error("solver: {0}")]
+    Scene(#[from] crate::scene::SceneError),
     #[error("solver: parameter {name}: {problem}")]
     BadParameter { name: &'static str, problem: String },
     #[error("solver: level {level} has no Shepard links from the coarser level (the bake must provide them for multi-level solves)")]

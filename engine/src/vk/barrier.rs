@@ -50,6 +50,9 @@ pub enum Access {
     VertexInput,
     // why: the CPU reads memory after the fence; makes GPU writes host-visible.
     HostRead,
+    // why: indirect dispatch/draw arguments read by the command processor (DRAW_INDIRECT covers
+    // dispatches too), and the compute passes that read or update them.
+    IndirectArgs,
 }
 
 impl Access {
@@ -109,8 +112,68 @@ impl Access {
                 L::UNDEFINED,
             ),
             Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL),
+            Access::IndirectArgs => (
+                S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                L::UNDEFINED,
+            ),
         }
     }
+}
+
+impl Access {
+    /// Whether this state writes (a barrier after it makes the writes available).
+    pub fn writes(self) -> bool {
+        use vk::AccessFlags2 as A;
+        let (_, access, _) = self.info();
+        access.intersects(
+            A::SHADER_STORAGE_WRITE
+                | A::COLOR_ATTACHMENT_WRITE
+                | A::DEPTH_STENCIL_ATTACHMENT_WRITE
+                | A::TRANSFER_WRITE
+                | A::HOST_WRITE,
+        )
+    }
+}
+
+/// A synchronization2 state of an image owned by someone else (a host's target): stage, access and
+/// layout, as it comes in or must leave. Our own resources use the named [`Access`] states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageState {
+    pub stage: vk::PipelineStageFlags2,
+    pub access: vk::AccessFlags2,
+    pub layout: vk::ImageLayout,
+}
+
+impl From<Access> for ImageState {
+    fn from(a: Access) -> Self {
+        let (stage, access, layout) = a.info();
+        ImageState {
+            stage,
+            access,
+            layout,
+        }
+    }
+}
+
+/// A whole-image barrier on a raw image (e.g. a host's) of `format` between two states.
+pub fn raw_image_barrier(
+    image: vk::Image,
+    format: vk::Format,
+    from: ImageState,
+    to: ImageState,
+) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(from.stage)
+        .src_access_mask(from.access)
+        .dst_stage_mask(to.stage)
+        .dst_access_mask(to.access)
+        .old_layout(from.layout)
+        .new_layout(to.layout)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(full_range(format))
 }
 
 /// An image barrier from `from` to `to` on the whole image.

@@ -40,7 +40,7 @@
 //! ```no_run
 //! # use translucent::solver::gpu::{Deformation, GpuFrame};
 //! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph, frame: &mut GpuFrame,
-//! #      mesh: &translucent::render::GpuMesh, jade: &translucent::material::MaterialField) -> Result<(), translucent::Error> {
+//! #      mesh: &translucent::mesh::GpuMesh, jade: &translucent::material::MaterialField) -> Result<(), translucent::Error> {
 //! frame.set_material(ctx, graph, jade)?; // staged; recorded by the next frame.record(..)
 //! frame.deform(ctx, graph, &Deformation::Twist { radians_per_mm: 0.02 }, &[mesh])?;
 //! // ... record the frame; later:
@@ -57,8 +57,8 @@ use super::{
     SolverError,
 };
 use crate::material::{fresnel, MaterialField};
+use crate::mesh::{bounding_sphere, GpuMesh, Vertex};
 use crate::quadgraph::graph::{GraphLevel, NO_NODE};
-use crate::render::{point_bounds, GpuMesh, Vertex};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::solver::operator::Scheme;
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse};
@@ -1349,6 +1349,6 @@ impl GpuFrame {
                 .map(|&p| deformation.map_point(p).unwrap_or(p))
                 .collect(),
         };
-        self.refit_bounds(point_bounds(&points))
+        self.refit_bounds(bounding_sphere(&points))
     }
 }

@@ -8,9 +8,10 @@
 //!
 //! ```no_run
 //! # use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
-//! # use translucent::render::{GpuMesh, HeadlessRenderer};
+//! # use translucent::render::HeadlessRenderer;
+//! # use translucent::mesh::GpuMesh;
 //! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph,
-//! #      field: &translucent::material::MaterialField, scene: &translucent::solver::Scene,
+//! #      field: &translucent::material::MaterialField, scene: &translucent::scene::Scene,
 //! #      renderer: &mut HeadlessRenderer) -> Result<(), translucent::Error> {
 //! let mut frame = GpuFrame::new(ctx, graph, field, scene, &GpuSolveParams::default())?;
 //! frame.solve.bind_mesh(ctx, renderer.mesh())?; // J+ lands in the displayed mesh's vertices
@@ -30,13 +31,14 @@ use ash::vk;
 
 use super::{GpuDiffusion, GpuSolveParams, LevelControl};
 use crate::material::MaterialField;
+use crate::mesh::GpuMesh;
 use crate::render::{
-    level_bounds, q_scale_for, GatherLevel, GatherScene, GpuMesh, IrradiancePass, ShadowMaps,
-    ShadowMapsDesc, MAX_SHADOW_VIEWS,
+    q_scale_for, GatherLevel, GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc,
+    MAX_SHADOW_VIEWS,
 };
+use crate::scene::Scene;
 use crate::solver::cpu::Energy;
 use crate::solver::operator::LevelOperator;
-use crate::solver::Scene;
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
 use crate::{Error, QuadGraph};
 
@@ -171,7 +173,7 @@ impl GpuFrame {
                 ..ShadowMapsDesc::default()
             },
         )?;
-        let bounds = level_bounds(graph.finest());
+        let bounds = graph.finest().bounding_sphere();
         shadows.set_lights(&scene.lights, bounds, true)?;
         let gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
         let mut levels = Vec::with_capacity(graph.levels.len());

@@ -69,8 +69,8 @@ use self::textures::{HomogeneousMaterial, LevelTexels};
 use super::operator::{LevelOperator, Scheme};
 use super::SolverError;
 use crate::material::MaterialField;
+use crate::mesh::{GpuMesh, Vertex};
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
-use crate::render::{GpuMesh, Vertex};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::vk::{
     barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, ImageReadback,
