@@ -16,6 +16,8 @@
 //! - [`object`]: [`TranslucentObject`], the whole frame recorded into a host's command buffer,
 //!   skipping what the scene's changes do not need.
 
+#[cfg(feature = "wgpu")]
+pub mod interop;
 pub mod material;
 pub mod mesh;
 pub mod object;

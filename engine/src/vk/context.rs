@@ -97,6 +97,15 @@ impl HostVulkan {
     }
 }
 
+/// How a host context borrowed by an interop module differs from [`Context::from_host`]'s.
+pub(crate) struct HostOptions {
+    /// The instance has `VK_EXT_debug_utils` enabled: passes are labelled and objects named.
+    pub labels: bool,
+    /// Messages collected by a messenger the interop module created on the host's instance
+    /// (read through [`Context::take_validation_messages`]); `None`: the host collects its own.
+    pub messages: Option<Arc<Mutex<Vec<ValidationMessage>>>>,
+}
+
 /// What `translucent info` prints.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct DeviceInfo {
@@ -420,8 +429,50 @@ impl Context {
         queue_index: u32,
         frames_in_flight: u32,
     ) -> Result<Context, VkError> {
+        let options = HostOptions {
+            labels: true,
+            messages: None,
+        };
+        // SAFETY: the caller's contract.
+        unsafe {
+            Self::from_host_with(
+                entry,
+                instance,
+                physical,
+                device,
+                queue_family,
+                queue_index,
+                frames_in_flight,
+                options,
+            )
+        }
+    }
+
+    /// [`Context::from_host`] for interop modules (wgpu): the host's instance may lack
+    /// `VK_EXT_debug_utils` (no labels or names then), and its validation messages may already be
+    /// collected by a messenger the interop module created.
+    ///
+    /// # Safety
+    /// As [`Context::from_host`]; with `options.labels` the instance has `VK_EXT_debug_utils`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) unsafe fn from_host_with(
+        entry: ash::Entry,
+        instance: ash::Instance,
+        physical: vk::PhysicalDevice,
+        device: ash::Device,
+        queue_family: u32,
+        queue_index: u32,
+        frames_in_flight: u32,
+        options: HostOptions,
+    ) -> Result<Context, VkError> {
         check_device(&instance, physical)?;
-        let debug_utils = Some(ash::ext::debug_utils::Device::new(&instance, &device));
+        let debug_utils = options
+            .labels
+            .then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let validation = options.messages.is_some();
+        let messages = options
+            .messages
+            .unwrap_or_else(|| Arc::new(Mutex::new(Vec::new())));
         let host = HostVulkan {
             entry,
             instance,
@@ -433,8 +484,8 @@ impl Context {
             queue_family,
             queue_index,
             debug_utils,
-            Arc::new(Mutex::new(Vec::new())),
-            false,
+            messages,
+            validation,
             frames_in_flight,
             false,
         )

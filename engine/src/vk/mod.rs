@@ -46,6 +46,7 @@ mod profiler;
 
 pub use barrier::{Access, ImageState};
 pub use capture::{ImageReadback, LinearImage};
+pub(crate) use context::HostOptions;
 pub use context::{
     Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationLog,
     ValidationMessage,
