@@ -16,6 +16,8 @@
 //! - [`object`]: [`TranslucentObject`], the whole frame recorded into a host's command buffer,
 //!   skipping what the scene's changes do not need.
 
+pub mod frame;
+pub mod headless;
 pub mod material;
 pub mod mesh;
 pub mod object;
@@ -27,9 +29,8 @@ pub mod solver;
 pub mod tet;
 pub mod vk;
 
-pub use object::{
-    FrameReport, ObjectParams, RecordCtx, SkipReason, TargetImage, Targets, TranslucentObject,
-};
+pub use frame::{FrameReport, SkipReason};
+pub use object::{MethodDesc, ObjectParams, RecordCtx, TargetImage, Targets, TranslucentObject};
 pub use quadgraph::graph::{GraphLevel, NodeKind, QuadGraph};
 
 /// Every error the library returns. Each module has its own typed error; this wraps them.
@@ -51,6 +52,8 @@ pub enum Error {
     Render(#[from] render::RenderError),
     #[error(transparent)]
     Scene(#[from] scene::SceneError),
+    #[error(transparent)]
+    Frame(#[from] frame::FrameError),
 }
 
 /// Result with the crate's [`Error`].

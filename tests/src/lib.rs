@@ -233,3 +233,36 @@ pub fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32
     }
     worst
 }
+
+/// A QuadGraph object (the one frame composition) for `graph` with the solve `params`, every
+/// other setting default (skips on, specular on).
+pub fn quadgraph_object(
+    ctx: &Context,
+    graph: &translucent::QuadGraph,
+    field: &translucent::material::MaterialField,
+    scene: &translucent::scene::Scene,
+    params: translucent::solver::gpu::GpuSolveParams,
+) -> translucent::TranslucentObject {
+    translucent::TranslucentObject::new(
+        ctx,
+        std::sync::Arc::new(graph.clone()),
+        field,
+        scene,
+        &translucent::ObjectParams {
+            solve: params,
+            ..translucent::ObjectParams::default()
+        },
+    )
+    .expect("object")
+}
+
+/// One frame of `object` into a fresh `width x height` headless host (waited, read back).
+pub fn render_once(
+    ctx: &Context,
+    object: &mut translucent::TranslucentObject,
+    width: u32,
+    height: u32,
+) -> (translucent::headless::Captured, translucent::FrameReport) {
+    let mut host = translucent::headless::HeadlessHost::new(ctx, width, height).expect("host");
+    host.render(ctx, object).expect("frame")
+}

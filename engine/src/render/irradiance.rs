@@ -48,8 +48,9 @@ use crate::material::fresnel;
 use crate::quadgraph::graph::GraphLevel;
 use crate::scene::{Environment, Light, Scene};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::vk::barrier::Use;
 use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, MemoryUse, Sampler,
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, MemoryUse, Sampler,
 };
 
 /// Format of `surface_position`.
@@ -386,26 +387,36 @@ impl IrradiancePass {
         }
     }
 
-    /// Gathers q for one level. `shadows` must have been recorded this frame (or have no
-    /// shadow-casting light); `q` was last used in `q_state` and is left in
-    /// [`Access::ComputeWrite`]. Bad `q_scale` or `eta` is a typed error (nothing recorded).
+    /// What a gather of one level uses: the shadow atlas, the level's surface position and
+    /// normal images, and its q image (written).
+    pub fn uses<'a>(
+        shadows: &'a ShadowMaps,
+        position: &'a Image,
+        normal: &'a Image,
+        q: &'a Image,
+    ) -> [Use<'a>; 4] {
+        [
+            Use::image(&shadows.atlas, Access::DepthSampledShaders),
+            Use::image(position, Access::ComputeRead),
+            Use::image(normal, Access::ComputeRead),
+            Use::image(q, Access::ComputeWrite),
+        ]
+    }
+
+    /// Gathers q for one level (bound by [`Self::bind_level`]). Bad `q_scale` or `eta` is a typed
+    /// error (nothing recorded).
     ///
     /// # Safety
-    /// `cb` must be recording outside a rendering scope, after [`IrradiancePass::record_scene`]
-    /// and [`ShadowMaps::record`]; `level` must come from this pass with `q` its q image; all of
-    /// it must outlive the execution.
-    #[allow(clippy::too_many_arguments)]
+    /// `cb` must be recording outside a rendering scope, after [`IrradiancePass::record_scene`],
+    /// inside a frame-graph pass declaring [`Self::uses`] of the level's images; all of it must
+    /// outlive the execution.
     pub unsafe fn record(
         &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
         level: &GatherLevel,
-        shadows: &ShadowMaps,
-        q: &Image,
-        q_state: Access,
         q_scale: f32,
         eta: f32,
-        profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), RenderError> {
         if !(q_scale.is_finite() && q_scale > 0.0) {
             return Err(invalid(
@@ -417,12 +428,6 @@ impl IrradiancePass {
         if !(f64::from(eta) >= lo && f64::from(eta) <= hi) {
             return Err(invalid("eta", format!("{eta} is outside [{lo}, {hi}]")));
         }
-        if shadows.atlas_state != Access::DepthSampledShaders {
-            return Err(invalid(
-                "shadow maps",
-                "not recorded this frame (ShadowMaps::record leaves the atlas sampleable)",
-            ));
-        }
         let push = GatherPush {
             extent: level.extent,
             q_scale,
@@ -430,16 +435,8 @@ impl IrradiancePass {
             normal_offset: self.normal_offset,
             pad: 0.0,
         };
-        let mut profiler = profiler;
         // SAFETY: the caller's contract.
         unsafe {
-            ctx.begin_label(cb, "gather q");
-            if let Some(p) = profiler.as_deref_mut() {
-                p.begin_scope(cb, "gather_q");
-            }
-            // why: q's previous readers (last frame's Jacobi) finish before it is overwritten
-            // (WAR), and a first use moves it from UNDEFINED to GENERAL.
-            barrier::image(ctx, cb, q, q_state, Access::ComputeWrite);
             self.pipeline.dispatch(
                 ctx,
                 cb,
@@ -447,10 +444,6 @@ impl IrradiancePass {
                 &push,
                 [level.extent[0], level.extent[1], 1],
             );
-            if let Some(p) = profiler {
-                p.end_scope(cb);
-            }
-            ctx.end_label(cb);
         }
         Ok(())
     }

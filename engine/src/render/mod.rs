@@ -28,22 +28,18 @@
 //! # Ok(()) }
 //! ```
 
-mod headless;
 mod irradiance;
 mod laplace;
 mod mesh_pass;
-mod scene;
 mod shadow_maps;
 mod target;
 
-pub use headless::{render_headless, Captured, HeadlessHost, HeadlessRenderer};
 pub use irradiance::{
     q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView, IrradiancePass,
     SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT, SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{environment_sh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms};
-pub use scene::{lambert_exitance, FrameDesc, Scene};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT,

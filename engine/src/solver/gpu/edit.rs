@@ -48,19 +48,21 @@
 //! # Ok(()) }
 //! ```
 
+use std::sync::Arc;
+
 use ash::vk;
 use glam::{DMat3, DVec3, Mat4};
 
 use super::textures::{HomogeneousMaterial, MaterialTexels};
 use super::{
-    bad_param, bytes_of, image, raw_barrier, surface_packing, GpuDiffusion, GpuFrame, GpuLevel,
-    SolverError,
+    bad_param, bytes_of, image, raw_barrier, surface_packing, GpuDiffusion, GpuLevel, SolverError,
 };
 use crate::material::{fresnel, MaterialField};
-use crate::mesh::{bounding_sphere, GpuMesh, Vertex};
+use crate::mesh::{GpuMesh, Vertex};
 use crate::quadgraph::graph::{GraphLevel, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::solver::operator::Scheme;
+use crate::vk::barrier::Use;
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse};
 use crate::{Error, QuadGraph};
 
@@ -441,7 +443,25 @@ enum VertexSource {
     Uploaded,
 }
 
-/// Edits staged by `set_material` / `deform`, recorded by [`GpuDiffusion::record_edits`].
+/// Edits taken for one frame ([`GpuDiffusion::take_edits`]), recorded by
+/// [`GpuDiffusion::record_edits`]; dropping it releases the staging buffers after that frame.
+pub struct StagedEdits {
+    derive: bool,
+    uploads: Vec<Upload>,
+    vertex_uploads: Vec<(usize, Buffer)>,
+    deform: Option<VertexSource>,
+    meshes: Vec<Arc<GpuMesh>>,
+    mesh_from_rest: bool,
+}
+
+impl StagedEdits {
+    /// Whether the edits move the display mesh (the shadow caster: the shadow maps must follow).
+    pub fn moves_mesh(&self) -> bool {
+        !self.meshes.is_empty()
+    }
+}
+
+/// Edits staged by `set_material` / `deform`, taken by [`GpuDiffusion::take_edits`].
 #[derive(Default)]
 pub(crate) struct EditState {
     /// Re-derive the heterogeneous weights.
@@ -449,9 +469,9 @@ pub(crate) struct EditState {
     uploads: Vec<Upload>,
     vertex_uploads: Vec<(usize, Buffer)>,
     deform: Option<VertexSource>,
-    /// Mesh vertex buffers to rewrite (raw handles; the caller keeps them alive until the record)
-    /// and whether from the rest pose.
-    meshes: Vec<(vk::Buffer, u64)>,
+    /// Mesh vertex buffers to rewrite (kept alive here until recorded) and whether from the rest
+    /// pose.
+    meshes: Vec<Arc<GpuMesh>>,
     mesh_from_rest: bool,
     mesh: Option<MeshDeform>,
     /// The deformation last staged (for reports and tests).
@@ -918,14 +938,14 @@ impl GpuDiffusion {
     }
 
     /// Stages a deformation of every level (see the module doc) and of `meshes` (each must have
-    /// the display surface's vertex count). The meshes must stay alive until the next recorded
-    /// solve, which rewrites their positions and normals.
+    /// the display surface's vertex count), recorded by the next [`Self::record_edits`], which
+    /// rewrites their positions and normals.
     pub fn deform(
         &mut self,
         ctx: &Context,
         graph: &QuadGraph,
         deformation: &Deformation,
-        meshes: &[&GpuMesh],
+        meshes: &[Arc<GpuMesh>],
     ) -> Result<(), Error> {
         self.check_graph(graph)?;
         deformation.validate(graph)?;
@@ -1018,32 +1038,17 @@ impl GpuDiffusion {
             }
         }
         if deformation != &Deformation::Identity || was_deformed {
-            self.edits.meshes = meshes
-                .iter()
-                .map(|m| (m.vertex_buffer().raw, m.vertex_buffer().size))
-                .collect();
+            self.edits.meshes = meshes.to_vec();
         }
         self.edits.current = Some(deformation.clone());
         Ok(())
     }
 
-    /// Records the staged edits (uploads, deformation passes, mesh rewrite, weight derivation)
-    /// and clears them; nothing when nothing is staged. Ends with the barriers the gather, the
-    /// shadow pass and the solve need.
-    ///
-    /// # Safety
-    /// `cb` must be recording outside a rendering scope; `self` must outlive its execution; the
-    /// meshes given to the last [`Self::deform`] must be alive until it completes.
-    pub unsafe fn record_edits(
-        &mut self,
-        ctx: &Context,
-        cb: vk::CommandBuffer,
-        mut profiler: Option<&mut GpuProfiler>,
-    ) {
-        use vk::AccessFlags2 as A;
-        use vk::PipelineStageFlags2 as S;
+    /// Takes the staged edits for recording in this frame (`None` when nothing is staged); the
+    /// staging buffers they hold are released once the frame completed.
+    pub fn take_edits(&mut self) -> Option<StagedEdits> {
         if self.edits.is_empty() {
-            return;
+            return None;
         }
         let edits = std::mem::take(&mut self.edits);
         let EditState {
@@ -1058,42 +1063,114 @@ impl GpuDiffusion {
         } = edits;
         self.edits.mesh = mesh;
         self.edits.current = current;
+        Some(StagedEdits {
+            derive: derive && !self.homogeneous,
+            uploads,
+            vertex_uploads,
+            deform,
+            meshes,
+            mesh_from_rest,
+        })
+    }
+
+    /// What [`Self::record_edits`] of `staged` uses: the textures it uploads (from a transfer
+    /// into GENERAL), every texture and buffer the deformation and weight passes read and write,
+    /// and the display meshes whose positions and normals it copies in.
+    pub fn edit_uses<'a>(&'a self, staged: &'a StagedEdits) -> Vec<Use<'a>> {
+        let mut uses: Vec<Use<'a>> = Vec::new();
+        let mut seen = std::collections::HashSet::new();
+        let mut add = |u: Use<'a>, uses: &mut Vec<Use<'a>>| {
+            if seen.insert(u.resource.handle()) {
+                uses.push(u);
+            }
+        };
+        for u in &staged.uploads {
+            if let Some(img) = self.levels.get(u.level).and_then(|l| l.target(u.target)) {
+                add(
+                    Use::image_span(img, Access::TransferDst, Access::ComputeReadWrite),
+                    &mut uses,
+                );
+            }
+        }
+        for (h, _) in &staged.vertex_uploads {
+            if let Some(d) = self.levels.get(*h).and_then(|l| l.deform.as_ref()) {
+                add(
+                    Use::buffer_span(d.vertices(), Access::TransferDst, Access::ComputeReadWrite),
+                    &mut uses,
+                );
+            }
+        }
+        if staged.deform.is_some() || staged.derive {
+            for l in &self.levels {
+                let images = [&l.geo, &l.surface_position, &l.surface_normal]
+                    .into_iter()
+                    .chain(&l.frac)
+                    .chain(l.material.iter().flatten())
+                    .chain(l.weights.iter().flatten());
+                for img in images {
+                    add(Use::image(img, Access::ComputeReadWrite), &mut uses);
+                }
+                for b in l.deform.iter().flat_map(|d| &d.buffers) {
+                    add(Use::buffer(b, Access::ComputeReadWrite), &mut uses);
+                }
+            }
+        }
+        if let Some(m) = &self.edits.mesh {
+            for b in [&m.rest, &m.out] {
+                add(Use::buffer(b, Access::ComputeReadWrite), &mut uses);
+            }
+            for mesh in &staged.meshes {
+                add(
+                    Use::buffer(mesh.vertex_buffer(), Access::TransferDst),
+                    &mut uses,
+                );
+            }
+        }
+        uses
+    }
+
+    /// Records `staged` (uploads, deformation passes, mesh rewrite, weight derivation), with the
+    /// barriers between its own steps; the frame graph orders it against everything else from
+    /// [`Self::edit_uses`].
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::edit_uses`] of `staged`; `self` and `staged` must outlive its execution.
+    pub unsafe fn record_edits(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        staged: &StagedEdits,
+        mut profiler: Option<&mut GpuProfiler>,
+    ) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
         let raw = ctx.raw();
         let mut scope = |cb, name: Option<&'static str>| {
-            if let Some(p) = profiler.as_deref_mut() {
-                // SAFETY: forwarded contract of `record_edits`.
-                unsafe {
-                    match name {
-                        Some(n) => p.begin_scope(cb, n),
-                        None => p.end_scope(cb),
+            // SAFETY: forwarded contract of `record_edits`.
+            unsafe {
+                match name {
+                    Some(n) => {
+                        ctx.begin_label(cb, n);
+                        if let Some(p) = profiler.as_deref_mut() {
+                            p.begin_scope(cb, n);
+                        }
+                    }
+                    None => {
+                        if let Some(p) = profiler.as_deref_mut() {
+                            p.end_scope(cb);
+                        }
+                        ctx.end_label(cb);
                     }
                 }
             }
         };
-        // SAFETY: the caller's contract; every resource used lives in `self` (staging buffers
-        // are dropped at the end: their release waits for the frame being recorded).
+        // SAFETY: the caller's contract; every resource used lives in `self` or `staged`.
         unsafe {
-            ctx.begin_label(cb, "edit");
-            // why: the previous frame's solve, gather, draws and copies read (and wrote) what the
-            // edits overwrite (WAR / WAW).
-            barrier::record(
-                ctx,
-                cb,
-                &[raw_barrier(
-                    S::COMPUTE_SHADER | S::VERTEX_INPUT | S::COPY,
-                    A::SHADER_STORAGE_READ
-                        | A::SHADER_STORAGE_WRITE
-                        | A::VERTEX_ATTRIBUTE_READ
-                        | A::TRANSFER_READ
-                        | A::TRANSFER_WRITE,
-                    S::COMPUTE_SHADER | S::COPY,
-                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::TRANSFER_WRITE,
-                )],
-                &[],
-            );
-            if !uploads.is_empty() || !vertex_uploads.is_empty() {
+            if !staged.uploads.is_empty() || !staged.vertex_uploads.is_empty() {
                 scope(cb, Some(PASS_EDIT_UPLOAD));
-                let images: Vec<(&Image, &Upload)> = uploads
+                let images: Vec<(&Image, &Upload)> = staged
+                    .uploads
                     .iter()
                     .filter_map(|u| {
                         self.levels
@@ -1102,23 +1179,10 @@ impl GpuDiffusion {
                             .map(|i| (i, u))
                     })
                     .collect();
-                let to_dst: Vec<_> = images
-                    .iter()
-                    .map(|(img, u)| {
-                        let from = if u.fresh {
-                            Access::Undefined
-                        } else {
-                            Access::ComputeReadWrite
-                        };
-                        barrier::image_barrier(img, from, Access::TransferDst)
-                    })
-                    .collect();
-                // why: the copies need TRANSFER_DST layout (the textures live in GENERAL).
-                barrier::record(ctx, cb, &[], &to_dst);
                 for (img, u) in &images {
                     img.record_upload_from(ctx, cb, &u.staging);
                 }
-                for (h, buf) in &vertex_uploads {
+                for (h, buf) in &staged.vertex_uploads {
                     if let Some(d) = self.levels.get(*h).and_then(|l| l.deform.as_ref()) {
                         let size = buf.size.min(d.vertices().size);
                         let region = vk::BufferCopy::default().size(size);
@@ -1131,8 +1195,7 @@ impl GpuDiffusion {
                         barrier::image_barrier(img, Access::TransferDst, Access::ComputeReadWrite)
                     })
                     .collect();
-                // why: the passes below and the solve read the uploaded texels and vertices
-                // (RAW), in GENERAL.
+                // why: the passes below read the uploaded texels and vertices (RAW), in GENERAL.
                 barrier::record(
                     ctx,
                     cb,
@@ -1146,7 +1209,7 @@ impl GpuDiffusion {
                 );
                 scope(cb, None);
             }
-            if let (Some(source), Some(pipes)) = (deform, &self.pipelines.edit) {
+            if let (Some(source), Some(pipes)) = (staged.deform, &self.pipelines.edit) {
                 scope(cb, Some(PASS_DEFORM));
                 if let VertexSource::Map(push) = source {
                     for l in &self.levels {
@@ -1225,9 +1288,9 @@ impl GpuDiffusion {
                 }
                 scope(cb, None);
             }
-            if let (false, Some(m)) = (meshes.is_empty(), &self.edits.mesh) {
+            if let (false, Some(m)) = (staged.meshes.is_empty(), &self.edits.mesh) {
                 scope(cb, Some(PASS_DEFORM_MESH));
-                let src = if mesh_from_rest { &m.rest } else { &m.out };
+                let src = if staged.mesh_from_rest { &m.rest } else { &m.out };
                 let stride = std::mem::size_of::<Vertex>() as u64;
                 // Positions and normals only: the exitance (last 12 bytes) is the solve's.
                 let span = std::mem::offset_of!(Vertex, exitance) as u64;
@@ -1239,27 +1302,15 @@ impl GpuDiffusion {
                             .size(span)
                     })
                     .collect();
-                for &(dst, size) in &meshes {
-                    if size >= u64::from(m.count) * stride {
-                        raw.cmd_copy_buffer(cb, src.raw, dst, &regions);
+                for mesh in &staged.meshes {
+                    let dst = mesh.vertex_buffer();
+                    if dst.size >= u64::from(m.count) * stride {
+                        raw.cmd_copy_buffer(cb, src.raw, dst.raw, &regions);
                     }
                 }
-                // why: the shadow and mesh passes fetch the new vertices (RAW at vertex input);
-                // the solve's vertex J+ pass writes the same buffers' exitance (WAW ordering).
-                barrier::record(
-                    ctx,
-                    cb,
-                    &[raw_barrier(
-                        S::COPY,
-                        A::TRANSFER_WRITE,
-                        S::VERTEX_INPUT | S::COMPUTE_SHADER,
-                        A::VERTEX_ATTRIBUTE_READ | A::SHADER_STORAGE_WRITE,
-                    )],
-                    &[],
-                );
                 scope(cb, None);
             }
-            if derive && !self.homogeneous {
+            if staged.derive {
                 if let Some(dp) = &self.pipelines.derive {
                     scope(cb, Some(PASS_DERIVE_WEIGHTS));
                     // why: the derivation reads the geometry and material just written (RAW).
@@ -1292,13 +1343,7 @@ impl GpuDiffusion {
                     scope(cb, None);
                 }
             }
-            // why: the gather reads the new surface positions and normals, the solve the new
-            // weights and geometric factors (RAW).
-            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-            ctx.end_label(cb);
         }
-        drop(uploads);
-        drop(vertex_uploads);
     }
 
     /// The deformation staged last (`None`: never deformed).
@@ -1309,46 +1354,5 @@ impl GpuDiffusion {
     /// Whether edits are staged and not recorded yet.
     pub fn edits_pending(&self) -> bool {
         !self.edits.is_empty()
-    }
-}
-
-impl GpuFrame {
-    /// Replaces the material: per-node kappa and mu (sampled from `field` at the rest-pose node
-    /// positions) and the weights derived from them, recorded by the next [`GpuFrame::record`].
-    /// The next solve warm-starts (when the parameters ask for it).
-    pub fn set_material(
-        &mut self,
-        ctx: &Context,
-        graph: &QuadGraph,
-        field: &MaterialField,
-    ) -> Result<(), Error> {
-        self.solve.set_material(ctx, graph, field)?;
-        self.set_eta(field.eta());
-        Ok(())
-    }
-
-    /// Deforms the object: node positions, normals and weights of every level, and the vertices
-    /// of `meshes` (the display mesh and the shadow caster), recomputed on the GPU by the next
-    /// [`GpuFrame::record`]; the shadow views refit to the deformed bounds now.
-    pub fn deform(
-        &mut self,
-        ctx: &Context,
-        graph: &QuadGraph,
-        deformation: &Deformation,
-        meshes: &[&GpuMesh],
-    ) -> Result<(), Error> {
-        self.solve.deform(ctx, graph, deformation, meshes)?;
-        let level = graph.finest();
-        let points: Vec<DVec3> = match deformation {
-            Deformation::TetPositions(_) => {
-                deformation.level_vertices(graph.levels.len() - 1, level)
-            }
-            _ => level
-                .positions
-                .iter()
-                .map(|&p| deformation.map_point(p).unwrap_or(p))
-                .collect(),
-        };
-        self.refit_bounds(bounding_sphere(&points))
     }
 }

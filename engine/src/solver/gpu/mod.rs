@@ -56,11 +56,15 @@
 //! ```
 
 pub mod edit;
-pub mod frame;
+mod ping_pong;
+pub mod record;
 pub mod textures;
 
 pub use edit::Deformation;
-pub use frame::{GpuFrame, GpuFrameReport};
+pub use ping_pong::PingPong;
+pub use record::{SolvePlan, PASS_EXITANCE, PASS_SOLVE};
+
+use std::sync::Arc;
 
 use ash::vk;
 use half::f16;
@@ -69,11 +73,11 @@ use self::textures::{HomogeneousMaterial, LevelTexels};
 use super::operator::{LevelOperator, Scheme};
 use super::SolverError;
 use crate::material::MaterialField;
-use crate::mesh::{GpuMesh, Vertex};
+use crate::mesh::GpuMesh;
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, ImageReadback,
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, ImageReadback,
     MemoryUse,
 };
 use crate::Error;
@@ -302,9 +306,13 @@ pub struct GpuLevel {
 }
 
 impl GpuLevel {
-    /// The image holding this level's phi after whole blocks.
-    fn result(&self) -> &Image {
-        self.phi.as_ref().unwrap_or(&self.state[0])
+    /// The image holding this level's phi after whole blocks (in `Mixed` phi, else the latest
+    /// state: [`PingPong::latest`]).
+    pub(crate) fn result(&self) -> &Image {
+        // Fp32/Fp16 blocks end where they start (an even number of sweeps).
+        self.phi
+            .as_ref()
+            .unwrap_or(&self.state[PingPong::FIRST])
     }
     fn push(&self) -> LevelPush {
         LevelPush {
@@ -384,8 +392,11 @@ pub struct GpuDiffusion {
     vertex_j_plus: Buffer,
     vertex_count: u32,
     vertex_set: vk::DescriptorSet,
-    /// The display mesh's vertex buffer, written in place ([`Self::bind_mesh`]).
-    mesh_set: Option<vk::DescriptorSet>,
+    /// The display mesh, whose exitance [`Self::record_exitance`] writes in place, and the set
+    /// binding its vertex buffer ([`Self::bind_mesh`]).
+    mesh: Option<(Arc<GpuMesh>, vk::DescriptorSet)>,
+    /// The parity rule of the iterations.
+    ping_pong: PingPong,
     /// Blocks recorded per level.
     blocks: Vec<u32>,
     stats: RecordStats,
@@ -701,10 +712,8 @@ impl GpuDiffusion {
         )?;
         let mut reduce_sets = Vec::with_capacity(levels.len());
         for l in &levels {
-            let (latest, previous) = match params.precision {
-                Precision::Mixed => (&l.state[1], &l.state[0]),
-                _ => (&l.state[0], &l.state[1]),
-            };
+            let (latest, previous) = PingPong::new(params.precision).latest();
+            let (latest, previous) = (&l.state[latest], &l.state[previous]);
             reduce_sets.push(pipelines.reduce.allocate_set(
                 ctx,
                 &[
@@ -761,7 +770,8 @@ impl GpuDiffusion {
             vertex_j_plus,
             vertex_count,
             vertex_set,
-            mesh_set: None,
+            mesh: None,
+            ping_pong: PingPong::new(params.precision),
             blocks,
             stats: RecordStats::default(),
             solved: false,
@@ -831,7 +841,7 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("weight_b", weights[2]),
             ];
             let mut sets = Vec::new();
-            for (src, dst) in [(&l.state[0], &l.state[1]), (&l.state[1], &l.state[0])] {
+            for (src, dst) in PingPong::SETS.map(|(s, d)| (&l.state[s], &l.state[d])) {
                 let mut w = vec![
                     DescriptorWrite::storage_image("src", src),
                     DescriptorWrite::storage_image("dst", dst),
@@ -849,7 +859,7 @@ impl GpuDiffusion {
                 let mut w = vec![
                     DescriptorWrite::storage_image("phi", phi),
                     DescriptorWrite::storage_image("residual", residual),
-                    DescriptorWrite::storage_image("delta", &l.state[0]),
+                    DescriptorWrite::storage_image("delta", &l.state[PingPong::FIRST]),
                     DescriptorWrite::storage_image("q", &l.q),
                     DescriptorWrite::storage_image("connectivity", &l.connectivity),
                 ];
@@ -1096,17 +1106,20 @@ impl GpuDiffusion {
         upload_images(ctx, "diffusion level upload", &items)?;
         drop(items);
         let apply_set = match (&phi, &pipelines.apply) {
-            // k - 1 (odd) sweeps from state[0] leave the last correction in state[1].
+            // The last correction of a block (PingPong::latest).
             (Some(phi), Some(ap)) => ap.allocate_set(
                 ctx,
                 &[
-                    DescriptorWrite::storage_image("delta", &state[1]),
+                    DescriptorWrite::storage_image(
+                        "delta",
+                        &state[PingPong::new(precision).latest().0],
+                    ),
                     DescriptorWrite::storage_image("phi", phi),
                 ],
             )?,
             _ => vk::DescriptorSet::null(),
         };
-        let dst = phi.as_ref().unwrap_or(&state[0]);
+        let dst = phi.as_ref().unwrap_or(&state[PingPong::FIRST]);
         // The coarsest level never reads `coarse` (zero init); any image of the right format binds.
         let coarse = match coarser {
             Some(c) => c.result(),
@@ -1175,6 +1188,36 @@ impl GpuDiffusion {
             rest: t,
             deform: None,
         })
+    }
+
+    /// The per-level control records ([`LevelControl`]; indirect arguments of the iterations).
+    pub fn control_buffer(&self) -> &Buffer {
+        &self.control
+    }
+
+    /// The parameters the solve was built with.
+    pub fn params(&self) -> &GpuSolveParams {
+        &self.params
+    }
+
+    /// The display mesh [`Self::bind_mesh`] bound, if any.
+    pub fn bound_mesh(&self) -> Option<&Arc<GpuMesh>> {
+        self.mesh.as_ref().map(|(m, _)| m)
+    }
+
+    /// Whether phi holds a solution at the current exposure (a warm start can use it).
+    pub fn has_solution(&self) -> bool {
+        self.solved
+    }
+
+    /// The material variant the iteration shaders run: `homogeneous` reads kappa and mu from
+    /// push constants (no per-node material reads), `heterogeneous` reads weights per node.
+    pub fn material_variant(&self) -> &'static str {
+        if self.homogeneous {
+            "homogeneous"
+        } else {
+            "heterogeneous"
+        }
     }
 
     pub fn level_count(&self) -> usize {
@@ -1318,349 +1361,15 @@ impl GpuDiffusion {
         Ok(())
     }
 
-    /// Records the whole solve: control reset, then per level init, blocks of iterations with a
-    /// convergence reduction after each, then J+ and per-vertex J+. Blocks after convergence are
-    /// recorded but dispatch zero groups.
-    ///
-    /// # Safety
-    /// `cb` must be recording outside a rendering scope; `self` must outlive its execution; the
-    /// q images must have been written (gather or [`Self::upload_q`]) before, in this or an earlier
-    /// submission.
-    pub unsafe fn record(
-        &mut self,
-        ctx: &Context,
-        cb: vk::CommandBuffer,
-        mut profiler: Option<&mut GpuProfiler>,
-    ) {
-        use vk::AccessFlags2 as A;
-        use vk::PipelineStageFlags2 as S;
-        // Edits staged since the last record (none when GpuFrame::record already did them).
-        // SAFETY: the caller's contract.
-        unsafe { self.record_edits(ctx, cb, profiler.as_deref_mut()) };
-        let raw = ctx.raw();
-        let k = self.params.block;
-        let mut stats = RecordStats::default();
-        let n = self.levels.len();
-        let iterate: Vec<bool> = self.blocks.iter().map(|&b| b > 0).collect();
-        let prior = self.level_solve.clone();
-        // Warm only when every level that iterates holds a solution to start from.
-        let warm = self.params.warm_start
-            && self.solved
-            && (0..n).all(|h| !iterate[h] || prior[h].is_some());
-        // Per level, the warm start's flags: correct by the coarser level's change when both
-        // hold solutions of the same solve and the coarser one iterates now; save this level's
-        // phi when the finer level will correct from it.
-        let same = |a: usize, b: usize| prior[a].is_some() && prior[a] == prior[b];
-        let warm_flags: Vec<u32> = (0..n)
-            .map(|h| {
-                let correct = h > 0 && iterate[h - 1] && same(h - 1, h);
-                let save = h + 1 < n && iterate[h + 1] && same(h, h + 1);
-                (u32::from(correct) * WARM_CORRECT) | (u32::from(save) * WARM_SAVE)
-            })
-            .collect();
-        stats.warm = warm;
-        let initial: Vec<LevelControl> = self
-            .levels
-            .iter()
-            .map(|l| LevelControl {
-                groups: [l.packing.width.div_ceil(8), l.packing.height.div_ceil(8), 1],
-                ..Default::default()
-            })
-            .collect();
-        let mut scope = |cb, name: Option<&'static str>| {
-            if let Some(p) = profiler.as_deref_mut() {
-                // SAFETY: forwarded contract of `record`.
-                unsafe {
-                    match name {
-                        Some(n) => p.begin_scope(cb, n),
-                        None => p.end_scope(cb),
-                    }
-                }
-            }
-        };
-        // SAFETY: the caller's contract; every set's resources live in `self`.
-        unsafe {
-            ctx.begin_label(cb, "diffusion");
-            // why: the previous solve's compute and indirect reads of the control and count
-            // buffers must finish before they are reset (WAR).
-            barrier::record(
-                ctx,
-                cb,
-                &[raw_barrier(
-                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
-                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::INDIRECT_COMMAND_READ,
-                    S::COPY | S::CLEAR,
-                    A::TRANSFER_WRITE,
-                )],
-                &[],
-            );
-            raw.cmd_update_buffer(cb, self.control.raw, 0, bytemuck::cast_slice(&initial));
-            raw.cmd_fill_buffer(cb, self.clamp_counts.raw, 0, 16, 0);
-            // why: the loop reads the reset control (indirect args, RAW) and counts, and q written
-            // by the irradiance gather (compute) or an upload (transfer) (RAW).
-            barrier::record(
-                ctx,
-                cb,
-                &[raw_barrier(
-                    S::COPY | S::CLEAR | S::COMPUTE_SHADER,
-                    A::TRANSFER_WRITE | A::SHADER_STORAGE_WRITE,
-                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
-                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::INDIRECT_COMMAND_READ,
-                )],
-                &[],
-            );
-            for h in 0..self.levels.len() {
-                let level = &self.levels[h];
-                let push = LevelPush {
-                    kappa: self.kappa,
-                    mu_gain: self.mu_gain,
-                    ..level.push()
-                };
-                let v = usize::from(self.homogeneous);
-                let Some(variant) = &self.pipelines.variants[v] else {
-                    continue;
-                };
-                let sets = &level.iterate_sets[v];
-                let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
-                // Shepard init and the warm correction both read the coarser level (none at 0).
-                let coarse_width = h.checked_sub(1).map_or(1, |c| self.levels[c].packing.width);
-                if !warm {
-                    scope(cb, Some(PASS_INIT));
-                    // why: init overwrites this level's phi, which the previous frame's J+ or
-                    // reduction read (WAR), and reads the coarser level's last iteration (RAW).
-                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    self.pipelines.init.dispatch(
-                        ctx,
-                        cb,
-                        level.init_set,
-                        &ShepardPush {
-                            size: push.size,
-                            coarse_width,
-                            zero: u32::from(h == 0),
-                        },
-                        level.extent(),
-                    );
-                    scope(cb, None);
-                } else if iterate[h] && warm_flags[h] != 0 {
-                    scope(cb, Some(PASS_WARM));
-                    // why: the correction reads the coarser level's last iteration (RAW) and its
-                    // saved phi (RAW), and rewrites this level's phi and saved copy, which the
-                    // previous solve's J+, reductions and finer correction read (WAR).
-                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    self.pipelines.warm.dispatch(
-                        ctx,
-                        cb,
-                        level.warm_set,
-                        &WarmPush {
-                            size: push.size,
-                            coarse_width,
-                            flags: warm_flags[h],
-                        },
-                        level.extent(),
-                    );
-                    if warm_flags[h] & WARM_CORRECT != 0 {
-                        stats.corrected_levels += 1;
-                    }
-                    scope(cb, None);
-                }
-                for _ in 0..self.blocks[h] {
-                    scope(cb, Some(PASS_JACOBI));
-                    match self.params.precision {
-                        Precision::Mixed => {
-                            let (Some(rp), Some(ap)) = (&variant.residual, &self.pipelines.apply)
-                            else {
-                                continue;
-                            };
-                            // why: the residual reads phi written by init or the last apply (RAW)
-                            // and overwrites delta the last reduction read (WAR).
-                            barrier::memory(
-                                ctx,
-                                cb,
-                                Access::ComputeWrite,
-                                Access::ComputeReadWrite,
-                            );
-                            rp.dispatch_indirect(ctx, cb, sets[2], &push, &self.control, offset);
-                            stats.iteration_barriers += 1;
-                            stats.iteration_dispatches += 1;
-                            for j in 1..k {
-                                // why: this sweep reads the previous iterate (RAW) and overwrites
-                                // the one before (WAR).
-                                barrier::memory(
-                                    ctx,
-                                    cb,
-                                    Access::ComputeWrite,
-                                    Access::ComputeReadWrite,
-                                );
-                                let set = sets[((j - 1) % 2) as usize];
-                                variant.iterate.dispatch_indirect(
-                                    ctx,
-                                    cb,
-                                    set,
-                                    &push,
-                                    &self.control,
-                                    offset,
-                                );
-                                stats.iteration_barriers += 1;
-                                stats.iteration_dispatches += 1;
-                            }
-                            // why: phi += the last correction (RAW on delta).
-                            barrier::memory(
-                                ctx,
-                                cb,
-                                Access::ComputeWrite,
-                                Access::ComputeReadWrite,
-                            );
-                            ap.dispatch_indirect(
-                                ctx,
-                                cb,
-                                level.apply_set,
-                                &push,
-                                &self.control,
-                                offset,
-                            );
-                            stats.iteration_barriers += 1;
-                            stats.iteration_dispatches += 1;
-                        }
-                        Precision::Fp32 | Precision::Fp16 => {
-                            for j in 0..k {
-                                // why: this iteration reads the previous one's output (RAW) and
-                                // overwrites what the one before read (WAR).
-                                barrier::memory(
-                                    ctx,
-                                    cb,
-                                    Access::ComputeWrite,
-                                    Access::ComputeReadWrite,
-                                );
-                                let set = sets[(j % 2) as usize];
-                                variant.iterate.dispatch_indirect(
-                                    ctx,
-                                    cb,
-                                    set,
-                                    &push,
-                                    &self.control,
-                                    offset,
-                                );
-                                stats.iteration_barriers += 1;
-                                stats.iteration_dispatches += 1;
-                            }
-                        }
-                    }
-                    scope(cb, None);
-                    stats.blocks += 1;
-                    stats.iterations_recorded += k;
-                    scope(cb, Some(PASS_CONVERGENCE));
-                    // why: the reduction reads the block's last two iterates (RAW).
-                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    self.pipelines.reduce.dispatch(
-                        ctx,
-                        cb,
-                        level.reduce_set,
-                        &ReducePush {
-                            size: push.size,
-                            level: h as u32,
-                            k,
-                            tolerance: self.params.tolerance,
-                        },
-                        [1, 1, 1],
-                    );
-                    // why: the next block's indirect dispatches read the arguments the reduction
-                    // wrote (RAW at DRAW_INDIRECT), and its next reduction updates them again.
-                    barrier::record(
-                        ctx,
-                        cb,
-                        &[raw_barrier(
-                            S::COMPUTE_SHADER,
-                            A::SHADER_STORAGE_WRITE,
-                            S::DRAW_INDIRECT | S::COMPUTE_SHADER,
-                            A::INDIRECT_COMMAND_READ
-                                | A::SHADER_STORAGE_READ
-                                | A::SHADER_STORAGE_WRITE,
-                        )],
-                        &[],
-                    );
-                    scope(cb, None);
-                }
-            }
-            let finest = &self.levels[self.levels.len() - 1];
-            scope(cb, Some(PASS_J_PLUS));
-            // why: J+ reads the finest level's final phi (RAW) and overwrites the J+ image the
-            // previous frame's vertex pass read (WAR).
-            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-            self.pipelines.j_plus.dispatch(
-                ctx,
-                cb,
-                self.j_plus_set,
-                &JPlusPush {
-                    size: finest.push().size,
-                    surface_rows: finest.packing.surface_rows,
-                    inv_q_scale: 1.0 / self.q_scale,
-                    phi_factor: ((1.0 + 1.0 / self.a) / 4.0) as f32,
-                    q_factor: (1.0 / (1.0 + self.f_dr)) as f32,
-                },
-                finest.extent(),
-            );
-            scope(cb, None);
-            scope(cb, Some(PASS_VERTEX_J_PLUS));
-            // why: the vertex pass reads the J+ image just written (RAW).
-            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-            self.pipelines.vertex.dispatch(
-                ctx,
-                cb,
-                self.vertex_set,
-                &VertexPush {
-                    count: self.vertex_count,
-                    width: finest.packing.width,
-                    stride: 4,
-                    offset: 0,
-                },
-                [self.vertex_count.max(1), 1, 1],
-            );
-            if let Some(set) = self.mesh_set {
-                // why: the previous frame's draws fetched these vertices (WAR).
-                barrier::memory(ctx, cb, Access::VertexInput, Access::ComputeWrite);
-                let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
-                self.pipelines.vertex.dispatch(
-                    ctx,
-                    cb,
-                    set,
-                    &VertexPush {
-                        count: self.vertex_count,
-                        width: finest.packing.width,
-                        stride: floats(std::mem::size_of::<Vertex>()),
-                        offset: floats(std::mem::offset_of!(Vertex, exitance)),
-                    },
-                    [self.vertex_count.max(1), 1, 1],
-                );
-                // why: the mesh pass fetches the exitance just written as a vertex attribute
-                // (RAW across compute -> vertex input).
-                barrier::memory(ctx, cb, Access::ComputeWrite, Access::VertexInput);
-            }
-            scope(cb, None);
-            ctx.end_label(cb);
-        }
-        self.stats = stats;
-        self.solved = true;
-        self.records += 1;
-        for (solve, &iterated) in self.level_solve.iter_mut().zip(&iterate) {
-            if iterated {
-                *solve = Some(self.records);
-            } else if !warm {
-                // A cold start initialised this level without iterating it (one-level solve).
-                *solve = None;
-            }
-        }
-    }
-
-    /// What the last [`Self::record`] recorded.
+    /// What the last [`Self::plan`]ned solve records.
     pub fn record_stats(&self) -> RecordStats {
         self.stats
     }
 
-    /// Makes [`Self::record`] also write the per-vertex J+ into `mesh`'s vertex buffer (its
-    /// exitance field, in place), followed by a barrier to vertex input: the mesh pass then draws
-    /// the GPU solution with no CPU round trip. `mesh` must be the graph's display surface and
-    /// outlive every recorded solve.
-    pub fn bind_mesh(&mut self, ctx: &Context, mesh: &GpuMesh) -> Result<(), Error> {
+    /// Makes [`Self::record_exitance`] also write the per-vertex J+ into `mesh`'s vertex buffer
+    /// (its exitance field, in place): the shading pass then draws the GPU solution with no CPU
+    /// round trip. `mesh` must be the graph's display surface; the solve keeps it alive.
+    pub fn bind_mesh(&mut self, ctx: &Context, mesh: Arc<GpuMesh>) -> Result<(), Error> {
         if mesh.vertex_count() != self.vertex_count as usize {
             return Err(bad_param(
                 "mesh",
@@ -1671,7 +1380,7 @@ impl GpuDiffusion {
                 ),
             ));
         }
-        self.mesh_set = Some(self.pipelines.vertex.allocate_set(
+        let set = self.pipelines.vertex.allocate_set(
             ctx,
             &[
                 DescriptorWrite::storage_image("j_plus", &self.j_plus),
@@ -1688,7 +1397,8 @@ impl GpuDiffusion {
                     buffer: mesh.vertex_buffer(),
                 },
             ],
-        )?);
+        )?;
+        self.mesh = Some((mesh, set));
         Ok(())
     }
 
