@@ -43,6 +43,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context as _};
@@ -50,18 +51,17 @@ use clap::Parser as _;
 use glam::DQuat;
 use indicatif::{ProgressBar, ProgressStyle};
 use translucent::material::MaterialField;
-use translucent::mesh::GpuMesh;
 use translucent::quadgraph::cache::{self, CacheOutcome};
-use translucent::render::{Captured, FrameDesc, HeadlessRenderer, Scene};
+use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRenderer};
 use translucent::scene::{self, Environment, Light};
 use translucent::solver::analytic::Homogeneous;
-use translucent::solver::gpu::{GpuFrame, GpuSolveParams, Precision};
+use translucent::solver::gpu::{GpuSolveParams, Precision, PASS_EXITANCE, PASS_SOLVE};
 use translucent::solver::krylov;
 use translucent::solver::operator::LevelOperator;
 use translucent::solver::{self, CpuSolution, CpuSolveParams, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Access, Context, ContextDesc, ImageReadback, LinearImage};
-use translucent::QuadGraph;
+use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 use translucent_benches::plot::{error_vs_time, palette, palette_hex, Panel, Series};
 
 use crate::material_args::MaterialArgs;
@@ -925,7 +925,6 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
                     &previous,
                     object.solid.as_ref(),
                     &frame_desc,
-                    &lights,
                     &sweep,
                     &configs,
                     closed_form,
@@ -1122,7 +1121,6 @@ fn bench_bake(
     previous: &scene::Scene,
     solid: &dyn translucent::mesh::Solid,
     frame_desc: &FrameDesc,
-    lights: &[Light],
     sweep: &Sweep,
     configs: &[Config],
     closed_form: Option<[f64; 3]>,
@@ -1131,19 +1129,8 @@ fn bench_bake(
     progress: &ProgressBar,
     emit: &mut dyn FnMut(Row),
 ) -> anyhow::Result<()> {
-    let graph = &baked.graph;
+    let graph = Arc::new(baked.graph.clone());
     let finest = graph.finest();
-    let vertices = graph.surface.positions.len();
-    let display = Scene {
-        mesh: graph.surface.clone(),
-        exitance: vec![[0.0; 3]; vertices],
-        lights: lights.to_vec(),
-        eta: field.eta(),
-    };
-    let mut renderer = HeadlessRenderer::new(ctx, &display, frame_desc)?;
-    // The environment's mirror reflection, as `render` draws it (off with --no-specular).
-    renderer.set_environment(&scene.environment)?;
-    let caster = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; vertices])?;
     let bake_name = format!("K{} L{} r{}", baked.k, baked.levels, baked.resolution);
     let base_row = |family_name: String| Row {
         family_name,
@@ -1161,7 +1148,7 @@ fn bench_bake(
         progress.set_message(format!("{bake_name} {name}: exact solve (CPU)"));
         let start = Instant::now();
         let solution = solver::solve(
-            graph,
+            &graph,
             field,
             scene,
             Some(solid),
@@ -1186,16 +1173,12 @@ fn bench_bake(
         row.solver_error = row.discrete;
         row.closed_form = closed_form.map(|cf| analytic_error(exact_j, &solution.q, &cf));
         if let Some(reference) = reference {
-            let mut shown = HeadlessRenderer::new(
-                ctx,
-                &Scene {
-                    exitance: solution.vertex_j_plus.clone(),
-                    ..display.clone()
-                },
-                frame_desc,
-            )?;
-            shown.set_environment(&scene.environment)?;
-            let captured = shown.render_frame(ctx)?;
+            let shown = ExitanceMesh {
+                mesh: graph.surface.clone(),
+                exitance: solution.vertex_j_plus.clone(),
+                eta: field.eta(),
+            };
+            let captured = HeadlessRenderer::new(ctx, &shown, scene, frame_desc)?.render_frame(ctx)?;
             row.image = Some(reference.error(&captured.image));
         }
         emit(row);
@@ -1216,17 +1199,7 @@ fn bench_bake(
             config.cap, config.tolerance
         ));
         let solution = &exact[scheme];
-        let run = run_gpu(
-            ctx,
-            graph,
-            field,
-            scene,
-            previous,
-            &mut renderer,
-            &caster,
-            config,
-            repeats,
-        )
+        let run = run_gpu(ctx, &graph, field, scene, previous, frame_desc, config, repeats)
         .with_context(|| format!("{family_name} cap {} tol {}", config.cap, config.tolerance))?;
         let j_plus: Vec<[f64; 3]> = run.j_plus.iter().map(|j| j.map(f64::from)).collect();
         if j_plus.len() != solution.j_plus_clamped.len() {
@@ -1245,7 +1218,7 @@ fn bench_bake(
         // The exact solution for the q the GPU gathered (the same for every configuration of
         // this bake and scheme: same lights, same shadow maps, same exposure).
         if !same_q.contains_key(scheme) {
-            let j = exact_for_q(graph, field, config.scheme, &run.q, &solution.phi)
+            let j = exact_for_q(&graph, field, config.scheme, &run.q, &solution.phi)
                 .with_context(|| format!("{family_name}: the exact solve for the gathered q"))?;
             same_q.insert(scheme, j);
         }
@@ -1342,52 +1315,53 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// One configuration: a warm-up frame, then `repeats` timed frames of `scene`. A warm start
-/// first renders `previous` (untimed) before each frame, so every timed solve starts from the
-/// solution of the lights a few degrees away, as in a host whose light moves.
+/// One configuration through the frame the object ships ([`TranslucentObject`] recorded by a
+/// headless host): a warm-up frame, then `repeats` timed frames of `scene`. Cold: skipping off,
+/// so every frame solves from scratch. Warm: each timed frame follows an untimed one with the
+/// `previous` lights, so every timed solve starts from the solution of the lights a few degrees
+/// away, as in a host whose light moves.
 #[allow(clippy::too_many_arguments)]
 fn run_gpu(
     ctx: &Context,
-    graph: &QuadGraph,
+    graph: &Arc<QuadGraph>,
     field: &MaterialField,
     scene: &scene::Scene,
     previous: &scene::Scene,
-    renderer: &mut HeadlessRenderer,
-    caster: &GpuMesh,
+    frame_desc: &FrameDesc,
     config: &Config,
     repeats: u32,
 ) -> anyhow::Result<GpuRun> {
-    let params = GpuSolveParams {
-        scheme: config.scheme,
-        precision: config.precision,
-        iterations: vec![config.cap],
-        block: BLOCK,
-        tolerance: config.tolerance,
-        warm_start: config.warm,
+    let params = ObjectParams {
+        solve: GpuSolveParams {
+            scheme: config.scheme,
+            precision: config.precision,
+            iterations: vec![config.cap],
+            block: BLOCK,
+            tolerance: config.tolerance,
+            ..GpuSolveParams::default()
+        },
+        specular: frame_desc.specular,
+        roughness: frame_desc.roughness,
+        radiance: frame_desc.radiance,
+        skip: config.warm,
+        ..ObjectParams::default()
     };
     let first = if config.warm { previous } else { scene };
-    let mut frame = GpuFrame::new(ctx, graph, field, first, &params)?;
-    frame.solve.bind_mesh(ctx, renderer.mesh())?;
-    let mut render = |frame: &mut GpuFrame| -> anyhow::Result<Captured> {
-        let mut failed = None;
-        let captured = renderer.render_frame_after(ctx, |cb, profiler| {
-            // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
-            failed = unsafe { frame.record(ctx, cb, caster, Some(profiler)) }.err();
-        })?;
-        if let Some(e) = failed {
-            return Err(e.into());
-        }
-        Ok(captured)
-    };
+    let mut object = TranslucentObject::new(ctx, graph.clone(), field, first, &params)?;
+    object.set_camera(frame_desc.camera)?;
+    let mut host = HeadlessHost::new(ctx, frame_desc.width, frame_desc.height)?;
     let (mut solve, mut whole) = (Vec::new(), Vec::new());
     let mut last = None;
     for i in 0..=repeats {
         if config.warm {
-            frame.set_lights(graph, previous)?;
-            render(&mut frame)?;
-            frame.set_lights(graph, scene)?;
+            object.set_lights(previous)?;
+            host.render(ctx, &mut object)?;
+            object.set_lights(scene)?;
         }
-        let captured = render(&mut frame)?;
+        let (captured, report) = host.render(ctx, &mut object)?;
+        if config.warm && i > 0 && !report.warm_start {
+            bail!("a warm configuration's timed frame did not warm-start");
+        }
         if i > 0 {
             let timings = captured
                 .timings
@@ -1401,7 +1375,7 @@ fn run_gpu(
             let top = timings.scopes.iter().filter(|s| s.depth == 0);
             solve.push(
                 top.clone()
-                    .filter(|s| s.name.starts_with("diffusion"))
+                    .filter(|s| s.name == PASS_SOLVE || s.name == PASS_EXITANCE)
                     .map(|s| s.duration_ms)
                     .sum(),
             );
@@ -1414,14 +1388,17 @@ fn run_gpu(
         last = Some(captured);
     }
     let last = last.context("no frame rendered")?;
+    let method = object
+        .quadgraph()
+        .context("the QuadGraph method reports the solve")?;
     let level = graph.finest();
     let finest = graph.levels.len() - 1;
     let gathered = ImageReadback::capture(
         ctx,
-        frame.solve.q_image(finest).context("no q image")?,
+        method.solve().q_image(finest).context("no q image")?,
         Access::ComputeReadWrite,
     )?;
-    let unscale = 1.0 / f64::from(frame.q_scale());
+    let unscale = 1.0 / f64::from(method.q_scale());
     let q = level.packing.texels[level.inner_count()..]
         .iter()
         .map(|&[u, v]| {
@@ -1431,11 +1408,11 @@ fn run_gpu(
         .collect();
     Ok(GpuRun {
         q,
-        iterations: frame.solve.iterations_run(ctx)?,
+        iterations: method.solve().iterations_run(ctx)?,
         solve_ms: median(solve),
         frame_ms: median(whole),
-        bytes: frame.solve.bytes(),
-        j_plus: frame.solve.read_j_plus(ctx)?,
+        bytes: method.solve().bytes(),
+        j_plus: method.solve().read_j_plus(ctx)?,
         image: last.image,
     })
 }
