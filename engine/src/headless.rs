@@ -262,10 +262,10 @@ pub fn render_headless(
 /// ```no_run
 /// # fn f(ctx: &translucent::vk::Context, object: &mut translucent::TranslucentObject)
 /// #      -> Result<(), translucent::Error> {
-/// let mut host = translucent::render::HeadlessHost::new(ctx, 64, 64)?;
+/// let mut host = translucent::headless::HeadlessHost::new(ctx, 64, 64)?;
 /// let (captured, report) = host.render(ctx, object)?; // first frame: solves
 /// let (_, report) = host.render(ctx, object)?; // nothing changed: shading only
-/// assert!(report.skipped.contains_key("solve"));
+/// assert!(report.skipped.contains_key("diffusion"));
 /// # Ok(()) }
 /// ```
 pub struct HeadlessHost {

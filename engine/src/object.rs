@@ -1,12 +1,15 @@
 //! [`TranslucentObject`]: one translucent object as a host render graph embeds it (DESIGN sections
-//! 5 and 7). It owns the GPU frame (shadow atlas, irradiance gather, multi-level Jacobi solve), the
-//! display mesh (which also casts the shadows) and the shading pipeline, and records all of it into
+//! 5 and 7). It owns the method ([`crate::frame::Method`]: the QuadGraph solve, or a fixed
+//! exitance), the shadow atlas, the display mesh (which also casts the shadows) and the shading
+//! pipeline, and records all of it, as one [`crate::frame::FrameGraph`], into
 //! the HOST's command buffer: it never begins, ends or submits a command buffer, never waits and
 //! never destroys a host object.
 //!
-//! Changes only mark what is dirty ([`TranslucentObject::set_lights`], `set_material`, `deform`,
-//! `set_camera`); [`TranslucentObject::record`] then records only the work they require (DESIGN
-//! section 5) and says in its [`FrameReport`] what ran and, per skipped pass, why:
+//! Changes are validated and applied by the setters ([`TranslucentObject::set_lights`],
+//! `set_material`, `deform`, `set_camera`: a typed error changes nothing) and mark what is dirty;
+//! [`TranslucentObject::record`] then records only the work they require (DESIGN section 5,
+//! decided in one place, [`crate::frame::FramePlan`]) and says in its [`FrameReport`] what ran
+//! and, per skipped pass, why:
 //! - nothing changed: no shadow map, gather or solve, only the shading;
 //! - camera only: the same (the view-dependent Fresnel term is in the shading);
 //! - lights, material or shape changed: a warm-started solve: every level from its own last

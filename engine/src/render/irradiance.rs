@@ -11,14 +11,13 @@
 //! - `surface_normal`: RGBA16F, rgb = outward unit normal;
 //! - `q`: RGBA16F storage image in GENERAL, rgb = q * q_scale (written only where a = 1).
 //!
-//! Inputs must be in [`Access::ComputeRead`] (GENERAL, writes visible); the pass leaves `q` in
-//! [`Access::ComputeWrite`] and the reader records the barrier to its read.
+//! [`IrradiancePass::uses`] declares the pass's resources to a [`crate::frame::FrameGraph`], which
+//! places the barriers before and after it.
 //! [`SurfaceImages::upload`] builds all three from a baked [`GraphLevel`].
 //!
 //! ```no_run
 //! use translucent::render::{GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc, SurfaceImages};
 //! use translucent::scene::{Environment, Scene};
-//! use translucent::vk::Access;
 //! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph, cb: ash::vk::CommandBuffer,
 //! #      caster: &translucent::mesh::GpuMesh) -> Result<(), translucent::Error> {
 //! let scene = Scene { lights: vec!["dir:1,-1,0:3,3,3".parse()?], environment: Environment::Constant([0.1; 3]) };
@@ -30,12 +29,26 @@
 //! let set = gather.bind_level(ctx, &shadows, &images.position, &images.normal, &images.q, images.surface_rows)?;
 //! let uniforms = GatherScene::new(&scene, &shadows)?;
 //! let q_scale = translucent::render::q_scale_for(&scene, level, 1.3);
+//! // The passes inside one frame graph: it places the atlas and q barriers from `uses`.
+//! let mut frame = translucent::frame::FrameGraph::new(ctx);
+//! frame.pass("shadow_map").uses(shadows.uses(caster)).record(|p| {
+//!     // SAFETY: inside a pass declaring `shadows.uses`.
+//!     unsafe { shadows.record(p.ctx, p.cb, caster) };
+//!     Ok(())
+//! });
+//! frame
+//!     .pass("gather_q")
+//!     .uses(IrradiancePass::uses(&shadows, &images.position, &images.normal, &images.q))
+//!     .record(|p| {
+//!         // SAFETY: inside a pass declaring `IrradiancePass::uses`.
+//!         unsafe {
+//!             gather.record_scene(p.ctx, p.cb, &uniforms);
+//!             gather.record(p.ctx, p.cb, &set, q_scale, 1.3)?;
+//!         }
+//!         Ok(())
+//!     });
 //! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
-//! unsafe {
-//!     shadows.record(ctx, cb, caster, None);
-//!     gather.record_scene(ctx, cb, &uniforms);
-//!     gather.record(ctx, cb, &set, &shadows, &images.q, Access::Undefined, q_scale, 1.3, None)?;
-//! }
+//! unsafe { frame.execute(cb, None, false)? };
 //! # Ok(()) }
 //! ```
 

@@ -8,25 +8,12 @@
 //!   atlas; [`IrradiancePass`]: q at the surface nodes of a level from lights, shadows, environment.
 //! - [`MeshPass`]: the final shading of DESIGN section 5 from per-vertex exitance J+; its
 //!   specular shadow reads the same atlas (no separate depth pass).
-//! - [`HeadlessRenderer`] / [`render_headless`]: a whole frame into an [`OffscreenTarget`],
-//!   read back with per-pass GPU times. Until the diffusion solver exists, J+ comes from
-//!   [`lambert_exitance`]; a solver's per-vertex J+ goes into [`Scene::exitance`].
 //! - [`LaplaceJacobiPass`]: the ping-pong compute pattern on a problem with a known solution.
 //!
-//! ```no_run
-//! use translucent::render::{FrameDesc, HeadlessRenderer, Scene};
-//! use translucent::scene::Light;
-//! use translucent::vk::{Context, ContextDesc};
-//! # fn main() -> Result<(), translucent::Error> {
-//! let ctx = Context::headless(&ContextDesc::default())?;
-//! let mut scene = Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3)?;
-//! // scene.exitance = solver_output; // one [r, g, b] J+ per vertex of scene.mesh
-//! let mut renderer = HeadlessRenderer::new(&ctx, &scene, &FrameDesc::default())?;
-//! let frame = renderer.render_frame(&ctx)?;
-//! println!("{:?}", frame.passes); // {"capture": .., "shading": .., "shadow_map": ..}
-//! frame.image.write_exr(std::path::Path::new("sphere.exr"))?;
-//! # Ok(()) }
-//! ```
+//! Every pass declares its resources (`uses`) and records inside a pass of a
+//! [`crate::frame::FrameGraph`], which places the barriers between passes. Nothing here knows
+//! about the solvers; whole frames are composed in [`crate::TranslucentObject`] and rendered
+//! headless by [`crate::headless`].
 
 mod irradiance;
 mod laplace;

@@ -17,14 +17,19 @@
 //! use translucent::render::{ShadowMaps, ShadowMapsDesc};
 //! use translucent::mesh::GpuMesh;
 //! # fn f(ctx: &translucent::vk::Context, mesh: &translucent::mesh::TriMesh, cb: ash::vk::CommandBuffer,
-//! #      profiler: &mut translucent::vk::GpuProfiler) -> Result<(), translucent::render::RenderError> {
+//! #      profiler: &mut translucent::vk::GpuProfiler) -> Result<(), translucent::Error> {
 //! let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
 //! let lights = ["spot:0,60,0:0,-1,0:4000,4000,4000:20,30".parse()?];
 //! shadows.set_lights(&lights, (DVec3::ZERO, 25.0), true)?;
 //! let caster = GpuMesh::new(ctx, mesh, &vec![[0.0; 3]; mesh.positions.len()])?;
+//! let mut frame = translucent::frame::FrameGraph::new(ctx);
+//! frame.pass("shadow_map").uses(shadows.uses(&caster)).record(|p| {
+//!     // SAFETY: inside a pass declaring `shadows.uses`.
+//!     unsafe { shadows.record(p.ctx, p.cb, &caster) };
+//!     Ok(())
+//! });
 //! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
-//! unsafe { shadows.record(ctx, cb, &caster, Some(profiler)) };
-//! // shadows.atlas is now in Access::DepthSampledShaders.
+//! unsafe { frame.execute(cb, Some(profiler), false)? };
 //! # Ok(()) }
 //! ```
 
