@@ -20,8 +20,8 @@
 //! # Ok(()) }
 //! ```
 
-use std::collections::BTreeMap;
 use glam::DVec3;
+use std::collections::BTreeMap;
 
 use crate::material::{fresnel, Material, MaterialField};
 use crate::mesh::shapes::Shape;
@@ -194,7 +194,6 @@ impl HeadlessRenderer {
         scene: &Scene,
         frame: &FrameDesc,
     ) -> Result<HeadlessRenderer, Error> {
-
         let params = ObjectParams {
             specular: frame.specular,
             roughness: frame.roughness,

@@ -68,6 +68,7 @@ use glam::DVec3;
 
 use crate::frame::graph::FrameGraph;
 use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHADOW};
+use crate::frame::quadgraph::QuadGraphParams;
 use crate::frame::{FixedExitance, FrameReport, Method, QuadGraphMethod, SINGLE_LEVEL_NODES};
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh};
@@ -285,10 +286,12 @@ impl TranslucentObject {
                     graph,
                     field,
                     scene,
-                    &params.solve,
+                    &QuadGraphParams {
+                        solve: params.solve.clone(),
+                        single_level_nodes: params.single_level_nodes,
+                    },
                     &shadows,
                     mesh.clone(),
-                    params.single_level_nodes,
                 )?;
                 (mesh, Box::new(method))
             }
@@ -315,7 +318,14 @@ impl TranslucentObject {
             env_sh: environment_sh(&scene.environment),
             eta: field.eta() as f32,
             camera: None,
-            changes: Changes::default(),
+            // The first frame draws everything: nothing of it exists yet (a fixed exitance has its
+            // solution, but no shadow map).
+            changes: Changes {
+                lights: true,
+                material: true,
+                shape: true,
+                camera: true,
+            },
             own_depth: None,
             last_frame: None,
         })
@@ -388,6 +398,11 @@ impl TranslucentObject {
     /// The QuadGraph method, if that is the object's method.
     pub fn quadgraph(&self) -> Option<&QuadGraphMethod> {
         self.method.as_any().downcast_ref::<QuadGraphMethod>()
+    }
+
+    /// The sphere the shadow views are fitted to (the deformed shape's, after `deform`).
+    pub fn shadow_bounds(&self) -> (DVec3, f64) {
+        self.shadow_bounds
     }
 
     /// The display mesh (its exitance field holds the method's last output).
@@ -599,6 +614,7 @@ impl TranslucentObject {
                 skip: self.params.skip,
                 has_solution: self.method.has_solution(),
                 casts_shadows: self.shadows.any_shadows(),
+                shadows_read: self.method.reads_shadows() || self.params.specular,
             },
         );
         let method = self.method.prepare(plan.method, rc.frame)?;
@@ -690,9 +706,8 @@ impl TranslucentObject {
                 .map_err(Error::from)
         });
         // SAFETY: the caller's contract.
-        let run = unsafe {
-            graph.execute(rc.cb, rc.profiler.as_deref_mut(), targets.host_barriers)?
-        };
+        let run =
+            unsafe { graph.execute(rc.cb, rc.profiler.as_deref_mut(), targets.host_barriers)? };
         self.last_frame = Some(rc.frame);
         Ok(FrameReport {
             frame: rc.frame,

@@ -9,27 +9,54 @@ use std::path::{Path, PathBuf};
 const RULES: &[(&str, &[&str], &str)] = &[
     (
         "vk",
-        &["crate::shader", "crate::render", "crate::solver", "crate::frame", "crate::object"],
+        &[
+            "crate::shader",
+            "crate::render",
+            "crate::solver",
+            "crate::frame",
+            "crate::object",
+        ],
         "vk knows nothing about translucency",
     ),
     (
         "shader",
-        &["crate::render", "crate::solver", "crate::frame", "crate::object"],
+        &[
+            "crate::render",
+            "crate::solver",
+            "crate::frame",
+            "crate::object",
+        ],
         "shaders sit below every pass",
     ),
     (
         "render",
-        &["crate::solver", "crate::frame", "crate::object", "crate::headless", "crate::TranslucentObject"],
+        &[
+            "crate::solver",
+            "crate::frame",
+            "crate::object",
+            "crate::headless",
+            "crate::TranslucentObject",
+        ],
         "render passes are shared by every method and know no solver",
     ),
     (
         "solver",
-        &["crate::render", "crate::frame", "crate::object", "crate::headless", "crate::TranslucentObject"],
+        &[
+            "crate::render",
+            "crate::frame",
+            "crate::object",
+            "crate::headless",
+            "crate::TranslucentObject",
+        ],
         "solvers are composed by frame/, they do not compose frames",
     ),
     (
         "frame",
-        &["crate::object", "crate::headless", "crate::TranslucentObject"],
+        &[
+            "crate::object",
+            "crate::headless",
+            "crate::TranslucentObject",
+        ],
         "the object composes frames, not the other way",
     ),
 ];
@@ -63,14 +90,19 @@ fn violations(src: &Path) -> Vec<String> {
     for (dir, forbidden, why) in RULES {
         let mut files = Vec::new();
         rust_files(&src.join(dir), &mut files);
-        assert!(!files.is_empty(), "no sources under {}", src.join(dir).display());
+        assert!(
+            !files.is_empty(),
+            "no sources under {}",
+            src.join(dir).display()
+        );
         for file in files {
             let text = std::fs::read_to_string(&file).expect("readable source");
             for (line, code) in library_code(&text) {
                 for path in forbidden.iter() {
                     let named = code.match_indices(path).any(|(at, _)| {
                         // `crate::render` but not `crate::renderer`.
-                        !code[at + path.len()..].starts_with(|c: char| c.is_alphanumeric() || c == '_')
+                        !code[at + path.len()..]
+                            .starts_with(|c: char| c.is_alphanumeric() || c == '_')
                     });
                     if named {
                         found.push(format!("{}:{line}: {path} ({why})", file.display()));
@@ -86,7 +118,11 @@ fn violations(src: &Path) -> Vec<String> {
 fn imports_run_one_way() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let found = violations(&src);
-    assert!(found.is_empty(), "imports against the layering:\n{}", found.join("\n"));
+    assert!(
+        found.is_empty(),
+        "imports against the layering:\n{}",
+        found.join("\n")
+    );
 }
 
 #[test]

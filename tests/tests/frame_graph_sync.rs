@@ -40,7 +40,11 @@ fn fill_then_copy(ctx: &Context, declare_src: bool) -> Vec<translucent::frame::B
             .uses([Use::buffer(&src, Access::TransferDst)])
             .record(|p| {
                 // SAFETY: inside a pass declaring `src` as a transfer destination.
-                unsafe { p.ctx.raw().cmd_fill_buffer(p.cb, src.raw, 0, BYTES, 0x3f80_0000) };
+                unsafe {
+                    p.ctx
+                        .raw()
+                        .cmd_fill_buffer(p.cb, src.raw, 0, BYTES, 0x3f80_0000)
+                };
                 Ok(())
             });
         let mut uses = vec![Use::buffer(&dst, Access::TransferDst)];
@@ -54,7 +58,11 @@ fn fill_then_copy(ctx: &Context, declare_src: bool) -> Vec<translucent::frame::B
                 size: BYTES,
             };
             // SAFETY: inside a pass declaring `dst` (and, when asked, `src`).
-            unsafe { p.ctx.raw().cmd_copy_buffer(p.cb, src.raw, dst.raw, &[region]) };
+            unsafe {
+                p.ctx
+                    .raw()
+                    .cmd_copy_buffer(p.cb, src.raw, dst.raw, &[region])
+            };
             Ok(())
         });
         // SAFETY: `cb` is recording outside a rendering scope; the buffers outlive the wait.
@@ -72,7 +80,9 @@ fn a_missing_declaration_is_caught_by_synchronization_validation() {
     let gpu = GpuTest::new();
     let notes = fill_then_copy(&gpu.ctx, false);
     assert!(
-        !notes.iter().any(|n| n.resource == "src" && n.before == "copy"),
+        !notes
+            .iter()
+            .any(|n| n.resource == "src" && n.before == "copy"),
         "no declaration, no barrier: {notes:?}"
     );
     let messages = gpu.ctx.validation_log().take();

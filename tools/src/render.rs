@@ -342,12 +342,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let quadgraph = translucent
             .quadgraph()
             .context("the QuadGraph method reports the solve")?;
-        gpu_report = Some(quadgraph.report(
-            &ctx,
-            &field,
-            &report_scene,
-            Some(object.solid.as_ref()),
-        )?);
+        gpu_report =
+            Some(quadgraph.report(&ctx, &field, &report_scene, Some(object.solid.as_ref()))?);
         gpu_bytes = Some(translucent.gpu_bytes());
         drop(host);
         drop(translucent);

@@ -63,7 +63,10 @@ impl FixedExitance {
             )
             .into());
         }
-        if let Some(v) = exitance.iter().position(|e| !e.iter().all(|x| x.is_finite())) {
+        if let Some(v) = exitance
+            .iter()
+            .position(|e| !e.iter().all(|x| x.is_finite()))
+        {
             return Err(VkError::invalid("exitance", format!("vertex {v} is not finite")).into());
         }
         self.staged = Some(Buffer::with_data(
@@ -93,6 +96,9 @@ impl Method for FixedExitance {
     fn has_solution(&self) -> bool {
         true
     }
+    fn reads_shadows(&self) -> bool {
+        false
+    }
     fn material_variant(&self) -> &'static str {
         "none"
     }
@@ -107,7 +113,11 @@ impl Method for FixedExitance {
         Ok(out)
     }
     fn add_edit_passes<'g>(&'g self, _: &mut FrameGraph<'g>) {}
-    fn add_passes<'g>(&'g self, graph: &mut FrameGraph<'g>, _: &'g ShadowMaps) -> Result<(), Error> {
+    fn add_passes<'g>(
+        &'g self,
+        graph: &mut FrameGraph<'g>,
+        _: &'g ShadowMaps,
+    ) -> Result<(), Error> {
         let Some(values) = &self.recording else {
             return Ok(());
         };

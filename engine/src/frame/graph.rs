@@ -49,9 +49,9 @@ use ash::vk;
 
 use super::report::SkipReason;
 use crate::vk::barrier::{self, Resource, Tracked, Use, WRITE_ACCESS};
-use crate::vk::{Context, GpuProfiler, ImageState};
 #[cfg(test)]
 use crate::vk::Access;
+use crate::vk::{Context, GpuProfiler, ImageState};
 use crate::Error;
 
 /// A resource registered with a [`FrameGraph`] (ours, or imported from the host).
@@ -210,9 +210,15 @@ pub struct GraphRun {
 #[derive(Debug, thiserror::Error)]
 pub enum FrameError {
     #[error("frame graph: pass {pass:?} reads {resource:?}, which nothing has written (its contents are undefined)")]
-    ReadsUndefined { pass: &'static str, resource: String },
+    ReadsUndefined {
+        pass: &'static str,
+        resource: String,
+    },
     #[error("frame graph: pass {pass:?} declares {resource:?} twice")]
-    DeclaredTwice { pass: &'static str, resource: String },
+    DeclaredTwice {
+        pass: &'static str,
+        resource: String,
+    },
     #[error("frame graph: pass {pass:?} uses image {resource:?} in {state:?}, which has no image layout")]
     NoLayout {
         pass: &'static str,
@@ -364,8 +370,9 @@ impl<'g> FrameGraph<'g> {
                     }
                     .into());
                 }
-                let host_boundary =
-                    host_barriers && matches!(entry.kind, Kind::Host { .. }) && entry.first_use.is_none();
+                let host_boundary = host_barriers
+                    && matches!(entry.kind, Kind::Host { .. })
+                    && entry.first_use.is_none();
                 entry.first_use.get_or_insert(d.first);
                 entry.last_use = Some(d.last);
                 let dep = if host_boundary {
@@ -407,10 +414,10 @@ impl<'g> FrameGraph<'g> {
                                 .offset(0)
                                 .size(vk::WHOLE_SIZE),
                         ),
-                        Kind::Ours(Resource::Image(img)) => images.push(image_dep(
-                            img.raw, img.format, &dep,
-                        )),
-                        Kind::Host { raw, format, .. } => images.push(image_dep(raw, format, &dep)),
+                        Kind::Ours(Resource::Image(img)) => {
+                            images.push(image_dep(img.raw, img.format, dep))
+                        }
+                        Kind::Host { raw, format, .. } => images.push(image_dep(raw, format, dep)),
                     }
                     notes.push(BarrierNote {
                         before: pass.name,
@@ -513,7 +520,11 @@ struct Dependency {
     hazard: String,
 }
 
-fn image_dep(raw: vk::Image, format: vk::Format, d: &Dependency) -> vk::ImageMemoryBarrier2<'static> {
+fn image_dep(
+    raw: vk::Image,
+    format: vk::Format,
+    d: &Dependency,
+) -> vk::ImageMemoryBarrier2<'static> {
     barrier::raw_image_barrier(
         raw,
         format,
@@ -554,14 +565,22 @@ fn dependency(state: &Tracked, first: ImageState, is_image: bool) -> Option<Depe
             src_access: state.write_access,
             dst_stage: first.stage,
             dst_access: first.access,
-            old_layout: if is_image { state.layout } else { vk::ImageLayout::UNDEFINED },
-            new_layout: if is_image { first.layout } else { vk::ImageLayout::UNDEFINED },
+            old_layout: if is_image {
+                state.layout
+            } else {
+                vk::ImageLayout::UNDEFINED
+            },
+            new_layout: if is_image {
+                first.layout
+            } else {
+                vk::ImageLayout::UNDEFINED
+            },
             hazard: hazards.join("+"),
         });
     }
     // A read in the current layout: only the last write matters, unless already made visible here.
-    let covered = state.visible_stage.contains(first.stage)
-        && state.visible_access.contains(first.access);
+    let covered =
+        state.visible_stage.contains(first.stage) && state.visible_access.contains(first.access);
     if state.write_stage.is_empty() || covered {
         return None;
     }
@@ -577,7 +596,13 @@ fn dependency(state: &Tracked, first: ImageState, is_image: bool) -> Option<Depe
 }
 
 /// The tracked state after a pass declared `d` (and the graph placed a barrier if `barrier`).
-fn after_pass(state: Tracked, d: &Decl, barrier: bool, pass: &'static str, is_image: bool) -> Tracked {
+fn after_pass(
+    state: Tracked,
+    d: &Decl,
+    barrier: bool,
+    pass: &'static str,
+    is_image: bool,
+) -> Tracked {
     let writes = (d.first.access | d.last.access).intersects(WRITE_ACCESS);
     let transition = d.first != d.last || (is_image && state.layout != d.first.layout);
     let layout = if is_image {
@@ -646,8 +671,17 @@ mod tests {
         );
         let d = dependency(&s, Access::ComputeRead.into(), true).expect("RAW");
         assert_eq!(d.hazard, "RAW");
-        assert_eq!((d.src_stage, d.src_access), (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE));
-        let s = after_pass(s, &decl(Access::ComputeRead, Access::ComputeRead), true, "r1", true);
+        assert_eq!(
+            (d.src_stage, d.src_access),
+            (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE)
+        );
+        let s = after_pass(
+            s,
+            &decl(Access::ComputeRead, Access::ComputeRead),
+            true,
+            "r1",
+            true,
+        );
         // A second reader in the same stage needs nothing more.
         assert!(dependency(&s, Access::ComputeRead.into(), true).is_none());
         // A reader in another stage does.
@@ -664,7 +698,13 @@ mod tests {
             "w",
             false,
         );
-        let s = after_pass(s, &decl(Access::VertexInput, Access::VertexInput), true, "draw", false);
+        let s = after_pass(
+            s,
+            &decl(Access::VertexInput, Access::VertexInput),
+            true,
+            "draw",
+            false,
+        );
         let d = dependency(&s, Access::ComputeWrite.into(), false).expect("WAR");
         assert!(d.hazard.contains("WAR"), "{}", d.hazard);
         assert!(d.src_stage.contains(S::VERTEX_INPUT));
@@ -680,7 +720,11 @@ mod tests {
             true,
         );
         let d = dependency(&s, Access::DepthSampledShaders.into(), true).expect("layout");
-        assert!(d.hazard.contains("RAW") && d.hazard.contains("layout"), "{}", d.hazard);
+        assert!(
+            d.hazard.contains("RAW") && d.hazard.contains("layout"),
+            "{}",
+            d.hazard
+        );
         assert_eq!(d.new_layout, vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL);
         let s = after_pass(
             s,
@@ -693,7 +737,11 @@ mod tests {
         assert!(dependency(&s, Access::DepthSampledShaders.into(), true).is_none());
         // Next frame's shadow pass writes it again: WAR and a layout change.
         let w = dependency(&s, Access::DepthAttachmentWrite.into(), true).expect("WAR");
-        assert!(w.hazard.contains("WAR") && w.hazard.contains("layout"), "{}", w.hazard);
+        assert!(
+            w.hazard.contains("WAR") && w.hazard.contains("layout"),
+            "{}",
+            w.hazard
+        );
     }
 
     #[test]

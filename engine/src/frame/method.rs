@@ -97,6 +97,12 @@ pub trait Method {
     /// Whether a solution exists that an update can start from.
     fn has_solution(&self) -> bool;
 
+    /// Whether the method's passes read the shadow maps (a gather does; a precomputed exitance
+    /// does not, and then only the specular needs them).
+    fn reads_shadows(&self) -> bool {
+        true
+    }
+
     /// The material path in use (`homogeneous` or `heterogeneous`).
     fn material_variant(&self) -> &'static str;
 

@@ -6,13 +6,13 @@
 //! use translucent::frame::SkipReason;
 //! let plan = FramePlan::decide(
 //!     Changes { camera: true, ..Changes::default() },
-//!     &Conditions { skip: true, has_solution: true, casts_shadows: true },
+//!     &Conditions { skip: true, has_solution: true, casts_shadows: true, shadows_read: true },
 //! );
 //! assert_eq!(plan.method, MethodWork::Skip(SkipReason::CameraOnly)); // re-shade only
 //! assert!(!plan.shadows);
 //! let plan = FramePlan::decide(
 //!     Changes { lights: true, ..Changes::default() },
-//!     &Conditions { skip: true, has_solution: true, casts_shadows: true },
+//!     &Conditions { skip: true, has_solution: true, casts_shadows: true, shadows_read: true },
 //! );
 //! assert_eq!(plan.method, MethodWork::Update(Update::Warm));
 //! ```
@@ -49,6 +49,8 @@ pub struct Conditions {
     pub has_solution: bool,
     /// Some light casts a shadow.
     pub casts_shadows: bool,
+    /// Some pass reads the shadow maps (the method's gather, or the specular).
+    pub shadows_read: bool,
 }
 
 /// How the method updates the surface exitance this frame.
@@ -110,10 +112,12 @@ impl FramePlan {
             (false, None, Some(why))
         };
         let mut skipped = Vec::new();
-        let shadows = shadows_wanted && c.casts_shadows;
+        let shadows = shadows_wanted && c.casts_shadows && c.shadows_read;
         if !shadows {
-            let why = if shadows_wanted {
+            let why = if shadows_wanted && !c.casts_shadows {
                 SkipReason::NoShadowCaster
+            } else if shadows_wanted {
+                SkipReason::NotRead
             } else {
                 quiet.unwrap_or(SkipReason::Unchanged)
             };
@@ -138,6 +142,7 @@ mod tests {
         skip: true,
         has_solution: true,
         casts_shadows: true,
+        shadows_read: true,
     };
 
     #[test]
@@ -188,15 +193,29 @@ mod tests {
             },
         ] {
             let p = FramePlan::decide(changes, &SOLVED);
-            assert_eq!((p.shadows, p.method), (true, MethodWork::Update(Update::Warm)));
+            assert_eq!(
+                (p.shadows, p.method),
+                (true, MethodWork::Update(Update::Warm))
+            );
             let dark = FramePlan::decide(
                 changes,
                 &Conditions {
                     casts_shadows: false,
+                    shadows_read: true,
                     ..SOLVED
                 },
             );
             assert_eq!(dark.skipped, [(PASS_SHADOW, SkipReason::NoShadowCaster)]);
+            // A precomputed exitance without specular: nothing would read the shadow maps.
+            let unread = FramePlan::decide(
+                changes,
+                &Conditions {
+                    shadows_read: false,
+                    ..SOLVED
+                },
+            );
+            assert!(!unread.shadows);
+            assert_eq!(unread.skipped, [(PASS_SHADOW, SkipReason::NotRead)]);
         }
     }
 

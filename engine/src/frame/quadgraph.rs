@@ -103,6 +103,14 @@ pub struct QuadGraphMethod {
     prepared: Prepared,
 }
 
+/// How a [`QuadGraphMethod`] solves.
+#[derive(Clone, Debug)]
+pub struct QuadGraphParams {
+    pub solve: GpuSolveParams,
+    /// Finest-level node count below which a cold solve iterates one level.
+    pub single_level_nodes: usize,
+}
+
 impl QuadGraphMethod {
     /// Builds the solve (textures of every level) and the gather bound to the solve's q images
     /// and the shared `shadows`; J+ will be written into `mesh` (the graph's display surface).
@@ -113,12 +121,12 @@ impl QuadGraphMethod {
         graph: Arc<QuadGraph>,
         field: &MaterialField,
         scene: &Scene,
-        params: &GpuSolveParams,
+        params: &QuadGraphParams,
         shadows: &ShadowMaps,
         mesh: Arc<GpuMesh>,
-        single_level_nodes: usize,
     ) -> Result<Self, Error> {
-        let mut solve = GpuDiffusion::new(ctx, &graph, field, params)?;
+        let single_level_nodes = params.single_level_nodes;
+        let mut solve = GpuDiffusion::new(ctx, &graph, field, &params.solve)?;
         solve.bind_mesh(ctx, mesh)?;
         let eta = field.eta();
         let q_scale = q_scale_for(scene, graph.finest(), eta);

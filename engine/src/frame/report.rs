@@ -25,6 +25,7 @@ pub enum SkipReason {
     NoEdits,
     /// The method's exitance is given (precomputed), not solved.
     Precomputed,
+    NotRead,
 }
 
 impl std::fmt::Display for SkipReason {
@@ -38,6 +39,7 @@ impl std::fmt::Display for SkipReason {
             SkipReason::SmallGraph => "small graph: one level",
             SkipReason::NoEdits => "no edits",
             SkipReason::Precomputed => "exitance precomputed",
+            SkipReason::NotRead => "no pass reads it",
         })
     }
 }

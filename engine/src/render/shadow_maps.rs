@@ -304,7 +304,13 @@ impl ShadowMaps {
             // SAFETY: `cb` is recording; the atlas outlives the waited submission.
             unsafe {
                 // why: first use: UNDEFINED -> the sampled layout the descriptors name.
-                barrier::image(ctx, cb, &atlas, Access::Undefined, Access::DepthSampledShaders)
+                barrier::image(
+                    ctx,
+                    cb,
+                    &atlas,
+                    Access::Undefined,
+                    Access::DepthSampledShaders,
+                )
             };
             Ok(())
         })?;

@@ -229,7 +229,10 @@ impl Tracked {
 pub fn image_barrier(image: &Image, from: Access, to: Access) -> vk::ImageMemoryBarrier2<'static> {
     let (src_stage, src_access, old_layout) = from.info();
     let (dst_stage, dst_access, new_layout) = to.info();
-    image.set_tracked(Tracked::after(to.into(), "a barrier recorded outside the frame graph"));
+    image.set_tracked(Tracked::after(
+        to.into(),
+        "a barrier recorded outside the frame graph",
+    ));
     vk::ImageMemoryBarrier2::default()
         .src_stage_mask(src_stage)
         .src_access_mask(src_access)

@@ -1,8 +1,5 @@
 //! One result row per configuration and its CSV and JSON forms.
 
-
-
-
 use super::*;
 
 /// One line of the CSV.

@@ -7,14 +7,13 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use indicatif::ProgressBar;
-use translucent::material::MaterialField;
 use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRenderer};
+use translucent::material::MaterialField;
 use translucent::scene::{self};
 use translucent::solver::gpu::{GpuSolveParams, PASS_EXITANCE, PASS_SOLVE};
 use translucent::solver::{self, CpuSolution, CpuSolveParams};
 use translucent::vk::{Access, Context, ImageReadback, LinearImage};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
-
 
 use super::*;
 
@@ -91,7 +90,8 @@ pub(super) fn bench_bake(
                 exitance: solution.vertex_j_plus.clone(),
                 eta: field.eta(),
             };
-            let captured = HeadlessRenderer::new(ctx, &shown, scene, frame_desc)?.render_frame(ctx)?;
+            let captured =
+                HeadlessRenderer::new(ctx, &shown, scene, frame_desc)?.render_frame(ctx)?;
             row.image = Some(reference.error(&captured.image));
         }
         emit(row);
@@ -112,7 +112,9 @@ pub(super) fn bench_bake(
             config.cap, config.tolerance
         ));
         let solution = &exact[scheme];
-        let run = run_gpu(ctx, &graph, field, scene, previous, frame_desc, config, repeats)
+        let run = run_gpu(
+            ctx, &graph, field, scene, previous, frame_desc, config, repeats,
+        )
         .with_context(|| format!("{family_name} cap {} tol {}", config.cap, config.tolerance))?;
         let j_plus: Vec<[f64; 3]> = run.j_plus.iter().map(|j| j.map(f64::from)).collect();
         if j_plus.len() != solution.j_plus_clamped.len() {
@@ -202,7 +204,6 @@ pub(super) fn run_gpu(
             iterations: vec![config.cap],
             block: BLOCK,
             tolerance: config.tolerance,
-            ..GpuSolveParams::default()
         },
         specular: frame_desc.specular,
         roughness: frame_desc.roughness,

@@ -11,7 +11,6 @@ use translucent::solver::Scheme;
 use translucent::vk::LinearImage;
 use translucent::QuadGraph;
 
-
 use super::*;
 
 /// Relative RMS per channel and over all three; `None` where the reference is all zero.

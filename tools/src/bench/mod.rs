@@ -72,7 +72,6 @@ use plot::*;
 use suites::*;
 use sweep::*;
 
-
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
     /// A fixed, documented sweep (heterogeneous, thin, scan, scan-reference, sphere-env,
@@ -441,8 +440,8 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use translucent::scene::Light;
     use glam::DVec3;
+    use translucent::scene::Light;
 
     #[test]
     fn relative_rms_is_the_scale_error_and_none_for_a_black_channel() {

@@ -6,7 +6,6 @@ use anyhow::Context as _;
 use translucent::vk::capture::write_atomically;
 use translucent_benches::plot::{error_vs_time, palette, palette_hex, Panel, Series};
 
-
 use super::*;
 
 /// Redraws `dir/bench.png` from `dir/bench.csv` (the columns the plot reads).

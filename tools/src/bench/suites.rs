@@ -1,8 +1,5 @@
 //! The named suites of `translucent bench --suite` and how their options combine with the user's.
 
-
-
-
 use super::*;
 
 /// Re-parses a suite's options followed by the user's (later ones win).

@@ -1,11 +1,9 @@
 //! The sweep axes: comma-separated lists parsed into the cross product of configurations.
 
-
 use glam::DQuat;
 use translucent::scene::Light;
 use translucent::solver::gpu::Precision;
 use translucent::solver::Scheme;
-
 
 use super::*;
 

@@ -1,6 +1,7 @@
 //! The GPU diffusion solve of a baked QuadGraph (paper sections 4.3 and 5; DESIGN sections 4 and 5):
 //! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10) or, warm
-//! ([`GpuSolveParams::warm_start`]), the level's last solution plus the Shepard-prolonged change
+//! ([`GpuDiffusion::plan`] with `warm`: what the object's plan asks for when the lights, material
+//! or shape changed), the level's last solution plus the Shepard-prolonged change
 //! of the coarser level's solution (`shepard/warm_correct.glsl`), pure Jacobi
 //! ping-pong (Eqs. 8/9 in the `fv` or `paper` form, surface and inner nodes in one dispatch, told
 //! apart by their row), convergence decided on the GPU with indirect dispatch; then J+ at the
@@ -64,8 +65,8 @@ mod upload;
 
 pub use edit::Deformation;
 pub use params::{GpuSolveParams, Precision};
-pub use push::*;
 pub use ping_pong::PingPong;
+pub use push::*;
 pub use record::{SolvePlan, PASS_EXITANCE, PASS_SOLVE};
 
 use std::sync::Arc;
@@ -81,8 +82,7 @@ use crate::mesh::GpuMesh;
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, ImageReadback,
-    MemoryUse,
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, ImageReadback, MemoryUse,
 };
 use crate::Error;
 
@@ -152,9 +152,7 @@ impl GpuLevel {
     /// state: [`PingPong::latest`]).
     pub(crate) fn result(&self) -> &Image {
         // Fp32/Fp16 blocks end where they start (an even number of sweeps).
-        self.phi
-            .as_ref()
-            .unwrap_or(&self.state[PingPong::FIRST])
+        self.phi.as_ref().unwrap_or(&self.state[PingPong::FIRST])
     }
     fn push(&self) -> LevelPush {
         LevelPush {
@@ -924,5 +922,4 @@ impl GpuDiffusion {
         self.mesh = Some((mesh, set));
         Ok(())
     }
-
 }

@@ -40,12 +40,6 @@ pub struct GpuSolveParams {
     pub block: u32,
     /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
     pub tolerance: f32,
-    /// Start every level from the previous solve's phi instead of Shepard resampling (DESIGN
-    /// section 5: light or material changes), each finer level corrected by the coarser level's
-    /// change, phi_h += P(phi_(h-1),new - phi_(h-1),prev) (`shepard/warm_correct.glsl`); the first
-    /// solve, and the first after [`GpuDiffusion::set_q_scale`], still initialises. The skipped
-    /// init is absent from the profiler output; the correction is [`PASS_WARM`].
-    pub warm_start: bool,
 }
 
 impl Default for GpuSolveParams {
@@ -56,7 +50,6 @@ impl Default for GpuSolveParams {
             iterations: vec![200],
             block: 8,
             tolerance: 1e-4,
-            warm_start: false,
         }
     }
 }

@@ -62,7 +62,10 @@ mod tests {
             let mut before = usize::MAX;
             for j in 0..sweeps {
                 let (src, dst) = PingPong::SETS[pp.sweep_set(j)];
-                assert_eq!(src, written, "{precision:?}: sweep {j} reads the last iterate");
+                assert_eq!(
+                    src, written,
+                    "{precision:?}: sweep {j} reads the last iterate"
+                );
                 before = written;
                 written = dst;
             }

@@ -52,7 +52,11 @@ impl GpuDiffusion {
         Ok(Variant { iterate, residual })
     }
 
-    pub(super) fn pipelines(ctx: &Context, precision: Precision, levels: u32) -> Result<Pipelines, Error> {
+    pub(super) fn pipelines(
+        ctx: &Context,
+        precision: Precision,
+        levels: u32,
+    ) -> Result<Pipelines, Error> {
         let sets = 2 * levels + 2;
         let (init, warm, reduce, j_plus) = match precision {
             Precision::Mixed | Precision::Fp32 => (
@@ -153,5 +157,4 @@ impl GpuDiffusion {
             )?,
         })
     }
-
 }

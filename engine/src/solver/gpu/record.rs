@@ -162,7 +162,11 @@ impl GpuDiffusion {
             },
         )];
         if let Some(copy) = copy_to {
-            uses.push(Use::buffer_span(copy, Access::TransferDst, Access::HostRead));
+            uses.push(Use::buffer_span(
+                copy,
+                Access::TransferDst,
+                Access::HostRead,
+            ));
         }
         for l in &self.levels {
             uses.push(Use::image(&l.q, Access::ComputeRead));

@@ -170,5 +170,4 @@ impl GpuDiffusion {
             deform: None,
         })
     }
-
 }

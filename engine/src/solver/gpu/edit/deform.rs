@@ -6,12 +6,10 @@ use std::sync::Arc;
 use ash::vk;
 use glam::Mat4;
 
-use crate::solver::gpu::{
-    bad_param, bytes_of, surface_packing, GpuDiffusion, GpuLevel,
-};
 use crate::mesh::{GpuMesh, Vertex};
 use crate::quadgraph::graph::NO_NODE;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::solver::gpu::{bad_param, bytes_of, surface_packing, GpuDiffusion, GpuLevel};
 use crate::vk::{Buffer, Context};
 use crate::{Error, QuadGraph};
 
@@ -184,7 +182,6 @@ pub(crate) struct MeshDeform {
     pub(super) count: u32,
     pub(super) set: vk::DescriptorSet,
 }
-
 
 impl GpuDiffusion {
     pub(super) fn check_graph(&self, graph: &QuadGraph) -> Result<(), Error> {

@@ -1,13 +1,11 @@
 //! The deformations and their pure-CPU geometry (mapping points and normals, validation, deformed
 //! levels for the CPU reference); nothing here touches the GPU.
 
-
 use glam::{DMat3, DVec3, Mat4};
 
-use crate::solver::gpu::SolverError;
 use crate::quadgraph::graph::GraphLevel;
+use crate::solver::gpu::SolverError;
 use crate::{Error, QuadGraph};
-
 
 /// A deformation of the object, in its normalized frame (mm). Applied to the rest pose the bake
 /// produced (not accumulated): `deform(Identity)` restores the baked shape.

@@ -1,15 +1,12 @@
 //! A material edit: the new field's texels staged for the next frame's `edits` pass (and the
 //! heterogeneous textures created on the first heterogeneous material).
 
-
 use ash::vk;
 
-use crate::solver::gpu::textures::{HomogeneousMaterial, MaterialTexels};
-use crate::solver::gpu::{
-    bytes_of, image, GpuDiffusion, SolverError,
-};
 use crate::material::{fresnel, MaterialField};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::solver::gpu::textures::{HomogeneousMaterial, MaterialTexels};
+use crate::solver::gpu::{bytes_of, image, GpuDiffusion, SolverError};
 use crate::vk::Context;
 use crate::{Error, QuadGraph};
 

@@ -53,9 +53,7 @@ use std::sync::Arc;
 use ash::vk;
 use glam::DVec3;
 
-use super::{
-    raw_barrier, GpuDiffusion, GpuLevel,
-};
+use super::{raw_barrier, GpuDiffusion, GpuLevel};
 use crate::mesh::{GpuMesh, Vertex};
 use crate::solver::operator::Scheme;
 use crate::vk::barrier::Use;
@@ -66,8 +64,8 @@ mod deform;
 mod deformation;
 mod material;
 
-pub use deform::{DerivePush, GeometryPush, MapPush, MeshPush, NodesPush};
 pub(crate) use deform::{DeformPipelines, LevelDeform, MeshDeform};
+pub use deform::{DerivePush, GeometryPush, MapPush, MeshPush, NodesPush};
 pub use deformation::{barycentric, transform_normal, Deformation};
 
 /// Pass names (profiler scopes, debug labels).
@@ -480,7 +478,11 @@ impl GpuDiffusion {
             }
             if let (false, Some(m)) = (staged.meshes.is_empty(), &self.edits.mesh) {
                 scope(cb, Some(PASS_DEFORM_MESH));
-                let src = if staged.mesh_from_rest { &m.rest } else { &m.out };
+                let src = if staged.mesh_from_rest {
+                    &m.rest
+                } else {
+                    &m.out
+                };
                 let stride = std::mem::size_of::<Vertex>() as u64;
                 // Positions and normals only: the exitance (last 12 bytes) is the solve's.
                 let span = std::mem::offset_of!(Vertex, exitance) as u64;
