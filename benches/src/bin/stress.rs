@@ -31,6 +31,7 @@ use translucent::scene::Camera;
 use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::analytic::Homogeneous;
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, Precision};
+use translucent::solver::rel_rms;
 use translucent::solver::{self, CpuSolution, CpuSolveParams};
 use translucent::vk::{Context, ContextDesc};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
@@ -283,22 +284,6 @@ fn gpu(
             .iter()
             .all(|c| c.iterations == 0 || c.stopped_early != 0),
     })
-}
-
-fn rel_rms<A: Copy + Into<f64>>(got: &[[A; 3]], want: &[[f64; 3]]) -> f64 {
-    let (mut d2, mut r2) = (0.0, 0.0);
-    for (g, w) in got.iter().zip(want) {
-        for c in 0..3 {
-            let g: f64 = g[c].into();
-            d2 += (g - w[c]).powi(2);
-            r2 += w[c] * w[c];
-        }
-    }
-    if r2 > 0.0 {
-        (d2 / r2).sqrt()
-    } else {
-        d2.sqrt()
-    }
 }
 
 fn precision_name(p: Precision) -> String {
