@@ -62,7 +62,8 @@ use ::wgpu as wg;
 use ash::vk;
 use wg::hal::api::Vulkan;
 
-use crate::object::{FrameReport, RecordCtx, TargetImage, Targets, TranslucentObject};
+use crate::frame::FrameReport;
+use crate::object::{RecordCtx, TargetImage, Targets, TranslucentObject};
 use crate::vk::{
     Context, GpuProfiler, HostOptions, ImageState, Severity, ValidationMessage, VkError,
     REQUIRED_FEATURES,
@@ -406,7 +407,7 @@ pub fn create_instance(
     .map_err(|e| instance_error(&e))?;
     // SAFETY: a freshly made Vulkan hal instance.
     let instance = unsafe { wg::Instance::from_hal::<Vulkan>(hal) };
-    Ok((instance, validation.then(|| ValidationMessages(sink))))
+    Ok((instance, validation.then_some(ValidationMessages(sink))))
 }
 
 /// Whether `adapter` can run translucent: Vulkan 1.3 with synchronization2, dynamicRendering and
@@ -856,11 +857,11 @@ impl WgpuContext {
                         what: "command encoder",
                     })?
                     .raw_handle();
-                let profiler = profiler.map(|p| {
+                let mut profiler = profiler;
+                if let Some(p) = profiler.as_deref_mut() {
                     p.frame_completed(completed);
                     p.begin_frame(cb, frame);
-                    p
-                });
+                }
                 object
                     .record(
                         &mut RecordCtx {

@@ -44,7 +44,7 @@ pub(crate) mod device;
 mod memory;
 mod profiler;
 
-pub use barrier::{Access, ImageState};
+pub use barrier::{Access, ImageState, Tracked};
 pub use capture::{ImageReadback, LinearImage};
 pub(crate) use context::HostOptions;
 pub use context::{

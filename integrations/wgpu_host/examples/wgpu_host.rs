@@ -236,7 +236,10 @@ pub fn run(out: &Path, validation: bool) -> Result<Outcome, Box<dyn std::error::
         let errors = wgpu_errors.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             eprintln!("wgpu: {e}");
-            errors.lock().unwrap_or_else(|e| e.into_inner()).push(e.to_string());
+            errors
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(e.to_string());
         }));
     }
     // SAFETY: this host is single-threaded: nothing else submits while objects are created.
@@ -577,7 +580,10 @@ fn main() {
             for (frame, passes) in &o.timings {
                 println!("frame {frame} GPU ms: {passes:?}");
             }
-            println!("the same frame from the command line:\n  {}", render_command());
+            println!(
+                "the same frame from the command line:\n  {}",
+                render_command()
+            );
         }
         Ok(o) => {
             eprintln!(

@@ -1,7 +1,7 @@
 //! The wgpu host (`examples/wgpu_host.rs`, included for its `run`) on lavapipe with the Khronos
 //! layer and synchronization validation: no validation message and no wgpu error; the frames'
 //! reports (cold solve, warm solve after the light moved, shading only after camera moves); and its
-//! last frame against the same scene rendered by our own host (`render::HeadlessHost`, the path
+//! last frame against the same scene rendered by our own host (`headless::HeadlessHost`, the path
 //! `translucent render` runs on the GPU), pixel by pixel where the object is visible, where the
 //! host's pillar hides it, and where the host's overlay is blended over it.
 
@@ -10,7 +10,9 @@ mod wgpu_host;
 
 use std::sync::Arc;
 
-use translucent::render::{HeadlessHost, COLOR_FORMAT, DEPTH_FORMAT};
+use translucent::headless::HeadlessHost;
+use translucent::render::{COLOR_FORMAT, DEPTH_FORMAT};
+use translucent::solver::gpu::PASS_SOLVE;
 use translucent::{SkipReason, TranslucentObject};
 use translucent_tests::{test_output_dir, GpuTest};
 use wgpu_host::*;
@@ -51,11 +53,22 @@ fn wgpu_host_draws_our_object_between_its_passes_like_our_own_host() {
     // The reports: cold, warm after the light moved, then shading only for camera moves.
     let r = &outcome.reports;
     assert_eq!(r.len(), 4);
-    assert!(r[0].passes.contains(&"solve") && !r[0].warm_start, "{:?}", r[0]);
-    assert!(r[1].passes.contains(&"solve") && r[1].warm_start, "{:?}", r[1]);
+    assert!(
+        r[0].passes.contains(&PASS_SOLVE) && !r[0].warm_start,
+        "{:?}",
+        r[0]
+    );
+    assert!(
+        r[1].passes.contains(&PASS_SOLVE) && r[1].warm_start,
+        "{:?}",
+        r[1]
+    );
     for report in &r[2..] {
         assert_eq!(report.passes, ["shading"], "{report:?}");
-        assert_eq!(report.skipped.get("solve"), Some(&SkipReason::CameraOnly));
+        assert_eq!(
+            report.skipped.get(PASS_SOLVE),
+            Some(&SkipReason::CameraOnly)
+        );
     }
     let solved: Vec<u64> = outcome.solves.iter().map(|s| s.frame).collect();
     assert_eq!(solved, [1, 2], "the two solves completed and were reported");
@@ -105,6 +118,12 @@ fn wgpu_host_draws_our_object_between_its_passes_like_our_own_host() {
             if OVERLAY_ROWS.contains(&y) {
                 // The overlay pass came after ours: white blended over the object.
                 let expected = r3.map(|v| v * (1.0 - OVERLAY_ALPHA) + OVERLAY_ALPHA);
+                // Where the host's pillar is nearer, the overlay is blended over the pillar.
+                let over_pillar = PILLAR.map(|v| v * (1.0 - OVERLAY_ALPHA) + OVERLAY_ALPHA);
+                if near(a3, over_pillar, 1e-3) {
+                    hidden += 1;
+                    continue;
+                }
                 assert!(
                     near(a3, expected, OBJECT_TOLERANCE * peak + 2e-3),
                     "overlay at ({x}, {y}): {a3:?}, expected {expected:?}"
@@ -128,5 +147,8 @@ fn wgpu_host_draws_our_object_between_its_passes_like_our_own_host() {
     // The torus covers about a tenth of the frame; the pillar and the band cross it.
     assert!(compared > 1000, "only {compared} object pixels");
     assert!(hidden > 50, "the pillar hid only {hidden} object pixels");
-    assert!(overlaid > 100, "the overlay covered only {overlaid} object pixels");
+    assert!(
+        overlaid > 100,
+        "the overlay covered only {overlaid} object pixels"
+    );
 }
