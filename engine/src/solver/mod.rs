@@ -4,6 +4,8 @@
 //! - [`operator`]: the assembled linear system of one level (`fv` or `paper` scheme).
 //! - [`krylov`]: exact solves (PCG, BiCGSTAB) of that system.
 //! - [`scene`]: lights and environments, irradiance q at surface nodes.
+//! - [`multigrid`]: V-cycles and full multigrid over the levels (DESIGN section 5.1), the f64
+//!   prototype of the GPU schedule.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
 
@@ -12,10 +14,11 @@ pub mod cpu;
 pub mod environment_map;
 pub mod gpu;
 pub mod krylov;
+pub mod multigrid;
 pub mod operator;
 pub mod scene;
 
-pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, RadianceMode};
+pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, RadianceMode, Schedule};
 pub use operator::Scheme;
 pub use scene::{Environment, Light, Scene};
 
