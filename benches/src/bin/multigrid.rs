@@ -18,11 +18,12 @@ use translucent::material::{Coefficients, Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
 use translucent::quadgraph::BakeParams;
+use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::multigrid::{
     CoarseOperator, Hierarchy, Interpolation, MultigridParams, MultigridReport, Smoother, Start,
 };
 use translucent::solver::operator::LevelOperator;
-use translucent::solver::{self, CpuSolveParams, Environment, Light, Scene, Schedule, Scheme};
+use translucent::solver::{self, CpuSolveParams, Schedule, Scheme};
 use translucent::QuadGraph;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -171,7 +172,9 @@ fn scenario(name: &str) -> Result<Scenario> {
             let shape = match f[0] {
                 "sphere" => Shape::Sphere { radius: 0.5 * size },
                 "torus" => torus(size),
-                "box" => Shape::Box { half_extents: DVec3::new(0.5, 0.3, 0.4) * size },
+                "box" => Shape::Box {
+                    half_extents: DVec3::new(0.5, 0.3, 0.4) * size,
+                },
                 s => return Err(format!("shape {s}").into()),
             };
             let surface = shape.triangulate(96);
@@ -294,7 +297,9 @@ fn describe(s: &Scenario) {
 fn parse_config(text: &str) -> Result<MultigridParams> {
     let mut p = MultigridParams::default();
     for item in text.split(',').filter(|i| !i.is_empty()) {
-        let (key, value) = item.split_once('=').ok_or_else(|| format!("config item {item}"))?;
+        let (key, value) = item
+            .split_once('=')
+            .ok_or_else(|| format!("config item {item}"))?;
         match key {
             "interp" => {
                 p.interpolation = match value {
@@ -399,9 +404,7 @@ fn schedules(s: &Scenario, configs: &[MultigridParams]) -> Result<()> {
             fmt_reached(&reached[0]),
             fmt_reached(&reached[1]),
             fmt_reached(&reached[2]),
-            report
-                .mean_factor
-                .map_or("-".into(), |f| format!("{f:.3}")),
+            report.mean_factor.map_or("-".into(), |f| format!("{f:.3}")),
             report
                 .cycles
                 .last()
@@ -487,71 +490,132 @@ fn cascade(s: &Scenario) -> Result<()> {
 
 fn diag(s: &Scenario) -> Result<()> {
     describe(s);
-    for (interpolation, surface_blocks) in [(Interpolation::Shepard, true), (Interpolation::Linear, true), (Interpolation::Shepard, false)] {
-    for coarse in [CoarseOperator::Rediscretized, CoarseOperator::Galerkin] {
-        // The V-cycle's slowest error mode: cycles on K e = 0 from a random start.
-        let params = MultigridParams {
-            interpolation,
-            coarse,
-            surface_blocks,
-            smoother: Smoother::Chebyshev { lower: std::env::var("MG_LOWER").ok().and_then(|v| v.parse().ok()).unwrap_or(0.25) },
-            pre_sweeps: std::env::var("MG_NU").ok().and_then(|v| v.parse().ok()).unwrap_or(2),
-            post_sweeps: std::env::var("MG_NU").ok().and_then(|v| v.parse().ok()).unwrap_or(2),
-            smoothed_prolongation: std::env::var("MG_SP").ok().and_then(|v| v.parse().ok()),
-            coarse_tolerance: 1e-10,
-            max_cycles: 30,
-            tolerance: 0.0,
-            ..MultigridParams::default()
-        };
-        let mg = Hierarchy::build(&s.graph, &s.field, Scheme::Fv, &params)?;
-        let k = &mg.levels.last().expect("levels").operator;
-        let n = k.node_count();
-        let mut e: Vec<[f64; 3]> = (0..n).map(|i| { let h = ((i as u64 * 2654435761) % 1000) as f64 / 1000.0 - 0.5; [h; 3] }).collect();
-        let zero = vec![[0.0; 3]; n];
-        let energy = |e: &[[f64; 3]]| -> f64 { let mut ke = vec![[0.0; 3]; n]; k.apply(e, &mut ke); e.iter().zip(&ke).map(|(a, b)| a[0] * b[0]).sum::<f64>() };
-        let mut factors = Vec::new();
-        for _ in 0..25 {
-            let before = energy(&e).sqrt();
-            let (next, _) = mg.solve(&zero, Start::Warm(&e), &MultigridParams { max_cycles: 1, tolerance: 0.0, ..params.clone() }, &mut |_, _| {});
-            e = next;
-            factors.push(energy(&e).sqrt() / before);
-        }
-        let f: Vec<String> = factors.iter().map(|x| format!("{x:.3}")).collect();
-        println!("{interpolation:?} blocks {surface_blocks} {coarse:?} energy-norm factors: {}", f.join(" "));
-        let inner = mg.finest.inner_count;
-        let d: f64 = e.iter().zip(&k.diag).map(|(a, m)| a[0] * a[0] * m[0]).sum();
-        println!("  Rayleigh quotient e'Ke / e'De = {:.4}", energy(&e) / d);
-        let (ei, es) = (e[..inner].iter().map(|v| v[0] * v[0]).sum::<f64>(), e[inner..].iter().map(|v| v[0] * v[0]).sum::<f64>());
-        println!("  error^2 share: inner {:.3}, surface {:.3}", ei / (ei + es), es / (ei + es));
-        if let Some(h) = std::env::var("MG_BOX").ok().and_then(|v| v.parse::<f64>().ok()) {
-            // Error energy by depth below the box's surface, in fine spacings.
-            let half = DVec3::new(0.5, 0.3, 0.4) * h;
-            let sp = s.graph.finest().spacing;
-            let mut bins = vec![(0.0f64, 0usize, 0.0f64); 12];
-            for (i, v) in e.iter().enumerate() {
-                let p = s.graph.finest().positions[i];
-                let d = (half - p.abs()).min_element().max(0.0) / sp;
-                let b = ((d * 2.0) as usize).min(11);
-                bins[b].0 += v[0] * v[0];
-                bins[b].1 += 1;
-                bins[b].2 = bins[b].2.max(v[0].abs());
+    for (interpolation, surface_blocks) in [
+        (Interpolation::Shepard, true),
+        (Interpolation::Linear, true),
+        (Interpolation::Shepard, false),
+    ] {
+        for coarse in [CoarseOperator::Rediscretized, CoarseOperator::Galerkin] {
+            // The V-cycle's slowest error mode: cycles on K e = 0 from a random start.
+            let params = MultigridParams {
+                interpolation,
+                coarse,
+                surface_blocks,
+                smoother: Smoother::Chebyshev {
+                    lower: std::env::var("MG_LOWER")
+                        .ok()
+                        .and_then(|v| v.parse().ok())
+                        .unwrap_or(0.25),
+                },
+                pre_sweeps: std::env::var("MG_NU")
+                    .ok()
+                    .and_then(|v| v.parse().ok())
+                    .unwrap_or(2),
+                post_sweeps: std::env::var("MG_NU")
+                    .ok()
+                    .and_then(|v| v.parse().ok())
+                    .unwrap_or(2),
+                smoothed_prolongation: std::env::var("MG_SP").ok().and_then(|v| v.parse().ok()),
+                coarse_tolerance: 1e-10,
+                max_cycles: 30,
+                tolerance: 0.0,
+                ..MultigridParams::default()
+            };
+            let mg = Hierarchy::build(&s.graph, &s.field, Scheme::Fv, &params)?;
+            let k = &mg.levels.last().expect("levels").operator;
+            let n = k.node_count();
+            let mut e: Vec<[f64; 3]> = (0..n)
+                .map(|i| {
+                    let h = ((i as u64 * 2654435761) % 1000) as f64 / 1000.0 - 0.5;
+                    [h; 3]
+                })
+                .collect();
+            let zero = vec![[0.0; 3]; n];
+            let energy = |e: &[[f64; 3]]| -> f64 {
+                let mut ke = vec![[0.0; 3]; n];
+                k.apply(e, &mut ke);
+                e.iter().zip(&ke).map(|(a, b)| a[0] * b[0]).sum::<f64>()
+            };
+            let mut factors = Vec::new();
+            for _ in 0..25 {
+                let before = energy(&e).sqrt();
+                let (next, _) = mg.solve(
+                    &zero,
+                    Start::Warm(&e),
+                    &MultigridParams {
+                        max_cycles: 1,
+                        tolerance: 0.0,
+                        ..params.clone()
+                    },
+                    &mut |_, _| {},
+                );
+                e = next;
+                factors.push(energy(&e).sqrt() / before);
             }
-            let total: f64 = bins.iter().map(|b| b.0).sum();
-            for (b, (en, n, mx)) in bins.iter().enumerate() {
-                println!("  depth {:.1}-{:.1} h: share {:.3} nodes {n} rms {:.2e} max {mx:.2e}", b as f64 / 2.0, (b + 1) as f64 / 2.0, en / total, (en / (*n).max(1) as f64).sqrt());
+            let f: Vec<String> = factors.iter().map(|x| format!("{x:.3}")).collect();
+            println!(
+                "{interpolation:?} blocks {surface_blocks} {coarse:?} energy-norm factors: {}",
+                f.join(" ")
+            );
+            let inner = mg.finest.inner_count;
+            let d: f64 = e.iter().zip(&k.diag).map(|(a, m)| a[0] * a[0] * m[0]).sum();
+            println!("  Rayleigh quotient e'Ke / e'De = {:.4}", energy(&e) / d);
+            let (ei, es) = (
+                e[..inner].iter().map(|v| v[0] * v[0]).sum::<f64>(),
+                e[inner..].iter().map(|v| v[0] * v[0]).sum::<f64>(),
+            );
+            println!(
+                "  error^2 share: inner {:.3}, surface {:.3}",
+                ei / (ei + es),
+                es / (ei + es)
+            );
+            if let Some(h) = std::env::var("MG_BOX")
+                .ok()
+                .and_then(|v| v.parse::<f64>().ok())
+            {
+                // Error energy by depth below the box's surface, in fine spacings.
+                let half = DVec3::new(0.5, 0.3, 0.4) * h;
+                let sp = s.graph.finest().spacing;
+                let mut bins = vec![(0.0f64, 0usize, 0.0f64); 12];
+                for (i, v) in e.iter().enumerate() {
+                    let p = s.graph.finest().positions[i];
+                    let d = (half - p.abs()).min_element().max(0.0) / sp;
+                    let b = ((d * 2.0) as usize).min(11);
+                    bins[b].0 += v[0] * v[0];
+                    bins[b].1 += 1;
+                    bins[b].2 = bins[b].2.max(v[0].abs());
+                }
+                let total: f64 = bins.iter().map(|b| b.0).sum();
+                for (b, (en, n, mx)) in bins.iter().enumerate() {
+                    println!(
+                        "  depth {:.1}-{:.1} h: share {:.3} nodes {n} rms {:.2e} max {mx:.2e}",
+                        b as f64 / 2.0,
+                        (b + 1) as f64 / 2.0,
+                        en / total,
+                        (en / (*n).max(1) as f64).sqrt()
+                    );
+                }
             }
-        }
-        let mut worst: Vec<(f64, usize)> = e.iter().enumerate().map(|(i, v)| (v[0].abs(), i)).collect();
-        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let level = s.graph.finest();
-        for &(v, i) in worst.iter().take(6) {
-            let kind = if i < inner { "inner" } else { "surface" };
-            let nb: Vec<String> = (k.row_start[i]..k.row_start[i + 1]).map(|x| format!("{}:{:.2}", k.cols[x], -k.values[x][0] / k.diag[i][0])).collect();
-            println!("  node {i} {kind} at {:.2?}: e {v:.2e}, weights {}", level.positions[i], nb.join(" "));
+            let mut worst: Vec<(f64, usize)> =
+                e.iter().enumerate().map(|(i, v)| (v[0].abs(), i)).collect();
+            worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let level = s.graph.finest();
+            for &(v, i) in worst.iter().take(6) {
+                let kind = if i < inner { "inner" } else { "surface" };
+                let nb: Vec<String> = (k.row_start[i]..k.row_start[i + 1])
+                    .map(|x| format!("{}:{:.2}", k.cols[x], -k.values[x][0] / k.diag[i][0]))
+                    .collect();
+                println!(
+                    "  node {i} {kind} at {:.2?}: e {v:.2e}, weights {}",
+                    level.positions[i],
+                    nb.join(" ")
+                );
+            }
         }
     }
+    if std::env::var_os("MG_DIAG_ONLY").is_some() {
+        return Ok(());
     }
-    if std::env::var_os("MG_DIAG_ONLY").is_some() { return Ok(()); }
     for interpolation in [Interpolation::Shepard, Interpolation::Linear] {
         let params = MultigridParams {
             interpolation,
@@ -566,29 +630,59 @@ fn diag(s: &Scenario) -> Result<()> {
         }
         let p = problem(s, &mg, &s.scene);
         let (_, report, x) = run(&mg, &p, &params, Start::Cold);
-        let f: Vec<String> = report.cycles.iter().map(|c| format!("{:.3}", c.factor)).collect();
+        let f: Vec<String> = report
+            .cycles
+            .iter()
+            .map(|c| format!("{:.3}", c.factor))
+            .collect();
         println!("{interpolation:?}: factors {}", f.join(" "));
         let k = &mg.levels.last().expect("levels").operator;
         let mut r = vec![[0.0; 3]; x.len()];
         k.residual(&x, &p.f, &mut r);
         let inner = mg.finest.inner_count;
-        let e = |range: std::ops::Range<usize>| -> f64 { r[range].iter().map(|v| v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sum() };
+        let e = |range: std::ops::Range<usize>| -> f64 {
+            r[range]
+                .iter()
+                .map(|v| v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+                .sum()
+        };
         let (ri, rs) = (e(0..inner), e(inner..x.len()));
-        println!("residual^2 share: inner {:.3}, surface {:.3}", ri / (ri + rs), rs / (ri + rs));
+        println!(
+            "residual^2 share: inner {:.3}, surface {:.3}",
+            ri / (ri + rs),
+            rs / (ri + rs)
+        );
         for &i in &[176851usize, 101472, 108821] {
             let links = s.graph.finest().from_coarser.as_ref().expect("links");
             let coarse = &s.graph.levels[s.graph.levels.len() - 2];
-            let l: Vec<String> = links.links[i].iter().zip(&links.weights[i]).filter(|(c, _)| **c != u32::MAX).map(|(&c, w)| format!("{c}:{:.1?}@{w:.2}", coarse.positions[c as usize])).collect();
-            println!("node {i} at {:.1?} links {}", s.graph.finest().positions[i], l.join(" "));
+            let l: Vec<String> = links.links[i]
+                .iter()
+                .zip(&links.weights[i])
+                .filter(|(c, _)| **c != u32::MAX)
+                .map(|(&c, w)| format!("{c}:{:.1?}@{w:.2}", coarse.positions[c as usize]))
+                .collect();
+            println!(
+                "node {i} at {:.1?} links {}",
+                s.graph.finest().positions[i],
+                l.join(" ")
+            );
         }
         // Where the inner residual lives: by distance of the node to the nearest surface node.
         let level = s.graph.finest();
-        let mut worst: Vec<(f64, usize)> = (0..x.len()).map(|i| (r[i][0].abs() / k.diag[i][0], i)).collect();
+        let mut worst: Vec<(f64, usize)> = (0..x.len())
+            .map(|i| (r[i][0].abs() / k.diag[i][0], i))
+            .collect();
         worst.sort_by(|a, b| b.0.total_cmp(&a.0));
         for &(v, i) in worst.iter().take(8) {
             let kind = if i < inner { "inner" } else { "surface" };
-            let nb: Vec<String> = (k.row_start[i]..k.row_start[i + 1]).map(|e| format!("{:.2}", -k.values[e][0] / k.diag[i][0])).collect();
-            println!("  node {i} {kind} at {:.1?}: D^-1 r {v:.2e}, weights {}", level.positions[i], nb.join(" "));
+            let nb: Vec<String> = (k.row_start[i]..k.row_start[i + 1])
+                .map(|e| format!("{:.2}", -k.values[e][0] / k.diag[i][0]))
+                .collect();
+            println!(
+                "  node {i} {kind} at {:.1?}: D^-1 r {v:.2e}, weights {}",
+                level.positions[i],
+                nb.join(" ")
+            );
         }
     }
     Ok(())
@@ -611,9 +705,16 @@ fn main() -> Result<()> {
     }
     let want = |s: &str| only.is_empty() || only.iter().any(|o| o == s);
     if scenes.is_empty() {
-        scenes = ["default", "spot", "contrast", "absorption0", "size1mm", "size10m"]
-            .map(String::from)
-            .to_vec();
+        scenes = [
+            "default",
+            "spot",
+            "contrast",
+            "absorption0",
+            "size1mm",
+            "size10m",
+        ]
+        .map(String::from)
+        .to_vec();
     }
     if configs.is_empty() {
         configs.push(String::new());

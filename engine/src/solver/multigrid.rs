@@ -30,7 +30,8 @@
 //! use translucent::mesh::shapes::Shape;
 //! use translucent::quadgraph::BakeParams;
 //! use translucent::solver::multigrid::{Hierarchy, MultigridParams, Start};
-//! use translucent::solver::{Environment, Scene, Scheme};
+//! use translucent::scene::{Environment, Scene};
+//! use translucent::solver::Scheme;
 //! use translucent::QuadGraph;
 //! let ball = Shape::Sphere { radius: 5.0 };
 //! let bake = BakeParams { resolution: 16, levels: 2, ..Default::default() };
@@ -279,17 +280,6 @@ impl SparseOperator {
         }
     }
 
-    /// `(B v)_i`.
-    #[inline]
-    fn block_apply(&self, i: usize, v: &[[f64; 3]]) -> [f64; 3] {
-        match self.partner.get(i) {
-            Some(&p) if p != NO_NODE => std::array::from_fn(|c| {
-                self.diag[i][c] * v[i][c] + self.partner_value[i][c] * v[p as usize][c]
-            }),
-            _ => std::array::from_fn(|c| self.diag[i][c] * v[i][c]),
-        }
-    }
-
     /// `z = B^-1 r`.
     pub fn precondition(&self, r: &[[f64; 3]], z: &mut [[f64; 3]]) {
         z.par_iter_mut()
@@ -352,8 +342,8 @@ impl SparseOperator {
                     };
                     for c in 0..3 {
                         let (u, v) = (self.values[e][c], self.values[b][c]);
-                        worst = worst
-                            .max((u - v).abs() / u.abs().max(v.abs()).max(f64::MIN_POSITIVE));
+                        worst =
+                            worst.max((u - v).abs() / u.abs().max(v.abs()).max(f64::MIN_POSITIVE));
                     }
                 }
                 worst
@@ -384,10 +374,7 @@ impl Prolongation {
         if links.links.len() != fine_nodes || links.weights.len() != fine_nodes {
             return Err(SolverError::BadGraph {
                 level: usize::MAX,
-                problem: format!(
-                    "{} Shepard links for {fine_nodes} nodes",
-                    links.links.len()
-                ),
+                problem: format!("{} Shepard links for {fine_nodes} nodes", links.links.len()),
             });
         }
         let mut count = vec![0usize; coarse_nodes + 1];
@@ -594,7 +581,9 @@ fn linear_weights(
             None => DVec4::new(1.0, d.x, d.y, d.z),
         }
     };
-    let used: Vec<usize> = (0..8).filter(|&k| links[k] != NO_NODE && w[k] > 0.0).collect();
+    let used: Vec<usize> = (0..8)
+        .filter(|&k| links[k] != NO_NODE && w[k] > 0.0)
+        .collect();
     let dims: i32 = if frame.is_some() { 3 } else { 4 };
     if used.len() < dims as usize {
         return None;
@@ -728,17 +717,15 @@ impl Hierarchy {
                 let links = match params.interpolation {
                     Interpolation::Shepard => links.clone(),
                     Interpolation::Linear => linear_links(links, level, &graph.levels[h - 1]),
-                    Interpolation::Mixed => {
-                        linear_links(&mixed_links(level, &graph.levels[h - 1]), level, &graph.levels[h - 1])
-                    }
+                    Interpolation::Mixed => linear_links(
+                        &mixed_links(level, &graph.levels[h - 1]),
+                        level,
+                        &graph.levels[h - 1],
+                    ),
                 };
                 Some(
-                    Prolongation::new(
-                        &links,
-                        level.node_count(),
-                        graph.levels[h - 1].node_count(),
-                    )
-                    .map_err(|e| e.at_level(h))?,
+                    Prolongation::new(&links, level.node_count(), graph.levels[h - 1].node_count())
+                        .map_err(|e| e.at_level(h))?,
                 )
             });
         }
@@ -746,8 +733,8 @@ impl Hierarchy {
         match params.coarse {
             CoarseOperator::Rediscretized => {
                 for (h, level) in graph.levels.iter().enumerate().take(finest_index) {
-                    let op = LevelOperator::build(level, material, scheme)
-                        .map_err(|e| e.at_level(h))?;
+                    let op =
+                        LevelOperator::build(level, material, scheme).map_err(|e| e.at_level(h))?;
                     operators.push(SparseOperator::from_level(&op));
                 }
                 operators.push(SparseOperator::from_level(&finest));
@@ -772,7 +759,12 @@ impl Hierarchy {
                 if params.surface_blocks {
                     operator.pair_surface_nodes(&graph.levels[h]);
                 }
-                if operator.diag.iter().flatten().any(|&d| !(d > 0.0 && d.is_finite())) {
+                if operator
+                    .diag
+                    .iter()
+                    .flatten()
+                    .any(|&d| !(d > 0.0 && d.is_finite()))
+                {
                     return Err(SolverError::NonFinite {
                         what: format!("level {h}: a multigrid operator's diagonal (must be > 0)"),
                     });
@@ -780,7 +772,8 @@ impl Hierarchy {
                 let lambda_max = if matches!(params.smoother, Smoother::Chebyshev { .. })
                     || params.smoothed_prolongation.is_some()
                 {
-                    largest_eigenvalue(&operator, params.power_iterations).map(|l| LAMBDA_MARGIN * l)
+                    largest_eigenvalue(&operator, params.power_iterations)
+                        .map(|l| LAMBDA_MARGIN * l)
                 } else {
                     [2.0; 3]
                 };
@@ -824,13 +817,7 @@ impl Hierarchy {
         let mut r = vec![[0.0; 3]; x.len()];
         level.operator.residual(x, f, &mut r);
         let (rn, fn_) = (norm2(&r), norm2(f));
-        std::array::from_fn(|c| {
-            if fn_[c] > 0.0 {
-                rn[c] / fn_[c]
-            } else {
-                rn[c]
-            }
-        })
+        std::array::from_fn(|c| if fn_[c] > 0.0 { rn[c] / fn_[c] } else { rn[c] })
     }
 
     /// Solves `K x = f` on the finest level (f scaled: [`Self::scaled_rhs`]). `observe` is called
@@ -899,7 +886,11 @@ impl Hierarchy {
         let mut v_factors = Vec::new();
         let mut going = residual >= params.tolerance && params.max_cycles > cycles.len() as u32;
         let mut step = |x: &Field, next: f64, residual: &mut f64, work: &Work| -> bool {
-            let factor = if *residual > 0.0 { next / *residual } else { 0.0 };
+            let factor = if *residual > 0.0 {
+                next / *residual
+            } else {
+                0.0
+            };
             v_factors.push(factor);
             let report = CycleReport {
                 residual: next,
@@ -1017,7 +1008,9 @@ impl Hierarchy {
             return;
         };
         let k = &level.operator;
-        let smoothing = params.smoothed_prolongation.map(|s| level.lambda_max.map(|l| s / l));
+        let smoothing = params
+            .smoothed_prolongation
+            .map(|s| level.lambda_max.map(|l| s / l));
         if let Some(omega) = smoothing {
             // P_s^T r = P^T (I - omega K B^-1) r.
             let mut z = vec![[0.0; 3]; n];
@@ -1099,9 +1092,21 @@ impl Hierarchy {
 
     /// Coarsest level: Jacobi-preconditioned CG from `x` to a relative residual of
     /// `params.coarse_tolerance`.
-    fn coarse_solve(&self, x: &mut Field, f: &[[f64; 3]], params: &MultigridParams, work: &mut Work) {
+    fn coarse_solve(
+        &self,
+        x: &mut Field,
+        f: &[[f64; 3]],
+        params: &MultigridParams,
+        work: &mut Work,
+    ) {
         let k = &self.levels[0].operator;
-        let iterations = pcg(k, f, x, params.coarse_tolerance, 20 * k.node_count().max(10));
+        let iterations = pcg(
+            k,
+            f,
+            x,
+            params.coarse_tolerance,
+            20 * k.node_count().max(10),
+        );
         work.coarse_iterations += iterations as u64;
         work.updates += (iterations as u64 + 1) * k.node_count() as u64;
     }
@@ -1277,8 +1282,12 @@ fn largest_tridiagonal_eigenvalue(diag: &[f64], off: &[f64]) -> f64 {
     let radius = |j: usize| {
         off.get(j).map_or(0.0, |v: &f64| v.abs()) + j.checked_sub(1).map_or(0.0, |i| off[i].abs())
     };
-    let mut lo = (0..diag.len()).map(|j| diag[j] - radius(j)).fold(f64::INFINITY, f64::min);
-    let mut hi = (0..diag.len()).map(|j| diag[j] + radius(j)).fold(f64::NEG_INFINITY, f64::max);
+    let mut lo = (0..diag.len())
+        .map(|j| diag[j] - radius(j))
+        .fold(f64::INFINITY, f64::min);
+    let mut hi = (0..diag.len())
+        .map(|j| diag[j] + radius(j))
+        .fold(f64::NEG_INFINITY, f64::max);
     // Eigenvalues greater than x: sign changes of the Sturm sequence.
     let above = |x: f64| {
         let mut count = 0;
@@ -1311,7 +1320,8 @@ fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 fn max3(v: [f64; 3]) -> f64 {
-    v.into_iter().fold(0.0, |a, b| if b.is_nan() { b } else { a.max(b) })
+    v.into_iter()
+        .fold(0.0, |a, b| if b.is_nan() { b } else { a.max(b) })
 }
 
 fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
