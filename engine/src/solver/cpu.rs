@@ -317,6 +317,13 @@ pub fn solve(
             };
             let f = hierarchy.scale(&b);
             let (phi, report) = hierarchy.solve(&f, start, &mg, &mut |_, _| {});
+            if !(report.residual < super::multigrid::DIVERGED) {
+                return Err(SolverError::Diverged {
+                    residual: report.residual,
+                    cycles: report.cycles.len(),
+                    hint: "use the Galerkin coarse operator on strong material contrasts",
+                });
+            }
             let reports = graph
                 .levels
                 .iter()

@@ -50,6 +50,12 @@ pub enum SolverError {
     MissingLinks { level: usize },
     #[error("solver: {what} is not finite")]
     NonFinite { what: String },
+    #[error("solver: multigrid diverged: relative residual {residual:.2e} after {cycles} cycles ({hint})")]
+    Diverged {
+        residual: f64,
+        cycles: usize,
+        hint: &'static str,
+    },
 }
 
 impl SolverError {
