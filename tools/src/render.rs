@@ -468,6 +468,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "multigrid": solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
                 "cycles": m.cycles.len(),
                 "work_units": m.work_units,
+                "matvec_units": m.matvec_units,
                 "converged": m.converged,
                 "residual": m.residual,
                 "mean_factor": m.mean_factor,

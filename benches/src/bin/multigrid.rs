@@ -356,8 +356,8 @@ fn config_name(p: &MultigridParams) -> String {
 
 fn schedules(s: &Scenario, configs: &[MultigridParams]) -> Result<()> {
     describe(s);
-    println!("| configuration | 1e-2: cycles / WU / J+ err | 1e-3 | 1e-4 | mean factor | last factor | coarse stencil | setup s | solve s |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| configuration | 1e-2: cycles / WU / J+ err | 1e-3 | 1e-4 | mean factor | last factor | coarse stencil | matvec units to 1e-4 | setup s | solve s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut cache: Vec<(String, Hierarchy)> = Vec::new();
     let mut reference: Option<Problem> = None;
     for params in configs {
@@ -398,7 +398,7 @@ fn schedules(s: &Scenario, configs: &[MultigridParams]) -> Result<()> {
             .collect::<Vec<_>>()
             .join(", ");
         println!(
-            "| {} | {} | {} | {} | {} | {} | {stencil} | {setup:.1} | {solve_s:.1} |",
+            "| {} | {} | {} | {} | {} | {} | {stencil} | {:.1} | {setup:.1} | {solve_s:.1} |",
             config_name(&params),
             fmt_reached(&reached[0]),
             fmt_reached(&reached[1]),
@@ -408,6 +408,7 @@ fn schedules(s: &Scenario, configs: &[MultigridParams]) -> Result<()> {
                 .cycles
                 .last()
                 .map_or("-".into(), |c| format!("{:.3}", c.factor)),
+            report.matvec_units,
         );
     }
     Ok(())

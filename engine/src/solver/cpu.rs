@@ -317,7 +317,7 @@ pub fn solve(
             };
             let f = hierarchy.scale(&b);
             let (phi, report) = hierarchy.solve(&f, start, &mg, &mut |_, _| {});
-            if !(report.residual < super::multigrid::DIVERGED) {
+            if report.residual.is_nan() || report.residual >= super::multigrid::DIVERGED {
                 return Err(SolverError::Diverged {
                     residual: report.residual,
                     cycles: report.cycles.len(),
@@ -407,8 +407,12 @@ pub fn solve(
     })
 }
 
+/// Irradiance q per surface node, the right-hand side b and the beam source's power.
+type Source = (Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]);
 /// The finest level's system, irradiance and source, as [`solve`] assembles it.
 type Assembled = (LevelOperator, Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]);
+/// The cascade's finest phi, its per-level reports and the finest level's system.
+type Cascaded = (Vec<[f64; 3]>, Vec<LevelReport>, Assembled);
 
 /// The paper's cascade (section 4.3): Jacobi per level, coarsest first, each finer level started
 /// from the Shepard resampling of the coarser one. Returns the finest phi, the per-level reports
@@ -419,7 +423,7 @@ fn cascade(
     scene: &Scene,
     occluder: Option<&dyn Solid>,
     params: &CpuSolveParams,
-) -> Result<(Vec<[f64; 3]>, Vec<LevelReport>, Assembled), SolverError> {
+) -> Result<Cascaded, SolverError> {
     let finest = graph.levels.len() - 1;
     let mut reports = Vec::with_capacity(graph.levels.len());
     let mut phi: Vec<[f64; 3]> = Vec::new();
@@ -478,7 +482,7 @@ fn level_source(
     scene: &Scene,
     occluder: Option<&dyn Solid>,
     with_beam: bool,
-) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]), SolverError> {
+) -> Result<Source, SolverError> {
     let eta = material.eta();
     if !with_beam {
         let q = scene.surface_irradiance(level, eta, occluder);

@@ -59,6 +59,8 @@ use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
 use crate::quadgraph::shepard::ShepardIndex;
 
 type Field = Vec<[f64; 3]>;
+/// One row's off-diagonal entries: (column, value per channel).
+type SparseRow = Vec<(u32, [f64; 3])>;
 
 /// Safety factor on the Lanczos estimate of lambda_max (an estimate from below): a Chebyshev
 /// smoother whose upper bound is below the true lambda_max amplifies the modes above it.
@@ -484,7 +486,7 @@ impl Prolongation {
                 merge_columns(row)
             })
             .collect();
-        let rows: Vec<(Vec<(u32, [f64; 3])>, [f64; 3])> = (0..nc)
+        let rows: Vec<(SparseRow, [f64; 3])> = (0..nc)
             .into_par_iter()
             .map(|c| {
                 let mut row: Vec<(u32, [f64; 3])> = Vec::new();
@@ -651,6 +653,18 @@ impl MultigridLevel {
     pub fn node_count(&self) -> usize {
         self.operator.node_count()
     }
+
+    /// Entries of one operator application: off-diagonals plus the diagonal.
+    pub fn operator_entries(&self) -> u64 {
+        (self.operator.cols.len() + self.operator.node_count()) as u64
+    }
+
+    /// Links of one prolongation or restriction from the coarser level (0 on the coarsest).
+    pub fn link_entries(&self) -> u64 {
+        self.prolongation
+            .as_ref()
+            .map_or(0, |p| p.t_fine.len() as u64)
+    }
 }
 
 /// What one V-cycle (or the full multigrid pass) did.
@@ -674,6 +688,9 @@ pub struct MultigridReport {
     pub converged: bool,
     /// Total work units (node updates / finest nodes).
     pub work_units: f64,
+    /// Matrix entries read / entries of one finest-level operator application: the cost in
+    /// memory traffic, where a Galerkin coarse level's wide rows count in full.
+    pub matvec_units: f64,
     /// Geometric mean of the V-cycles' factors (the full multigrid pass left out); `None` before two.
     pub mean_factor: Option<f64>,
     /// Coarsest-level CG iterations, all visits together.
@@ -696,6 +713,8 @@ pub struct Hierarchy {
 #[derive(Default)]
 struct Work {
     updates: u64,
+    /// Matrix entries read (operator rows with their diagonal, prolongation links).
+    entries: u64,
     coarse_iterations: u64,
     sweeps: Vec<u64>,
 }
@@ -855,6 +874,7 @@ impl Hierarchy {
                 x = previous.to_vec();
                 residual = max3(self.relative_residual(&x, f));
                 work.updates += n as u64;
+                work.entries += self.levels[top].operator_entries();
             }
             _ => {
                 // Full multigrid: right-hand sides restricted down, coarsest solved, then one
@@ -867,22 +887,25 @@ impl Hierarchy {
                     let mut coarse = vec![[0.0; 3]; p.coarse_count()];
                     p.restrict(&rhs[rhs.len() - 1], &mut coarse);
                     work.updates += self.levels[l].node_count() as u64;
+                    work.entries += self.levels[l].link_entries();
                     rhs.push(coarse);
                 }
                 rhs.reverse();
                 x = vec![[0.0; 3]; self.levels[0].node_count()];
                 self.coarse_solve(&mut x, &rhs[0], params, &mut work);
-                for l in 1..=top {
+                for (l, rhs_l) in rhs.iter().enumerate().skip(1) {
                     let mut up = vec![[0.0; 3]; self.levels[l].node_count()];
                     if let Some(p) = &self.levels[l].prolongation {
                         p.prolong_add(&x, &mut up);
                     }
                     work.updates += self.levels[l].node_count() as u64;
-                    self.v_cycle(l, &mut up, &rhs[l], params, &mut work);
+                    work.entries += self.levels[l].link_entries();
+                    self.v_cycle(l, &mut up, rhs_l, params, &mut work);
                     x = up;
                 }
                 residual = max3(self.relative_residual(&x, f));
                 work.updates += n as u64;
+                work.entries += self.levels[top].operator_entries();
                 let report = CycleReport {
                     residual,
                     factor: residual,
@@ -924,6 +947,7 @@ impl Hierarchy {
             let mut r = vec![[0.0; 3]; n];
             k.residual(&x, f, &mut r);
             work.updates += n as u64;
+            work.entries += self.levels[top].operator_entries();
             let mut z_old: Field = vec![[0.0; 3]; n];
             let mut p: Field = vec![[0.0; 3]; n];
             let mut rz_old = [0.0; 3];
@@ -967,6 +991,7 @@ impl Hierarchy {
                 }
                 // K p, then one pass updating x, r and reducing the norms.
                 work.updates += 2 * n as u64;
+                work.entries += self.levels[top].operator_entries() + n as u64;
                 rz_old = rz;
                 z_old = z;
                 let rn = norm2(&r);
@@ -978,6 +1003,7 @@ impl Hierarchy {
                 self.v_cycle(top, &mut x, f, params, &mut work);
                 let next = max3(self.relative_residual(&x, f));
                 work.updates += n as u64;
+                work.entries += self.levels[top].operator_entries();
                 going = step(&x, next, &mut residual, &work);
             }
         }
@@ -990,6 +1016,7 @@ impl Hierarchy {
             residual,
             converged: residual < params.tolerance,
             work_units: per(work.updates),
+            matvec_units: work.entries as f64 / self.levels[top].operator_entries().max(1) as f64,
             mean_factor,
             coarse_iterations: work.coarse_iterations,
             sweeps: work.sweeps,
@@ -1034,11 +1061,13 @@ impl Hierarchy {
                 }
             }
             work.updates += n as u64;
+            work.entries += level.operator_entries();
         }
         let mut fc = vec![[0.0; 3]; p.coarse_count()];
         p.restrict(&r, &mut fc);
         let mut xc = vec![[0.0; 3]; p.coarse_count()];
         work.updates += 2 * n as u64;
+        work.entries += level.operator_entries() + level.link_entries();
         self.v_cycle(l - 1, &mut xc, &fc, params, work);
         match smoothing {
             None => p.prolong_add(&xc, x),
@@ -1056,9 +1085,11 @@ impl Hierarchy {
                     }
                 }
                 work.updates += n as u64;
+                work.entries += level.operator_entries();
             }
         }
         work.updates += n as u64;
+        work.entries += level.link_entries();
         self.smooth(l, x, f, params.post_sweeps, params, work);
     }
 
@@ -1079,6 +1110,7 @@ impl Hierarchy {
         let level = &self.levels[l];
         let k = &level.operator;
         work.updates += u64::from(sweeps) * k.node_count() as u64;
+        work.entries += u64::from(sweeps) * level.operator_entries();
         work.sweeps[l] += u64::from(sweeps);
         match params.smoother {
             Smoother::Jacobi { omega } => {
@@ -1120,6 +1152,7 @@ impl Hierarchy {
         );
         work.coarse_iterations += iterations as u64;
         work.updates += (iterations as u64 + 1) * k.node_count() as u64;
+        work.entries += (iterations as u64 + 1) * self.levels[0].operator_entries();
     }
 
     /// The unscaled (GPU) form of the restriction: from the Jacobi residual `r_jac = D^-1 (b - A x)`
