@@ -45,7 +45,9 @@
 //! let (phi, report) = mg.solve(&f, Start::Cold, &params, &mut |_, _| {});
 //! assert!(report.converged && report.residual < params.tolerance);
 //! assert_eq!(phi.len(), graph.finest().node_count());
-//! assert!(report.work_units < 60.0);
+//! println!("{} cycles, {:.1} work units, factors {:?}", report.cycles.len(), report.work_units,
+//!     report.cycles.iter().map(|c| c.factor).collect::<Vec<_>>());
+//! assert!(report.cycles.iter().skip(1).all(|c| c.factor < 1.0));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
