@@ -27,7 +27,8 @@ use translucent::scene::Camera;
 use translucent::scene::Environment;
 use translucent::scene::Light;
 use translucent::solver::gpu::{GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolveParams, Scheme};
+use translucent::solver::multigrid::MultigridParams;
+use translucent::solver::{self, CpuSolveParams, Schedule, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 use translucent::{ObjectParams, TranslucentObject};
@@ -63,6 +64,12 @@ pub struct RenderArgs {
     /// Stop a level's iterations once the estimated relative error is below this.
     #[arg(long, default_value_t = 1e-4)]
     pub tolerance: f64,
+    /// How the levels are used (DESIGN 5.1): cascade (the paper's: Jacobi per level, coarsest
+    /// first; then, for the CPU solver, PCG on the finest level unless --iterations) or
+    /// multigrid (full multigrid + V-cycles to the relative residual --tolerance; CPU solver
+    /// only: the GPU cycle is not built yet).
+    #[arg(long, default_value = "cascade", value_parser = ["cascade", "multigrid"])]
+    pub schedule: String,
     /// GPU state precision (mixed, fp16, fp32); applies to the GPU solver only.
     #[arg(long, value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: Option<String>,
@@ -186,6 +193,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.no_skip && !on_gpu {
         bail!("--no-skip applies to the GPU solver (--solver gpu)");
     }
+    let multigrid = args.schedule == "multigrid";
+    if multigrid && on_gpu {
+        bail!("--schedule multigrid: the GPU multigrid cycle is not built yet; add --solver cpu (or use --schedule cascade)");
+    }
+    if multigrid && args.iterations.is_some() {
+        bail!("--iterations sets the cascade's Jacobi iterations per level; --schedule multigrid stops at --tolerance");
+    }
     if args.iterations == Some(0) {
         bail!("--iterations 0: give at least one iteration per level");
     }
@@ -231,8 +245,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .iterations
             .unwrap_or(CpuSolveParams::default().iterations[0])],
         tolerance: args.tolerance,
-        exact: args.iterations.is_none(),
+        exact: args.iterations.is_none() && !multigrid,
         beam_source: args.beam_source,
+        schedule: if multigrid {
+            Schedule::Multigrid(MultigridParams {
+                tolerance: args.tolerance,
+                ..MultigridParams::default()
+            })
+        } else {
+            Schedule::Cascade
+        },
         ..CpuSolveParams::default()
     };
     let solver_scene = scene::Scene {
@@ -391,7 +413,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             },
             match &gpu_report {
                 Some(r) => format!("GPU solve, iterations per level {:?}", r.iterations),
-                None => format!("CPU solve {solve_s:.3} s"),
+                None => match solution.as_ref().and_then(|s| s.multigrid.as_ref()) {
+                    Some(m) => format!(
+                        "CPU multigrid solve {solve_s:.3} s: {} cycles, {:.1} work units, residual {:.1e}",
+                        m.cycles.len(),
+                        m.work_units,
+                        m.residual
+                    ),
+                    None => format!("CPU solve {solve_s:.3} s"),
+                },
             }
         );
         if last.passes.is_empty() {
@@ -434,6 +464,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "levels": levels,
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
+            "schedule": args.schedule,
+            "multigrid": solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
+                "cycles": m.cycles.len(),
+                "work_units": m.work_units,
+                "matvec_units": m.matvec_units,
+                "converged": m.converged,
+                "residual": m.residual,
+                "mean_factor": m.mean_factor,
+                "factor_per_cycle": m.cycles.iter().map(|c| c.factor).collect::<Vec<_>>(),
+                "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
+                "coarse_iterations": m.coarse_iterations,
+                "sweeps_per_level": m.sweeps,
+            })),
             "precision": on_gpu.then(|| format!("{:?}", gpu_params.precision).to_lowercase()),
             "gpu_bytes": gpu_bytes,
             "residual": residual,

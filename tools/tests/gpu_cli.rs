@@ -317,3 +317,63 @@ fn frames_of_an_unchanged_scene_skip_the_solve_and_say_why() {
         );
     }
 }
+
+/// `--schedule multigrid` (CPU solver): the cycles, work units and factors are in `--json`, the
+/// solve reaches `--tolerance` on the true residual, and the energy agrees with the cascade's exact
+/// solve; with the GPU solver (no GPU cycle yet) and with `--iterations` it is refused by name.
+#[test]
+fn cpu_multigrid_schedule_reports_its_cycles() {
+    /// The multigrid stops at relative residual 1e-6; the cascade's PCG at 1e-10.
+    const ENERGY_AGREEMENT: f64 = 1e-4;
+    let dir = scratch("cpu-multigrid");
+    let mg = json_of(&render(
+        &dir,
+        &[
+            "--solver",
+            "cpu",
+            "--schedule",
+            "multigrid",
+            "--tolerance",
+            "1e-6",
+        ],
+    ));
+    let cascade = json_of(&render(&dir, &["--solver", "cpu"]));
+    assert_eq!(mg["schedule"], "multigrid");
+    assert_eq!(cascade["schedule"], "cascade");
+    assert!(cascade["multigrid"].is_null());
+    let report = &mg["multigrid"];
+    assert_eq!(report["converged"], true, "{report}");
+    let cycles = report["cycles"].as_u64().expect("cycles");
+    let factors = report["factor_per_cycle"].as_array().expect("factors");
+    assert!(cycles >= 1 && factors.len() as u64 == cycles, "{report}");
+    assert!(factors.iter().all(|f| f.as_f64().is_some_and(|f| f < 1.0)));
+    assert!(report["residual"].as_f64().expect("residual") < 1e-6);
+    let wu = report["work_units"].as_f64().expect("work units");
+    assert!(wu > 0.0 && wu.is_finite(), "{report}");
+    let (a, b) = (
+        rgb(&mg["energy"]["exitance"]),
+        rgb(&cascade["energy"]["exitance"]),
+    );
+    for c in 0..3 {
+        assert!(
+            (a[c] - b[c]).abs() <= ENERGY_AGREEMENT * b[c].abs(),
+            "exitance {a:?} against {b:?}"
+        );
+    }
+    for bad in [
+        &["--solver", "gpu", "--schedule", "multigrid"][..],
+        &[
+            "--solver",
+            "cpu",
+            "--schedule",
+            "multigrid",
+            "--iterations",
+            "10",
+        ][..],
+    ] {
+        let out = render(&dir, bad);
+        assert!(!out.status.success(), "{bad:?} must be refused");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("--schedule multigrid"), "{bad:?}: {stderr}");
+    }
+}

@@ -30,6 +30,7 @@
 use rayon::prelude::*;
 
 use super::krylov::{self, KrylovReport};
+use super::multigrid::{Hierarchy, MultigridParams, MultigridReport, Start};
 use super::operator::{check_level, LevelOperator, Scheme};
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};
@@ -62,12 +63,29 @@ pub struct CpuSolveParams {
     /// Relative residual that defines "converged" for the exact solve.
     pub exact_tolerance: f64,
     pub exact_max_iterations: usize,
-    /// Initial phi on the coarsest level (node order of that level); zero when `None`.
+    /// Initial phi on the coarsest level (node order of that level); zero when `None`. With
+    /// [`Schedule::Multigrid`]: the finest level's previous solution (a warm start).
     pub initial: Option<Vec<[f64; 3]>>,
     /// Opt-in experiment (issue 6): deposit the lights' transmitted light as a volume source along
     /// the unscattered beam instead of as the boundary flux q (see [`beam_source`]). The
     /// environment stays a boundary flux. Needs the `occluder` (entry points are ray-cast).
     pub beam_source: bool,
+    /// How the levels are used: the paper's one-way cascade (default here) or multigrid cycles.
+    pub schedule: Schedule,
+}
+
+/// How a solve uses the levels (DESIGN section 5.1).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Schedule {
+    /// The paper's cascade: Jacobi per level, coarsest first, each level started from the coarser
+    /// one's Shepard resampling; then, with [`CpuSolveParams::exact`], PCG on the finest level.
+    #[default]
+    Cascade,
+    /// Multigrid cycles ([`super::multigrid`]): full multigrid from nothing, or V-cycles from
+    /// [`CpuSolveParams::initial`] when it holds a finest-level solution (a warm start). They stop
+    /// at the multigrid tolerance, or at [`CpuSolveParams::exact_tolerance`] with `exact`.
+    /// `iterations` and `tolerance` (the cascade's) are not used.
+    Multigrid(MultigridParams),
 }
 
 impl Default for CpuSolveParams {
@@ -81,6 +99,7 @@ impl Default for CpuSolveParams {
             exact_max_iterations: 100_000,
             initial: None,
             beam_source: false,
+            schedule: Schedule::Cascade,
         }
     }
 }
@@ -130,6 +149,8 @@ pub struct CpuSolution {
     pub energy: Energy,
     /// The finest level's assembled system (for inspection and comparisons).
     pub operator: LevelOperator,
+    /// What the multigrid cycles did ([`Schedule::Multigrid`] only).
+    pub multigrid: Option<MultigridReport>,
 }
 
 /// Jacobi on one level from `x`; returns the iterations run and the error estimate (see
@@ -241,85 +262,83 @@ pub fn solve(
     let eta = material.eta();
     crate::material::check_eta(eta)?;
     let finest = graph.levels.len() - 1;
-    let mut reports = Vec::with_capacity(graph.levels.len());
-    let mut phi: Vec<[f64; 3]> = Vec::new();
-    let mut last = None;
-    for (h, level) in graph.levels.iter().enumerate() {
-        check_level(level).map_err(|e| e.at_level(h))?;
-        let op = LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
-        let (q, b, beam_power) = if params.beam_source {
-            let occluder = occluder.ok_or_else(|| SolverError::BadParameter {
-                name: "beam_source",
-                problem: "needs the solid (occluder) to find where each beam enters".into(),
-            })?;
-            let environment = Scene {
-                lights: Vec::new(),
-                environment: scene.environment,
+    let (op, q, b, beam_power, phi, reports, exact, multigrid) = match &params.schedule {
+        Schedule::Cascade => {
+            let (phi, reports, (op, q, b, beam_power)) =
+                cascade(graph, material, scene, occluder, params)?;
+            let mut phi = phi;
+            let exact = params.exact.then(|| {
+                krylov::solve(
+                    &op,
+                    &b,
+                    &mut phi,
+                    params.exact_tolerance,
+                    params.exact_max_iterations,
+                )
+            });
+            (op, q, b, beam_power, phi, reports, exact, None)
+        }
+        Schedule::Multigrid(mg) => {
+            let mg = MultigridParams {
+                tolerance: if params.exact {
+                    params.exact_tolerance
+                } else {
+                    mg.tolerance
+                },
+                ..mg.clone()
             };
-            let q = environment.surface_irradiance(level, eta, Some(occluder));
-            let mut b = op.rhs(&q);
-            let source = beam_source(level, material, &scene.lights, &op, occluder, eta);
-            let mut power = [0.0; 3];
-            for ((bi, si), v) in b.iter_mut().zip(&source).zip(&op.volumes) {
-                *bi = *si;
-                for c in 0..3 {
-                    power[c] += si[c] * v;
-                }
+            for (h, level) in graph.levels.iter().enumerate() {
+                check_level(level).map_err(|e| e.at_level(h))?;
             }
-            (q, b, power)
-        } else {
-            let q = scene.surface_irradiance(level, eta, occluder);
-            let b = op.rhs(&q);
-            (q, b, [0.0; 3])
-        };
-        phi = if h == 0 {
-            match &params.initial {
-                Some(guess) if guess.len() == level.node_count() => guess.clone(),
-                Some(guess) => {
+            let hierarchy = Hierarchy::build(graph, material, params.scheme, &mg)?;
+            let (q, b, beam_power) = level_source(
+                &graph.levels[finest],
+                &hierarchy.finest,
+                material,
+                scene,
+                occluder,
+                params.beam_source,
+            )?;
+            let start = match &params.initial {
+                Some(previous) if previous.len() == graph.levels[finest].node_count() => {
+                    Start::Warm(previous)
+                }
+                Some(previous) => {
                     return Err(SolverError::BadParameter {
                         name: "initial",
-                        problem: format!("{} values for {} nodes", guess.len(), level.node_count()),
+                        problem: format!(
+                            "{} values for the finest level's {} nodes",
+                            previous.len(),
+                            graph.levels[finest].node_count()
+                        ),
                     })
                 }
-                None => vec![[0.0; 3]; level.node_count()],
+                None => Start::Cold,
+            };
+            let f = hierarchy.scale(&b);
+            let (phi, report) = hierarchy.solve(&f, start, &mg, &mut |_, _| {});
+            if report.residual.is_nan() || report.residual >= super::multigrid::DIVERGED {
+                return Err(SolverError::Diverged {
+                    residual: report.residual,
+                    cycles: report.cycles.len(),
+                    hint: "use the Galerkin coarse operator on strong material contrasts",
+                });
             }
-        } else {
-            let links = level
-                .from_coarser
-                .as_ref()
-                .ok_or(SolverError::MissingLinks { level: h })?;
-            check_links(links, level, graph.levels[h - 1].node_count(), h)?;
-            prolong(links, &phi)
-        };
-        let cap = params
-            .iterations
-            .get(h)
-            .or(params.iterations.last())
-            .copied()
-            .unwrap_or(0);
-        let (iterations, estimate) = jacobi(&op, &b, &mut phi, cap, params.tolerance);
-        reports.push(LevelReport {
-            surface_nodes: level.surface_count(),
-            inner_nodes: level.inner_count(),
-            jacobi_iterations: iterations,
-            jacobi_error_estimate: estimate,
-        });
-        if h == finest {
-            last = Some((op, q, b, beam_power));
+            let reports = graph
+                .levels
+                .iter()
+                .zip(&report.sweeps)
+                .map(|(level, &sweeps)| LevelReport {
+                    surface_nodes: level.surface_count(),
+                    inner_nodes: level.inner_count(),
+                    jacobi_iterations: sweeps as usize,
+                    jacobi_error_estimate: None,
+                })
+                .collect();
+            let Hierarchy { finest: op, .. } = hierarchy;
+            (op, q, b, beam_power, phi, reports, None, Some(report))
         }
-    }
-    let Some((op, q, b, beam_power)) = last else {
-        return Err(SolverError::EmptyGraph);
     };
-    let exact = params.exact.then(|| {
-        krylov::solve(
-            &op,
-            &b,
-            &mut phi,
-            params.exact_tolerance,
-            params.exact_max_iterations,
-        )
-    });
     if phi.iter().flatten().any(|v| !v.is_finite()) {
         return Err(SolverError::NonFinite {
             what: "phi (the solve diverged: the paper scheme is not guaranteed to converge under Jacobi)".into(),
@@ -384,7 +403,111 @@ pub fn solve(
         residual,
         energy,
         operator: op,
+        multigrid,
     })
+}
+
+/// Irradiance q per surface node, the right-hand side b and the beam source's power.
+type Source = (Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]);
+/// The finest level's system, irradiance and source, as [`solve`] assembles it.
+type Assembled = (LevelOperator, Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]);
+/// The cascade's finest phi, its per-level reports and the finest level's system.
+type Cascaded = (Vec<[f64; 3]>, Vec<LevelReport>, Assembled);
+
+/// The paper's cascade (section 4.3): Jacobi per level, coarsest first, each finer level started
+/// from the Shepard resampling of the coarser one. Returns the finest phi, the per-level reports
+/// and the finest level's system.
+fn cascade(
+    graph: &QuadGraph,
+    material: &MaterialField,
+    scene: &Scene,
+    occluder: Option<&dyn Solid>,
+    params: &CpuSolveParams,
+) -> Result<Cascaded, SolverError> {
+    let finest = graph.levels.len() - 1;
+    let mut reports = Vec::with_capacity(graph.levels.len());
+    let mut phi: Vec<[f64; 3]> = Vec::new();
+    let mut last = None;
+    for (h, level) in graph.levels.iter().enumerate() {
+        check_level(level).map_err(|e| e.at_level(h))?;
+        let op = LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
+        let (q, b, beam_power) =
+            level_source(level, &op, material, scene, occluder, params.beam_source)?;
+        phi = if h == 0 {
+            match &params.initial {
+                Some(guess) if guess.len() == level.node_count() => guess.clone(),
+                Some(guess) => {
+                    return Err(SolverError::BadParameter {
+                        name: "initial",
+                        problem: format!("{} values for {} nodes", guess.len(), level.node_count()),
+                    })
+                }
+                None => vec![[0.0; 3]; level.node_count()],
+            }
+        } else {
+            let links = level
+                .from_coarser
+                .as_ref()
+                .ok_or(SolverError::MissingLinks { level: h })?;
+            check_links(links, level, graph.levels[h - 1].node_count(), h)?;
+            prolong(links, &phi)
+        };
+        let cap = params
+            .iterations
+            .get(h)
+            .or(params.iterations.last())
+            .copied()
+            .unwrap_or(0);
+        let (iterations, estimate) = jacobi(&op, &b, &mut phi, cap, params.tolerance);
+        reports.push(LevelReport {
+            surface_nodes: level.surface_count(),
+            inner_nodes: level.inner_count(),
+            jacobi_iterations: iterations,
+            jacobi_error_estimate: estimate,
+        });
+        if h == finest {
+            last = Some((op, q, b, beam_power));
+        }
+    }
+    let last = last.ok_or(SolverError::EmptyGraph)?;
+    Ok((phi, reports, last))
+}
+
+/// Irradiance q at the surface nodes of `level`, the right-hand side b and the power the beam
+/// source deposits (zero without it).
+fn level_source(
+    level: &GraphLevel,
+    op: &LevelOperator,
+    material: &MaterialField,
+    scene: &Scene,
+    occluder: Option<&dyn Solid>,
+    with_beam: bool,
+) -> Result<Source, SolverError> {
+    let eta = material.eta();
+    if !with_beam {
+        let q = scene.surface_irradiance(level, eta, occluder);
+        let b = op.rhs(&q);
+        return Ok((q, b, [0.0; 3]));
+    }
+    let occluder = occluder.ok_or_else(|| SolverError::BadParameter {
+        name: "beam_source",
+        problem: "needs the solid (occluder) to find where each beam enters".into(),
+    })?;
+    let environment = Scene {
+        lights: Vec::new(),
+        environment: scene.environment,
+    };
+    let q = environment.surface_irradiance(level, eta, Some(occluder));
+    let mut b = op.rhs(&q);
+    let source = beam_source(level, material, &scene.lights, op, occluder, eta);
+    let mut power = [0.0; 3];
+    for ((bi, si), v) in b.iter_mut().zip(&source).zip(&op.volumes) {
+        *bi = *si;
+        for c in 0..3 {
+            power[c] += si[c] * v;
+        }
+    }
+    Ok((q, b, power))
 }
 
 /// Interpolates per-surface-node values to the display mesh's vertices with `graph.shading`.

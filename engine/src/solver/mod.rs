@@ -3,6 +3,8 @@
 //! - [`analytic`]: closed-form solutions (sphere, slab, semi-infinite medium), the oracles.
 //! - [`operator`]: the assembled linear system of one level (`fv` or `paper` scheme).
 //! - [`krylov`]: exact solves (PCG, BiCGSTAB) of that system.
+//! - [`multigrid`]: V-cycles and full multigrid over the levels (DESIGN section 5.1), the f64
+//!   prototype of the GPU schedule.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
 
@@ -10,9 +12,10 @@ pub mod analytic;
 pub mod cpu;
 pub mod gpu;
 pub mod krylov;
+pub mod multigrid;
 pub mod operator;
 
-pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy};
+pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, Schedule};
 pub use operator::Scheme;
 
 /// Solver failures: bad graphs, materials, scenes or parameters, each naming the problem.
@@ -47,6 +50,12 @@ pub enum SolverError {
     MissingLinks { level: usize },
     #[error("solver: {what} is not finite")]
     NonFinite { what: String },
+    #[error("solver: multigrid diverged: relative residual {residual:.2e} after {cycles} cycles ({hint})")]
+    Diverged {
+        residual: f64,
+        cycles: usize,
+        hint: &'static str,
+    },
 }
 
 impl SolverError {

@@ -1,0 +1,1442 @@
+//! Multigrid over the QuadGraph levels (DESIGN section 5.1), in f64 on the CPU: the prototype and
+//! the reference of the GPU schedule, operation for operation.
+//!
+//! Every level `l` holds the row-scaled system `K_l x = f_l` (`K = S A`, S the `fv` row scaling:
+//! V_i on inner rows, A_f / (2A) on surface rows; symmetric positive definite for `fv`). The
+//! prolongation `P_l` (level l - 1 -> l) is the bake's Shepard resampling (paper Eq. 10,
+//! [`GraphLevel::from_coarser`]); the restriction is its transpose, `f_(l-1) = P_l^T r_l`, applied to
+//! the scaled residual, so that `P^T K P` is the symmetric Galerkin product. In the unscaled Jacobi
+//! form the GPU iterates, the same restriction reads `rhs_c = (1 / m_c) P^T (m r)` with `m = diag K`
+//! the node's mass ([`Hierarchy::restrict_jacobi_residual`]).
+//!
+//! - Coarse operators ([`CoarseOperator`]): re-discretized (the bake's coarse graphs, 4 neighbours,
+//!   the textures the GPU already has) or Galerkin (`P^T K P`, a wider sparse stencil).
+//! - Smoothers ([`Smoother`]): damped Jacobi `x += omega D^-1 (f - K x)`, or Chebyshev-accelerated
+//!   Jacobi on `[lower lambda_max, lambda_max]` of `D^-1 K`, lambda_max from power iterations at
+//!   creation. Neither needs a reduction inside a sweep.
+//! - Coarsest level: preconditioned CG to [`MultigridParams::coarse_tolerance`].
+//! - Cold start: full multigrid (restrict the right-hand side to every level, solve the coarsest,
+//!   then prolong and run one V-cycle per level going up), then V-cycles. Warm start: V-cycles from
+//!   the given solution.
+//! - Stopping rule (the GPU's): the true relative residual `max_c ||f - K x||_2 / ||f||_2` of the
+//!   finest level after every cycle, below [`MultigridParams::tolerance`].
+//! - Work is counted in node updates: a smoothing sweep, a residual, a restriction, a prolongation,
+//!   a coarse CG iteration and a residual norm each cost one update per node of the level they run
+//!   on; work units are node updates / finest nodes.
+//!
+//! ```
+//! use glam::DVec3;
+//! use translucent::material::{Material, MaterialField};
+//! use translucent::mesh::shapes::Shape;
+//! use translucent::quadgraph::BakeParams;
+//! use translucent::solver::multigrid::{Hierarchy, MultigridParams, Start};
+//! use translucent::scene::{Environment, Scene};
+//! use translucent::solver::Scheme;
+//! use translucent::QuadGraph;
+//! let ball = Shape::Sphere { radius: 5.0 };
+//! let bake = BakeParams { resolution: 16, levels: 2, ..Default::default() };
+//! let (graph, _) = QuadGraph::bake(&ball.triangulate(24), &ball, &bake, &mut |_| {})?;
+//! let field = MaterialField::Homogeneous(Material::preset("marble")?);
+//! let params = MultigridParams::default();
+//! let mg = Hierarchy::build(&graph, &field, Scheme::Fv, &params)?;
+//! let scene = Scene { lights: vec![], environment: Environment::Constant([1.0; 3]) };
+//! let q = scene.surface_irradiance(graph.finest(), 1.3, None);
+//! let f = mg.scaled_rhs(&q);
+//! let (phi, report) = mg.solve(&f, Start::Cold, &params, &mut |_, _| {});
+//! assert!(report.converged && report.residual < params.tolerance);
+//! assert_eq!(phi.len(), graph.finest().node_count());
+//! println!("{} cycles, {:.1} work units, factors {:?}", report.cycles.len(), report.work_units,
+//!     report.cycles.iter().map(|c| c.factor).collect::<Vec<_>>());
+//! assert!(report.cycles.iter().skip(1).all(|c| c.factor < 1.0));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use glam::{DMat4, DVec3, DVec4};
+use rayon::prelude::*;
+
+use super::operator::{LevelOperator, Scheme};
+use super::SolverError;
+use crate::material::MaterialField;
+use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
+use crate::quadgraph::shepard::ShepardIndex;
+
+type Field = Vec<[f64; 3]>;
+/// One row's off-diagonal entries: (column, value per channel).
+type SparseRow = Vec<(u32, [f64; 3])>;
+
+/// Safety factor on the Lanczos estimate of lambda_max (an estimate from below): a Chebyshev
+/// smoother whose upper bound is below the true lambda_max amplifies the modes above it.
+const LAMBDA_MARGIN: f64 = 1.05;
+
+/// A relative residual (against the right-hand side) above this means the cycles diverge: the
+/// solve stops there instead of running to `max_cycles` (a cold start begins at <= 1).
+pub const DIVERGED: f64 = 1e3;
+
+/// The smoother of every level but the coarsest.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum Smoother {
+    /// `x += omega D^-1 (f - K x)`.
+    Jacobi { omega: f64 },
+    /// Chebyshev polynomial in `D^-1 K` on `[lower * lambda_max, lambda_max]`; one sweep = one
+    /// degree (one matrix-vector product), so `pre_sweeps` is the pre-smoother's degree.
+    Chebyshev { lower: f64 },
+}
+
+/// How the coarse levels' operators are made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum CoarseOperator {
+    /// Each level's own `fv` discretization (today's coarse graphs and textures). Diverges on a
+    /// 1e4 material contrast (measured): the coarse problem is not the fine one restricted.
+    Rediscretized,
+    /// `K_(l-1) = P_l^T K_l P_l` from the finest level down (the default): ~130 entries per
+    /// row on the second level of the default scene, against 4-5 re-discretized.
+    #[default]
+    Galerkin,
+}
+
+/// The weights of the prolongation's links.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum Interpolation {
+    /// The bake's Shepard weights (paper Eq. 10): exact for constants only.
+    #[default]
+    Shepard,
+    /// The same links, weights made exact for linear functions (in 3D for inner nodes, in the
+    /// surface's tangent plane for surface nodes): the smallest change of the Shepard weights, in
+    /// their own weighting, that reproduces `x` (moving least squares); Shepard where the links
+    /// cannot (coplanar or collinear coarse nodes).
+    Linear,
+    /// Links made here, not the bake's: inner nodes take the 8 nearest coarse nodes of either
+    /// kind (a fine cell under the surface is nearer the coarse surface nodes than the coarse
+    /// cells), linear weights as [`Self::Linear`].
+    Mixed,
+}
+
+/// How a solve starts.
+#[derive(Clone, Copy, Debug)]
+pub enum Start<'a> {
+    /// Full multigrid from nothing.
+    Cold,
+    /// V-cycles from a previous solution (finest level, node order).
+    Warm(&'a [[f64; 3]]),
+}
+
+/// Parameters of a multigrid solve.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MultigridParams {
+    pub smoother: Smoother,
+    /// Pre- and post-smoothing sweeps (nu1, nu2) per level and cycle.
+    pub pre_sweeps: u32,
+    pub post_sweeps: u32,
+    pub coarse: CoarseOperator,
+    pub interpolation: Interpolation,
+    /// Smooth each surface node together with its cell (a 2x2 block per pair; every tetrahedron
+    /// has at most one surface face, so the pairs are disjoint) instead of point by point.
+    pub surface_blocks: bool,
+    /// Smoothed prolongation `P_s = (I - (s / lambda_max) B^-1 K) P` with this `s` (and its
+    /// transpose as the restriction); `None`: plain P.
+    pub smoothed_prolongation: Option<f64>,
+    /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
+    /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
+    pub krylov: bool,
+    /// Stop once the finest level's relative residual, max over channels of
+    /// `||f - K x||_2 / ||f||_2`, is below this.
+    pub tolerance: f64,
+    /// V-cycles at most (after the full multigrid pass of a cold start).
+    pub max_cycles: u32,
+    /// Relative residual the coarsest level's CG reaches in every visit.
+    pub coarse_tolerance: f64,
+    /// Lanczos (CG) steps for lambda_max of `B^-1 K` (Chebyshev and the smoothed prolongation).
+    pub power_iterations: u32,
+}
+
+impl Default for MultigridParams {
+    fn default() -> Self {
+        Self {
+            smoother: Smoother::Chebyshev { lower: 0.25 },
+            pre_sweeps: 2,
+            post_sweeps: 2,
+            // why Galerkin + CG (benches/RESULTS.md, "Multigrid (CPU)"): on a 1e4 material
+            // contrast the re-discretized coarse operator makes the V-cycle diverge; Galerkin
+            // converges at 0.56 per V-cycle, 0.27 with CG, and is also the faster on the default
+            // scene (80 against 94 work units to 1e-4 with CG, 142 against 166 without).
+            coarse: CoarseOperator::Galerkin,
+            interpolation: Interpolation::Shepard,
+            surface_blocks: true,
+            smoothed_prolongation: None,
+            krylov: true,
+            tolerance: 1e-4,
+            max_cycles: 100,
+            coarse_tolerance: 1e-3,
+            power_iterations: 20,
+        }
+    }
+}
+
+impl MultigridParams {
+    pub fn validate(&self) -> Result<(), SolverError> {
+        let bad = |name, problem: String| Err(SolverError::BadParameter { name, problem });
+        match self.smoother {
+            Smoother::Jacobi { omega } if !(omega > 0.0 && omega < 2.0) => {
+                return bad("omega", format!("{omega} must lie in (0, 2)"));
+            }
+            Smoother::Chebyshev { lower } if !(lower > 0.0 && lower < 1.0) => {
+                return bad("chebyshev lower", format!("{lower} must lie in (0, 1)"));
+            }
+            _ => {}
+        }
+        if self.pre_sweeps + self.post_sweeps == 0 || self.pre_sweeps.max(self.post_sweeps) > 64 {
+            return bad(
+                "sweeps",
+                format!(
+                    "{} pre + {} post: at least one, at most 64 each",
+                    self.pre_sweeps, self.post_sweeps
+                ),
+            );
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return bad("tolerance", format!("{} must be >= 0", self.tolerance));
+        }
+        if !(self.coarse_tolerance > 0.0 && self.coarse_tolerance < 1.0) {
+            return bad(
+                "coarse_tolerance",
+                format!("{} must lie in (0, 1)", self.coarse_tolerance),
+            );
+        }
+        if !(1..=1000).contains(&self.power_iterations) {
+            return bad(
+                "power_iterations",
+                format!("{} must be 1 to 1000", self.power_iterations),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A sparse symmetric level operator `K` in compressed rows, the diagonal apart.
+#[derive(Clone, Debug, Default)]
+pub struct SparseOperator {
+    /// Row `i`'s off-diagonal entries are `cols[row_start[i]..row_start[i + 1]]`.
+    pub row_start: Vec<usize>,
+    pub cols: Vec<u32>,
+    pub values: Vec<[f64; 3]>,
+    /// `K_ii`: the node's mass (V_i times the Jacobi diagonal on inner rows, A_f / (2A) times it
+    /// on surface rows).
+    pub diag: Vec<[f64; 3]>,
+    /// The 2x2 blocks of the smoother ([`MultigridParams::surface_blocks`]): per node its partner
+    /// (a surface node's cell, a surface cell's surface node; [`NO_NODE`] for the others) and
+    /// `K_(i, partner)`. Empty: point Jacobi.
+    pub partner: Vec<u32>,
+    pub partner_value: Vec<[f64; 3]>,
+}
+
+impl SparseOperator {
+    /// `K = S A` of an assembled level.
+    pub fn from_level(op: &LevelOperator) -> Self {
+        let n = op.node_count();
+        let mut out = Self {
+            row_start: Vec::with_capacity(n + 1),
+            cols: Vec::with_capacity(4 * n),
+            values: Vec::with_capacity(4 * n),
+            diag: Vec::with_capacity(n),
+            ..Self::default()
+        };
+        out.row_start.push(0);
+        for i in 0..n {
+            let s = op.row_scale[i];
+            for (k, &j) in op.neighbors[i].iter().enumerate() {
+                if j != NO_NODE {
+                    out.cols.push(j);
+                    out.values.push(op.off[i][k].map(|v| -s * v));
+                }
+            }
+            out.row_start.push(out.cols.len());
+            out.diag.push(op.diag[i].map(|v| s * v));
+        }
+        out
+    }
+
+    /// Pairs each surface node of `level` with its cell as one block of the smoother.
+    pub fn pair_surface_nodes(&mut self, level: &GraphLevel) {
+        let n = self.node_count();
+        self.partner = vec![NO_NODE; n];
+        self.partner_value = vec![[0.0; 3]; n];
+        let inner = level.inner_count();
+        for (s, &(cell, _)) in level.surface_faces.iter().enumerate() {
+            let (a, b) = (cell as usize, inner + s);
+            if a >= n || b >= n {
+                continue;
+            }
+            let value = (self.row_start[b]..self.row_start[b + 1])
+                .find(|&e| self.cols[e] as usize == a)
+                .map(|e| self.values[e]);
+            if let Some(v) = value {
+                self.partner[a] = b as u32;
+                self.partner[b] = a as u32;
+                self.partner_value[a] = v;
+                self.partner_value[b] = v;
+            }
+        }
+    }
+
+    /// `(B^-1 r)_i`, B the block diagonal: `r_i / K_ii`, or the 2x2 solve with the partner.
+    #[inline]
+    pub fn block_solve(&self, i: usize, r: &[[f64; 3]]) -> [f64; 3] {
+        match self.partner.get(i) {
+            Some(&p) if p != NO_NODE => {
+                let p = p as usize;
+                let b = self.partner_value[i];
+                std::array::from_fn(|c| {
+                    let (a, d) = (self.diag[i][c], self.diag[p][c]);
+                    (d * r[i][c] - b[c] * r[p][c]) / (a * d - b[c] * b[c])
+                })
+            }
+            _ => std::array::from_fn(|c| r[i][c] / self.diag[i][c]),
+        }
+    }
+
+    /// `z = B^-1 r`.
+    pub fn precondition(&self, r: &[[f64; 3]], z: &mut [[f64; 3]]) {
+        z.par_iter_mut()
+            .enumerate()
+            .for_each(|(i, zi)| *zi = self.block_solve(i, r));
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.diag.len()
+    }
+
+    /// Off-diagonal entries per row on average (the stencil's width).
+    pub fn mean_row_entries(&self) -> f64 {
+        self.cols.len() as f64 / self.node_count().max(1) as f64
+    }
+
+    /// `sum_(j != i) K_ij x_j`.
+    #[inline]
+    fn off_product(&self, i: usize, x: &[[f64; 3]]) -> [f64; 3] {
+        let mut acc = [0.0; 3];
+        for e in self.row_start[i]..self.row_start[i + 1] {
+            let xj = x[self.cols[e] as usize];
+            let v = self.values[e];
+            for c in 0..3 {
+                acc[c] += v[c] * xj[c];
+            }
+        }
+        acc
+    }
+
+    /// `r = f - K x`.
+    pub fn residual(&self, x: &[[f64; 3]], f: &[[f64; 3]], r: &mut [[f64; 3]]) {
+        r.par_iter_mut().enumerate().for_each(|(i, ri)| {
+            let o = self.off_product(i, x);
+            *ri = std::array::from_fn(|c| f[i][c] - self.diag[i][c] * x[i][c] - o[c]);
+        });
+    }
+
+    /// `y = K x`.
+    pub fn apply(&self, x: &[[f64; 3]], y: &mut [[f64; 3]]) {
+        y.par_iter_mut().enumerate().for_each(|(i, yi)| {
+            let o = self.off_product(i, x);
+            *yi = std::array::from_fn(|c| self.diag[i][c] * x[i][c] + o[c]);
+        });
+    }
+
+    /// Largest relative asymmetry |K_ij - K_ji| / max(|K_ij|, |K_ji|) (0 for `fv` and Galerkin).
+    pub fn symmetry_defect(&self) -> f64 {
+        let n = self.node_count();
+        (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let mut worst: f64 = 0.0;
+                for e in self.row_start[i]..self.row_start[i + 1] {
+                    let j = self.cols[e] as usize;
+                    let back = (self.row_start[j]..self.row_start[j + 1])
+                        .find(|&b| self.cols[b] as usize == i);
+                    let Some(b) = back else {
+                        return f64::INFINITY;
+                    };
+                    for c in 0..3 {
+                        let (u, v) = (self.values[e][c], self.values[b][c]);
+                        worst =
+                            worst.max((u - v).abs() / u.abs().max(v.abs()).max(f64::MIN_POSITIVE));
+                    }
+                }
+                worst
+            })
+            .reduce(|| 0.0, f64::max)
+    }
+}
+
+/// The Shepard prolongation of one level (coarser -> this level) and its transpose.
+#[derive(Clone, Debug, Default)]
+pub struct Prolongation {
+    /// Per fine node, up to 8 coarse nodes and weights (the bake's links).
+    pub links: Vec<[u32; 8]>,
+    pub weights: Vec<[f64; 8]>,
+    /// Per coarse node, the fine nodes linking to it and their weights (`P^T` by rows).
+    pub t_start: Vec<usize>,
+    pub t_fine: Vec<u32>,
+    pub t_weight: Vec<f64>,
+}
+
+impl Prolongation {
+    /// From the bake's links into a level of `fine_nodes` nodes from one of `coarse_nodes`.
+    pub fn new(
+        links: &ShepardLinks,
+        fine_nodes: usize,
+        coarse_nodes: usize,
+    ) -> Result<Self, SolverError> {
+        if links.links.len() != fine_nodes || links.weights.len() != fine_nodes {
+            return Err(SolverError::BadGraph {
+                level: usize::MAX,
+                problem: format!("{} Shepard links for {fine_nodes} nodes", links.links.len()),
+            });
+        }
+        let mut count = vec![0usize; coarse_nodes + 1];
+        for (x, (l, w)) in links.links.iter().zip(&links.weights).enumerate() {
+            for (&c, &wc) in l.iter().zip(w) {
+                if c == NO_NODE {
+                    continue;
+                }
+                if c as usize >= coarse_nodes || !wc.is_finite() {
+                    return Err(SolverError::BadGraph {
+                        level: usize::MAX,
+                        problem: format!("Shepard link of node {x} is out of range or not finite"),
+                    });
+                }
+                count[c as usize + 1] += 1;
+            }
+        }
+        for c in 0..coarse_nodes {
+            count[c + 1] += count[c];
+        }
+        let t_start = count.clone();
+        let mut t_fine = vec![0u32; t_start[coarse_nodes]];
+        let mut t_weight = vec![0.0; t_start[coarse_nodes]];
+        let mut next = count;
+        for (x, (l, w)) in links.links.iter().zip(&links.weights).enumerate() {
+            for (&c, &wc) in l.iter().zip(w) {
+                if c != NO_NODE {
+                    let slot = &mut next[c as usize];
+                    t_fine[*slot] = x as u32;
+                    t_weight[*slot] = wc;
+                    *slot += 1;
+                }
+            }
+        }
+        Ok(Self {
+            links: links.links.clone(),
+            weights: links.weights.clone(),
+            t_start,
+            t_fine,
+            t_weight,
+        })
+    }
+
+    pub fn coarse_count(&self) -> usize {
+        self.t_start.len() - 1
+    }
+
+    /// `x_fine += P e_coarse` (paper Eq. 10 applied to a correction).
+    pub fn prolong_add(&self, e_coarse: &[[f64; 3]], x_fine: &mut [[f64; 3]]) {
+        x_fine
+            .par_iter_mut()
+            .zip(self.links.par_iter().zip(&self.weights))
+            .for_each(|(x, (l, w))| {
+                for (&c, &wc) in l.iter().zip(w) {
+                    if c != NO_NODE {
+                        for ch in 0..3 {
+                            x[ch] += wc * e_coarse[c as usize][ch];
+                        }
+                    }
+                }
+            });
+    }
+
+    /// `r_coarse = P^T r_fine`.
+    pub fn restrict(&self, r_fine: &[[f64; 3]], r_coarse: &mut [[f64; 3]]) {
+        r_coarse.par_iter_mut().enumerate().for_each(|(c, out)| {
+            let mut acc = [0.0; 3];
+            for e in self.t_start[c]..self.t_start[c + 1] {
+                let r = r_fine[self.t_fine[e] as usize];
+                for ch in 0..3 {
+                    acc[ch] += self.t_weight[e] * r[ch];
+                }
+            }
+            *out = acc;
+        });
+    }
+
+    /// `P^T K P`: the Galerkin coarse operator of `k` (this level's fine operator).
+    pub fn galerkin(&self, k: &SparseOperator) -> SparseOperator {
+        let nc = self.coarse_count();
+        // Row i of K P (fine rows, coarse columns), merged by column.
+        let kp: Vec<Vec<(u32, [f64; 3])>> = (0..k.node_count())
+            .into_par_iter()
+            .map(|i| {
+                let mut row: Vec<(u32, [f64; 3])> = Vec::with_capacity(48);
+                let mut push = |j: usize, v: [f64; 3]| {
+                    for (&c, &w) in self.links[j].iter().zip(&self.weights[j]) {
+                        if c != NO_NODE && w != 0.0 {
+                            row.push((c, v.map(|x| x * w)));
+                        }
+                    }
+                };
+                push(i, k.diag[i]);
+                for e in k.row_start[i]..k.row_start[i + 1] {
+                    push(k.cols[e] as usize, k.values[e]);
+                }
+                merge_columns(row)
+            })
+            .collect();
+        let rows: Vec<(SparseRow, [f64; 3])> = (0..nc)
+            .into_par_iter()
+            .map(|c| {
+                let mut row: Vec<(u32, [f64; 3])> = Vec::new();
+                for e in self.t_start[c]..self.t_start[c + 1] {
+                    let w = self.t_weight[e];
+                    for &(col, v) in &kp[self.t_fine[e] as usize] {
+                        row.push((col, v.map(|x| x * w)));
+                    }
+                }
+                let merged = merge_columns(row);
+                let diag = merged
+                    .iter()
+                    .find(|(col, _)| *col as usize == c)
+                    .map_or([0.0; 3], |&(_, v)| v);
+                let off = merged
+                    .into_iter()
+                    .filter(|(col, _)| *col as usize != c)
+                    .collect();
+                (off, diag)
+            })
+            .collect();
+        let mut out = SparseOperator {
+            row_start: Vec::with_capacity(nc + 1),
+            ..SparseOperator::default()
+        };
+        out.row_start.push(0);
+        for (off, diag) in rows {
+            for (col, v) in off {
+                out.cols.push(col);
+                out.values.push(v);
+            }
+            out.row_start.push(out.cols.len());
+            out.diag.push(diag);
+        }
+        out
+    }
+}
+
+/// Shepard links in which inner nodes link to the 8 nearest coarse nodes of either kind
+/// ([`Interpolation::Mixed`]); surface nodes keep the bake's rule (4 coarse surface nodes).
+pub fn mixed_links(fine: &GraphLevel, coarse: &GraphLevel) -> ShepardLinks {
+    let all = ShepardIndex::new(&coarse.positions, None);
+    let mut links = crate::quadgraph::shepard::level_links(fine, coarse);
+    let reach = 2.0 * coarse.spacing;
+    let eps = 1e-3 * fine.spacing;
+    let fi = fine.inner_count();
+    let inner: Vec<([u32; 8], [f64; 8])> = (0..fi)
+        .into_par_iter()
+        .map(|i| all.weights::<8>(fine.positions[i], None, reach, eps))
+        .collect();
+    for (i, (l, w)) in inner.into_iter().enumerate() {
+        links.links[i] = l;
+        links.weights[i] = w;
+    }
+    links
+}
+
+/// The links of `links` with weights exact for linear functions ([`Interpolation::Linear`]).
+pub fn linear_links(links: &ShepardLinks, fine: &GraphLevel, coarse: &GraphLevel) -> ShepardLinks {
+    let fi = fine.inner_count();
+    let weights = links
+        .links
+        .par_iter()
+        .zip(&links.weights)
+        .enumerate()
+        .map(|(node, (l, w))| {
+            let x = fine.positions[node];
+            let normal = (node >= fi).then(|| fine.surface_normals[node - fi]);
+            let r = linear_weights(x, l, w, &coarse.positions, normal, coarse.spacing);
+            if r.is_none() && std::env::var_os("MG_DEBUG").is_some() {
+                eprintln!("fallback node {node} surface {}", normal.is_some());
+            }
+            r.unwrap_or(*w)
+        })
+        .collect();
+    ShepardLinks {
+        links: links.links.clone(),
+        weights,
+    }
+}
+
+/// Weights `c_k = w_k (lambda . v_k)`, `v_k = (1, (x_k - x) / h)` (tangential components only when
+/// `normal` is given), with `lambda` such that `sum c_k v_k = (1, 0)`: constants and linear
+/// functions are reproduced. `None` when the moment matrix is singular or the weights would
+/// extrapolate wildly (sum |c| > 3).
+fn linear_weights(
+    x: DVec3,
+    links: &[u32; 8],
+    w: &[f64; 8],
+    positions: &[DVec3],
+    normal: Option<DVec3>,
+    h: f64,
+) -> Option<[f64; 8]> {
+    let mut out = [0.0; 8];
+    let frame = normal.map(|n| {
+        let n = n.normalize_or_zero();
+        let t1 = n.any_orthonormal_vector();
+        (t1, n.cross(t1))
+    });
+    let v = |k: usize| -> DVec4 {
+        let d = (positions[links[k] as usize] - x) / h;
+        match frame {
+            Some((t1, t2)) => DVec4::new(1.0, d.dot(t1), d.dot(t2), 0.0),
+            None => DVec4::new(1.0, d.x, d.y, d.z),
+        }
+    };
+    let used: Vec<usize> = (0..8)
+        .filter(|&k| links[k] != NO_NODE && w[k] > 0.0)
+        .collect();
+    let dims: i32 = if frame.is_some() { 3 } else { 4 };
+    if used.len() < dims as usize {
+        return None;
+    }
+    let mut m = DMat4::ZERO;
+    for &k in &used {
+        let vk = v(k);
+        m += DMat4::from_cols(vk * vk.x, vk * vk.y, vk * vk.z, vk * vk.w) * w[k];
+    }
+    if frame.is_some() {
+        // The unused 4th dimension: identity, so the matrix stays invertible.
+        m.w_axis.w = 1.0;
+    }
+    let det = m.determinant();
+    if !(det.is_finite() && det.abs() > 1e-9 * m.x_axis.x.powi(dims)) {
+        return None;
+    }
+    let lambda = m.inverse() * DVec4::X;
+    let mut total = 0.0;
+    for &k in &used {
+        out[k] = w[k] * lambda.dot(v(k));
+        total += out[k].abs();
+    }
+    (total.is_finite() && total <= 3.0).then_some(out)
+}
+
+/// Sums entries of equal column (the result sorted by column).
+fn merge_columns(mut row: Vec<(u32, [f64; 3])>) -> Vec<(u32, [f64; 3])> {
+    row.sort_unstable_by_key(|e| e.0);
+    let mut out: Vec<(u32, [f64; 3])> = Vec::with_capacity(row.len());
+    for (c, v) in row {
+        match out.last_mut() {
+            Some((lc, lv)) if *lc == c => {
+                for ch in 0..3 {
+                    lv[ch] += v[ch];
+                }
+            }
+            _ => out.push((c, v)),
+        }
+    }
+    out
+}
+
+/// One level of the hierarchy.
+#[derive(Clone, Debug)]
+pub struct MultigridLevel {
+    pub operator: SparseOperator,
+    /// From the next coarser level (`None` on the coarsest).
+    pub prolongation: Option<Prolongation>,
+    /// Largest eigenvalue of `B^-1 K` per channel (Lanczos, times a 1.05 safety margin).
+    pub lambda_max: [f64; 3],
+}
+
+impl MultigridLevel {
+    pub fn node_count(&self) -> usize {
+        self.operator.node_count()
+    }
+
+    /// Entries of one operator application: off-diagonals plus the diagonal.
+    pub fn operator_entries(&self) -> u64 {
+        (self.operator.cols.len() + self.operator.node_count()) as u64
+    }
+
+    /// Links of one prolongation or restriction from the coarser level (0 on the coarsest).
+    pub fn link_entries(&self) -> u64 {
+        self.prolongation
+            .as_ref()
+            .map_or(0, |p| p.t_fine.len() as u64)
+    }
+}
+
+/// What one V-cycle (or the full multigrid pass) did.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CycleReport {
+    /// Relative residual of the finest level after the cycle (max over channels).
+    pub residual: f64,
+    /// `residual / previous residual` (the full multigrid pass: against the right-hand side).
+    pub factor: f64,
+    /// Work units of this cycle, its residual norm included.
+    pub work_units: f64,
+}
+
+/// What a multigrid solve did.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MultigridReport {
+    /// Cycles after the start: the full multigrid pass (cold) counts as the first.
+    pub cycles: Vec<CycleReport>,
+    /// Final relative residual (max over channels).
+    pub residual: f64,
+    pub converged: bool,
+    /// Total work units (node updates / finest nodes).
+    pub work_units: f64,
+    /// Matrix entries read / entries of one finest-level operator application: the cost in
+    /// memory traffic, where a Galerkin coarse level's wide rows count in full.
+    pub matvec_units: f64,
+    /// Geometric mean of the V-cycles' factors (the full multigrid pass left out); `None` before two.
+    pub mean_factor: Option<f64>,
+    /// Coarsest-level CG iterations, all visits together.
+    pub coarse_iterations: u64,
+    /// Smoothing sweeps per level (coarsest first; 0 on the coarsest).
+    pub sweeps: Vec<u64>,
+}
+
+/// The levels of one graph with one material, ready to solve (build once, solve every frame).
+#[derive(Clone, Debug)]
+pub struct Hierarchy {
+    /// Coarsest first.
+    pub levels: Vec<MultigridLevel>,
+    /// The finest level's assembled system (its row scaling makes the right-hand side).
+    pub finest: LevelOperator,
+    pub coarse: CoarseOperator,
+}
+
+/// Node updates, counted per level.
+#[derive(Default)]
+struct Work {
+    updates: u64,
+    /// Matrix entries read (operator rows with their diagonal, prolongation links).
+    entries: u64,
+    coarse_iterations: u64,
+    sweeps: Vec<u64>,
+}
+
+impl Hierarchy {
+    /// Assembles the finest level's operator, and the coarse ones as `params.coarse` says.
+    pub fn build(
+        graph: &QuadGraph,
+        material: &MaterialField,
+        scheme: Scheme,
+        params: &MultigridParams,
+    ) -> Result<Self, SolverError> {
+        params.validate()?;
+        if graph.levels.is_empty() {
+            return Err(SolverError::EmptyGraph);
+        }
+        let finest_index = graph.levels.len() - 1;
+        let finest = LevelOperator::build(&graph.levels[finest_index], material, scheme)
+            .map_err(|e| e.at_level(finest_index))?;
+        let mut prolongations: Vec<Option<Prolongation>> = Vec::with_capacity(graph.levels.len());
+        for (h, level) in graph.levels.iter().enumerate() {
+            prolongations.push(if h == 0 {
+                None
+            } else {
+                let links = level
+                    .from_coarser
+                    .as_ref()
+                    .ok_or(SolverError::MissingLinks { level: h })?;
+                let links = match params.interpolation {
+                    Interpolation::Shepard => links.clone(),
+                    Interpolation::Linear => linear_links(links, level, &graph.levels[h - 1]),
+                    Interpolation::Mixed => linear_links(
+                        &mixed_links(level, &graph.levels[h - 1]),
+                        level,
+                        &graph.levels[h - 1],
+                    ),
+                };
+                Some(
+                    Prolongation::new(&links, level.node_count(), graph.levels[h - 1].node_count())
+                        .map_err(|e| e.at_level(h))?,
+                )
+            });
+        }
+        let mut operators: Vec<SparseOperator> = Vec::with_capacity(graph.levels.len());
+        match params.coarse {
+            CoarseOperator::Rediscretized => {
+                for (h, level) in graph.levels.iter().enumerate().take(finest_index) {
+                    let op =
+                        LevelOperator::build(level, material, scheme).map_err(|e| e.at_level(h))?;
+                    operators.push(SparseOperator::from_level(&op));
+                }
+                operators.push(SparseOperator::from_level(&finest));
+            }
+            CoarseOperator::Galerkin => {
+                let mut k = SparseOperator::from_level(&finest);
+                let mut down = Vec::with_capacity(graph.levels.len());
+                for p in prolongations.iter().skip(1).rev().flatten() {
+                    let coarse = p.galerkin(&k);
+                    down.push(std::mem::replace(&mut k, coarse));
+                }
+                down.push(k);
+                down.reverse();
+                operators = down;
+            }
+        }
+        let levels = operators
+            .into_iter()
+            .zip(prolongations)
+            .enumerate()
+            .map(|(h, (mut operator, prolongation))| {
+                if params.surface_blocks {
+                    operator.pair_surface_nodes(&graph.levels[h]);
+                }
+                if operator
+                    .diag
+                    .iter()
+                    .flatten()
+                    .any(|&d| !(d > 0.0 && d.is_finite()))
+                {
+                    return Err(SolverError::NonFinite {
+                        what: format!("level {h}: a multigrid operator's diagonal (must be > 0)"),
+                    });
+                }
+                let lambda_max = if matches!(params.smoother, Smoother::Chebyshev { .. })
+                    || params.smoothed_prolongation.is_some()
+                {
+                    largest_eigenvalue(&operator, params.power_iterations)
+                        .map(|l| LAMBDA_MARGIN * l)
+                } else {
+                    [2.0; 3]
+                };
+                Ok(MultigridLevel {
+                    operator,
+                    prolongation,
+                    lambda_max,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            levels,
+            finest,
+            coarse: params.coarse,
+        })
+    }
+
+    /// The finest level's scaled right-hand side `S b` for surface irradiance `q`.
+    pub fn scaled_rhs(&self, q: &[[f64; 3]]) -> Field {
+        self.scale(&self.finest.rhs(q))
+    }
+
+    /// `S b` of an unscaled right-hand side `b` of the finest level.
+    pub fn scale(&self, b: &[[f64; 3]]) -> Field {
+        b.iter()
+            .zip(&self.finest.row_scale)
+            .map(|(v, &s)| v.map(|x| x * s))
+            .collect()
+    }
+
+    fn finest_count(&self) -> usize {
+        self.levels.last().map_or(0, MultigridLevel::node_count)
+    }
+
+    /// Relative residual per channel of the finest level, `||f - K x||_2 / ||f||_2` (absolute
+    /// where f = 0): the stopping rule.
+    pub fn relative_residual(&self, x: &[[f64; 3]], f: &[[f64; 3]]) -> [f64; 3] {
+        let Some(level) = self.levels.last() else {
+            return [0.0; 3];
+        };
+        let mut r = vec![[0.0; 3]; x.len()];
+        level.operator.residual(x, f, &mut r);
+        let (rn, fn_) = (norm2(&r), norm2(f));
+        std::array::from_fn(|c| if fn_[c] > 0.0 { rn[c] / fn_[c] } else { rn[c] })
+    }
+
+    /// Solves `K x = f` on the finest level (f scaled: [`Self::scaled_rhs`]). `observe` is called
+    /// after every cycle with the current solution (for measurements; the solve does not read it).
+    pub fn solve(
+        &self,
+        f: &[[f64; 3]],
+        start: Start,
+        params: &MultigridParams,
+        observe: &mut dyn FnMut(&[[f64; 3]], &CycleReport),
+    ) -> (Field, MultigridReport) {
+        let n = self.finest_count();
+        let top = self.levels.len() - 1;
+        let mut work = Work {
+            sweeps: vec![0; self.levels.len()],
+            ..Work::default()
+        };
+        let mut cycles = Vec::new();
+        let mut x: Field;
+        let mut residual;
+        let per = |updates: u64| updates as f64 / n.max(1) as f64;
+        let mut counted = 0u64;
+        match start {
+            Start::Warm(previous) if previous.len() == n => {
+                x = previous.to_vec();
+                residual = max3(self.relative_residual(&x, f));
+                work.updates += n as u64;
+                work.entries += self.levels[top].operator_entries();
+            }
+            _ => {
+                // Full multigrid: right-hand sides restricted down, coarsest solved, then one
+                // V-cycle per level going up from the prolonged coarser solution.
+                let mut rhs: Vec<Field> = vec![f.to_vec()];
+                for l in (1..=top).rev() {
+                    let Some(p) = self.levels[l].prolongation.as_ref() else {
+                        break;
+                    };
+                    let mut coarse = vec![[0.0; 3]; p.coarse_count()];
+                    p.restrict(&rhs[rhs.len() - 1], &mut coarse);
+                    work.updates += self.levels[l].node_count() as u64;
+                    work.entries += self.levels[l].link_entries();
+                    rhs.push(coarse);
+                }
+                rhs.reverse();
+                x = vec![[0.0; 3]; self.levels[0].node_count()];
+                self.coarse_solve(&mut x, &rhs[0], params, &mut work);
+                for (l, rhs_l) in rhs.iter().enumerate().skip(1) {
+                    let mut up = vec![[0.0; 3]; self.levels[l].node_count()];
+                    if let Some(p) = &self.levels[l].prolongation {
+                        p.prolong_add(&x, &mut up);
+                    }
+                    work.updates += self.levels[l].node_count() as u64;
+                    work.entries += self.levels[l].link_entries();
+                    self.v_cycle(l, &mut up, rhs_l, params, &mut work);
+                    x = up;
+                }
+                residual = max3(self.relative_residual(&x, f));
+                work.updates += n as u64;
+                work.entries += self.levels[top].operator_entries();
+                let report = CycleReport {
+                    residual,
+                    factor: residual,
+                    work_units: per(work.updates),
+                };
+                counted = work.updates;
+                observe(&x, &report);
+                cycles.push(report);
+            }
+        }
+        let mut v_factors = Vec::new();
+        let mut going = residual >= params.tolerance && params.max_cycles > cycles.len() as u32;
+        let mut step = |x: &Field, next: f64, residual: &mut f64, work: &Work| -> bool {
+            let factor = if *residual > 0.0 {
+                next / *residual
+            } else {
+                0.0
+            };
+            v_factors.push(factor);
+            let report = CycleReport {
+                residual: next,
+                factor,
+                work_units: per(work.updates - counted),
+            };
+            counted = work.updates;
+            observe(x, &report);
+            cycles.push(report);
+            *residual = next;
+            next.is_finite()
+                && next < DIVERGED
+                && next >= params.tolerance
+                && (cycles.len() as u32) < params.max_cycles
+        };
+        if params.krylov {
+            // Flexible preconditioned CG with one V-cycle as the preconditioner (Notay 2000):
+            // the V-cycle's slow modes are few, CG removes them.
+            let fnorm = norm2(f).map(|v| if v > 0.0 { v } else { 1.0 });
+            let k = &self.levels[top].operator;
+            let mut r = vec![[0.0; 3]; n];
+            k.residual(&x, f, &mut r);
+            work.updates += n as u64;
+            work.entries += self.levels[top].operator_entries();
+            let mut z_old: Field = vec![[0.0; 3]; n];
+            let mut p: Field = vec![[0.0; 3]; n];
+            let mut rz_old = [0.0; 3];
+            let mut kp = vec![[0.0; 3]; n];
+            let mut first = true;
+            while going {
+                let mut z = vec![[0.0; 3]; n];
+                self.v_cycle(top, &mut z, &r, params, &mut work);
+                let rz = dot(&r, &z);
+                let rdz = if first {
+                    rz
+                } else {
+                    let mut dz = z.clone();
+                    for (d, o) in dz.iter_mut().zip(&z_old) {
+                        for c in 0..3 {
+                            d[c] -= o[c];
+                        }
+                    }
+                    dot(&r, &dz)
+                };
+                for (pi, zi) in p.iter_mut().zip(&z) {
+                    for c in 0..3 {
+                        let beta = if first || rz_old[c] == 0.0 {
+                            0.0
+                        } else {
+                            rdz[c] / rz_old[c]
+                        };
+                        pi[c] = zi[c] + beta * pi[c];
+                    }
+                }
+                first = false;
+                k.apply(&p, &mut kp);
+                let pkp = dot(&p, &kp);
+                let alpha: [f64; 3] =
+                    std::array::from_fn(|c| if pkp[c] > 0.0 { rz[c] / pkp[c] } else { 0.0 });
+                for ((xi, ri), (pi, kpi)) in x.iter_mut().zip(r.iter_mut()).zip(p.iter().zip(&kp)) {
+                    for c in 0..3 {
+                        xi[c] += alpha[c] * pi[c];
+                        ri[c] -= alpha[c] * kpi[c];
+                    }
+                }
+                // K p, then one pass updating x, r and reducing the norms.
+                work.updates += 2 * n as u64;
+                work.entries += self.levels[top].operator_entries() + n as u64;
+                rz_old = rz;
+                z_old = z;
+                let rn = norm2(&r);
+                let next = max3(std::array::from_fn(|c| rn[c] / fnorm[c]));
+                going = step(&x, next, &mut residual, &work);
+            }
+        } else {
+            while going {
+                self.v_cycle(top, &mut x, f, params, &mut work);
+                let next = max3(self.relative_residual(&x, f));
+                work.updates += n as u64;
+                work.entries += self.levels[top].operator_entries();
+                going = step(&x, next, &mut residual, &work);
+            }
+        }
+        let mean_factor = (v_factors.len() >= 2).then(|| {
+            let logs: f64 = v_factors.iter().map(|f| f.max(1e-300).ln()).sum();
+            (logs / v_factors.len() as f64).exp()
+        });
+        let report = MultigridReport {
+            cycles,
+            residual,
+            converged: residual < params.tolerance,
+            work_units: per(work.updates),
+            matvec_units: work.entries as f64 / self.levels[top].operator_entries().max(1) as f64,
+            mean_factor,
+            coarse_iterations: work.coarse_iterations,
+            sweeps: work.sweeps,
+        };
+        (x, report)
+    }
+
+    /// One V-cycle on level `l` (gamma = 1).
+    fn v_cycle(
+        &self,
+        l: usize,
+        x: &mut Field,
+        f: &[[f64; 3]],
+        params: &MultigridParams,
+        work: &mut Work,
+    ) {
+        if l == 0 {
+            self.coarse_solve(x, f, params, work);
+            return;
+        }
+        let level = &self.levels[l];
+        let n = level.node_count();
+        self.smooth(l, x, f, params.pre_sweeps, params, work);
+        let mut r = vec![[0.0; 3]; n];
+        level.operator.residual(x, f, &mut r);
+        let Some(p) = level.prolongation.as_ref() else {
+            return;
+        };
+        let k = &level.operator;
+        let smoothing = params
+            .smoothed_prolongation
+            .map(|s| level.lambda_max.map(|l| s / l));
+        if let Some(omega) = smoothing {
+            // P_s^T r = P^T (I - omega K B^-1) r.
+            let mut z = vec![[0.0; 3]; n];
+            k.precondition(&r, &mut z);
+            let mut kz = vec![[0.0; 3]; n];
+            k.apply(&z, &mut kz);
+            for (ri, kzi) in r.iter_mut().zip(&kz) {
+                for c in 0..3 {
+                    ri[c] -= omega[c] * kzi[c];
+                }
+            }
+            work.updates += n as u64;
+            work.entries += level.operator_entries();
+        }
+        let mut fc = vec![[0.0; 3]; p.coarse_count()];
+        p.restrict(&r, &mut fc);
+        let mut xc = vec![[0.0; 3]; p.coarse_count()];
+        work.updates += 2 * n as u64;
+        work.entries += level.operator_entries() + level.link_entries();
+        self.v_cycle(l - 1, &mut xc, &fc, params, work);
+        match smoothing {
+            None => p.prolong_add(&xc, x),
+            Some(omega) => {
+                // P_s e = (I - omega B^-1 K) P e.
+                let mut e = vec![[0.0; 3]; n];
+                p.prolong_add(&xc, &mut e);
+                let mut ke = vec![[0.0; 3]; n];
+                k.apply(&e, &mut ke);
+                let mut z = vec![[0.0; 3]; n];
+                k.precondition(&ke, &mut z);
+                for ((xi, ei), zi) in x.iter_mut().zip(&e).zip(&z) {
+                    for c in 0..3 {
+                        xi[c] += ei[c] - omega[c] * zi[c];
+                    }
+                }
+                work.updates += n as u64;
+                work.entries += level.operator_entries();
+            }
+        }
+        work.updates += n as u64;
+        work.entries += level.link_entries();
+        self.smooth(l, x, f, params.post_sweeps, params, work);
+    }
+
+    /// `sweeps` smoothing sweeps on level `l` (damped Jacobi, or one Chebyshev polynomial of that
+    /// degree).
+    fn smooth(
+        &self,
+        l: usize,
+        x: &mut Field,
+        f: &[[f64; 3]],
+        sweeps: u32,
+        params: &MultigridParams,
+        work: &mut Work,
+    ) {
+        if sweeps == 0 {
+            return;
+        }
+        let level = &self.levels[l];
+        let k = &level.operator;
+        work.updates += u64::from(sweeps) * k.node_count() as u64;
+        work.entries += u64::from(sweeps) * level.operator_entries();
+        work.sweeps[l] += u64::from(sweeps);
+        match params.smoother {
+            Smoother::Jacobi { omega } => {
+                let mut next = x.clone();
+                for _ in 0..sweeps {
+                    damped_jacobi_sweep(k, x, f, omega, &mut next);
+                    std::mem::swap(x, &mut next);
+                }
+            }
+            Smoother::Chebyshev { lower } => {
+                let mut d = vec![[0.0; 3]; x.len()];
+                let bounds = level.lambda_max.map(|hi| (lower * hi, hi));
+                let mut next = x.clone();
+                for step in 0..sweeps {
+                    let c = chebyshev_coefficients(bounds, step);
+                    chebyshev_sweep(k, x, f, &mut d, c, &mut next);
+                    std::mem::swap(x, &mut next);
+                }
+            }
+        }
+    }
+
+    /// Coarsest level: Jacobi-preconditioned CG from `x` to a relative residual of
+    /// `params.coarse_tolerance`.
+    fn coarse_solve(
+        &self,
+        x: &mut Field,
+        f: &[[f64; 3]],
+        params: &MultigridParams,
+        work: &mut Work,
+    ) {
+        let k = &self.levels[0].operator;
+        let iterations = pcg(
+            k,
+            f,
+            x,
+            params.coarse_tolerance,
+            20 * k.node_count().max(10),
+        );
+        work.coarse_iterations += iterations as u64;
+        work.updates += (iterations as u64 + 1) * k.node_count() as u64;
+        work.entries += (iterations as u64 + 1) * self.levels[0].operator_entries();
+    }
+
+    /// The unscaled (GPU) form of the restriction: from the Jacobi residual `r_jac = D^-1 (b - A x)`
+    /// of level `l` to the coarser level's Jacobi-form right-hand side
+    /// `rhs_c = (1 / m_c) P^T (m r_jac)`, m = diag K the node masses. Equal to [`Prolongation::restrict`]
+    /// of the scaled residual, divided by the coarse diagonal.
+    pub fn restrict_jacobi_residual(&self, l: usize, r_jac: &[[f64; 3]]) -> Option<Field> {
+        let level = self.levels.get(l)?;
+        let p = level.prolongation.as_ref()?;
+        let coarse = &self.levels[l - 1].operator;
+        let scaled: Field = r_jac
+            .iter()
+            .zip(&level.operator.diag)
+            .map(|(r, m)| std::array::from_fn(|c| r[c] * m[c]))
+            .collect();
+        let mut out = vec![[0.0; 3]; p.coarse_count()];
+        p.restrict(&scaled, &mut out);
+        for (o, m) in out.iter_mut().zip(&coarse.diag) {
+            for c in 0..3 {
+                o[c] /= m[c];
+            }
+        }
+        Some(out)
+    }
+
+    /// One damped Jacobi sweep of level `l` in the unscaled (GPU) form, `x + omega (rhs_jac +
+    /// sum_k w_ik x_k - x)` with `w = -K_ik / K_ii` and `rhs_jac = f / K_ii`.
+    pub fn damped_sweep(&self, l: usize, x: &[[f64; 3]], f: &[[f64; 3]], omega: f64) -> Field {
+        let mut out = x.to_vec();
+        damped_jacobi_sweep(&self.levels[l].operator, x, f, omega, &mut out);
+        out
+    }
+}
+
+/// `out = x + omega B^-1 (f - K x)`.
+fn damped_jacobi_sweep(
+    k: &SparseOperator,
+    x: &[[f64; 3]],
+    f: &[[f64; 3]],
+    omega: f64,
+    out: &mut [[f64; 3]],
+) {
+    let mut r = vec![[0.0; 3]; x.len()];
+    k.residual(x, f, &mut r);
+    out.par_iter_mut().enumerate().for_each(|(i, o)| {
+        let z = k.block_solve(i, &r);
+        *o = std::array::from_fn(|c| x[i][c] + omega * z[c]);
+    });
+}
+
+/// Per channel, the coefficients `(alpha, beta)` of Chebyshev step `step`:
+/// `d <- alpha d + beta B^-1 (f - K x)`, `x <- x + d` (Saad, Iterative Methods, Alg. 12.1, with
+/// the (block) Jacobi preconditioner B; d = 0 before step 0). Constants per step: the GPU gets
+/// them as push constants, no reduction.
+pub fn chebyshev_coefficients(bounds: [(f64, f64); 3], step: u32) -> [(f64, f64); 3] {
+    bounds.map(|(lo, hi)| {
+        let theta = 0.5 * (hi + lo);
+        let delta = 0.5 * (hi - lo);
+        let sigma = theta / delta;
+        // rho_k = 1 / (2 sigma - rho_(k-1)), rho_0 = 1 / sigma.
+        let mut rho = 1.0 / sigma;
+        if step == 0 {
+            return (0.0, 1.0 / theta);
+        }
+        let mut alpha = 0.0;
+        let mut beta = 0.0;
+        for _ in 0..step {
+            let next = 1.0 / (2.0 * sigma - rho);
+            alpha = next * rho;
+            beta = 2.0 * next / delta;
+            rho = next;
+        }
+        (alpha, beta)
+    })
+}
+
+/// One Chebyshev step: `d = alpha d + beta B^-1 (f - K x)`, `out = x + d`.
+fn chebyshev_sweep(
+    k: &SparseOperator,
+    x: &[[f64; 3]],
+    f: &[[f64; 3]],
+    d: &mut [[f64; 3]],
+    coefficients: [(f64, f64); 3],
+    out: &mut [[f64; 3]],
+) {
+    let mut r = vec![[0.0; 3]; x.len()];
+    k.residual(x, f, &mut r);
+    out.par_iter_mut()
+        .zip(d.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (o, di))| {
+            let z = k.block_solve(i, &r);
+            for c in 0..3 {
+                let (alpha, beta) = coefficients[c];
+                di[c] = alpha * di[c] + beta * z[c];
+                o[c] = x[i][c] + di[c];
+            }
+        });
+}
+
+/// Largest eigenvalue of `B^-1 K` per channel, from the Lanczos tridiagonal matrix of
+/// `iterations` preconditioned CG steps on `K x = v` (v a fixed pseudo-random vector, so the
+/// estimate is deterministic). Lanczos converges to the extreme eigenvalues much faster than power
+/// iteration; it approaches from below, so callers add a margin.
+pub fn largest_eigenvalue(k: &SparseOperator, iterations: u32) -> [f64; 3] {
+    let n = k.node_count();
+    let mut r: Field = (0..n)
+        .map(|i| {
+            let h = crate::material::noise::hash_u32(i as u32 ^ 0x5bd1_e995);
+            let u = f64::from(h) / f64::from(u32::MAX) - 0.5;
+            [u; 3]
+        })
+        .collect();
+    let mut z = vec![[0.0; 3]; n];
+    k.precondition(&r, &mut z);
+    let mut p = z.clone();
+    let mut kp = vec![[0.0; 3]; n];
+    let mut rz = dot(&r, &z);
+    // Per channel, the CG coefficients (alpha_j, beta_j).
+    let mut coefficients: Vec<([f64; 3], [f64; 3])> = Vec::new();
+    for _ in 0..iterations.min(n as u32) {
+        k.apply(&p, &mut kp);
+        let pkp = dot(&p, &kp);
+        if pkp.iter().any(|&v| !(v > 0.0 && v.is_finite())) {
+            break;
+        }
+        let alpha: [f64; 3] = std::array::from_fn(|c| rz[c] / pkp[c]);
+        for (ri, kpi) in r.iter_mut().zip(&kp) {
+            for c in 0..3 {
+                ri[c] -= alpha[c] * kpi[c];
+            }
+        }
+        k.precondition(&r, &mut z);
+        let rz_new = dot(&r, &z);
+        let beta: [f64; 3] = std::array::from_fn(|c| rz_new[c] / rz[c]);
+        coefficients.push((alpha, beta));
+        if rz_new.iter().any(|&v| !(v > 0.0 && v.is_finite())) {
+            break;
+        }
+        rz = rz_new;
+        for (pi, zi) in p.iter_mut().zip(&z) {
+            for c in 0..3 {
+                pi[c] = zi[c] + beta[c] * pi[c];
+            }
+        }
+    }
+    std::array::from_fn(|c| {
+        // Lanczos: T_jj = 1/alpha_j + beta_(j-1)/alpha_(j-1), T_(j,j+1) = sqrt(beta_j)/alpha_j.
+        let m = coefficients.len();
+        let mut diag = vec![0.0; m];
+        let mut off = vec![0.0; m.saturating_sub(1)];
+        for j in 0..m {
+            let (a, _) = coefficients[j];
+            diag[j] = 1.0 / a[c];
+            if j > 0 {
+                let (ap, bp) = coefficients[j - 1];
+                diag[j] += bp[c] / ap[c];
+                off[j - 1] = bp[c].sqrt() / ap[c];
+            }
+        }
+        largest_tridiagonal_eigenvalue(&diag, &off)
+    })
+}
+
+/// Largest eigenvalue of the symmetric tridiagonal matrix (diag, off) by Sturm-sequence
+/// bisection inside its Gershgorin interval.
+fn largest_tridiagonal_eigenvalue(diag: &[f64], off: &[f64]) -> f64 {
+    if diag.is_empty() {
+        return 0.0;
+    }
+    let radius = |j: usize| {
+        off.get(j).map_or(0.0, |v: &f64| v.abs()) + j.checked_sub(1).map_or(0.0, |i| off[i].abs())
+    };
+    let mut lo = (0..diag.len())
+        .map(|j| diag[j] - radius(j))
+        .fold(f64::INFINITY, f64::min);
+    let mut hi = (0..diag.len())
+        .map(|j| diag[j] + radius(j))
+        .fold(f64::NEG_INFINITY, f64::max);
+    // Eigenvalues greater than x: sign changes of the Sturm sequence.
+    let above = |x: f64| {
+        let mut count = 0;
+        let mut d = 1.0;
+        for j in 0..diag.len() {
+            let o2 = if j > 0 { off[j - 1] * off[j - 1] } else { 0.0 };
+            d = diag[j] - x - if j > 0 { o2 / d } else { 0.0 };
+            if d == 0.0 {
+                d = f64::EPSILON * (x.abs() + 1.0);
+            }
+            if d > 0.0 {
+                count += 1;
+            }
+        }
+        count
+    };
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if above(mid) > 0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|c| a[c] + b[c])
+}
+
+fn max3(v: [f64; 3]) -> f64 {
+    v.into_iter()
+        .fold(0.0, |a, b| if b.is_nan() { b } else { a.max(b) })
+}
+
+fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
+    a.par_iter()
+        .zip(b)
+        .map(|(x, y)| std::array::from_fn(|c| x[c] * y[c]))
+        .reduce(|| [0.0; 3], add3)
+}
+
+/// 2-norm per channel.
+pub fn norm2(a: &[[f64; 3]]) -> [f64; 3] {
+    dot(a, a).map(f64::sqrt)
+}
+
+/// Jacobi-preconditioned CG on `K x = f` from `x`, per channel, to a relative residual of
+/// `tolerance` (recursive residual); returns the iterations.
+fn pcg(
+    k: &SparseOperator,
+    f: &[[f64; 3]],
+    x: &mut [[f64; 3]],
+    tolerance: f64,
+    max_iterations: usize,
+) -> usize {
+    let n = k.node_count();
+    let fnorm = norm2(f).map(|v| if v > 0.0 { v } else { 1.0 });
+    let mut r = vec![[0.0; 3]; n];
+    k.residual(x, f, &mut r);
+    let precondition = |r: &[[f64; 3]], z: &mut [[f64; 3]]| k.precondition(r, z);
+    let mut z = vec![[0.0; 3]; n];
+    precondition(&r, &mut z);
+    let mut p = z.clone();
+    let mut kp = vec![[0.0; 3]; n];
+    let mut rz = dot(&r, &z);
+    let mut rel: [f64; 3] = std::array::from_fn(|c| norm2(&r)[c] / fnorm[c]);
+    let mut iterations = 0;
+    while iterations < max_iterations && rel.iter().any(|&v| v >= tolerance) {
+        iterations += 1;
+        k.apply(&p, &mut kp);
+        let pkp = dot(&p, &kp);
+        let alpha: [f64; 3] = std::array::from_fn(|c| {
+            if rel[c] >= tolerance && pkp[c] > 0.0 {
+                rz[c] / pkp[c]
+            } else {
+                0.0
+            }
+        });
+        for ((xi, ri), (pi, kpi)) in x.iter_mut().zip(r.iter_mut()).zip(p.iter().zip(&kp)) {
+            for c in 0..3 {
+                xi[c] += alpha[c] * pi[c];
+                ri[c] -= alpha[c] * kpi[c];
+            }
+        }
+        let nr = norm2(&r);
+        rel = std::array::from_fn(|c| nr[c] / fnorm[c]);
+        precondition(&r, &mut z);
+        let rz_new = dot(&r, &z);
+        let beta: [f64; 3] = std::array::from_fn(|c| {
+            if rz[c] > 0.0 && alpha[c] != 0.0 {
+                rz_new[c] / rz[c]
+            } else {
+                0.0
+            }
+        });
+        rz = rz_new;
+        for (pi, zi) in p.iter_mut().zip(&z) {
+            for c in 0..3 {
+                pi[c] = zi[c] + beta[c] * pi[c];
+            }
+        }
+    }
+    iterations
+}
