@@ -128,9 +128,13 @@ void main() {
                         if (owner(p.xyz - n.xyz * (pc.inward * h), g) != v) {
                             continue;
                         }
+                        // mu_i again in f32 (the map's a is fp16: 2e-4 off at 30 degrees).
+                        vec3 l;
+                        light_arriving(view, p.xyz, l);
+                        float mu = dot(normalize(n.xyz), l);
                         vec4 e = texelFetch(rsm_irradiance, t, 0);
                         flux += e.rgb * e.a;
-                        area += e.a / max(n.w, MIN_COS);
+                        area += e.a / max(mu, MIN_COS);
                     }
                 }
             }

@@ -29,7 +29,7 @@ fn voxelize(gpu: &GpuTest, mesh: &TriMesh, params: &VoxelParams) -> (Vec<bool>, 
         .set_lights(&["dir:0,-1,0:1,1,1".parse().unwrap()], mesh.bounds())
         .unwrap();
     method.bind_mesh(ctx, &gpu_mesh.surface(), false).unwrap();
-    run_frame(ctx, &mut method, &gpu_mesh.surface());
+    run_frame(ctx, &mut method);
     solid_mask(ctx, &method)
 }
 

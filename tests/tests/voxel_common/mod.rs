@@ -3,15 +3,15 @@
 
 use glam::{DVec3, Vec3};
 use translucent::mesh::{MeshSolid, TriMesh};
-use translucent::solver::voxel::{GridFrame, SurfaceMesh, VoxelMethod};
+use translucent::solver::voxel::{GridFrame, VoxelMethod};
 use translucent::vk::Context;
 
 /// Records and runs one frame of `method` on `mesh`, waiting for it.
-pub fn run_frame(ctx: &Context, method: &mut VoxelMethod, mesh: &SurfaceMesh<'_>) {
+pub fn run_frame(ctx: &Context, method: &mut VoxelMethod) {
     let mut failed = None;
     ctx.execute("voxel test frame", |cb| {
-        // SAFETY: `cb` is recording; the method and mesh outlive the waited submission.
-        failed = unsafe { method.record(ctx, cb, mesh, None) }.err();
+        // SAFETY: `cb` is recording; the method and its bound mesh outlive the waited submission.
+        failed = unsafe { method.record(ctx, cb, None) }.err();
         Ok(())
     })
     .expect("submit");

@@ -16,9 +16,9 @@ use ash::vk;
 
 use super::grid::{host_sync, VoxelGrid};
 use super::material::MaterialVolume;
-use super::mesh::{SurfaceMesh, EXITANCE_OFFSET, VERTEX_FLOATS};
+use super::mesh::{MeshHandles, SurfaceMesh, EXITANCE_OFFSET, VERTEX_FLOATS};
 use super::sync::{image_barrier, ResourceUse, State};
-use super::voxelize::allocate_rebuilding;
+use super::voxelize::{allocate_rebuilding, MESH_VERTICES};
 use super::VoxelModel;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, ShaderError};
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
@@ -257,7 +257,7 @@ impl ExitPass {
     pub fn declare<'a>(
         &'a self,
         grid: &'a VoxelGrid,
-        mesh: &SurfaceMesh<'a>,
+        mesh: &MeshHandles,
         material: &'a MaterialVolume,
     ) -> Vec<ResourceUse<'a>> {
         let mut uses = vec![
@@ -266,8 +266,9 @@ impl ExitPass {
             ResourceUse::image(&grid.state[0], Access::ComputeRead),
             ResourceUse::image(&grid.exit, Access::ComputeWrite),
             ResourceUse::buffer(&self.exitance, Access::ComputeWrite),
-            ResourceUse::buffer(
+            ResourceUse::raw_buffer(
                 mesh.vertices,
+                MESH_VERTICES,
                 if self.write_mesh {
                     Access::ComputeReadWrite
                 } else {

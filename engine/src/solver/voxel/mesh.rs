@@ -77,18 +77,39 @@ impl SurfaceMesh<'_> {
         Ok(())
     }
 
+    /// The raw handles a recording pass keeps (no borrow: the caller keeps the buffers alive).
+    pub fn handles(&self) -> MeshHandles {
+        MeshHandles {
+            vertices: self.vertices.raw,
+            indices: self.indices.raw,
+            vertex_count: self.vertex_count,
+            triangle_count: self.triangle_count,
+        }
+    }
+}
+
+/// A bound mesh's buffers as raw handles, kept by the passes between `bind_mesh` and `record`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshHandles {
+    pub vertices: vk::Buffer,
+    pub indices: vk::Buffer,
+    pub vertex_count: u32,
+    pub triangle_count: u32,
+}
+
+impl MeshHandles {
     /// Binds the buffers and draws every triangle.
     ///
     /// # Safety
     /// `cb` must be recording inside a rendering scope with a pipeline bound whose vertex layout
-    /// is [`Vertex`]; the buffers must outlive its execution.
+    /// is [`Vertex`]; the buffers must be alive and outlive its execution.
     pub unsafe fn draw(&self, ctx: &Context, cb: vk::CommandBuffer) {
         // SAFETY: the caller's contract.
         unsafe {
             ctx.raw()
-                .cmd_bind_vertex_buffers(cb, 0, &[self.vertices.raw], &[0]);
+                .cmd_bind_vertex_buffers(cb, 0, &[self.vertices], &[0]);
             ctx.raw()
-                .cmd_bind_index_buffer(cb, self.indices.raw, 0, vk::IndexType::UINT32);
+                .cmd_bind_index_buffer(cb, self.indices, 0, vk::IndexType::UINT32);
             ctx.raw()
                 .cmd_draw_indexed(cb, 3 * self.triangle_count, 1, 0, 0, 0);
         }

@@ -12,11 +12,11 @@ use super::exit::ExitPass;
 use super::grid::{GridDims, GridFrame, VoxelGrid};
 use super::inject::InjectPass;
 use super::material::MaterialVolume;
-use super::mesh::{MeshIndices, SurfaceMesh};
+use super::mesh::{MeshHandles, MeshIndices, SurfaceMesh};
 use super::relax::{RelaxControl, RelaxPass};
 use super::rsm::{ReflectiveShadowMaps, RsmDesc};
 use super::sync::{Resource, ResourceUse, State};
-use super::voxelize::VoxelizePass;
+use super::voxelize::{VoxelizePass, MESH_VERTICES};
 use super::{auto_resolution, VoxelModel, VoxelParams, VoxelResolution};
 use crate::material::MaterialField;
 use crate::mesh::TriMesh;
@@ -113,7 +113,7 @@ impl Tracker {
                                 .new_layout(new_layout),
                         );
                     }
-                    Resource::Buffer(_) => memory.push(
+                    Resource::Buffer(_) | Resource::RawBuffer(..) => memory.push(
                         vk::MemoryBarrier2::default()
                             .src_stage_mask(src_stage)
                             .src_access_mask(src_access)
@@ -165,6 +165,7 @@ pub struct VoxelMethod {
     tracker: Tracker,
     rest_bounds: (DVec3, DVec3),
     write_mesh: bool,
+    mesh: Option<MeshHandles>,
     eta: f64,
 }
 
@@ -232,6 +233,7 @@ impl VoxelMethod {
             tracker: Tracker::default(),
             rest_bounds: bounds,
             write_mesh: false,
+            mesh: None,
             eta,
         })
     }
@@ -293,6 +295,7 @@ impl VoxelMethod {
         self.voxelize.bind_mesh(ctx, &self.grid, mesh)?;
         self.exit.bind_mesh(ctx, &self.grid, mesh, write_mesh)?;
         self.write_mesh = write_mesh;
+        self.mesh = Some(mesh.handles());
         Ok(())
     }
 
@@ -301,15 +304,18 @@ impl VoxelMethod {
     /// `write_mesh`, leaves the mesh's vertices visible to vertex input (the shading draw).
     ///
     /// # Safety
-    /// `cb` must be recording outside a rendering scope; `mesh` must be the bound one, and it and
-    /// `self` must outlive the command buffer's execution.
+    /// `cb` must be recording outside a rendering scope; the bound mesh's buffers and `self` must
+    /// be alive and outlive the command buffer's execution.
     pub unsafe fn record(
         &mut self,
         ctx: &Context,
         cb: vk::CommandBuffer,
-        mesh: &SurfaceMesh<'_>,
         profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), Error> {
+        let Some(mesh) = self.mesh else {
+            return Err(super::bad_param("voxel method", "record before bind_mesh").into());
+        };
+        let mesh = &mesh;
         let mut profiler = profiler;
         // SAFETY: the caller's contract; each pass's declared resources are put in their
         // declared states by the tracker first.
@@ -348,7 +354,11 @@ impl VoxelMethod {
                 self.tracker.transition(
                     ctx,
                     cb,
-                    &[ResourceUse::buffer(mesh.vertices, Access::VertexInput)],
+                    &[ResourceUse::raw_buffer(
+                        mesh.vertices,
+                        MESH_VERTICES,
+                        Access::VertexInput,
+                    )],
                 );
             }
         }

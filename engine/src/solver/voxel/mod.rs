@@ -49,8 +49,9 @@
 //! let indices = MeshIndices::new(ctx, mesh)?; // the display mesh's triangles, readable by compute
 //! let surface = method.surface(display, &indices);
 //! method.bind_mesh(ctx, &surface, true)?; // true: also write J+ into the display mesh
-//! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
-//! unsafe { method.record(ctx, cb, &surface, Some(profiler))? };
+//! // SAFETY: `cb` is recording outside a rendering scope; the display mesh, `indices` and
+//! // `method` outlive its execution.
+//! unsafe { method.record(ctx, cb, Some(profiler))? };
 //! // After the frame completed: method.report(ctx)?.iterations, method.exitance(ctx)?
 //! # Ok(()) }
 //! ```
@@ -71,7 +72,7 @@ pub use exit::{ExitPass, ExitPush, VertexExitPush};
 pub use grid::{GridDims, GridFrame, VoxelGrid, GRID_FORMAT};
 pub use inject::{InjectPass, InjectPush};
 pub use material::MaterialVolume;
-pub use mesh::{MeshIndices, SurfaceMesh, VoxelMesh};
+pub use mesh::{MeshHandles, MeshIndices, SurfaceMesh, VoxelMesh};
 pub use method::{VoxelMethod, VoxelReport};
 pub use relax::{RelaxControl, RelaxPass, RelaxPush, SweepPush};
 pub use rsm::{ReflectiveShadowMaps, RsmDesc, RsmView};

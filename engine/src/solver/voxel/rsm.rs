@@ -19,7 +19,7 @@
 //!
 //! ```no_run
 //! use translucent::solver::voxel::{ReflectiveShadowMaps, RsmDesc};
-//! # fn f(ctx: &translucent::vk::Context, surface: &translucent::solver::voxel::SurfaceMesh,
+//! # fn f(ctx: &translucent::vk::Context, surface: &translucent::solver::voxel::MeshHandles,
 //! #      cb: ash::vk::CommandBuffer) -> Result<(), translucent::Error> {
 //! let mut rsm = ReflectiveShadowMaps::new(ctx, &RsmDesc::default())?;
 //! rsm.set_lights(&["spot:0,60,0:0,-1,0:4000,4000,4000:20,30".parse()?], (glam::DVec3::ZERO, 25.0), 1.3)?;
@@ -32,7 +32,8 @@
 use ash::vk;
 use glam::{DVec3, Vec3};
 
-use super::mesh::SurfaceMesh;
+use super::mesh::MeshHandles;
+use super::voxelize::{MESH_INDICES, MESH_VERTICES};
 use super::sync::{ResourceUse, State};
 use crate::render::{ShadowMaps, ShadowMapsDesc, ShadowView, Vertex, MAX_SHADOW_VIEWS};
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
@@ -312,10 +313,10 @@ impl ReflectiveShadowMaps {
     /// Reads: the mesh (vertex input). Writes: the depth atlas (depth attachment) and the three
     /// colour maps (colour attachments). Readers then sample the maps in
     /// [`State::ShaderSampled`] and the depth in `Access::DepthSampledShaders`.
-    pub fn declare<'a>(&'a self, mesh: &SurfaceMesh<'a>) -> Vec<ResourceUse<'a>> {
+    pub fn declare<'a>(&'a self, mesh: &MeshHandles) -> Vec<ResourceUse<'a>> {
         vec![
-            ResourceUse::buffer(mesh.vertices, Access::VertexInput),
-            ResourceUse::buffer(mesh.indices, Access::VertexInput),
+            ResourceUse::raw_buffer(mesh.vertices, MESH_VERTICES, Access::VertexInput),
+            ResourceUse::raw_buffer(mesh.indices, MESH_INDICES, Access::VertexInput),
             ResourceUse::image(&self.shadows.atlas, Access::DepthAttachmentWrite),
             ResourceUse::image(&self.position, Access::ColorAttachmentWrite),
             ResourceUse::image(&self.normal, Access::ColorAttachmentWrite),
@@ -336,7 +337,7 @@ impl ReflectiveShadowMaps {
         &mut self,
         ctx: &Context,
         cb: vk::CommandBuffer,
-        mesh: &SurfaceMesh<'_>,
+        mesh: &MeshHandles,
         profiler: Option<&mut GpuProfiler>,
     ) {
         let extent = self.extent();

@@ -98,6 +98,8 @@ pub fn memory_barrier(from: State, to: State) -> vk::MemoryBarrier2<'static> {
 pub enum Resource<'a> {
     Image(&'a Image),
     Buffer(&'a Buffer),
+    /// A buffer the caller owns, by handle (a bound mesh's vertices or indices).
+    RawBuffer(vk::Buffer, &'static str),
 }
 
 impl Resource<'_> {
@@ -105,6 +107,7 @@ impl Resource<'_> {
         match self {
             Resource::Image(i) => i.name,
             Resource::Buffer(b) => b.name,
+            Resource::RawBuffer(_, name) => name,
         }
     }
 
@@ -114,6 +117,7 @@ impl Resource<'_> {
         match self {
             Resource::Image(i) => i.raw.as_raw(),
             Resource::Buffer(b) => b.raw.as_raw(),
+            Resource::RawBuffer(b, _) => b.as_raw(),
         }
     }
 }
@@ -143,6 +147,13 @@ impl<'a> ResourceUse<'a> {
     pub fn buffer(buffer: &'a Buffer, state: impl Into<State>) -> Self {
         ResourceUse {
             resource: Resource::Buffer(buffer),
+            state: state.into(),
+        }
+    }
+
+    pub fn raw_buffer(buffer: vk::Buffer, name: &'static str, state: impl Into<State>) -> Self {
+        ResourceUse {
+            resource: Resource::RawBuffer(buffer, name),
             state: state.into(),
         }
     }

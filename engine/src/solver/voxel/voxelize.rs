@@ -24,7 +24,7 @@ use ash::vk;
 
 use super::grid::VoxelGrid;
 use super::material::MaterialVolume;
-use super::mesh::{SurfaceMesh, VERTEX_FLOATS};
+use super::mesh::{MeshHandles, SurfaceMesh, VERTEX_FLOATS};
 use super::sync::ResourceUse;
 use super::VoxelModel;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, ShaderError};
@@ -33,6 +33,9 @@ use crate::Error;
 
 /// Profiler scope and debug label of the pass.
 pub const PASS_VOXELIZE: &str = "voxelize";
+/// Names of the bound mesh's buffers in declarations.
+pub const MESH_VERTICES: &str = "mesh vertices";
+pub const MESH_INDICES: &str = "mesh indices";
 
 /// Push constants of `voxel/fit_grid.comp`.
 #[repr(C)]
@@ -329,12 +332,12 @@ impl VoxelizePass {
     pub fn declare<'a>(
         &self,
         grid: &'a VoxelGrid,
-        mesh: &SurfaceMesh<'a>,
+        mesh: &MeshHandles,
         material: &'a MaterialVolume,
     ) -> Vec<ResourceUse<'a>> {
         let mut uses = vec![
-            ResourceUse::buffer(mesh.vertices, Access::ComputeRead),
-            ResourceUse::buffer(mesh.indices, Access::ComputeRead),
+            ResourceUse::raw_buffer(mesh.vertices, MESH_VERTICES, Access::ComputeRead),
+            ResourceUse::raw_buffer(mesh.indices, MESH_INDICES, Access::ComputeRead),
             ResourceUse::buffer(&grid.frame, Access::ComputeWrite),
             ResourceUse::image(&grid.medium, Access::ComputeWrite),
         ];
