@@ -14,6 +14,9 @@ layout(set = 0, binding = 1, std430) readonly buffer Grid { GridFrame grid; } gr
 layout(set = 0, binding = 2) uniform sampler3D sigma_s_volume;
 layout(set = 0, binding = 3) uniform sampler3D sigma_a_volume;
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image3D medium;
+// rgb: D = 1 / (3 sigma_t') per channel, for the diffusion model's exit profile (a placeholder
+// for the paper model, not written).
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image3D transport;
 
 layout(push_constant) uniform ClassifyPush {
     uvec4 dims;          // xyz: voxels per axis
@@ -33,6 +36,7 @@ void main() {
     GridFrame g = grid.grid;
     bool solid = votes.values[voxel_index(v, pc.dims.xyz)] >= pc.votes_needed;
     vec4 value = vec4(0.0);
+    vec3 diffusion = vec3(0.0);
     if (solid) {
         vec3 extent = max(pc.material_hi.xyz - pc.material_lo.xyz, vec3(1e-30));
         vec3 uvw = clamp((voxel_centre(v, g) - pc.material_lo.xyz) / extent, 0.0, 1.0);
@@ -41,6 +45,13 @@ void main() {
         vec3 sigma_t = sigma_s + sigma_a;
         vec3 cost = pc.model == 0u ? sigma_t : sqrt(3.0 * sigma_a * sigma_t);
         value = vec4(cost, 1.0);
+        diffusion = vec3(
+            sigma_t.r > 0.0 ? 1.0 / (3.0 * sigma_t.r) : 0.0,
+            sigma_t.g > 0.0 ? 1.0 / (3.0 * sigma_t.g) : 0.0,
+            sigma_t.b > 0.0 ? 1.0 / (3.0 * sigma_t.b) : 0.0);
     }
     imageStore(medium, v, value);
+    if (pc.model == 1u) {
+        imageStore(transport, v, vec4(diffusion, 0.0));
+    }
 }

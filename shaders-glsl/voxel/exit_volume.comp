@@ -1,16 +1,20 @@
 #version 460
 // The radiance volume (paper section 2.2; solver::voxel::ExitPass): per solid voxel the outgoing
-// partial current J+ the optical path gives,
-//   paper:      J+ = exp(-n)                         (the paper's L = F_t exp(-n), Eq. 1, read as
-//                                                     L = F_t J+ / (pi eta^2): see the module doc)
-//   diffusion:  J+ = C exp(-n) l / (l + d)           (n along sigma_tr, d the path's length)
-// with C = albedo(semi-infinite, uniform light) / (1 - F_dr), so a uniformly lit flat surface
-// returns DESIGN section 2's diffusion albedo, and l = spread / sigma_t' (the 1/d spreading from a
-// source; spread = 0 turns it off). Stored premultiplied by coverage (rgb J+, a = 1; empty voxels
-// 0): the trilinear read at the surface (vertex_exitance.comp) divides by a, so empty voxels
-// outside do not darken it.
+// partial current J+ the optical path gives, M = (1 - F_dr) J+ leaving into air:
+//   paper:      J+ = exp(-n)                 (the paper's L = F_t exp(-n), Eq. 1, read as
+//                                             L = F_t J+ / (pi eta^2): see the module doc)
+//   diffusion:  M  = exp(-n) min(R, P(d))    n along sigma_tr = sqrt(3 sigma_a sigma_t'),
+//                                             d the path's length (mm)
+// R is DESIGN section 2's albedo of a semi-infinite medium under uniform light, and
+// P(d) exp(-sigma_tr d) its transmittance T of a slab of thickness d lit on one face:
+//   P(d) = 8 D s / ((1 - F_dr) [(1 + h s)^2 - (1 - h s)^2 exp(-2 s d)]),  s = sigma_tr, h = 2 A D,
+// so a uniformly lit flat face returns R q, and the far face of a lit slab T(d) q: the diffusion
+// falloff along the path, with its 1/d spreading (P -> 4 D / ((1 - F_dr)(2 h + d)) when s d << 1).
+// Stored premultiplied by coverage (rgb J+, a = 1; empty voxels 0): the trilinear read at the
+// surface (vertex_exitance.comp) divides by a, so the empty voxels outside do not darken it.
 #include "voxel_grid.glsl"
 #include "optics.glsl"
+#include "diffusion_profile.glsl"
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
@@ -28,8 +32,8 @@ layout(push_constant) uniform ExitPush {
     vec4 material_hi;
     uint model;          // 0: paper, 1: diffusion
     float eta;
-    float spread;        // diffusion: l = spread / sigma_t'; 0: no spreading
-    uint pad;
+    uint pad0;
+    uint pad1;
 } pc;
 
 // exp(-n) never overflows: n0 >= -ln(1e30 * ...) stays above this for every accepted light.
@@ -54,21 +58,22 @@ void main() {
             vec3 sigma_s = max(texture(sigma_s_volume, uvw).rgb, vec3(0.0));
             vec3 sigma_a = max(texture(sigma_a_volume, uvw).rgb, vec3(0.0));
             vec3 sigma_t = sigma_s + sigma_a;
-            vec3 s = sqrt(3.0 * sigma_a * sigma_t);
+            vec3 d = imageLoad(path, v).rgb;
             float f_dr = diffuse_reflectance(pc.eta);
             float big_a = (1.0 + f_dr) / (1.0 - f_dr);
-            vec3 d = imageLoad(path, v).rgb;
             for (int c = 0; c < 3; ++c) {
-                // DESIGN section 2, semi-infinite medium under uniform light; D = 1 / (3 sigma_t').
-                float diffusion = sigma_t[c] > 0.0 ? 1.0 / (3.0 * sigma_t[c]) : 0.0;
-                float albedo = (2.0 / (1.0 + 2.0 * big_a * diffusion * s[c]) - (1.0 - f_dr)) / (1.0 + f_dr);
-                float gain = max(albedo, 0.0) / (1.0 - f_dr);
-                float spread = 1.0;
-                if (pc.spread > 0.0 && sigma_t[c] > 0.0) {
-                    float l = pc.spread / sigma_t[c];
-                    spread = l / (l + d[c]);
+                float gain = 0.0;
+                if (sigma_t[c] > 0.0) {
+                    float diffusion = 1.0 / (3.0 * sigma_t[c]);
+                    float s = sqrt(3.0 * sigma_a[c] * sigma_t[c]);
+                    float h = 2.0 * big_a * diffusion;
+                    float hs = h * s;
+                    float albedo = max((2.0 / (1.0 + hs) - (1.0 - f_dr)) / (1.0 + f_dr), 0.0);
+                    float slab = slab_profile(diffusion, s, h, d[c]);
+                    gain = min(albedo, slab / (1.0 - f_dr));
                 }
-                j[c] *= gain * spread;
+                // Stored as J+ = M / (1 - F_dr).
+                j[c] *= gain / (1.0 - f_dr);
             }
         }
         value = vec4(j, 1.0);

@@ -209,37 +209,32 @@ struct Config {
 }
 
 fn configs() -> Vec<Config> {
-    let p = |model, beta: f32, spread: f32| VoxelParams {
+    let p = |model, beta: f32| VoxelParams {
         resolution: VoxelResolution::Auto,
         model,
         soft_beta: beta,
-        spread,
         ..VoxelParams::default()
     };
     vec![
         Config {
             name: "paper".into(),
-            params: p(VoxelModel::Paper, 0.0, 0.0),
+            params: p(VoxelModel::Paper, 0.0),
         },
         Config {
             name: "paper soft 0.25".into(),
-            params: p(VoxelModel::Paper, 0.25, 0.0),
+            params: p(VoxelModel::Paper, 0.25),
         },
         Config {
-            name: "diffusion, no spread".into(),
-            params: p(VoxelModel::Diffusion, 0.0, 0.0),
+            name: "diffusion".into(),
+            params: p(VoxelModel::Diffusion, 0.0),
         },
         Config {
-            name: "diffusion spread 1".into(),
-            params: p(VoxelModel::Diffusion, 0.0, 1.0),
+            name: "diffusion soft 0.1".into(),
+            params: p(VoxelModel::Diffusion, 0.1),
         },
         Config {
-            name: "diffusion spread 10".into(),
-            params: p(VoxelModel::Diffusion, 0.0, 10.0),
-        },
-        Config {
-            name: "diffusion soft 0.25, spread 10".into(),
-            params: p(VoxelModel::Diffusion, 0.25, 10.0),
+            name: "diffusion soft 0.25".into(),
+            params: p(VoxelModel::Diffusion, 0.25),
         },
     ]
 }

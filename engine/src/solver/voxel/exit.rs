@@ -37,9 +37,7 @@ pub struct ExitPush {
     /// 0: paper, 1: diffusion.
     pub model: u32,
     pub eta: f32,
-    /// Diffusion: l = spread / sigma_t'; 0: no spreading.
-    pub spread: f32,
-    pub pad: u32,
+    pub pad: [u32; 2],
 }
 
 /// Push constants of `voxel/vertex_exitance.comp`.
@@ -100,13 +98,12 @@ pub struct ExitPass {
     placeholder: Buffer,
     model: VoxelModel,
     eta: f32,
-    spread: f32,
     write_mesh: bool,
     vertex_count: u32,
 }
 
 impl ExitPass {
-    pub fn new(ctx: &Context, model: VoxelModel, eta: f64, spread: f32) -> Result<ExitPass, Error> {
+    pub fn new(ctx: &Context, model: VoxelModel, eta: f64) -> Result<ExitPass, Error> {
         if !(eta.is_finite() && eta > 0.0) {
             return Err(super::bad_param("eta", format!("{eta} is not a positive index ratio")).into());
         }
@@ -132,7 +129,6 @@ impl ExitPass {
             placeholder: storage("voxel exitance placeholder", 16)?,
             model,
             eta: eta as f32,
-            spread,
             write_mesh: false,
             vertex_count: 0,
         })
@@ -320,8 +316,7 @@ impl ExitPass {
                         VoxelModel::Diffusion => 1,
                     },
                     eta: self.eta,
-                    spread: self.spread,
-                    pad: 0,
+                    pad: [0; 2],
                 },
                 [dims[0], dims[1], dims[2]],
             );

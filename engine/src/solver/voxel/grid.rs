@@ -117,6 +117,9 @@ pub struct VoxelGrid {
     /// rgb: the chosen path's length d (mm), ping and pong; 1x1x1 placeholders when the model
     /// carries no path.
     pub path: [Image; 2],
+    /// rgb: D = 1 / (3 sigma_t') per channel (the diffusion model's exit profile); 1x1x1
+    /// placeholder otherwise.
+    pub transport: Image,
     /// rgb: J+ of solid voxels, a = 1 (0 for empty ones): premultiplied coverage.
     pub exit: Image,
     /// Trilinear, clamped to the edge: reads `exit` at the display vertices.
@@ -183,6 +186,7 @@ impl VoxelGrid {
                 volume("voxel path ping", path_extent, false)?,
                 volume("voxel path pong", path_extent, false)?,
             ],
+            transport: volume("voxel transport", path_extent, false)?,
             exit: volume("voxel exit", d, true)?,
             sampler: Sampler::new(ctx, "voxel trilinear", &info)?,
             track_path,
@@ -199,6 +203,7 @@ impl VoxelGrid {
             &self.state[1],
             &self.path[0],
             &self.path[1],
+            &self.transport,
             &self.exit,
         ]
         .iter()

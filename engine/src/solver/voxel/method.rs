@@ -218,8 +218,8 @@ impl VoxelMethod {
             },
         )?;
         let inject = InjectPass::new(ctx, &grid, &rsm)?;
-        let relax = RelaxPass::new(ctx, &grid, params)?;
-        let mut exit = ExitPass::new(ctx, params.model, eta, params.spread)?;
+        let relax = RelaxPass::new(ctx, &grid, params, eta)?;
+        let mut exit = ExitPass::new(ctx, params.model, eta)?;
         exit.bind_material(ctx, &grid, &material)?;
         Ok(VoxelMethod {
             params: params.clone(),
@@ -266,6 +266,7 @@ impl VoxelMethod {
             .bind_material(ctx, &self.grid, &self.material)?;
         self.exit.bind_material(ctx, &self.grid, &self.material)?;
         self.exit.set_eta(field.eta())?;
+        self.relax.set_eta(field.eta());
         self.eta = field.eta();
         Ok(())
     }

@@ -31,10 +31,13 @@
 //!
 //! **Beyond the paper** ([`VoxelModel::Diffusion`], measured against path tracing in
 //! benches/RESULTS.md, "Voxel method"): the cost along the path is the diffusion's effective
-//! transport coefficient sigma_tr = sqrt(3 sigma_a sigma_t'), the exit scales by the semi-infinite
-//! albedo (so uniform light on a flat surface gives DESIGN section 2's closed form) and by a 1/d
-//! spreading l / (l + d) along the path's length d; and [`VoxelParams::soft_beta`] > 0 replaces the
-//! minimum over neighbours with a log-sum-exp soft minimum, so several paths add.
+//! transport coefficient sigma_tr = sqrt(3 sigma_a sigma_t'), and the exit is DESIGN section 2's
+//! diffusion closed forms along the path: M = q exp(-integral of sigma_tr) min(R, P(d)), R the
+//! semi-infinite albedo (a uniformly lit flat face returns R q), P(d) exp(-sigma_tr d) the
+//! transmittance of a slab as thick as the path is long (the far face of a lit slab returns T q;
+//! for sigma_tr d << 1 it falls as 4D / (2h + d): the 1/d spreading), `voxel/exit_volume.comp`.
+//! [`VoxelParams::soft_beta`] > 0 replaces the minimum over neighbours with a log-sum-exp soft
+//! minimum, so several paths add.
 //!
 //! ```no_run
 //! use translucent::material::{Material, MaterialField};
@@ -167,9 +170,6 @@ pub struct VoxelParams {
     /// Soft minimum: a change of n below this (in optical depth; 1e-4 = 0.01% of the light) counts
     /// as converged.
     pub soft_tolerance: f32,
-    /// Diffusion model: the spreading length l in transport mean free paths (l = spread /
-    /// sigma_t'); 0 turns the 1/d spreading off.
-    pub spread: f32,
     /// Iterations per GPU convergence decision (even: the result stays in the first state image).
     pub block: u32,
     /// The most Jacobi iterations (or sweeps) a frame records; `None`: 2 (nx + ny + nz) Jacobi
@@ -191,7 +191,6 @@ impl Default for VoxelParams {
             relaxation: Relaxation::Jacobi,
             soft_beta: 0.0,
             soft_tolerance: 1e-4,
-            spread: 1.0,
             block: 8,
             max_iterations: None,
             vote_axes: 3,
@@ -248,12 +247,6 @@ impl VoxelParams {
             return Err(bad_param(
                 "soft_tolerance",
                 format!("{} must be finite and > 0", self.soft_tolerance),
-            ));
-        }
-        if !(self.spread.is_finite() && self.spread >= 0.0) {
-            return Err(bad_param(
-                "spread",
-                format!("{} must be finite and >= 0", self.spread),
             ));
         }
         if self.block == 0 || self.block % 2 != 0 || self.block > 64 {
@@ -406,7 +399,7 @@ mod tests {
                 ..VoxelParams::default()
             },
             VoxelParams {
-                spread: f32::NAN,
+                soft_tolerance: f32::NAN,
                 ..VoxelParams::default()
             },
             VoxelParams {

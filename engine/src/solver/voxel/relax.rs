@@ -29,6 +29,7 @@ use ash::vk;
 use super::grid::{host_sync, VoxelGrid};
 use super::sync::ResourceUse;
 use super::{Relaxation, VoxelParams};
+use crate::material::fresnel;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
 use crate::Error;
@@ -67,7 +68,8 @@ pub struct RelaxPush {
     pub beta: f32,
     pub tolerance: f32,
     pub flag_changes: u32,
-    pub pad: u32,
+    /// A = (1 + F_dr) / (1 - F_dr) (the diffusion model's profile).
+    pub big_a: f32,
 }
 
 /// Push constants of `voxel/relax_sweep.comp`.
@@ -118,10 +120,16 @@ pub struct RelaxPass {
     /// Blocks (rounds) recorded per frame.
     blocks: u32,
     initial: RelaxControl,
+    big_a: f32,
 }
 
 impl RelaxPass {
-    pub fn new(ctx: &Context, grid: &VoxelGrid, params: &VoxelParams) -> Result<RelaxPass, Error> {
+    pub fn new(
+        ctx: &Context,
+        grid: &VoxelGrid,
+        params: &VoxelParams,
+        eta: f64,
+    ) -> Result<RelaxPass, Error> {
         params.validate()?;
         let d = grid.dims.dims;
         let control = Buffer::new(
@@ -166,6 +174,7 @@ impl RelaxPass {
                             "path_in",
                             "path_out",
                             "control",
+                            "transport",
                         ],
                         max_sets: 2,
                     },
@@ -189,6 +198,7 @@ impl RelaxPass {
                             DescriptorWrite::storage_image("path_in", &grid.path[from]),
                             DescriptorWrite::storage_image("path_out", &grid.path[to]),
                             control_write,
+                            DescriptorWrite::storage_image("transport", &grid.transport),
                         ],
                     )
                 };
@@ -251,7 +261,13 @@ impl RelaxPass {
             k,
             blocks,
             initial,
+            big_a: fresnel::boundary_a(eta) as f32,
         })
+    }
+
+    /// Changes eta (the diffusion model's boundary constant A).
+    pub fn set_eta(&mut self, eta: f64) {
+        self.big_a = fresnel::boundary_a(eta) as f32;
     }
 
     /// Iterations (Jacobi) or sweeps a frame records at most.
@@ -273,6 +289,7 @@ impl RelaxPass {
             uses.push(ResourceUse::image(&grid.state[1], Access::ComputeReadWrite));
             uses.push(ResourceUse::image(&grid.path[0], Access::ComputeReadWrite));
             uses.push(ResourceUse::image(&grid.path[1], Access::ComputeReadWrite));
+            uses.push(ResourceUse::image(&grid.transport, Access::ComputeRead));
         }
         uses
     }
@@ -339,7 +356,7 @@ impl RelaxPass {
                                 beta: self.beta,
                                 tolerance: self.tolerance,
                                 flag_changes: u32::from(j + 1 == self.k),
-                                pad: 0,
+                                big_a: self.big_a,
                             },
                             &self.control,
                             0,

@@ -116,7 +116,14 @@ fn classify_pipeline(ctx: &Context) -> Result<ComputePipeline<ClassifyPush>, Sha
         &ComputePipelineDesc {
             name: "voxel classify",
             shader: "voxel/classify_voxels.comp",
-            bindings: &["votes", "grid", "sigma_s_volume", "sigma_a_volume", "medium"],
+            bindings: &[
+                "votes",
+                "grid",
+                "sigma_s_volume",
+                "sigma_a_volume",
+                "medium",
+                "transport",
+            ],
             max_sets: 8,
         },
     )
@@ -320,6 +327,7 @@ impl VoxelizePass {
                     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 },
                 DescriptorWrite::storage_image("medium", &grid.medium),
+                DescriptorWrite::storage_image("transport", &grid.transport),
             ],
         )?;
         self.classify_set = Some(set);
@@ -328,7 +336,8 @@ impl VoxelizePass {
     }
 
     /// Reads: the mesh's vertices and indices (compute), the material (sampled). Writes: the grid
-    /// frame and the medium (compute; the frame is also read inside the pass).
+    /// frame, the medium and the transport volume (compute; the frame is also read inside the
+    /// pass).
     pub fn declare<'a>(
         &self,
         grid: &'a VoxelGrid,
@@ -340,6 +349,8 @@ impl VoxelizePass {
             ResourceUse::raw_buffer(mesh.indices, MESH_INDICES, Access::ComputeRead),
             ResourceUse::buffer(&grid.frame, Access::ComputeWrite),
             ResourceUse::image(&grid.medium, Access::ComputeWrite),
+            // Written by the diffusion model; bound (a placeholder) either way.
+            ResourceUse::image(&grid.transport, Access::ComputeWrite),
         ];
         uses.extend(material.declare_read());
         uses
