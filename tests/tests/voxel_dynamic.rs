@@ -7,11 +7,12 @@
 mod voxel_common;
 
 use glam::{DQuat, DVec3};
+use translucent::frame::voxel::VoxelPasses;
 use translucent::material::{fresnel, Material, MaterialField};
 use translucent::mesh::shapes::Shape;
+use translucent::scene::Light;
 use translucent::solver::voxel::cpu::N_UNLIT;
-use translucent::solver::voxel::{VoxelMesh, VoxelMethod, VoxelParams, VoxelResolution};
-use translucent::solver::Light;
+use translucent::solver::voxel::{VoxelMesh, VoxelParams, VoxelResolution};
 use translucent_tests::GpuTest;
 use voxel_common::{compare_with_winding, mapped, run_frame, solid_mask, union, voxel_of};
 
@@ -37,7 +38,7 @@ fn a_deforming_mesh_is_voxelized_again_every_frame() {
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
     let light: Light = "dir:0.3,-1,0.2:2,2,2".parse().unwrap();
     let mut mesh = VoxelMesh::new(ctx, &rest).unwrap();
-    let mut method = VoxelMethod::new(ctx, &rest, &field, &params(24)).unwrap();
+    let mut method = VoxelPasses::new(ctx, &rest, &field, &params(24)).unwrap();
     method.bind_mesh(ctx, &mesh.surface(), false).unwrap();
     let mut heights = Vec::new();
     for frame in 0..4 {
@@ -50,14 +51,20 @@ fn a_deforming_mesh_is_voxelized_again_every_frame() {
         mesh.set_positions(&deformed.positions, &deformed.normals)
             .unwrap();
         method.set_lights(&[light], deformed.bounds()).unwrap();
-        run_frame(ctx, &mut method);
+        run_frame(ctx, &mut method, &mesh.surface());
         let (mask, grid) = solid_mask(ctx, &method);
         let (mismatches, solid, _) = compare_with_winding(&mask, &grid, &deformed, BAND_MM);
-        println!("frame {frame}: h {:.3} mm, {solid} solid, {mismatches} mismatches", grid.h());
+        println!(
+            "frame {frame}: h {:.3} mm, {solid} solid, {mismatches} mismatches",
+            grid.h()
+        );
         assert_eq!(mismatches, 0, "frame {frame}");
         assert!(solid > 300, "frame {frame}: {solid}");
         let exitance = method.exitance(ctx).unwrap();
-        assert!(exitance.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(exitance
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite() && *v >= 0.0));
         assert!(exitance.iter().filter(|m| m[3] == 1.0).count() > exitance.len() * 9 / 10);
         heights.push(grid.hi[1] - grid.lo[1]);
     }
@@ -87,13 +94,13 @@ fn a_mesh_split_in_two_between_frames_needs_no_rebake() {
     // Thin: the light crosses the bar (sigma_t' = 0.1 /mm: exp(-2.4) over 24 mm).
     let field = MaterialField::Homogeneous(Material::new([0.09; 3], [0.01; 3], 1.0).unwrap());
     let light: Light = "dir:-1,0,0:1,1,1".parse().unwrap();
-    let mut method = VoxelMethod::new(ctx, &bar, &field, &params(32)).unwrap();
+    let mut method = VoxelPasses::new(ctx, &bar, &field, &params(32)).unwrap();
     let mut far_end = Vec::new();
     for (name, mesh) in [("bar", &bar), ("pieces", &pieces), ("bar again", &bar)] {
         let gpu_mesh = VoxelMesh::new(ctx, mesh).unwrap();
         method.bind_mesh(ctx, &gpu_mesh.surface(), false).unwrap();
         method.set_lights(&[light], mesh.bounds()).unwrap();
-        run_frame(ctx, &mut method);
+        run_frame(ctx, &mut method, &gpu_mesh.surface());
         let (mask, grid) = solid_mask(ctx, &method);
         let (mismatches, _, _) = compare_with_winding(&mask, &grid, mesh, BAND_MM);
         assert_eq!(mismatches, 0, "{name}");
@@ -110,7 +117,10 @@ fn a_mesh_split_in_two_between_frames_needs_no_rebake() {
         let state = method.read_volume(ctx, &method.grid.state[0]).unwrap();
         let v = voxel_of(&grid, glam::Vec3::new(-11.0, 0.0, 0.0));
         let n_far = state[method.grid.dims.index(v)][0];
-        println!("{name}: far end exitance {:?}, n {n_far}", far.iter().fold(0.0f32, |a, &b| a.max(b)));
+        println!(
+            "{name}: far end exitance {:?}, n {n_far}",
+            far.iter().fold(0.0f32, |a, &b| a.max(b))
+        );
         far_end.push((far.iter().fold(0.0f32, |a, &b| a.max(b)), n_far));
     }
     assert!(far_end[0].0 > 1e-3, "{far_end:?}");
@@ -138,13 +148,12 @@ fn a_lit_flat_face_injects_the_transmitted_irradiance_and_emits_its_exitance() {
         irradiance: [2.0, 1.0, 0.5],
     };
     let mesh = VoxelMesh::new(ctx, &cube).unwrap();
-    let mut method = VoxelMethod::new(ctx, &cube, &field, &params(20)).unwrap();
+    let mut method = VoxelPasses::new(ctx, &cube, &field, &params(20)).unwrap();
     method.set_lights(&[light], cube.bounds()).unwrap();
     method.bind_mesh(ctx, &mesh.surface(), false).unwrap();
-    run_frame(ctx, &mut method);
+    run_frame(ctx, &mut method, &mesh.surface());
     let mu = (3.0f64).sqrt() / 2.0;
-    let q: [f64; 3] =
-        [2.0, 1.0, 0.5].map(|e| e * mu * fresnel::transmittance(eta, mu));
+    let q: [f64; 3] = [2.0, 1.0, 0.5].map(|e| e * mu * fresnel::transmittance(eta, mu));
     // n0 of the top layer of voxels, away from the edges (the last 1.25 mm of the face has
     // interpolated normals that turn towards the edge's averaged normal).
     let seed = method.read_volume(ctx, &method.grid.seed).unwrap();
@@ -157,7 +166,11 @@ fn a_lit_flat_face_injects_the_transmitted_irradiance_and_emits_its_exitance() {
             for c in 0..3 {
                 let got = f64::from((-n0[c]).exp());
                 // 1e-5: f32 arithmetic over ~10 texels per voxel.
-                assert!((got - q[c]).abs() < 1e-5 * q[c], "voxel {v:?}: {got} vs {}", q[c]);
+                assert!(
+                    (got - q[c]).abs() < 1e-5 * q[c],
+                    "voxel {v:?}: {got} vs {}",
+                    q[c]
+                );
             }
             checked += 1;
         }

@@ -7,14 +7,13 @@
 mod voxel_common;
 
 use glam::DVec3;
+use translucent::frame::voxel::VoxelPasses;
 use translucent::material::{Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::TriMesh;
+use translucent::scene::Light;
 use translucent::solver::voxel::cpu::{dijkstra, VoxelGraph, N_UNLIT};
-use translucent::solver::voxel::{
-    Relaxation, VoxelMesh, VoxelMethod, VoxelModel, VoxelParams, VoxelResolution,
-};
-use translucent::solver::Light;
+use translucent::solver::voxel::{Relaxation, VoxelMesh, VoxelModel, VoxelParams, VoxelResolution};
 use translucent_tests::GpuTest;
 use voxel_common::run_frame;
 
@@ -39,11 +38,11 @@ fn params(model: VoxelModel, relaxation: Relaxation) -> VoxelParams {
 fn relax(gpu: &GpuTest, case: &Case) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, usize, u32, bool) {
     let ctx = &gpu.ctx;
     let mesh = VoxelMesh::new(ctx, &case.mesh).unwrap();
-    let mut method = VoxelMethod::new(ctx, &case.mesh, &case.field, &case.params).unwrap();
+    let mut method = VoxelPasses::new(ctx, &case.mesh, &case.field, &case.params).unwrap();
     let light: Light = case.light.parse().unwrap();
     method.set_lights(&[light], case.mesh.bounds()).unwrap();
     method.bind_mesh(ctx, &mesh.surface(), false).unwrap();
-    run_frame(ctx, &mut method);
+    run_frame(ctx, &mut method, &mesh.surface());
     let report = method.report(ctx).unwrap();
     let medium = method.read_volume(ctx, &method.grid.medium).unwrap();
     let seed = method.read_volume(ctx, &method.grid.seed).unwrap();
@@ -143,7 +142,11 @@ fn gpu_relaxation_equals_cpu_dijkstra_bit_for_bit() {
             case.name
         );
         assert!(converged, "{}", case.name);
-        assert!(lit > 20 && reached > 5 * lit, "{}: {lit} lit, {reached} reached", case.name);
+        assert!(
+            lit > 20 && reached > 5 * lit,
+            "{}: {lit} lit, {reached} reached",
+            case.name
+        );
         assert_eq!(differing, 0, "{}", case.name);
         assert!(gpu_n.iter().flatten().all(|v| v.is_finite()));
     }

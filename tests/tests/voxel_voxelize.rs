@@ -6,10 +6,11 @@
 mod voxel_common;
 
 use glam::{DQuat, DVec3};
+use translucent::frame::voxel::VoxelPasses;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{TriMesh, ValidateOptions};
-use translucent::solver::voxel::{VoxelMesh, VoxelMethod, VoxelParams, VoxelResolution};
+use translucent::solver::voxel::{VoxelMesh, VoxelParams, VoxelResolution};
 use translucent_tests::{test_mesh, GpuTest};
 use voxel_common::{compare_with_winding, mapped, run_frame, solid_mask};
 
@@ -21,15 +22,19 @@ fn marble() -> MaterialField {
     MaterialField::Homogeneous(Material::preset("marble").unwrap())
 }
 
-fn voxelize(gpu: &GpuTest, mesh: &TriMesh, params: &VoxelParams) -> (Vec<bool>, translucent::solver::voxel::GridFrame) {
+fn voxelize(
+    gpu: &GpuTest,
+    mesh: &TriMesh,
+    params: &VoxelParams,
+) -> (Vec<bool>, translucent::solver::voxel::GridFrame) {
     let ctx = &gpu.ctx;
     let gpu_mesh = VoxelMesh::new(ctx, mesh).unwrap();
-    let mut method = VoxelMethod::new(ctx, mesh, &marble(), params).unwrap();
+    let mut method = VoxelPasses::new(ctx, mesh, &marble(), params).unwrap();
     method
         .set_lights(&["dir:0,-1,0:1,1,1".parse().unwrap()], mesh.bounds())
         .unwrap();
     method.bind_mesh(ctx, &gpu_mesh.surface(), false).unwrap();
-    run_frame(ctx, &mut method);
+    run_frame(ctx, &mut method, &gpu_mesh.surface());
     solid_mask(ctx, &method)
 }
 
@@ -84,7 +89,10 @@ fn sphere_box_torus_and_an_inverted_sphere_match_the_winding_number() {
         // The grid was fitted on the GPU: N voxels along the longest side of the bounds.
         let (lo, hi) = mesh.bounds();
         let longest = (hi - lo).max_element() as f32;
-        assert!((frame.h() - longest / 32.0).abs() < 1e-5 * longest, "{name}: {frame:?}");
+        assert!(
+            (frame.h() - longest / 32.0).abs() < 1e-5 * longest,
+            "{name}: {frame:?}"
+        );
     }
     gpu.finish();
 }

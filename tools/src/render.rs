@@ -19,12 +19,15 @@ use std::time::Instant;
 use anyhow::{bail, Context as _};
 use std::sync::Arc;
 use translucent::quadgraph::cache::{self, CacheOutcome};
+use translucent::scene;
 
 use glam::{DQuat, DVec3};
-use translucent::render::{level_bounds, Camera, HeadlessHost, HeadlessRenderer, Scene};
+use translucent::headless::{ExitanceMesh, HeadlessHost, HeadlessRenderer};
+use translucent::scene::Camera;
+use translucent::scene::Environment;
+use translucent::scene::Light;
 use translucent::solver::gpu::{GpuSolveParams, Precision};
-use translucent::solver::Light;
-use translucent::solver::{self, CpuSolveParams, Environment, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 use translucent::{ObjectParams, TranslucentObject};
@@ -41,10 +44,23 @@ pub struct RenderArgs {
     pub material: MaterialArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010). voxel and dipole are
-    /// not built yet.
+    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010) or voxel (shortest
+    /// optical paths on a voxel grid built every frame, Ozawa et al.; no bake). dipole is not
+    /// built yet.
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
+    /// Voxel method: voxels along the object's longest side (4..=256), or auto (from the
+    /// material's mean free path).
+    #[arg(long, value_name = "N|auto")]
+    pub voxels: Option<String>,
+    /// Voxel method: diffusion (default: sigma_tr along the path, the diffusion falloff at the
+    /// exit) or paper (sigma_t' along the path, exp(-n) at the exit, as published).
+    #[arg(long, value_name = "MODEL", value_parser = ["paper", "diffusion"])]
+    pub voxel_model: Option<String>,
+    /// Voxel method: soft minimum over paths (log-sum-exp temperature per unit of the cheapest
+    /// edge, 0..=0.3; 0: the hard minimum of the paper).
+    #[arg(long, value_name = "BETA")]
+    pub voxel_soft: Option<f32>,
     /// gpu (default): the GPU frame (shadow maps, irradiance gather and Jacobi on the GPU,
     /// convergence decided on the GPU). cpu: the f64 reference solver.
     #[arg(long, default_value = "gpu", value_parser = ["cpu", "gpu"])]
@@ -148,11 +164,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
-    if args.method != "quadgraph" {
+    if args.method != "voxel"
+        && (args.voxels.is_some() || args.voxel_model.is_some() || args.voxel_soft.is_some())
+    {
         bail!(
-            "--method {}: not built yet (only quadgraph is)",
+            "--voxels, --voxel-model and --voxel-soft apply to --method voxel (not {})",
             args.method
         );
+    }
+    match args.method.as_str() {
+        "quadgraph" => {}
+        "voxel" => return crate::render_voxel::run(args),
+        other => bail!("--method {other}: not built yet (quadgraph and voxel are)"),
     }
     let on_gpu = args.solver == "gpu";
     if args.beam_source && on_gpu {
@@ -232,7 +255,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         beam_source: args.beam_source,
         ..CpuSolveParams::default()
     };
-    let solver_scene = solver::Scene {
+    let solver_scene = scene::Scene {
         lights: lights.clone(),
         environment,
     };
@@ -286,7 +309,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-        let (centre, radius) = level_bounds(graph.finest());
+        let (centre, radius) = graph.finest().bounding_sphere();
         let base_camera = frame_desc
             .camera
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
@@ -295,7 +318,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         for i in 0..args.frames {
             if i > 0 {
                 if let Some(deg) = args.orbit_light {
-                    report_scene = solver::Scene {
+                    report_scene = scene::Scene {
                         lights: orbit_lights(&solver_scene.lights, deg * f64::from(i)),
                         environment: solver_scene.environment,
                     };
@@ -336,30 +359,26 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             timings.extend(captured.timings.clone());
             last = Some(captured);
         }
-        gpu_report = Some(translucent.gpu_frame().report(
-            &ctx,
-            &graph,
-            &field,
-            &report_scene,
-            Some(object.solid.as_ref()),
-            &gpu_params,
-        )?);
-        gpu_bytes = Some(translucent.gpu_frame().solve.bytes().0);
+        let quadgraph = translucent
+            .quadgraph()
+            .context("the QuadGraph method reports the solve")?;
+        gpu_report =
+            Some(quadgraph.report(&ctx, &field, &report_scene, Some(object.solid.as_ref()))?);
+        gpu_bytes = Some(translucent.gpu_bytes());
         drop(host);
         drop(translucent);
     } else {
         let vertices = graph.surface.positions.len();
-        let scene = Scene {
+        let mesh = ExitanceMesh {
             mesh: graph.surface.clone(),
             exitance: solution
                 .as_ref()
                 .map_or_else(|| vec![[0.0; 3]; vertices], |s| s.vertex_j_plus.clone()),
-            lights: solver_scene.lights.clone(),
             eta: field.eta(),
         };
-        let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
-        // The environment's mirror reflection off the boundary (off with --no-specular).
-        renderer.set_environment(&solver_scene.environment)?;
+        // The same frame as the GPU path's (shadow maps, shading with the environment's mirror
+        // reflection), with the f64 solution as the given exitance.
+        let mut renderer = HeadlessRenderer::new(&ctx, &mesh, &solver_scene, &frame_desc)?;
         for i in 0..args.frames {
             let captured = renderer.render_frame(&ctx)?;
             let iterations: Vec<usize> = match (&solution, i) {

@@ -21,15 +21,16 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+use translucent::frame::voxel::VoxelReport;
+use translucent::frame::VoxelMethod;
+use translucent::headless::HeadlessHost;
 use translucent::material::{Material, MaterialField, VolGrid};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{TriMesh, ValidateOptions};
-use translucent::render::{Camera, FrameDesc, HeadlessRenderer, RadianceMode, Scene};
-use translucent::solver::voxel::{
-    MeshIndices, Relaxation, VoxelMethod, VoxelModel, VoxelParams, VoxelResolution,
-};
-use translucent::solver::{Environment, Light};
-use translucent::vk::{Context, ContextDesc, GpuProfiler, LinearImage};
+use translucent::scene::{Camera, Environment, Light, Scene};
+use translucent::solver::voxel::{Relaxation, VoxelModel, VoxelParams, VoxelResolution};
+use translucent::vk::{Context, ContextDesc, LinearImage};
+use translucent::{MethodDesc, ObjectParams, TranslucentObject};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
@@ -147,7 +148,9 @@ fn mesh(shape: &str, size_mm: f64) -> Result<TriMesh> {
         }
         .triangulate(96),
         file => {
-            let mut m = TriMesh::load_obj(mesh_dir().join(format!("{file}.obj").replace("bunny.obj", "stanford-bunny.obj")))?;
+            let mut m = TriMesh::load_obj(
+                mesh_dir().join(format!("{file}.obj").replace("bunny.obj", "stanford-bunny.obj")),
+            )?;
             m.validate(&ValidateOptions::default())?;
             m.normalized(size_mm)?.0
         }
@@ -247,54 +250,88 @@ struct Rendered {
     voxels: u32,
 }
 
+/// One frame of the voxel method through the object and the headless host (the frame graph,
+/// the shared shading and capture), as `translucent render --method voxel` draws it.
+fn render_object(
+    ctx: &Context,
+    mesh: &TriMesh,
+    field: &MaterialField,
+    scene: &Scene,
+    params: &VoxelParams,
+    camera: Option<Camera>,
+    frames: usize,
+) -> Result<(Vec<Rendered>, VoxelReport)> {
+    let mut object = TranslucentObject::with_method(
+        ctx,
+        MethodDesc::Voxel {
+            mesh: mesh.clone(),
+            params: params.clone(),
+        },
+        field,
+        scene,
+        &ObjectParams {
+            // Every frame records the whole method (for timings).
+            skip: false,
+            ..ObjectParams::default()
+        },
+    )?;
+    object.set_camera(camera)?;
+    let mut host = HeadlessHost::new(ctx, SIZE, SIZE)?;
+    let mut out = Vec::new();
+    for _ in 0..frames {
+        let (captured, _) = host.render(ctx, &mut object)?;
+        let solves = host.completed_solves(ctx, &mut object)?;
+        let (iterations, converged) = solves
+            .last()
+            .map_or((0, false), |s| (s.iterations()[0], s.converged()));
+        out.push(Rendered {
+            image: captured.image,
+            passes: captured.passes,
+            iterations,
+            converged,
+            voxels: 0,
+        });
+    }
+    let method = object
+        .method()
+        .as_any()
+        .downcast_ref::<VoxelMethod>()
+        .ok_or("not the voxel method")?;
+    let report = method.passes().report(ctx)?;
+    for r in &mut out {
+        r.voxels = report.voxels;
+    }
+    Ok((out, report))
+}
+
 fn render(ctx: &Context, scene: &RefScene, params: &VoxelParams) -> Result<Rendered> {
     let mesh = mesh(scene.shape, 20.0)?;
     let field = field(scene.material, scene.eta)?;
-    let lights: Vec<Light> = scene.light.map(|l| l.parse()).transpose()?.into_iter().collect();
-    let display = Scene {
-        mesh: mesh.clone(),
-        exitance: vec![[0.0; 3]; mesh.positions.len()],
-        lights: lights.clone(),
-        eta: scene.eta,
-    };
-    let frame = FrameDesc {
-        width: SIZE,
-        height: SIZE,
-        camera: Some(Camera {
-            eye: DVec3::new(0.0, 20.0, 60.0),
-            target: DVec3::ZERO,
-            fovy_deg: 30.0,
-        }),
-        radiance: RadianceMode::Physical,
-        specular: true,
-        ..FrameDesc::default()
-    };
+    let lights: Vec<Light> = scene
+        .light
+        .map(|l| l.parse())
+        .transpose()?
+        .into_iter()
+        .collect();
     let environment = scene.env.map_or(Environment::None, Environment::Constant);
-    let mut renderer = HeadlessRenderer::new(ctx, &display, &frame)?;
-    renderer.set_environment(&environment)?;
-    let indices = MeshIndices::new(ctx, &mesh)?;
-    let mut method = VoxelMethod::new(ctx, &mesh, &field, params)?;
-    method.set_lights(&lights, mesh.bounds())?;
-    method.set_environment(&environment)?;
-    let surface = method.surface(renderer.mesh(), &indices);
-    method.bind_mesh(ctx, &surface, true)?;
-    let mut failed = None;
-    let captured = renderer.render_frame_after(ctx, |cb, profiler| {
-        // SAFETY: `cb` is recording; the method, the renderer's mesh and `indices` outlive the
-        // waited frame.
-        failed = unsafe { method.record(ctx, cb, Some(profiler)) }.err();
-    })?;
-    if let Some(e) = failed {
-        return Err(e.into());
-    }
-    let report = method.report(ctx)?;
-    Ok(Rendered {
-        image: captured.image,
-        passes: captured.passes,
-        iterations: report.iterations,
-        converged: report.converged,
-        voxels: report.voxels,
-    })
+    let camera = Camera {
+        eye: DVec3::new(0.0, 20.0, 60.0),
+        target: DVec3::ZERO,
+        fovy_deg: 30.0,
+    };
+    let (mut frames, _) = render_object(
+        ctx,
+        &mesh,
+        &field,
+        &Scene {
+            lights,
+            environment,
+        },
+        params,
+        Some(camera),
+        1,
+    )?;
+    Ok(frames.remove(0))
 }
 
 fn compare(ctx: &Context, out: &Path) -> Result<()> {
@@ -302,7 +339,11 @@ fn compare(ctx: &Context, out: &Path) -> Result<()> {
     let configs = configs();
     println!(
         "| scene | {} |",
-        configs.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(" | ")
+        configs
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>()
+            .join(" | ")
     );
     println!("|---|{}", "---|".repeat(configs.len()));
     let mut totals = vec![0.0; configs.len()];
@@ -360,7 +401,10 @@ fn side_by_side(ours: &LinearImage, reference: &[([f32; 3], f32)], out: &Path) -
     let theirs = LinearImage {
         width: ours.width,
         height: ours.height,
-        pixels: reference.iter().map(|(c, a)| [c[0], c[1], c[2], *a]).collect(),
+        pixels: reference
+            .iter()
+            .map(|(c, a)| [c[0], c[1], c[2], *a])
+            .collect(),
     };
     let (a, b) = (ours.to_srgb8(1.0), theirs.to_srgb8(1.0));
     let (w, h) = (ours.width, ours.height);
@@ -399,37 +443,27 @@ fn timings(ctx: &Context, frames: usize) -> Result<()> {
                     model,
                     ..VoxelParams::default()
                 };
-                let gpu_mesh = translucent::solver::voxel::VoxelMesh::new(ctx, &mesh)?;
-                let mut method = VoxelMethod::new(ctx, &mesh, &field, &params)?;
-                method.set_lights(&[light], mesh.bounds())?;
-                method.bind_mesh(ctx, &gpu_mesh.surface(), false)?;
-                let mut profiler = GpuProfiler::new(ctx, "voxel timings", 64)?;
+                let scene = Scene {
+                    lights: vec![light],
+                    environment: Environment::None,
+                };
+                // One warm-up frame (lavapipe compiles each pipeline at its first dispatch).
+                let (rendered, report) =
+                    render_object(ctx, &mesh, &field, &scene, &params, None, frames + 1)?;
                 let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-                for f in 0..=frames {
-                    let mut frame = 0;
-                    let mut failed = None;
-                    ctx.execute("voxel timings", |cb| {
-                        frame = ctx.frames().0;
-                        // SAFETY: `cb` is recording; everything outlives the waited submission.
-                        unsafe {
-                            profiler.begin_frame(cb, frame);
-                            failed = method.record(ctx, cb, Some(&mut profiler)).err();
-                        }
-                        Ok(())
-                    })?;
-                    if let Some(e) = failed {
-                        return Err(e.into());
-                    }
-                    profiler.frame_completed(frame);
-                    if f > 0 {
-                        for (pass, ms) in profiler.latest().map(|t| t.passes()).unwrap_or_default() {
-                            per_pass.entry(pass).or_default().push(ms);
-                        }
+                for r in &rendered[1..] {
+                    for (pass, ms) in &r.passes {
+                        per_pass.entry(pass.clone()).or_default().push(*ms);
                     }
                 }
-                let report = method.report(ctx)?;
                 let ms = |p: &str| median(per_pass.get(p).cloned().unwrap_or_default());
-                let passes = ["voxelize", "rsm", "voxel inject", "voxel relax", "voxel exit"];
+                let passes = [
+                    "voxelize",
+                    "rsm",
+                    "voxel inject",
+                    "voxel relax",
+                    "voxel exit",
+                ];
                 let total: f64 = passes.iter().map(|p| ms(p)).sum();
                 println!(
                     "| {name} | {n} | {}x{}x{} | {relaxation:?} | {model:?} | {} | {:.1} | {} | {:.1} |",

@@ -2,16 +2,17 @@
 #![allow(dead_code, reason = "each test file uses a different part")]
 
 use glam::{DVec3, Vec3};
+use translucent::frame::voxel::VoxelPasses;
 use translucent::mesh::{MeshSolid, TriMesh};
-use translucent::solver::voxel::{GridFrame, VoxelMethod};
+use translucent::solver::voxel::{GridFrame, SurfaceMesh};
 use translucent::vk::Context;
 
 /// Records and runs one frame of `method` on `mesh`, waiting for it.
-pub fn run_frame(ctx: &Context, method: &mut VoxelMethod) {
+pub fn run_frame(ctx: &Context, method: &mut VoxelPasses, mesh: &SurfaceMesh<'_>) {
     let mut failed = None;
     ctx.execute("voxel test frame", |cb| {
         // SAFETY: `cb` is recording; the method and its bound mesh outlive the waited submission.
-        failed = unsafe { method.record(ctx, cb, None) }.err();
+        failed = unsafe { method.record(ctx, cb, *mesh, None) }.err();
         Ok(())
     })
     .expect("submit");
@@ -19,7 +20,7 @@ pub fn run_frame(ctx: &Context, method: &mut VoxelMethod) {
 }
 
 /// The solid flag of every voxel (x fastest) and the grid the GPU fitted.
-pub fn solid_mask(ctx: &Context, method: &VoxelMethod) -> (Vec<bool>, GridFrame) {
+pub fn solid_mask(ctx: &Context, method: &VoxelPasses) -> (Vec<bool>, GridFrame) {
     let medium = method
         .read_volume(ctx, &method.grid.medium)
         .expect("read medium");

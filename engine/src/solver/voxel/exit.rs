@@ -6,7 +6,7 @@
 //!    vertex, divided by the filtered coverage: `exitance[v] = vec4(M, covered)` with
 //!    M = (1 - F_dr) J+, the radiant exitance into air (the method seam's output; a shading pass
 //!    applies the angular lobe F_t(eta, theta_o) / (pi eta^2 ...)). Optionally it also writes
-//!    J+ = M / (1 - F_dr) into the display mesh's [`crate::render::Vertex`] exitance field, which
+//!    J+ = M / (1 - F_dr) into the display mesh's [`crate::mesh::Vertex`] exitance field, which
 //!    today's shading pass reads.
 //!
 //! The paper reads the 3D texture per fragment; per vertex is the seam's contract today. A
@@ -16,9 +16,9 @@ use ash::vk;
 
 use super::grid::{host_sync, VoxelGrid};
 use super::material::MaterialVolume;
-use super::mesh::{MeshHandles, SurfaceMesh, EXITANCE_OFFSET, VERTEX_FLOATS};
-use super::sync::{image_barrier, ResourceUse, State};
-use super::voxelize::{allocate_rebuilding, MESH_VERTICES};
+use super::mesh::{SurfaceMesh, EXITANCE_OFFSET, VERTEX_FLOATS};
+use super::sync::{image_barrier, ResourceUse};
+use super::voxelize::allocate_rebuilding;
 use super::VoxelModel;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, ShaderError};
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
@@ -78,7 +78,13 @@ fn vertex_pipeline(ctx: &Context) -> Result<ComputePipeline<VertexExitPush>, Sha
         &ComputePipelineDesc {
             name: "voxel vertex exitance",
             shader: "voxel/vertex_exitance.comp",
-            bindings: &["vertices", "grid", "exit_volume", "exitance", "mesh_exitance"],
+            bindings: &[
+                "vertices",
+                "grid",
+                "exit_volume",
+                "exitance",
+                "mesh_exitance",
+            ],
             max_sets: 8,
         },
     )
@@ -105,7 +111,9 @@ pub struct ExitPass {
 impl ExitPass {
     pub fn new(ctx: &Context, model: VoxelModel, eta: f64) -> Result<ExitPass, Error> {
         if !(eta.is_finite() && eta > 0.0) {
-            return Err(super::bad_param("eta", format!("{eta} is not a positive index ratio")).into());
+            return Err(
+                super::bad_param("eta", format!("{eta} is not a positive index ratio")).into(),
+            );
         }
         let storage = |name, size| {
             Buffer::new(
@@ -137,7 +145,9 @@ impl ExitPass {
     /// Changes eta (the diffuse Fresnel of the exit and the model's albedo).
     pub fn set_eta(&mut self, eta: f64) -> Result<(), Error> {
         if !(eta.is_finite() && eta > 0.0) {
-            return Err(super::bad_param("eta", format!("{eta} is not a positive index ratio")).into());
+            return Err(
+                super::bad_param("eta", format!("{eta} is not a positive index ratio")).into(),
+            );
         }
         self.eta = eta as f32;
         Ok(())
@@ -253,18 +263,18 @@ impl ExitPass {
     pub fn declare<'a>(
         &'a self,
         grid: &'a VoxelGrid,
-        mesh: &MeshHandles,
+        mesh: &SurfaceMesh<'a>,
         material: &'a MaterialVolume,
     ) -> Vec<ResourceUse<'a>> {
         let mut uses = vec![
             ResourceUse::buffer(&grid.frame, Access::ComputeRead),
             ResourceUse::image(&grid.medium, Access::ComputeRead),
             ResourceUse::image(&grid.state[0], Access::ComputeRead),
-            ResourceUse::image(&grid.exit, Access::ComputeWrite),
+            // Written, then sampled by the vertices inside the pass.
+            ResourceUse::image_span(&grid.exit, Access::ComputeWrite, Access::ComputeSampled),
             ResourceUse::buffer(&self.exitance, Access::ComputeWrite),
-            ResourceUse::raw_buffer(
+            ResourceUse::buffer(
                 mesh.vertices,
-                MESH_VERTICES,
                 if self.write_mesh {
                     Access::ComputeReadWrite
                 } else {
@@ -292,7 +302,11 @@ impl ExitPass {
         profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), Error> {
         let (Some(volume_set), Some(vertex_set)) = (self.volume_set, self.vertex_set) else {
-            return Err(super::bad_param("voxel exit", "record before bind_mesh and bind_material").into());
+            return Err(super::bad_param(
+                "voxel exit",
+                "record before bind_mesh and bind_material",
+            )
+            .into());
         };
         let dims = grid.dims.push();
         let mut profiler = profiler;
@@ -327,8 +341,8 @@ impl ExitPass {
                 &[],
                 &[image_barrier(
                     &grid.exit,
-                    Access::ComputeWrite.into(),
-                    State::ComputeSampledGeneral,
+                    Access::ComputeWrite,
+                    Access::ComputeSampled,
                 )],
             );
             self.vertex.dispatch(

@@ -9,10 +9,9 @@ use ash::vk;
 use glam::{DVec3, Vec3};
 
 use super::bad_param;
-use super::sync::State;
 use crate::solver::SolverError;
 use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, Image, MemoryUse, Sampler, VolumeDesc,
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageState, MemoryUse, Sampler, VolumeDesc,
 };
 use crate::Error;
 
@@ -87,7 +86,8 @@ impl GridDims {
 
     /// Linear index of voxel `v` (x fastest), as `voxel_index` in the shaders.
     pub fn index(&self, v: [u32; 3]) -> usize {
-        v[0] as usize + self.dims[0] as usize * (v[1] as usize + self.dims[1] as usize * v[2] as usize)
+        v[0] as usize
+            + self.dims[0] as usize * (v[1] as usize + self.dims[1] as usize * v[2] as usize)
     }
 
     /// The voxel of linear index `i`.
@@ -98,7 +98,12 @@ impl GridDims {
 
     /// `[dims.x, dims.y, dims.z, count]` as the push constants carry them.
     pub fn push(&self) -> [u32; 4] {
-        [self.dims[0], self.dims[1], self.dims[2], self.count() as u32]
+        [
+            self.dims[0],
+            self.dims[1],
+            self.dims[2],
+            self.count() as u32,
+        ]
     }
 }
 
@@ -221,13 +226,10 @@ impl VoxelGrid {
     }
 
     /// Headless, after the frame's submission completed: every texel of one of the grid's
-    /// volumes (x fastest), which is in `state` and returns to it.
-    pub fn read_volume(
-        &self,
-        ctx: &Context,
-        image: &Image,
-        state: State,
-    ) -> Result<Vec<[f32; 4]>, Error> {
+    /// volumes (x fastest), from the state its last use left (the image's tracked state, which
+    /// it returns to).
+    pub fn read_volume(&self, ctx: &Context, image: &Image) -> Result<Vec<[f32; 4]>, Error> {
+        let tracked = image.tracked();
         let texels = u64::from(image.width) * u64::from(image.height) * u64::from(image.depth);
         let readback = Buffer::new(
             ctx,
@@ -249,11 +251,17 @@ impl VoxelGrid {
                 height: image.height,
                 depth: image.depth,
             });
-        let from = if state == State::Vk(Access::Undefined) {
-            return Err(bad_param("read_volume", format!("{} was never written", image.name)).into());
-        } else {
-            state
+        if tracked.layout == vk::ImageLayout::UNDEFINED {
+            return Err(
+                bad_param("read_volume", format!("{} was never written", image.name)).into(),
+            );
+        }
+        let from = ImageState {
+            stage: tracked.write_stage | tracked.read_stage,
+            access: tracked.write_access,
+            layout: tracked.layout,
         };
+        let src: ImageState = Access::TransferSrc.into();
         ctx.execute("voxel volume readback", |cb| {
             // SAFETY: `cb` is recording; the image and buffer outlive the waited submission.
             unsafe {
@@ -262,10 +270,11 @@ impl VoxelGrid {
                     ctx,
                     cb,
                     &[],
-                    &[super::sync::image_barrier(
-                        image,
+                    &[barrier::raw_image_barrier(
+                        image.raw,
+                        image.format,
                         from,
-                        Access::TransferSrc.into(),
+                        src,
                     )],
                 );
                 ctx.raw().cmd_copy_image_to_buffer(
@@ -280,10 +289,14 @@ impl VoxelGrid {
                 barrier::record(
                     ctx,
                     cb,
-                    &[barrier::memory_barrier(Access::TransferDst, Access::HostRead)],
-                    &[super::sync::image_barrier(
-                        image,
-                        Access::TransferSrc.into(),
+                    &[barrier::memory_barrier(
+                        Access::TransferDst,
+                        Access::HostRead,
+                    )],
+                    &[barrier::raw_image_barrier(
+                        image.raw,
+                        image.format,
+                        src,
                         from,
                     )],
                 );
@@ -299,7 +312,7 @@ impl VoxelGrid {
 }
 
 /// Headless: makes the compute passes' writes to host-visible buffers visible to the host.
-pub(crate) fn host_sync(ctx: &Context) -> Result<(), Error> {
+pub fn host_sync(ctx: &Context) -> Result<(), Error> {
     ctx.execute("voxel host sync", |cb| {
         // SAFETY: `cb` is recording.
         unsafe {
@@ -317,7 +330,12 @@ mod tests {
 
     #[test]
     fn dims_put_n_voxels_on_the_longest_side_and_a_margin_around() {
-        let g = GridDims::new(DVec3::new(-10.0, -5.0, -2.5), DVec3::new(10.0, 5.0, 2.5), 40).unwrap();
+        let g = GridDims::new(
+            DVec3::new(-10.0, -5.0, -2.5),
+            DVec3::new(10.0, 5.0, 2.5),
+            40,
+        )
+        .unwrap();
         assert_eq!(g.dims, [42, 22, 12]);
         assert_eq!(g.rest_h, 0.5);
         assert_eq!(g.count(), 42 * 22 * 12);

@@ -12,7 +12,7 @@ use ash::vk;
 use glam::{DVec3, Vec3};
 
 use super::bad_param;
-use super::sync::{ResourceUse, State};
+use super::sync::ResourceUse;
 use crate::material::MaterialField;
 use crate::vk::{Access, Buffer, Context, Image, Sampler, VolumeDesc};
 use crate::Error;
@@ -44,7 +44,10 @@ fn check_texels(sigma_s: &[[f32; 4]], sigma_a: &[[f32; 4]]) -> Result<(), Error>
         {
             return Err(bad_param(
                 "material volume",
-                format!("{name} of cell {i} is {:?}: must be finite and >= 0", &t[..3]),
+                format!(
+                    "{name} of cell {i} is {:?}: must be finite and >= 0",
+                    &t[..3]
+                ),
             )
             .into());
         }
@@ -53,7 +56,12 @@ fn check_texels(sigma_s: &[[f32; 4]], sigma_a: &[[f32; 4]]) -> Result<(), Error>
 }
 
 /// Texels (rgb, a = 0) of `field` on `res` cell centres of the box (`lo`, `hi`).
-fn sample_field(field: &MaterialField, res: [u32; 3], lo: DVec3, hi: DVec3) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+fn sample_field(
+    field: &MaterialField,
+    res: [u32; 3],
+    lo: DVec3,
+    hi: DVec3,
+) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let n = res.iter().map(|&r| r as usize).product();
     let (mut s, mut a) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for z in 0..res[2] {
@@ -209,6 +217,12 @@ impl MaterialVolume {
     }
 
     /// What the upload writes (only while one is pending): both images as copy destinations.
+    /// The staged texels, once their upload was recorded: the caller keeps the buffer alive until
+    /// that frame completed.
+    pub fn take_pending(&mut self) -> Option<Buffer> {
+        self.pending.take()
+    }
+
     pub fn declare_upload(&self) -> Vec<ResourceUse<'_>> {
         if self.pending.is_none() {
             return Vec::new();
@@ -222,8 +236,8 @@ impl MaterialVolume {
     /// What a reader declares: both images sampled.
     pub fn declare_read(&self) -> Vec<ResourceUse<'_>> {
         vec![
-            ResourceUse::image(&self.sigma_s, State::ShaderSampled),
-            ResourceUse::image(&self.sigma_a, State::ShaderSampled),
+            ResourceUse::image(&self.sigma_s, Access::ShadersSampled),
+            ResourceUse::image(&self.sigma_a, Access::ShadersSampled),
         ]
     }
 
@@ -232,8 +246,8 @@ impl MaterialVolume {
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope, the images in `Access::TransferDst`.
-    pub unsafe fn record_upload(&mut self, ctx: &Context, cb: vk::CommandBuffer) {
-        let Some(staging) = self.pending.take() else {
+    pub unsafe fn record_upload(&self, ctx: &Context, cb: vk::CommandBuffer) {
+        let Some(staging) = &self.pending else {
             return;
         };
         let bytes = u64::from(self.sigma_s.width)

@@ -2,7 +2,7 @@
 //! reflective shadow maps) in the display mesh's [`Vertex`] layout, and a u32 index buffer that a
 //! compute shader can read.
 //!
-//! The display mesh's own [`crate::render::GpuMesh`] vertex buffer is readable by compute (a
+//! The display mesh's own [`crate::mesh::GpuMesh`] vertex buffer is readable by compute (a
 //! deformation or a GPU solve writes it in place); its index buffer is not (INDEX_BUFFER usage
 //! only, and private), so [`MeshIndices`] uploads the same triangles once more. A topology change
 //! (a fracture, a re-mesh) is a new [`MeshIndices`] and a new vertex buffer, bound again with
@@ -13,7 +13,7 @@ use glam::DVec3;
 
 use super::bad_param;
 use crate::mesh::TriMesh;
-use crate::render::Vertex;
+use crate::mesh::Vertex;
 use crate::vk::{Buffer, Context};
 use crate::Error;
 
@@ -156,7 +156,7 @@ impl MeshIndices {
 }
 
 /// A mesh whose vertices the CPU rewrites between frames (host-visible): a deformation computed
-/// on the CPU, or tests. The display mesh of a host is a [`crate::render::GpuMesh`] instead.
+/// on the CPU, or tests. The display mesh of a host is a [`crate::mesh::GpuMesh`] instead.
 pub struct VoxelMesh {
     pub vertices: Buffer,
     pub indices: MeshIndices,

@@ -62,24 +62,21 @@
 pub mod cpu;
 mod exit;
 mod grid;
-mod inject;
 mod material;
 mod mesh;
-mod method;
 mod relax;
-pub mod rsm;
 pub mod sync;
 mod voxelize;
 
-pub use exit::{ExitPass, ExitPush, VertexExitPush};
-pub use grid::{GridDims, GridFrame, VoxelGrid, GRID_FORMAT};
-pub use inject::{InjectPass, InjectPush};
+pub use exit::{ExitPass, ExitPush, VertexExitPush, PASS_EXIT};
+pub use grid::{host_sync, GridDims, GridFrame, VoxelGrid, GRID_FORMAT};
 pub use material::MaterialVolume;
 pub use mesh::{MeshHandles, MeshIndices, SurfaceMesh, VoxelMesh};
-pub use method::{VoxelMethod, VoxelReport};
-pub use relax::{RelaxControl, RelaxPass, RelaxPush, SweepPush};
-pub use rsm::{ReflectiveShadowMaps, RsmDesc, RsmView};
-pub use voxelize::{ClassifyPush, CrossingPush, FitPush, VotePush, VoxelizePass};
+pub use relax::{RelaxControl, RelaxPass, RelaxPush, SweepPush, PASS_RELAX};
+pub use voxelize::{
+    ClassifyPush, CrossingPush, FitPush, VotePush, VoxelizePass, MESH_INDICES, MESH_VERTICES,
+    PASS_VOXELIZE,
+};
 
 use std::str::FromStr;
 
@@ -200,7 +197,8 @@ impl Default for VoxelParams {
     }
 }
 
-pub(crate) fn bad_param(name: &'static str, problem: impl Into<String>) -> SolverError {
+/// A [`SolverError::BadParameter`] naming `name`.
+pub fn bad_param(name: &'static str, problem: impl Into<String>) -> SolverError {
     SolverError::BadParameter {
         name,
         problem: problem.into(),
@@ -269,10 +267,7 @@ impl VoxelParams {
         }
         if let Some(t) = self.rsm_tile {
             if !(16..=4096).contains(&t) {
-                return Err(bad_param(
-                    "rsm_tile",
-                    format!("{t} texels: need 16..=4096"),
-                ));
+                return Err(bad_param("rsm_tile", format!("{t} texels: need 16..=4096")));
             }
         }
         if !(1..=256).contains(&self.material_resolution) {

@@ -139,7 +139,8 @@ impl RelaxPass {
                 size: std::mem::size_of::<RelaxControl>() as u64,
                 usage: vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::INDIRECT_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST,
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
                 memory: MemoryUse::Readback,
             },
         )?;
@@ -277,8 +278,23 @@ impl RelaxPass {
 
     /// Reads: the grid frame, the medium, the seed. Reads and writes: both state images (the
     /// result is left in `state[0]`) and both path images (Jacobi).
-    pub fn declare<'a>(&'a self, grid: &'a VoxelGrid) -> Vec<ResourceUse<'a>> {
+    /// With `copy_to`, the control record is copied there at the end (host-readable after the
+    /// frame: the iterations run).
+    pub fn declare<'a>(
+        &'a self,
+        grid: &'a VoxelGrid,
+        copy_to: Option<&'a Buffer>,
+    ) -> Vec<ResourceUse<'a>> {
         let mut uses = vec![
+            ResourceUse::buffer_span(
+                &self.control,
+                Access::TransferDst,
+                if copy_to.is_some() {
+                    Access::TransferSrc
+                } else {
+                    Access::IndirectArgs
+                },
+            ),
             ResourceUse::buffer(&grid.frame, Access::ComputeRead),
             ResourceUse::image(&grid.medium, Access::ComputeRead),
             ResourceUse::image(&grid.seed, Access::ComputeRead),
@@ -290,6 +306,13 @@ impl RelaxPass {
             uses.push(ResourceUse::image(&grid.path[0], Access::ComputeReadWrite));
             uses.push(ResourceUse::image(&grid.path[1], Access::ComputeReadWrite));
             uses.push(ResourceUse::image(&grid.transport, Access::ComputeRead));
+        }
+        if let Some(copy) = copy_to {
+            uses.push(ResourceUse::buffer_span(
+                copy,
+                Access::TransferDst,
+                Access::HostRead,
+            ));
         }
         uses
     }
@@ -304,6 +327,7 @@ impl RelaxPass {
         ctx: &Context,
         cb: vk::CommandBuffer,
         grid: &VoxelGrid,
+        copy_to: Option<&Buffer>,
         profiler: Option<&mut GpuProfiler>,
     ) {
         use vk::AccessFlags2 as A;
@@ -345,7 +369,12 @@ impl RelaxPass {
                         if j > 0 {
                             // why: this iteration reads the previous one's output (RAW) and
                             // overwrites what the one before read (WAR).
-                            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+                            barrier::memory(
+                                ctx,
+                                cb,
+                                Access::ComputeWrite,
+                                Access::ComputeReadWrite,
+                            );
                         }
                         pipeline.dispatch_indirect(
                             ctx,
@@ -415,6 +444,39 @@ impl RelaxPass {
                 // why: the next block's indirect dispatches read the arguments the decision wrote
                 // (RAW at DRAW_INDIRECT), and its iterations count into the record again.
                 barrier::record(ctx, cb, &[to_indirect], &[]);
+            }
+            if let Some(copy) = copy_to {
+                // why: the copy reads the record the decisions wrote (RAW).
+                barrier::record(
+                    ctx,
+                    cb,
+                    &[raw_barrier(
+                        S::COMPUTE_SHADER | S::DRAW_INDIRECT,
+                        A::SHADER_STORAGE_WRITE,
+                        S::COPY,
+                        A::TRANSFER_READ,
+                    )],
+                    &[],
+                );
+                raw.cmd_copy_buffer(
+                    cb,
+                    self.control.raw,
+                    copy.raw,
+                    &[vk::BufferCopy::default().size(std::mem::size_of::<RelaxControl>() as u64)],
+                );
+                // why: the host reads the copy after the frame's fence (RAW across the host
+                // boundary).
+                barrier::record(
+                    ctx,
+                    cb,
+                    &[raw_barrier(
+                        S::COPY,
+                        A::TRANSFER_WRITE,
+                        S::HOST,
+                        A::HOST_READ,
+                    )],
+                    &[],
+                );
             }
             if let Some(p) = profiler {
                 p.end_scope(cb);

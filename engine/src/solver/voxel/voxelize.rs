@@ -24,7 +24,7 @@ use ash::vk;
 
 use super::grid::VoxelGrid;
 use super::material::MaterialVolume;
-use super::mesh::{MeshHandles, SurfaceMesh, VERTEX_FLOATS};
+use super::mesh::{SurfaceMesh, VERTEX_FLOATS};
 use super::sync::ResourceUse;
 use super::VoxelModel;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, ShaderError};
@@ -341,12 +341,12 @@ impl VoxelizePass {
     pub fn declare<'a>(
         &self,
         grid: &'a VoxelGrid,
-        mesh: &MeshHandles,
+        mesh: &SurfaceMesh<'a>,
         material: &'a MaterialVolume,
     ) -> Vec<ResourceUse<'a>> {
         let mut uses = vec![
-            ResourceUse::raw_buffer(mesh.vertices, MESH_VERTICES, Access::ComputeRead),
-            ResourceUse::raw_buffer(mesh.indices, MESH_INDICES, Access::ComputeRead),
+            ResourceUse::buffer(mesh.vertices, Access::ComputeRead),
+            ResourceUse::buffer(mesh.indices, Access::ComputeRead),
             ResourceUse::buffer(&grid.frame, Access::ComputeWrite),
             ResourceUse::image(&grid.medium, Access::ComputeWrite),
             // Written by the diffusion model; bound (a placeholder) either way.
@@ -372,11 +372,9 @@ impl VoxelizePass {
         let (Some((fit_set, rasterize_set)), Some(classify_set)) =
             (self.mesh_sets, self.classify_set)
         else {
-            return Err(super::bad_param(
-                "voxelize",
-                "record before bind_mesh and bind_material",
-            )
-            .into());
+            return Err(
+                super::bad_param("voxelize", "record before bind_mesh and bind_material").into(),
+            );
         };
         let dims = grid.dims.push();
         let raw = ctx.raw();
@@ -404,7 +402,11 @@ impl VoxelizePass {
             // why: the votes are cleared after last frame's classification read them (WAR).
             barrier::memory(ctx, cb, Access::ComputeReadWrite, Access::TransferDst);
             raw.cmd_fill_buffer(cb, self.vote_counts.raw, 0, vk::WHOLE_SIZE, 0);
-            let axes: &[u32] = if self.vote_axes == 3 { &[0, 1, 2] } else { &[2] };
+            let axes: &[u32] = if self.vote_axes == 3 {
+                &[0, 1, 2]
+            } else {
+                &[2]
+            };
             for &axis in axes {
                 // why: the crossings are cleared after the previous axis's (or frame's) vote
                 // counting read them (WAR).

@@ -6,12 +6,12 @@
 
 use ash::vk;
 
-use super::grid::VoxelGrid;
 use super::rsm::ReflectiveShadowMaps;
-use super::sync::{ResourceUse, State};
 use crate::material::fresnel;
+use crate::scene::Environment;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
-use crate::solver::Environment;
+use crate::solver::voxel::sync::ResourceUse;
+use crate::solver::voxel::VoxelGrid;
 use crate::vk::{Access, Context, GpuProfiler, Sampler};
 use crate::Error;
 
@@ -123,7 +123,7 @@ impl InjectPass {
                 [(l[0] * t) as f32, (l[1] * t) as f32, (l[2] * t) as f32]
             }
             Environment::SphericalHarmonics(_) => {
-                return Err(super::bad_param(
+                return Err(crate::solver::voxel::bad_param(
                     "environment",
                     "the voxel method injects a constant environment only (SH: phase 2)",
                 )
@@ -143,9 +143,9 @@ impl InjectPass {
         vec![
             ResourceUse::buffer(&grid.frame, Access::ComputeRead),
             ResourceUse::image(&grid.medium, Access::ComputeRead),
-            ResourceUse::image(&rsm.position, State::ShaderSampled),
-            ResourceUse::image(&rsm.normal, State::ShaderSampled),
-            ResourceUse::image(&rsm.irradiance, State::ShaderSampled),
+            ResourceUse::image(&rsm.position, Access::ShadersSampled),
+            ResourceUse::image(&rsm.normal, Access::ShadersSampled),
+            ResourceUse::image(&rsm.irradiance, Access::ShadersSampled),
             ResourceUse::buffer(&rsm.views_buffer, Access::ComputeRead),
             ResourceUse::image(&grid.seed, Access::ComputeWrite),
             ResourceUse::image(&grid.state[0], Access::ComputeWrite),

@@ -32,13 +32,16 @@
 use ash::vk;
 use glam::{DVec3, Vec3};
 
-use super::mesh::MeshHandles;
-use super::voxelize::{MESH_INDICES, MESH_VERTICES};
-use super::sync::{ResourceUse, State};
-use crate::render::{ShadowMaps, ShadowMapsDesc, ShadowView, Vertex, MAX_SHADOW_VIEWS};
+use crate::mesh::Vertex;
+use crate::render::{ShadowMaps, ShadowMapsDesc, ShadowView, MAX_SHADOW_VIEWS};
+use crate::scene::Light;
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::solver::Light;
-use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, MemoryUse};
+use crate::solver::voxel::sync::{ResourceUse, State};
+use crate::solver::voxel::MeshHandles;
+use crate::solver::voxel::SurfaceMesh;
+use crate::vk::{
+    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, MemoryUse,
+};
 use crate::Error;
 
 /// Profiler scope and debug label of the pass.
@@ -116,12 +119,15 @@ pub struct ReflectiveShadowMaps {
 }
 
 fn invalid(problem: impl Into<String>) -> Error {
-    super::bad_param("reflective shadow maps", problem).into()
+    crate::solver::voxel::bad_param("reflective shadow maps", problem).into()
 }
 
 /// The view's axis: from the eye to where the tile's centre unprojects.
 fn view_axis(v: &ShadowView) -> Vec3 {
-    let centre = v.view_proj.inverse().project_point3(Vec3::new(0.0, 0.0, 0.5));
+    let centre = v
+        .view_proj
+        .inverse()
+        .project_point3(Vec3::new(0.0, 0.0, 0.5));
     (centre - v.eye).normalize_or_zero()
 }
 
@@ -175,7 +181,11 @@ impl ReflectiveShadowMaps {
                         offset: std::mem::offset_of!(Vertex, normal) as u32,
                     },
                 ],
-                color_formats: &[RSM_POSITION_FORMAT, RSM_NORMAL_FORMAT, RSM_IRRADIANCE_FORMAT],
+                color_formats: &[
+                    RSM_POSITION_FORMAT,
+                    RSM_NORMAL_FORMAT,
+                    RSM_IRRADIANCE_FORMAT,
+                ],
                 depth_format: Some(crate::render::SHADOW_ATLAS_FORMAT),
                 // The shadow maps' bias: the depth is the shared shadow atlas.
                 depth_bias: Some((1.0, 1.5)),
@@ -250,7 +260,13 @@ impl ReflectiveShadowMaps {
                 Light::Point {
                     position,
                     intensity,
-                } => (position.as_vec3(), (0.0, Vec3::ZERO), f(intensity), 0.0, KIND_POINT),
+                } => (
+                    position.as_vec3(),
+                    (0.0, Vec3::ZERO),
+                    f(intensity),
+                    0.0,
+                    KIND_POINT,
+                ),
                 Light::Spot {
                     position,
                     direction,
@@ -288,10 +304,11 @@ impl ReflectiveShadowMaps {
                 });
             }
         }
-        if views
-            .iter()
-            .any(|v| !bytemuck::cast_slice::<_, f32>(&v.view_proj).iter().all(|x| x.is_finite()))
-        {
+        if views.iter().any(|v| {
+            !bytemuck::cast_slice::<_, f32>(&v.view_proj)
+                .iter()
+                .all(|x| x.is_finite())
+        }) {
             self.shadows.restore(previous);
             return Err(invalid("a light view is not finite"));
         }
@@ -312,20 +329,22 @@ impl ReflectiveShadowMaps {
 
     /// Reads: the mesh (vertex input). Writes: the depth atlas (depth attachment) and the three
     /// colour maps (colour attachments). Readers then sample the maps in
-    /// [`State::ShaderSampled`] and the depth in `Access::DepthSampledShaders`.
-    pub fn declare<'a>(&'a self, mesh: &MeshHandles) -> Vec<ResourceUse<'a>> {
+    /// [`Access::ShadersSampled`] and the depth in `Access::DepthSampledShaders`.
+    pub fn declare<'a>(&'a self, mesh: &SurfaceMesh<'a>) -> Vec<ResourceUse<'a>> {
         vec![
-            ResourceUse::raw_buffer(mesh.vertices, MESH_VERTICES, Access::VertexInput),
-            ResourceUse::raw_buffer(mesh.indices, MESH_INDICES, Access::VertexInput),
+            ResourceUse::buffer(mesh.vertices, Access::VertexInput),
+            ResourceUse::buffer(mesh.indices, Access::VertexInput),
             ResourceUse::image(&self.shadows.atlas, Access::DepthAttachmentWrite),
             ResourceUse::image(&self.position, Access::ColorAttachmentWrite),
             ResourceUse::image(&self.normal, Access::ColorAttachmentWrite),
             ResourceUse::image(&self.irradiance, Access::ColorAttachmentWrite),
+            // Updated inside the pass (with its own barriers), then read by the injection.
+            ResourceUse::buffer_span(&self.views_buffer, Access::TransferDst, Access::ComputeRead),
         ]
     }
 
     /// The state a reader of the colour maps declares.
-    pub const READ_STATE: State = State::ShaderSampled;
+    pub const READ_STATE: State = Access::ShadersSampled;
 
     /// Clears the used tiles and draws `mesh` into every view (no view: nothing but the clear,
     /// which marks every texel empty).
@@ -334,7 +353,7 @@ impl ReflectiveShadowMaps {
     /// `cb` must be recording outside a rendering scope, the declared resources in their declared
     /// states; `mesh` and `self` must outlive its execution.
     pub unsafe fn record(
-        &mut self,
+        &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
         mesh: &MeshHandles,
@@ -463,6 +482,5 @@ impl ReflectiveShadowMaps {
             }
             ctx.end_label(cb);
         }
-        self.shadows.atlas_state = Access::DepthAttachmentWrite;
     }
 }
