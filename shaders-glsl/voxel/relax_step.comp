@@ -50,7 +50,12 @@ vec3 g_s;
 // What a path of optical depth n and length d contributes at this voxel, as an optical depth:
 // n - ln P(d) with TRACK_PATH, n otherwise.
 float objective(float n, float d, int c) {
-    if (!TRACK_PATH || g_diffusion[c] <= 0.0 || n >= N_UNLIT) {
+    // why not `!TRACK_PATH`: the reflection cannot fold a spec-constant LogicalNot.
+    if (TRACK_PATH) {
+        if (g_diffusion[c] <= 0.0 || n >= N_UNLIT) {
+            return n;
+        }
+    } else {
         return n;
     }
     return n - log(slab_profile(g_diffusion[c], g_s[c], 2.0 * pc.big_a * g_diffusion[c], d));
