@@ -1,8 +1,9 @@
 //! The voxel method's shortest optical path (solver::voxel::RelaxPass) against a CPU Dijkstra on
 //! the same grid: the GPU's medium (solid flags, per-voxel cost coefficients), seed and voxel
 //! size are read back, `cpu::dijkstra` runs on them in f32, and every voxel's n must be the same
-//! bits. Jacobi ping-pong and sweeping, homogeneous and heterogeneous media, the paper's sigma_t'
-//! and the diffusion model's sigma_tr costs, directional, spot and point lights.
+//! bits (the paper's hard minimum). Jacobi ping-pong and sweeping, homogeneous and heterogeneous
+//! media, directional, spot and point lights. The diffusion model's sigma_tr costs choose paths by
+//! their contribution at the exit (not additive): its n is bounded below by the Dijkstra.
 
 mod voxel_common;
 
@@ -147,7 +148,24 @@ fn gpu_relaxation_equals_cpu_dijkstra_bit_for_bit() {
             "{}: {lit} lit, {reached} reached",
             case.name
         );
-        assert_eq!(differing, 0, "{}", case.name);
+        if case.params.model == VoxelModel::Diffusion {
+            // The diffusion model picks, per voxel, the neighbour whose path contributes most at
+            // the exit, n - ln P(d) (d the path's length, not additive): its n is some path's
+            // optical depth, never below the shortest one, and reaches the same voxels.
+            let below = gpu_n
+                .iter()
+                .zip(&cpu_n)
+                .filter(|(g, c)| (0..3).any(|i| g[i] < c[i]))
+                .count();
+            let reach_differs = gpu_n
+                .iter()
+                .zip(&cpu_n)
+                .filter(|(g, c)| (g[0] < N_UNLIT) != (c[0] < N_UNLIT))
+                .count();
+            assert_eq!((below, reach_differs), (0, 0), "{}", case.name);
+        } else {
+            assert_eq!(differing, 0, "{}", case.name);
+        }
         assert!(gpu_n.iter().flatten().all(|v| v.is_finite()));
     }
     gpu.finish();
