@@ -18,12 +18,13 @@
 //! object), each a tile of the atlas; the colour maps are atlases of the same layout.
 //!
 //! ```no_run
-//! use translucent::solver::voxel::{ReflectiveShadowMaps, RsmDesc};
+//! use translucent::frame::voxel::{ReflectiveShadowMaps, RsmDesc};
 //! # fn f(ctx: &translucent::vk::Context, surface: &translucent::solver::voxel::MeshHandles,
 //! #      cb: ash::vk::CommandBuffer) -> Result<(), translucent::Error> {
 //! let mut rsm = ReflectiveShadowMaps::new(ctx, &RsmDesc::default())?;
 //! rsm.set_lights(&["spot:0,60,0:0,-1,0:4000,4000,4000:20,30".parse()?], (glam::DVec3::ZERO, 25.0), 1.3)?;
-//! // The images must be in the states `rsm.declare(surface)` names (attachments).
+//! // The images must be in the states `rsm.declare(..)` names (attachments): inside a frame
+//! // graph pass declaring them (`frame::voxel::VoxelPasses::add_passes`).
 //! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
 //! unsafe { rsm.record(ctx, cb, surface, None) };
 //! # Ok(()) }

@@ -9,10 +9,10 @@
 //! 1. [`VoxelizePass`]: fits the grid to the mesh's bounds (GPU), then solid voxelization by signed
 //!    crossings along voxel columns, one vote per axis, majority of three (robust to the Stanford
 //!    bunny's holes, see the pass), and the per-voxel medium from a [`MaterialVolume`].
-//! 2. [`ReflectiveShadowMaps`]: per light view (the views of `render::ShadowMaps`), world position,
+//! 2. [`crate::frame::voxel::ReflectiveShadowMaps`]: per light view (the views of `render::ShadowMaps`), world position,
 //!    normal and transmitted irradiance E T_i per texel, and the depth into the shared shadow atlas
 //!    (Dachsbacher and Stamminger 2005). Designed to be shared with single scattering (DESIGN 2.8).
-//! 3. [`InjectPass`]: the surface voxels start at n0 = -ln(q), q the transmitted irradiance in the
+//! 3. [`crate::frame::voxel::InjectPass`]: the surface voxels start at n0 = -ln(q), q the transmitted irradiance in the
 //!    voxel (paper Eqs. 2-3, per colour channel).
 //! 4. [`RelaxPass`]: the shortest optical path over the 26-neighbourhood, edge cost = the per-voxel
 //!    coefficient times the edge length: min-plus Jacobi iterations in ping-pong (or sweeps),
@@ -39,24 +39,20 @@
 //! [`VoxelParams::soft_beta`] > 0 replaces the minimum over neighbours with a log-sum-exp soft
 //! minimum, so several paths add.
 //!
-//! ```no_run
-//! use translucent::material::{Material, MaterialField};
-//! use translucent::solver::voxel::{MeshIndices, VoxelMethod, VoxelParams};
-//! # fn f(ctx: &translucent::vk::Context, mesh: &translucent::mesh::TriMesh,
-//! #      display: &translucent::render::GpuMesh, cb: ash::vk::CommandBuffer,
-//! #      profiler: &mut translucent::vk::GpuProfiler) -> Result<(), translucent::Error> {
-//! let field = MaterialField::Homogeneous(Material::preset("marble")?);
-//! let lights = vec!["dir:0.5,-1,-0.5:4,4,4".parse()?];
-//! let mut method = VoxelMethod::new(ctx, mesh, &field, &VoxelParams::default())?;
-//! method.set_lights(&lights, mesh.bounds())?;
-//! let indices = MeshIndices::new(ctx, mesh)?; // the display mesh's triangles, readable by compute
-//! let surface = method.surface(display, &indices);
-//! method.bind_mesh(ctx, &surface, true)?; // true: also write J+ into the display mesh
-//! // SAFETY: `cb` is recording outside a rendering scope; the display mesh, `indices` and
-//! // `method` outlive its execution.
-//! unsafe { method.record(ctx, cb, Some(profiler))? };
-//! // After the frame completed: method.report(ctx)?.iterations, method.exitance(ctx)?
-//! # Ok(()) }
+//! The passes that draw (reflective shadow maps, injection) and the frame composition live in
+//! [`crate::frame::voxel`] (they use the shared render passes); this module holds what needs no
+//! renderer: the grid, voxelization, relaxation, exit, the material volume and the CPU Dijkstra.
+//!
+//! ```
+//! use translucent::solver::voxel::{VoxelModel, VoxelParams, VoxelResolution};
+//! let params = VoxelParams {
+//!     resolution: "64".parse::<VoxelResolution>()?,
+//!     model: "diffusion".parse::<VoxelModel>()?,
+//!     ..VoxelParams::default()
+//! };
+//! params.validate()?;
+//! assert!("3".parse::<VoxelResolution>().is_err()); // below 4 voxels
+//! # Ok::<(), translucent::solver::SolverError>(())
 //! ```
 
 pub mod cpu;
