@@ -19,8 +19,10 @@ use voxel_common::{compare_with_winding, mapped, run_frame, solid_mask, union, v
 /// As in voxel_voxelize.rs: centres within 1e-4 mm of the surface may round either way.
 const BAND_MM: f64 = 1e-4;
 
+/// The paper's model: its n and exit formulas are what these tests check.
 fn params(n: u32) -> VoxelParams {
     VoxelParams {
+        model: translucent::solver::voxel::VoxelModel::Paper,
         resolution: VoxelResolution::Fixed(n),
         ..VoxelParams::default()
     }

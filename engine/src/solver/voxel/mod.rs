@@ -85,9 +85,11 @@ use crate::material::MaterialField;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum VoxelModel {
     /// The paper: cost sigma_t' per mm, J+ = exp(-n) (`--voxel-model paper`).
-    #[default]
     Paper,
-    /// Cost sigma_tr per mm, the semi-infinite albedo at the exit and 1/d spreading.
+    /// Cost sigma_tr per mm, the diffusion closed forms of a slab as thick as the path is long at
+    /// the exit (its 1/d spreading); the default: closer to path tracing on every reference but
+    /// one (benches/RESULTS.md, "Voxel method").
+    #[default]
     Diffusion,
 }
 
@@ -180,7 +182,7 @@ impl Default for VoxelParams {
     fn default() -> Self {
         VoxelParams {
             resolution: VoxelResolution::Auto,
-            model: VoxelModel::Paper,
+            model: VoxelModel::Diffusion,
             relaxation: Relaxation::Jacobi,
             soft_beta: 0.0,
             soft_tolerance: 1e-4,
