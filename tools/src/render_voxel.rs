@@ -138,7 +138,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 let q = DQuat::from_rotation_y((deg * f64::from(i)).to_radians());
                 translucent.set_lights(&scene::Scene {
                     lights: base_scene.lights.iter().map(|l| l.rotated(q)).collect(),
-                    environment: base_scene.environment.clone(),
+                    environment: base_scene.environment,
                 })?;
             }
             if let Some(deg) = args.orbit_camera {
