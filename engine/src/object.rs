@@ -69,7 +69,9 @@ use glam::DVec3;
 use crate::frame::graph::FrameGraph;
 use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHADOW};
 use crate::frame::quadgraph::QuadGraphParams;
-use crate::frame::{FixedExitance, FrameReport, Method, QuadGraphMethod, SINGLE_LEVEL_NODES};
+use crate::frame::{
+    FixedExitance, FrameReport, Method, QuadGraphMethod, VoxelMethod, SINGLE_LEVEL_NODES,
+};
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh};
 use crate::render::{
@@ -132,6 +134,13 @@ pub enum MethodDesc {
     Exitance {
         mesh: TriMesh,
         exitance: Vec<[f32; 3]>,
+    },
+    /// Shortest optical paths on a voxel grid built every frame from `mesh` (Ozawa et al.;
+    /// [`crate::frame::VoxelMethod`]): no bake, so the mesh may deform or change topology
+    /// ([`TranslucentObject::set_mesh`]).
+    Voxel {
+        mesh: TriMesh,
+        params: crate::solver::voxel::VoxelParams,
     },
 }
 
@@ -258,7 +267,7 @@ impl TranslucentObject {
         scene.validate()?;
         let surface = match &method {
             MethodDesc::QuadGraph(graph) => &graph.surface,
-            MethodDesc::Exitance { mesh, .. } => mesh,
+            MethodDesc::Exitance { mesh, .. } | MethodDesc::Voxel { mesh, .. } => mesh,
         };
         let framing = crate::mesh::bounding_sphere(&surface.positions);
         let mut shadows = ShadowMaps::new(
@@ -270,7 +279,7 @@ impl TranslucentObject {
         )?;
         let shadow_bounds = match &method {
             MethodDesc::QuadGraph(graph) => graph.finest().bounding_sphere(),
-            MethodDesc::Exitance { .. } => framing,
+            MethodDesc::Exitance { .. } | MethodDesc::Voxel { .. } => framing,
         };
         shadows.set_lights(&scene.lights, shadow_bounds, true)?;
         let (mesh, method): (Arc<GpuMesh>, Box<dyn Method>) = match method {
@@ -298,6 +307,10 @@ impl TranslucentObject {
             MethodDesc::Exitance { mesh, exitance } => {
                 let mesh = Arc::new(GpuMesh::new(ctx, &mesh, &exitance)?);
                 (mesh.clone(), Box::new(FixedExitance::new(mesh)))
+            }
+            MethodDesc::Voxel { mesh, params } => {
+                let (method, mesh) = VoxelMethod::new(ctx, &mesh, field, scene, &params)?;
+                (mesh, Box::new(method))
             }
         };
         let shading = MeshPass::new(
@@ -367,6 +380,25 @@ impl TranslucentObject {
     pub fn deform(&mut self, ctx: &Context, deformation: &Deformation) -> Result<(), Error> {
         let bounds = self.method.deform(ctx, deformation)?;
         self.shadows.set_lights(&self.lights, bounds, true)?;
+        self.shadow_bounds = bounds;
+        self.changes.shape = true;
+        Ok(())
+    }
+
+    /// A topology change (a fracture, a re-mesh): `mesh` is drawn from the next frame. Only a
+    /// method with no bake takes one ([`MethodDesc::Voxel`]); others, and a bad mesh, are a
+    /// typed error that changes nothing.
+    pub fn set_mesh(&mut self, ctx: &Context, mesh: &TriMesh) -> Result<(), Error> {
+        let name = self.method.name();
+        let Some(voxel) = self.method_mut::<VoxelMethod>() else {
+            return Err(invalid(
+                "mesh",
+                format!("the {name} method bakes its mesh: a new topology needs the voxel method"),
+            ));
+        };
+        let (display, bounds) = voxel.set_mesh(ctx, mesh)?;
+        self.shadows.set_lights(&self.lights, bounds, true)?;
+        self.mesh = display;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
         Ok(())

@@ -45,10 +45,23 @@ pub struct RenderArgs {
     pub material: MaterialArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010). voxel and dipole are
-    /// not built yet.
+    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010) or voxel (shortest
+    /// optical paths on a voxel grid built every frame, Ozawa et al.; no bake). dipole is not
+    /// built yet.
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
+    /// Voxel method: voxels along the object's longest side (4..=256), or auto (from the
+    /// material's mean free path).
+    #[arg(long, value_name = "N|auto")]
+    pub voxels: Option<String>,
+    /// Voxel method: diffusion (default: sigma_tr along the path, the diffusion falloff at the
+    /// exit) or paper (sigma_t' along the path, exp(-n) at the exit, as published).
+    #[arg(long, value_name = "MODEL", value_parser = ["paper", "diffusion"])]
+    pub voxel_model: Option<String>,
+    /// Voxel method: soft minimum over paths (log-sum-exp temperature per unit of the cheapest
+    /// edge, 0..=0.3; 0: the hard minimum of the paper).
+    #[arg(long, value_name = "BETA")]
+    pub voxel_soft: Option<f32>,
     /// gpu (default): the GPU frame (shadow maps, irradiance gather and Jacobi on the GPU,
     /// convergence decided on the GPU). cpu: the f64 reference solver.
     #[arg(long, default_value = "gpu", value_parser = ["cpu", "gpu"])]
@@ -158,11 +171,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
-    if args.method != "quadgraph" {
+    if args.method != "voxel"
+        && (args.voxels.is_some() || args.voxel_model.is_some() || args.voxel_soft.is_some())
+    {
         bail!(
-            "--method {}: not built yet (only quadgraph is)",
+            "--voxels, --voxel-model and --voxel-soft apply to --method voxel (not {})",
             args.method
         );
+    }
+    match args.method.as_str() {
+        "quadgraph" => {}
+        "voxel" => return crate::render_voxel::run(args),
+        other => bail!("--method {other}: not built yet (quadgraph and voxel are)"),
     }
     let on_gpu = args.solver == "gpu";
     if args.beam_source && on_gpu {

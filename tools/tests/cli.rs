@@ -173,7 +173,26 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
             vec!["render", "--size-mm", "-3", "--out", out_s],
             "--size-mm",
         ),
-        (vec!["render", "--method", "voxel", "--out", out_s], "voxel"),
+        (
+            vec!["render", "--method", "dipole", "--out", out_s],
+            "dipole",
+        ),
+        (
+            vec![
+                "render", "--method", "voxel", "--solver", "cpu", "--out", out_s,
+            ],
+            "voxel",
+        ),
+        (
+            vec![
+                "render", "--method", "voxel", "--voxels", "3", "--out", out_s,
+            ],
+            "--voxels",
+        ),
+        (
+            vec!["render", "--voxel-model", "paper", "--out", out_s],
+            "--method voxel",
+        ),
         (
             vec!["render", "--mesh", "/nonexistent/x.obj", "--out", out_s],
             "x.obj",

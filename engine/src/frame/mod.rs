@@ -20,6 +20,7 @@ pub mod method;
 pub mod plan;
 pub mod quadgraph;
 pub mod report;
+pub mod voxel;
 
 pub use exitance::FixedExitance;
 pub use graph::{BarrierNote, FrameError, FrameGraph, GraphRun, PassCtx, ResourceId};
@@ -27,3 +28,4 @@ pub use method::{Method, MethodFrame, MethodKind};
 pub use plan::{FramePlan, PASS_SHADING, PASS_SHADOW};
 pub use quadgraph::{solve_headless, QuadGraphMethod, QuadGraphReport, SINGLE_LEVEL_NODES};
 pub use report::{CompletedSolve, FrameReport, SkipReason};
+pub use voxel::VoxelMethod;

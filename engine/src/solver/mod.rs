@@ -14,6 +14,7 @@ pub mod gpu;
 pub mod krylov;
 pub mod multigrid;
 pub mod operator;
+pub mod voxel;
 
 pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, Schedule};
 pub use operator::Scheme;

@@ -53,6 +53,13 @@ pub enum Access {
     // why: indirect dispatch/draw arguments read by the command processor (DRAW_INDIRECT covers
     // dispatches too), and the compute passes that read or update them.
     IndirectArgs,
+    // why: a storage image the same frame's compute passes also write, sampled (trilinear) by
+    // compute in GENERAL layout: no layout change between the writer and the reader (voxel
+    // method).
+    ComputeSampled,
+    // why: a colour image (reflective shadow map) or an uploaded volume sampled by compute and
+    // fragment shaders in SHADER_READ_ONLY layout (voxel method).
+    ShadersSampled,
 }
 
 impl Access {
@@ -116,6 +123,16 @@ impl Access {
                 S::DRAW_INDIRECT | S::COMPUTE_SHADER,
                 A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
                 L::UNDEFINED,
+            ),
+            Access::ComputeSampled => (
+                S::COMPUTE_SHADER,
+                A::SHADER_SAMPLED_READ | A::SHADER_STORAGE_READ,
+                L::GENERAL,
+            ),
+            Access::ShadersSampled => (
+                S::COMPUTE_SHADER | S::FRAGMENT_SHADER,
+                A::SHADER_SAMPLED_READ,
+                L::SHADER_READ_ONLY_OPTIMAL,
             ),
         }
     }

@@ -178,13 +178,26 @@ pub struct ImageDesc {
     pub usage: vk::ImageUsageFlags,
 }
 
-/// A 2D image, its memory and a view of the whole image.
+/// How to create a 3D [`Image`] (a volume: one mip, one layer, optimal tiling), e.g. the voxel
+/// method's grids ([`crate::solver::voxel`]).
+#[derive(Clone, Debug)]
+pub struct VolumeDesc {
+    pub name: &'static str,
+    /// Width, height, depth in texels.
+    pub extent: [u32; 3],
+    pub format: vk::Format,
+    pub usage: vk::ImageUsageFlags,
+}
+
+/// A 2D image (or a 3D volume, [`Image::new_volume`]), its memory and a view of the whole image.
 pub struct Image {
     pub raw: vk::Image,
     pub view: vk::ImageView,
     pub format: vk::Format,
     pub width: u32,
     pub height: u32,
+    /// Texels along z: 1 for a 2D image.
+    pub depth: u32,
     pub usage: vk::ImageUsageFlags,
     pub name: &'static str,
     allocation: Option<Allocation>,
@@ -214,7 +227,7 @@ impl Image {
     /// mip 0, layer 0). The caller's barriers put the image in TRANSFER_DST first.
     ///
     /// # Safety
-    /// `cb` is recording, on `ctx`'s device; `buffer` holds at least `width * height` texels of the
+    /// `cb` is recording, on `ctx`'s device; `buffer` holds at least `width * height * depth` texels of the
     /// image's format and outlives the command buffer's execution.
     pub unsafe fn record_upload_from(&self, ctx: &Context, cb: vk::CommandBuffer, buffer: &Buffer) {
         let region = vk::BufferImageCopy::default()
@@ -226,7 +239,7 @@ impl Image {
             .image_extent(vk::Extent3D {
                 width: self.width,
                 height: self.height,
-                depth: 1,
+                depth: self.depth,
             });
         // SAFETY: the caller guarantees a recording command buffer and a large enough buffer.
         unsafe {
@@ -251,20 +264,60 @@ impl Image {
                 ),
             ));
         }
+        Self::create(
+            ctx,
+            desc.name,
+            vk::ImageType::TYPE_2D,
+            [desc.width, desc.height, 1],
+            desc.format,
+            desc.usage,
+        )
+    }
+
+    /// A 3D image (one mip, one layer) with a 3D view of the whole volume.
+    pub fn new_volume(ctx: &Context, desc: &VolumeDesc) -> Result<Image, VkError> {
+        let limit = ctx.limits().max_image_dimension3_d;
+        if desc.extent.iter().any(|&e| e == 0 || e > limit) {
+            return Err(VkError::invalid(
+                desc.name,
+                format!(
+                    "volume size {}x{}x{} outside 1..={limit}",
+                    desc.extent[0], desc.extent[1], desc.extent[2]
+                ),
+            ));
+        }
+        Self::create(
+            ctx,
+            desc.name,
+            vk::ImageType::TYPE_3D,
+            desc.extent,
+            desc.format,
+            desc.usage,
+        )
+    }
+
+    fn create(
+        ctx: &Context,
+        name: &'static str,
+        image_type: vk::ImageType,
+        extent: [u32; 3],
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+    ) -> Result<Image, VkError> {
         let device = ctx.device.clone();
         let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(desc.format)
+            .image_type(image_type)
+            .format(format)
             .extent(vk::Extent3D {
-                width: desc.width,
-                height: desc.height,
-                depth: 1,
+                width: extent[0],
+                height: extent[1],
+                depth: extent[2],
             })
             .mip_levels(1)
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(desc.usage)
+            .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
         // SAFETY: valid create info on a live device.
@@ -272,15 +325,14 @@ impl Image {
             .map_err(VkError::call("vkCreateImage"))?;
         // SAFETY: `raw` was just created.
         let requirements = unsafe { device.raw().get_image_memory_requirements(raw) };
-        let allocation =
-            match device.allocate(desc.name, requirements, MemoryLocation::GpuOnly, false) {
-                Ok(a) => a,
-                Err(e) => {
-                    // SAFETY: never used.
-                    unsafe { device.raw().destroy_image(raw, None) };
-                    return Err(e);
-                }
-            };
+        let allocation = match device.allocate(name, requirements, MemoryLocation::GpuOnly, false) {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: never used.
+                unsafe { device.raw().destroy_image(raw, None) };
+                return Err(e);
+            }
+        };
         // SAFETY: the allocation satisfies `requirements`.
         if let Err(result) = unsafe {
             device
@@ -293,11 +345,16 @@ impl Image {
                 result,
             });
         }
+        let view_type = if image_type == vk::ImageType::TYPE_3D {
+            vk::ImageViewType::TYPE_3D
+        } else {
+            vk::ImageViewType::TYPE_2D
+        };
         let view_info = vk::ImageViewCreateInfo::default()
             .image(raw)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(desc.format)
-            .subresource_range(full_range(desc.format));
+            .view_type(view_type)
+            .format(format)
+            .subresource_range(full_range(format));
         // SAFETY: `raw` is bound to memory; the range covers its only mip and layer.
         let view = match unsafe { device.raw().create_image_view(&view_info, None) } {
             Ok(v) => v,
@@ -309,16 +366,17 @@ impl Image {
                 });
             }
         };
-        device.set_name(raw, desc.name);
-        device.set_name(view, desc.name);
+        device.set_name(raw, name);
+        device.set_name(view, name);
         Ok(Image {
             raw,
             view,
-            format: desc.format,
-            width: desc.width,
-            height: desc.height,
-            usage: desc.usage,
-            name: desc.name,
+            format,
+            width: extent[0],
+            height: extent[1],
+            depth: extent[2],
+            usage,
+            name,
             allocation: Some(allocation),
             device,
             tracked: Mutex::new(Tracked::UNUSED),

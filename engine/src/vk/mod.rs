@@ -51,7 +51,7 @@ pub use context::{
     Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationLog,
     ValidationMessage,
 };
-pub use memory::{Buffer, BufferDesc, Image, ImageDesc, MemoryUse, Sampler};
+pub use memory::{Buffer, BufferDesc, Image, ImageDesc, MemoryUse, Sampler, VolumeDesc};
 pub use profiler::{FrameTimings, GpuProfiler, ScopeTiming};
 
 /// The Vulkan version and features every context requires.
