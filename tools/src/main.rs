@@ -5,11 +5,15 @@ use clap::{Parser, Subcommand};
 
 mod bake;
 mod bench;
+mod cache;
 mod info;
 mod material_args;
 mod object_args;
 mod render;
 mod scene_args;
+#[cfg(feature = "window")]
+mod view;
+mod volume;
 
 #[derive(Parser)]
 #[command(
@@ -32,6 +36,13 @@ enum Command {
     Bake(bake::BakeArgs),
     /// Run time against error: sweep solver and bake settings, write CSV and a PNG plot.
     Bench(Box<bench::BenchArgs>),
+    /// An interactive window: orbit, move the light, switch materials, watch the skips.
+    #[cfg(feature = "window")]
+    View(Box<view::ViewArgs>),
+    /// Write a procedural heterogeneous material as a .vol grid (for --volume).
+    Volume(volume::VolumeArgs),
+    /// The bake cache: `info` lists it, `clean` empties or trims it.
+    Cache(cache::CacheArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -41,6 +52,10 @@ fn main() -> std::process::ExitCode {
         Command::Render(args) => render::run(args),
         Command::Bake(args) => bake::run(args),
         Command::Bench(args) => bench::run(args),
+        #[cfg(feature = "window")]
+        Command::View(args) => view::run(args),
+        Command::Volume(args) => volume::run(args),
+        Command::Cache(args) => cache::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
