@@ -31,6 +31,11 @@ vec3 srgb(vec3 c) {
     return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
 }
 
+// Text cell size in font pixels and the margin in screen pixels per text scale
+// (tools/src/view/mod.rs's text_grid matches).
+const ivec2 CELL = ivec2(8, 10);
+const int TEXT_MARGIN = 4;
+
 const vec3 PALETTE[5] = vec3[5](
     vec3(0.92), vec3(0.55), vec3(1.0, 0.85, 0.35), vec3(1.0, 0.35, 0.3), vec3(0.45, 0.95, 0.5));
 
@@ -49,18 +54,21 @@ void main() {
         c = mix(vec3(0.035, 0.04, 0.05), vec3(0.012), t);
     }
     if (pc.overlay != 0u) {
-        ivec2 font_px = p / int(pc.text_scale);
-        ivec2 cell = font_px / 8;
-        if (all(lessThan(cell, pc.grid))) {
+        // Cells of 8x10 font pixels (the 8x8 glyph and two rows of line spacing), from a margin.
+        ivec2 font_px = (p - ivec2(TEXT_MARGIN * int(pc.text_scale))) / int(pc.text_scale);
+        ivec2 cell = font_px / CELL;
+        if (all(greaterThanEqual(font_px, ivec2(0))) && all(lessThan(cell, pc.grid))) {
             uint word = text.cells[cell.y * pc.grid.x + cell.x];
             if ((word & 0x10000u) != 0u) {
-                c *= 0.35;  // a dark panel behind each line
+                c *= 0.3;  // a dark panel behind each line
                 uint code = word & 0x7fu;
-                ivec2 in_glyph = font_px % 8;
-                uint row_index = code * 8u + uint(in_glyph.y);
-                uint row = (font.rows[row_index / 4u] >> (8u * (row_index % 4u))) & 0xffu;
-                if (((row >> uint(in_glyph.x)) & 1u) != 0u) {
-                    c = PALETTE[min((word >> 8) & 0xffu, 4u)];
+                ivec2 in_cell = font_px % CELL;
+                if (in_cell.y < 8) {
+                    uint row_index = code * 8u + uint(in_cell.y);
+                    uint row = (font.rows[row_index / 4u] >> (8u * (row_index % 4u))) & 0xffu;
+                    if (((row >> uint(in_cell.x)) & 1u) != 0u) {
+                        c = PALETTE[min((word >> 8) & 0xffu, 4u)];
+                    }
                 }
             }
         }

@@ -75,9 +75,10 @@ pub const BINDINGS: &[(&str, &str)] = &[
     ("left drag", "orbit the camera"),
     ("wheel", "zoom"),
     ("right drag", "turn the key light"),
+    ("1..5", "material: skimmilk marble skin1 wholemilk ketchup"),
     (
-        "1..9, 0",
-        "material: skimmilk marble skin1 wholemilk ketchup apple potato veined-marble agate split",
+        "6..9, 0",
+        "material: apple potato veined-marble agate split",
     ),
     ("m / M", "next / previous material"),
     ("k", "next method (quadgraph; voxel, dipole when built)"),

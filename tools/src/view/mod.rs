@@ -447,6 +447,8 @@ impl FrameSlots {
 struct Completed {
     /// GPU ms per scope of the last frame whose timings came back, and its total.
     timings: Option<(u64, Vec<(String, f64)>, f64)>,
+    /// The same of the last frame that solved (so the solve's passes stay in view).
+    solve_timings: Option<(u64, Vec<(String, f64)>, f64)>,
     /// The last completed solve: host frame, iterations per level, converged.
     solve: Option<(u64, Vec<u32>, bool)>,
 }
@@ -573,6 +575,9 @@ impl Viewer {
         for t in self.profiler.take_results() {
             let (passes, total) = overlay::passes_in_order(&t);
             self.log.timings(t.frame, passes.clone());
+            if passes.iter().any(|(name, _)| name.starts_with("diffusion")) {
+                self.completed.solve_timings = Some((t.frame, passes.clone(), total));
+            }
             self.completed.timings = Some((t.frame, passes, total));
         }
         for s in self.object.completed_solves(completed)? {
@@ -920,15 +925,26 @@ impl Viewer {
             )),
             None => lines.push(("no solve completed yet".into(), Colour::Dim)),
         }
-        if let Some((frame, passes, total)) = &self.completed.timings {
-            lines.push((
-                format!("GPU ms (frame {}): total {total:.2}", frame - 1),
-                Colour::Heading,
-            ));
-            for (name, ms) in passes {
-                lines.push((format!("  {name:<28}{ms:9.3}"), Colour::Text));
+        let solve = self
+            .completed
+            .solve_timings
+            .as_ref()
+            .filter(|s| self.completed.timings.as_ref().is_some_and(|t| t.0 != s.0));
+        for (what, timings) in [
+            ("frame", &self.completed.timings),
+            ("last solve, frame", &solve.cloned()),
+        ] {
+            if let Some((frame, passes, total)) = timings {
+                lines.push((
+                    format!("GPU ms, {what} {}: total {total:.2}", frame - 1),
+                    Colour::Heading,
+                ));
+                for (name, ms) in passes {
+                    lines.push((format!("  {name:<28}{ms:9.3}"), Colour::Text));
+                }
             }
-        } else if !self.profiler.enabled() {
+        }
+        if !self.profiler.enabled() {
             lines.push(("no GPU timestamps on this device".into(), Colour::Dim));
         }
         if let Some(note) = &state.note {
@@ -970,12 +986,18 @@ fn text_scale(extent: vk::Extent2D) -> u32 {
     }
 }
 
-/// Columns and rows of 8x8 text cells that fit `extent`.
+/// Font pixels of a text cell (the 8x8 glyph and two rows of line spacing) and the margin in
+/// screen pixels per text scale: `viewer/present.frag`'s `CELL` and `TEXT_MARGIN`.
+const TEXT_CELL: [u32; 2] = [8, 10];
+const TEXT_MARGIN: u32 = 4;
+
+/// Columns and rows of text cells that fit `extent`.
 fn text_grid(extent: vk::Extent2D) -> (usize, usize) {
-    let cell = 8 * text_scale(extent);
+    let s = text_scale(extent);
+    let fit = |pixels: u32, cell: u32| (pixels.saturating_sub(TEXT_MARGIN * s) / (cell * s)).max(1);
     (
-        (extent.width / cell).max(1) as usize,
-        (extent.height / cell).max(1) as usize,
+        fit(extent.width, TEXT_CELL[0]) as usize,
+        fit(extent.height, TEXT_CELL[1]) as usize,
     )
 }
 
