@@ -107,6 +107,8 @@ fn view(display: &str, dir: &Path, args: &[&str]) -> std::process::Output {
         .env("TRANSLUCENT_VALIDATION", "1")
         .env("TRANSLUCENT_DEVICE", "llvmpipe")
         .env("TRANSLUCENT_CACHE_DIR", dir)
+        // The cache's limit: one byte, so the bake the viewer uses is all it keeps.
+        .env("TRANSLUCENT_CACHE_LIMIT", "1")
         .current_dir(dir)
         .output()
         .expect("run translucent view")
@@ -134,6 +136,8 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
     let Some(xvfb) = start_xvfb() else { return };
     let dir = scratch("view");
     std::fs::write(dir.join("demo.script"), SCRIPT).expect("script");
+    // An earlier bake in the cache, least recently used: evicted by the limit.
+    std::fs::write(dir.join("earlier.qgraph"), [0u8; 64]).expect("old bake");
     let scene = [
         "--shape",
         "sphere",
@@ -163,6 +167,18 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "exit {:?}\n{stderr}", out.status);
     assert!(!stderr.contains("validation"), "{stderr}");
+    assert!(
+        !dir.join("earlier.qgraph").exists(),
+        "not evicted: {stderr}"
+    );
+    let bakes = std::fs::read_dir(&dir)
+        .expect("dir")
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.file_name().to_string_lossy().ends_with(".qgraph"))
+        })
+        .count();
+    assert_eq!(bakes, 1, "the viewer's own bake stays");
 
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
