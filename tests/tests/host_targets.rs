@@ -7,11 +7,12 @@ use std::sync::Arc;
 
 use ash::vk;
 use glam::DVec3;
+use translucent::headless::HeadlessHost;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::object::{HostResource, RecordCtx, TargetImage, Targets};
 use translucent::quadgraph::BakeParams;
-use translucent::render::{HeadlessHost, OffscreenTarget, COLOR_FORMAT};
+use translucent::render::{OffscreenTarget, COLOR_FORMAT};
 use translucent::scene::{Environment, Light, Scene};
 use translucent::vk::ImageState;
 use translucent::vk::{barrier, Access, ImageReadback};

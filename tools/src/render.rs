@@ -22,7 +22,7 @@ use translucent::quadgraph::cache::{self, CacheOutcome};
 use translucent::scene;
 
 use glam::{DQuat, DVec3};
-use translucent::render::{HeadlessHost, HeadlessRenderer, Scene};
+use translucent::headless::{ExitanceMesh, HeadlessHost, HeadlessRenderer};
 use translucent::scene::Camera;
 use translucent::scene::Environment;
 use translucent::scene::Light;
@@ -339,30 +339,26 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             timings.extend(captured.timings.clone());
             last = Some(captured);
         }
-        gpu_report = Some(translucent.gpu_frame().report(
-            &ctx,
-            &graph,
-            &field,
-            &report_scene,
-            Some(object.solid.as_ref()),
-            &gpu_params,
-        )?);
-        gpu_bytes = Some(translucent.gpu_frame().solve.bytes().0);
+        let quadgraph = translucent
+            .quadgraph()
+            .context("the QuadGraph method reports the solve")?;
+        gpu_report =
+            Some(quadgraph.report(&ctx, &field, &report_scene, Some(object.solid.as_ref()))?);
+        gpu_bytes = Some(translucent.gpu_bytes());
         drop(host);
         drop(translucent);
     } else {
         let vertices = graph.surface.positions.len();
-        let scene = Scene {
+        let mesh = ExitanceMesh {
             mesh: graph.surface.clone(),
             exitance: solution
                 .as_ref()
                 .map_or_else(|| vec![[0.0; 3]; vertices], |s| s.vertex_j_plus.clone()),
-            lights: solver_scene.lights.clone(),
             eta: field.eta(),
         };
-        let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
-        // The environment's mirror reflection off the boundary (off with --no-specular).
-        renderer.set_environment(&solver_scene.environment)?;
+        // The same frame as the GPU path's (shadow maps, shading with the environment's mirror
+        // reflection), with the f64 solution as the given exitance.
+        let mut renderer = HeadlessRenderer::new(&ctx, &mesh, &solver_scene, &frame_desc)?;
         for i in 0..args.frames {
             let captured = renderer.render_frame(&ctx)?;
             let iterations: Vec<usize> = match (&solution, i) {

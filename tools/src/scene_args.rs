@@ -4,7 +4,7 @@
 
 use anyhow::{bail, Context as _};
 use glam::DVec3;
-use translucent::render::FrameDesc;
+use translucent::headless::FrameDesc;
 use translucent::scene::{Camera, Light, RadianceMode};
 
 #[derive(clap::Args, Debug, Clone)]

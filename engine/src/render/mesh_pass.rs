@@ -10,14 +10,13 @@
 
 use ash::vk;
 
-use super::target::OffscreenTarget;
+use super::shadow_maps::ShadowMaps;
 use super::RenderError;
 use crate::mesh::{GpuMesh, Vertex};
 use crate::scene::Environment;
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse, Sampler,
-};
+use crate::vk::barrier::Use;
+use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, Image, MemoryUse, Sampler};
 
 /// The `ShadeUniforms` block of `mesh/shade_mesh.{vert,frag}` (std140).
 #[repr(C)]
@@ -223,77 +222,31 @@ impl MeshPass {
         (self.color_format, self.depth_format)
     }
 
-    /// Draws `mesh` into `target` (cleared to black, depth to 1). The shadow atlas must be in
-    /// [`Access::DepthSampledShaders`]. Leaves the color in [`Access::ColorAttachmentWrite`].
-    ///
-    /// # Safety
-    /// `cb` must be recording outside a rendering scope; everything passed in and `self` must
-    /// outlive its execution.
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn record(
-        &mut self,
-        ctx: &Context,
-        cb: vk::CommandBuffer,
-        mesh: &GpuMesh,
-        target: &mut OffscreenTarget,
-        uniforms: &ShadeUniforms,
-        push: &ShadePush,
-        profiler: Option<&mut GpuProfiler>,
-    ) -> Result<(), RenderError> {
-        // SAFETY: the caller's contract.
-        unsafe {
-            barrier::record(
-                ctx,
-                cb,
-                &[],
-                &[
-                    // why: the clear and draws write color after whatever used it last (WAW/WAR),
-                    // in COLOR_ATTACHMENT layout.
-                    barrier::image_barrier(
-                        &target.color,
-                        target.color_state,
-                        Access::ColorAttachmentWrite,
-                    ),
-                    // why: same for depth (cleared, so old contents may be discarded).
-                    barrier::image_barrier(
-                        &target.depth,
-                        target.depth_state,
-                        Access::DepthAttachmentWrite,
-                    ),
-                ],
-            );
-        }
-        target.color_state = Access::ColorAttachmentWrite;
-        target.depth_state = Access::DepthAttachmentWrite;
-        let attachments = ShadeAttachments {
-            color: target.color.view,
-            load_color: false,
-            depth: target.depth.view,
-            load_depth: false,
-            store_depth: false,
-            extent: target.extent(),
-        };
-        // SAFETY: the caller's contract; the attachments are in attachment layouts now.
-        unsafe { self.record_into(ctx, cb, mesh, &attachments, uniforms, push, profiler) }
+    /// What [`Self::record_into`] uses besides the attachments: `mesh`'s vertices and the shadow
+    /// atlas (sampled for the specular term).
+    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh, shadows: &'a ShadowMaps) -> [Use<'a>; 2] {
+        [
+            Use::buffer(mesh.vertex_buffer(), Access::VertexInput),
+            Use::image(&shadows.atlas, Access::DepthSampledShaders),
+        ]
     }
 
     /// Updates the uniforms in the command stream, then draws `mesh` into `attachments` (in
     /// `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL`, their earlier uses ordered by the
-    /// caller's barriers). Profiler scope `shading`.
+    /// frame graph).
     ///
     /// # Safety
-    /// `cb` must be recording outside a rendering scope; the views' images, `mesh` and `self`
-    /// must outlive its execution; the views must have this pass's formats.
-    #[allow(clippy::too_many_arguments)]
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::uses`] and the attachments; the views' images, `mesh` and `self` must outlive
+    /// its execution; the views must have this pass's formats.
     pub unsafe fn record_into(
-        &mut self,
+        &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
         mesh: &GpuMesh,
         attachments: &ShadeAttachments,
         uniforms: &ShadeUniforms,
         push: &ShadePush,
-        profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), RenderError> {
         let extent = attachments.extent;
         if extent.width == 0 || extent.height == 0 {
@@ -340,13 +293,8 @@ impl MeshPass {
             .layer_count(1)
             .color_attachments(&color)
             .depth_attachment(&depth);
-        let mut profiler = profiler;
         // SAFETY: the caller's contract; the pipeline's formats match the rendering scope.
         unsafe {
-            ctx.begin_label(cb, "shade mesh");
-            if let Some(p) = profiler.as_deref_mut() {
-                p.begin_scope(cb, "shading");
-            }
             // why: last frame's vertex/fragment uniform reads must finish before the update (WAR).
             barrier::memory(ctx, cb, Access::GraphicsUniformRead, Access::TransferDst);
             ctx.raw()
@@ -357,10 +305,6 @@ impl MeshPass {
             self.pipeline.bind(ctx, cb, self.set, push, extent);
             mesh.draw(ctx, cb);
             ctx.raw().cmd_end_rendering(cb);
-            if let Some(p) = profiler {
-                p.end_scope(cb);
-            }
-            ctx.end_label(cb);
         }
         Ok(())
     }

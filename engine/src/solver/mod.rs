@@ -59,3 +59,29 @@ impl SolverError {
         self
     }
 }
+
+/// Relative RMS difference `||got - want|| / ||want||` over every channel of every node (the
+/// absolute RMS norm of the difference when `want` is all zero). Lengths must match.
+///
+/// ```
+/// let got = [[1.1f32, 2.0, 0.0]];
+/// let want = [[1.0, 2.0, 0.0]];
+/// let e = translucent::solver::rel_rms(&got, &want);
+/// assert!((e - 0.1 / 5f64.sqrt()).abs() < 1e-6);
+/// ```
+pub fn rel_rms<A: Copy + Into<f64>>(got: &[[A; 3]], want: &[[f64; 3]]) -> f64 {
+    assert_eq!(got.len(), want.len(), "rel_rms of different lengths");
+    let (mut d2, mut r2) = (0.0, 0.0);
+    for (g, w) in got.iter().zip(want) {
+        for c in 0..3 {
+            let g: f64 = g[c].into();
+            d2 += (g - w[c]).powi(2);
+            r2 += w[c] * w[c];
+        }
+    }
+    if r2 > 0.0 {
+        (d2 / r2).sqrt()
+    } else {
+        d2.sqrt()
+    }
+}
