@@ -35,9 +35,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
 use ash::vk;
+use translucent::headless::FrameDesc;
 use translucent::material::MaterialField;
 use translucent::object::{RecordCtx, TargetImage, Targets};
-use translucent::render::{FrameDesc, COLOR_FORMAT, DEPTH_FORMAT};
+use translucent::render::{COLOR_FORMAT, DEPTH_FORMAT};
 use translucent::scene::{Camera, Environment, Scene};
 use translucent::solver::gpu::{GpuSolveParams, Precision};
 use translucent::solver::Scheme;
@@ -1123,7 +1124,8 @@ impl App {
             viewer.object = self.setup.object(&viewer.ctx, &self.state)?;
         } else {
             if material {
-                viewer.object.set_material(&self.setup.field(&self.state)?);
+                let field = self.setup.field(&self.state)?;
+                viewer.object.set_material(&viewer.ctx, &field)?;
             }
             if lights {
                 viewer.object.set_lights(&self.setup.scene(&self.state))?;
