@@ -197,23 +197,26 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
     // Frame 0: a cold solve whose iterations came back.
     assert_eq!(
         passes(&frames[0]),
-        ["shadow_map", "gather_q", "solve", "shading"]
+        ["shadow_map", "gather_q", "diffusion", "exitance", "shading"]
     );
     assert!(frames[0]["iterations"]
         .as_array()
         .is_some_and(|i| i.iter().all(|n| n.as_u64().is_some_and(|n| n > 0))));
     // The light change (frame 2): a warm start.
-    assert!(passes(&frames[2]).contains(&"solve".to_string()));
+    assert!(passes(&frames[2]).contains(&"diffusion".to_string()));
     assert_eq!(frames[2]["skipped"]["diffusion init"], "warm start");
     // The material key (frame 4): gather and solve again, the shadow maps kept.
-    assert_eq!(passes(&frames[4]), ["gather_q", "solve", "shading"]);
+    assert_eq!(
+        passes(&frames[4]),
+        ["gather_q", "diffusion", "exitance", "shading"]
+    );
     assert_eq!(
         frames[4]["skipped"]["shadow_map"],
         "lights and shape unchanged"
     );
     // The zoom (frame 6): shading only, because only the camera moved.
     assert_eq!(passes(&frames[6]), ["shading"]);
-    assert_eq!(frames[6]["skipped"]["solve"], "camera only");
+    assert_eq!(frames[6]["skipped"]["diffusion"], "camera only");
     // The resize went through a rebuilt swapchain and back.
     assert!(frames
         .iter()
@@ -222,7 +225,7 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
     let last = frames.last().expect("a frame");
     assert_eq!(last["extent"], serde_json::json!([160, 120]));
     assert_eq!(passes(last), ["shading"]);
-    for pass in ["shadow_map", "gather_q", "solve"] {
+    for pass in ["shadow_map", "gather_q", "diffusion", "exitance"] {
         assert_eq!(last["skipped"][pass], "nothing changed", "{pass}");
     }
     assert!(
