@@ -60,8 +60,43 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_line(&e));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line, each cause once: a library error that already names its
+/// source (`thiserror`'s `{source}` in the message) would otherwise be printed twice
+/// ("no triangles: no triangles").
+fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn an_error_line_names_each_cause_once() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("no triangles")]
+        struct Empty;
+        #[derive(Debug, thiserror::Error)]
+        #[error("mesh: {0}")]
+        struct Mesh(#[source] Empty);
+        let e = anyhow::Error::new(Mesh(Empty)).context("--mesh a.obj");
+        assert_eq!(super::error_line(&e), "--mesh a.obj: mesh: no triangles");
+        let plain = anyhow::anyhow!("disk full").context("--out x.png");
+        assert_eq!(super::error_line(&plain), "--out x.png: disk full");
     }
 }

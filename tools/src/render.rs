@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use std::sync::Arc;
-use translucent::quadgraph::cache::{self, CacheOutcome};
+use translucent::quadgraph::cache::CacheOutcome;
 use translucent::scene;
 
 use glam::{DQuat, DVec3};
@@ -148,6 +148,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Some("png" | "exr") => {}
         _ => bail!("--out {}: must end in .png or .exr", args.out.display()),
     }
+    check_writable(&args.out)?;
+    let started = Instant::now();
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
@@ -201,23 +203,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Bake, or load the cached bake of the same surface and parameters.
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
     let params = args.object.bake_params();
-    let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
-    std::fs::create_dir_all(&cache_dir)
-        .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
-    let key = cache::cache_key(&object.surface, &params);
-    let cache_file = cache_dir.join(format!("{}-{key:016x}.qgraph", object.name));
     let start = Instant::now();
-    let (graph, stats, outcome) = cache::bake_cached(
-        &cache_file,
-        &object.surface,
-        object.solid.as_ref(),
-        &params,
-        &mut |_| {},
-    )?;
+    // The bake cache with its size limit (least recently used bakes are evicted).
+    let (graph, stats, outcome, cache_file) =
+        crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
     let bake_s = start.elapsed().as_secs_f64();
-    if let CacheOutcome::Rebuilt(reason) = &outcome {
-        eprintln!("warning: {reason}; baked again");
-    }
 
     let scheme = if args.scheme == "paper" {
         Scheme::Paper
@@ -381,6 +371,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     last.image
         .write(&args.out, args.scene.exposure)
         .with_context(|| format!("--out {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({} x {}, {} ms)",
+        args.out.display(),
+        last.image.width,
+        last.image.height,
+        started.elapsed().as_millis()
+    );
 
     if args.profile && !args.json {
         println!(
@@ -454,6 +451,37 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
+}
+
+/// Fails unless a file can be created next to `out` (its folder exists and is writable), so a
+/// bad `--out` is reported before the bake and the solve. Leaves nothing behind.
+pub(crate) fn check_writable(out: &Path) -> anyhow::Result<()> {
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "--out {}: the folder {} does not exist",
+            out.display(),
+            dir.display()
+        );
+    }
+    if out.is_dir() {
+        bail!("--out {}: is a folder", out.display());
+    }
+    let probe = dir.join(format!(".translucent-write-probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!(
+            "--out {}: cannot write in {}: {e}",
+            out.display(),
+            dir.display()
+        ),
+    }
 }
 
 /// `lights` rotated about +Y by `degrees` (directions and positions).

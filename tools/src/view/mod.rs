@@ -447,9 +447,9 @@ impl FrameSlots {
 #[derive(Default)]
 struct Completed {
     /// GPU ms per scope of the last frame whose timings came back, and its total.
-    timings: Option<(u64, Vec<(String, f64)>, f64)>,
+    timings: Option<(u64, Vec<(String, f64, u32)>, f64)>,
     /// The same of the last frame that solved (so the solve's passes stay in view).
-    solve_timings: Option<(u64, Vec<(String, f64)>, f64)>,
+    solve_timings: Option<(u64, Vec<(String, f64, u32)>, f64)>,
     /// The last completed solve: host frame, iterations per level, converged.
     solve: Option<(u64, Vec<u32>, bool)>,
 }
@@ -474,6 +474,8 @@ struct Viewer {
     completed: Completed,
     last_report: Option<translucent::FrameReport>,
     log: FrameLog,
+    /// When the last frame began recording (for the report's `interval_ms`).
+    last_draw: Option<Instant>,
     host: Host,
     window: Arc<Window>,
 }
@@ -556,6 +558,7 @@ impl Viewer {
             completed: Completed::default(),
             last_report: None,
             log: FrameLog::default(),
+            last_draw: None,
             host,
             window,
         })
@@ -575,8 +578,12 @@ impl Viewer {
         self.profiler.frame_completed(completed);
         for t in self.profiler.take_results() {
             let (passes, total) = overlay::passes_in_order(&t);
-            self.log.timings(t.frame, passes.clone());
-            if passes.iter().any(|(name, _)| name.starts_with("diffusion")) {
+            let flat = passes.iter().map(|(n, ms, _)| (n.clone(), *ms)).collect();
+            self.log.timings(t.frame, flat);
+            if passes
+                .iter()
+                .any(|(name, _, _)| name.starts_with("diffusion"))
+            {
                 self.completed.solve_timings = Some((t.frame, passes.clone(), total));
             }
             self.completed.timings = Some((t.frame, passes, total));
@@ -637,6 +644,11 @@ impl Viewer {
             return Ok(None);
         };
         let (sc_raw, extent, encode_srgb) = (sc.raw, sc.extent, sc.encode_srgb);
+        let began = Instant::now();
+        let interval_ms = self
+            .last_draw
+            .replace(began)
+            .map(|t| (began - t).as_secs_f64() * 1e3);
         let host_frame = self.frame + 1;
         let slot = (host_frame % IN_FLIGHT as u64) as usize;
         let d = self.host.device.clone();
@@ -835,12 +847,10 @@ impl Viewer {
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => self.stale = true,
             Err(e) => return Err(e).context("vkQueuePresentKHR"),
         }
-        self.log.push(FrameEntry::from_report(
-            index,
-            [extent.width, extent.height],
-            actions,
-            &report,
-        ));
+        self.log.push(FrameEntry {
+            interval_ms,
+            ..FrameEntry::from_report(index, [extent.width, extent.height], actions, &report)
+        });
         self.last_report = Some(report);
         if let (Some(r), Some(path)) = (readback, screenshot) {
             // A screenshot waits for its own frame (once, on a key press or at the end).
@@ -940,8 +950,18 @@ impl Viewer {
                     format!("GPU ms, {what} {}: total {total:.2}", frame - 1),
                     Colour::Heading,
                 ));
-                for (name, ms) in passes {
-                    lines.push((format!("  {name:<28}{ms:9.3}"), Colour::Text));
+                for (name, ms, depth) in passes {
+                    // Scopes inside a pass are indented under it (not added to the total).
+                    let indent = 2 + 2 * *depth as usize;
+                    let colour = if *depth == 0 {
+                        Colour::Text
+                    } else {
+                        Colour::Dim
+                    };
+                    lines.push((
+                        format!("{:indent$}{name:<w$}{ms:9.3}", "", w = 30 - indent),
+                        colour,
+                    ));
                 }
             }
         }

@@ -53,18 +53,19 @@ pub fn layout(lines: &[(String, Colour)], cols: usize, rows: usize) -> Vec<u32> 
     cells
 }
 
-/// GPU ms per scope name, in the order the scopes first ran, with the frame's total (the sum of
-/// the top-level scopes).
-pub fn passes_in_order(timings: &translucent::vk::FrameTimings) -> (Vec<(String, f64)>, f64) {
-    let mut order: Vec<(String, f64)> = Vec::new();
+/// GPU ms per scope name with its nesting depth (0: a frame-graph pass or a host pass; 1: a
+/// scope inside one, such as `diffusion jacobi` inside `diffusion`), in the order the scopes
+/// first ran, with the frame's total (the sum of the top-level scopes).
+pub fn passes_in_order(timings: &translucent::vk::FrameTimings) -> (Vec<(String, f64, u32)>, f64) {
+    let mut order: Vec<(String, f64, u32)> = Vec::new();
     let mut total = 0.0;
     for scope in &timings.scopes {
         if scope.depth == 0 {
             total += scope.duration_ms;
         }
-        match order.iter_mut().find(|(n, _)| *n == scope.name) {
-            Some((_, ms)) => *ms += scope.duration_ms,
-            None => order.push((scope.name.clone(), scope.duration_ms)),
+        match order.iter_mut().find(|(n, _, _)| *n == scope.name) {
+            Some((_, ms, _)) => *ms += scope.duration_ms,
+            None => order.push((scope.name.clone(), scope.duration_ms, scope.depth)),
         }
     }
     (order, total)
@@ -135,12 +136,13 @@ mod tests {
             ],
         };
         let (order, total) = passes_in_order(&t);
-        let names: Vec<&str> = order.iter().map(|(n, _)| n.as_str()).collect();
+        let names: Vec<&str> = order.iter().map(|(n, _, _)| n.as_str()).collect();
         assert_eq!(
             names,
             ["shadow_map", "diffusion jacobi", "inner", "shading"]
         );
         assert_eq!(order[1].1, 5.0);
+        assert_eq!(order[2].2, 1, "inner is nested");
         assert_eq!(total, 6.25);
     }
 }

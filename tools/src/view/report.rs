@@ -27,6 +27,9 @@ pub struct FrameEntry {
     /// Iterations per level of this frame's solve (known once it completed).
     pub iterations: Option<Vec<u32>>,
     pub converged: Option<bool>,
+    /// Wall-clock ms since the previous frame began recording (what a user feels: with two
+    /// frames in flight it includes waiting for the GPU); `None` for the first frame.
+    pub interval_ms: Option<f64>,
 }
 
 impl FrameEntry {
@@ -64,6 +67,7 @@ impl FrameEntry {
             "gpu_ms": self.gpu_ms.iter().map(|(n, ms)| json!([n, ms])).collect::<Vec<_>>(),
             "iterations": self.iterations,
             "converged": self.converged,
+            "interval_ms": self.interval_ms,
         })
     }
 }
