@@ -94,6 +94,10 @@ pub struct RenderArgs {
     /// GPU solver: turn every skip off (each frame a full cold solve), for comparisons.
     #[arg(long)]
     pub no_skip: bool,
+    /// Write the image even when no pixel of the object is lit (otherwise that is an error:
+    /// usually a light or the camera inside the object, or a light pointing away).
+    #[arg(long)]
+    pub allow_black: bool,
     /// Print the per-pass GPU milliseconds of the last frame.
     #[arg(long)]
     pub profile: bool,
@@ -308,8 +312,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             let converged = solve.map(|s| s.converged());
             if converged == Some(false) && !args.json {
                 eprintln!(
-                    "warning: frame {}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations",
-                    captured.frame
+                    "warning: frame {i}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations"
                 );
             }
             let skipped: serde_json::Map<String, serde_json::Value> = report
@@ -318,7 +321,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 .map(|(pass, why)| (pass.to_string(), why.to_string().into()))
                 .collect();
             frames.push(serde_json::json!({
-                "frame": captured.frame,
+                "frame": i,
                 "passes": captured.passes,
                 "iterations": iterations,
                 "converged": converged,
@@ -356,7 +359,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 _ => vec![0; level_count],
             };
             frames.push(serde_json::json!({
-                "frame": captured.frame,
+                "frame": i,
                 "passes": captured.passes,
                 "iterations": iterations,
             }));
@@ -368,6 +371,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
     }
     let last = last.context("no frame rendered")?;
+    let lit = lit_pixels(&last.image, args.scene.exposure);
+    if lit == 0 && !args.allow_black {
+        bail!(
+            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it? --allow-black writes it anyway",
+            args.out.display()
+        );
+    }
     last.image
         .write(&args.out, args.scene.exposure)
         .with_context(|| format!("--out {}", args.out.display()))?;
@@ -379,6 +389,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         started.elapsed().as_millis()
     );
 
+    // The last frame's GPU scopes in execution order (nested ones indented) and its total.
+    let profile = last.timings.as_ref().map(profile_in_order);
     if args.profile && !args.json {
         println!(
             "bake {bake_s:9.3} s ({}), {}",
@@ -391,11 +403,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 None => format!("CPU solve {solve_s:.3} s"),
             }
         );
-        if last.passes.is_empty() {
-            println!("no GPU timestamps on this device");
-        }
-        for (pass, ms) in &last.passes {
-            println!("{pass:<12} {ms:9.3} ms");
+        match &profile {
+            None => println!("no GPU timestamps on this device"),
+            Some((scopes, total)) => {
+                println!("GPU ms of the last frame (frame {}):", args.frames - 1);
+                for (name, depth, ms) in scopes {
+                    let indent = 2 + 2 * *depth as usize;
+                    println!("{:indent$}{name:<w$} {ms:9.3}", "", w = 30 - indent);
+                }
+                println!("  {:<28} {total:9.3}", "total");
+            }
         }
     }
     let (residual, energy, clamped) = match (&solution, &gpu_report) {
@@ -440,7 +457,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "absorbed": energy.absorbed,
             },
             "clamped_nodes": clamped,
-            "cpu_seconds": { "bake": bake_s, "solve": solve_s },
+            // A GPU solve has no CPU solve time (its GPU ms are in `frames` and `profile`).
+            "cpu_seconds": { "bake": bake_s, "solve": (!on_gpu).then_some(solve_s) },
+            "profile": args.profile.then(|| profile.as_ref().map(|(scopes, total)| serde_json::json!({
+                "frame": args.frames - 1,
+                "scopes": scopes.iter().map(|(n, d, ms)| serde_json::json!({"name": n, "depth": d, "ms": ms})).collect::<Vec<_>>(),
+                "total_ms": total,
+            }))),
             "cache": cache_file.display().to_string(),
         });
         println!("{out}");
@@ -451,6 +474,54 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
+}
+
+/// One step of an 8-bit PNG channel: a pixel whose tone-mapped sRGB value is below it shows as
+/// black.
+const PNG_STEP: f32 = 1.0 / 255.0;
+
+/// Pixels of the object (coverage > 0) that the PNG shows brighter than black at `exposure`
+/// (the PNG writer's tone map: Narkowicz's ACES fit, then the sRGB curve).
+fn lit_pixels(image: &translucent::vk::LinearImage, exposure: f32) -> usize {
+    let shown = |v: f32| {
+        let x = (v * exposure).clamp(0.0, 1e6);
+        let t = ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
+        if t <= 0.003_130_8 {
+            12.92 * t
+        } else {
+            1.055 * t.powf(1.0 / 2.4) - 0.055
+        }
+    };
+    image
+        .pixels
+        .iter()
+        .filter(|p| {
+            p[3] > 0.0
+                && p[..3]
+                    .iter()
+                    .any(|&v| v.is_finite() && shown(v) >= PNG_STEP)
+        })
+        .count()
+}
+
+/// A frame's GPU scopes in execution order as (name, depth, ms), scopes of the same name and
+/// depth summed at their first place, and the total of the top-level scopes.
+fn profile_in_order(t: &FrameTimings) -> (Vec<(String, u32, f64)>, f64) {
+    let mut scopes: Vec<(String, u32, f64)> = Vec::new();
+    let mut total = 0.0;
+    for s in &t.scopes {
+        if s.depth == 0 {
+            total += s.duration_ms;
+        }
+        match scopes
+            .iter_mut()
+            .find(|(n, d, _)| *n == s.name && *d == s.depth)
+        {
+            Some((_, _, ms)) => *ms += s.duration_ms,
+            None => scopes.push((s.name.clone(), s.depth, s.duration_ms)),
+        }
+    }
+    (scopes, total)
 }
 
 /// Fails unless a file can be created next to `out` (its folder exists and is writable), so a
