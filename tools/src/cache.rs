@@ -128,7 +128,8 @@ pub fn bake(
         params,
         limit,
         &mut |_| {},
-    )?;
+    )
+    .map_err(|e| object.explain_bake_error(e))?;
     if let CacheOutcome::Rebuilt(reason) = &outcome {
         eprintln!("warning: {reason}; baked again");
     }

@@ -371,11 +371,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
     }
     let last = last.context("no frame rendered")?;
-    let lit = lit_pixels(&last.image, args.scene.exposure);
+    // An EXR keeps any radiance (a dim scene is data); a PNG must show something.
+    let png = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let lit = lit_pixels(&last.image, png.then_some(args.scene.exposure));
     if lit == 0 && !args.allow_black {
         bail!(
-            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it? --allow-black writes it anyway",
-            args.out.display()
+            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it{}? --allow-black writes it anyway",
+            args.out.display(),
+            if png { ", or is --exposure too low" } else { "" }
         );
     }
     last.image
@@ -480,27 +486,27 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 /// black.
 const PNG_STEP: f32 = 1.0 / 255.0;
 
-/// Pixels of the object (coverage > 0) that the PNG shows brighter than black at `exposure`
-/// (the PNG writer's tone map: Narkowicz's ACES fit, then the sRGB curve).
-fn lit_pixels(image: &translucent::vk::LinearImage, exposure: f32) -> usize {
-    let shown = |v: f32| {
+/// Pixels of the object (coverage > 0) with radiance: for a PNG (`Some(exposure)`) those it shows
+/// brighter than black (the PNG writer's tone map: Narkowicz's ACES fit, then the sRGB curve), for
+/// an EXR (`None`) any above 0.
+fn lit_pixels(image: &translucent::vk::LinearImage, png_exposure: Option<f32>) -> usize {
+    let lit = |v: f32| {
+        let Some(exposure) = png_exposure else {
+            return v > 0.0;
+        };
         let x = (v * exposure).clamp(0.0, 1e6);
         let t = ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
-        if t <= 0.003_130_8 {
+        let shown = if t <= 0.003_130_8 {
             12.92 * t
         } else {
             1.055 * t.powf(1.0 / 2.4) - 0.055
-        }
+        };
+        shown >= PNG_STEP
     };
     image
         .pixels
         .iter()
-        .filter(|p| {
-            p[3] > 0.0
-                && p[..3]
-                    .iter()
-                    .any(|&v| v.is_finite() && shown(v) >= PNG_STEP)
-        })
+        .filter(|p| p[3] > 0.0 && p[..3].iter().any(|&v| v.is_finite() && lit(v)))
         .count()
 }
 

@@ -143,7 +143,22 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
     let dir = scratch("bad");
     let out = dir.join("never.png");
     let out_s = out.to_str().expect("utf-8 path");
+    let triangle = dir.join("triangle.obj");
+    std::fs::write(&triangle, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").expect("obj");
+    let triangle_s = triangle.to_str().expect("utf-8 path");
+    let truncated = dir.join("truncated.obj");
+    std::fs::write(&truncated, "v 0 0 0\nv 1 0 0\nv 0 1").expect("obj");
+    let truncated_s = truncated.to_str().expect("utf-8 path");
     for (args, needle) in [
+        // A single triangle encloses nothing: the advice is a closed solid, not a finer lattice.
+        (
+            vec!["render", "--mesh", triangle_s, "--force", "--out", out_s],
+            "open surface",
+        ),
+        (
+            vec!["render", "--mesh", truncated_s, "--out", out_s],
+            "line 3: vertex 3 has 2 coordinate(s)",
+        ),
         (vec!["render", "--out", "x.bmp"], "--out"),
         (
             vec!["render", "--material", "cheese", "--out", out_s],
@@ -192,6 +207,11 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
         assert!(!o.status.success(), "{args:?} succeeded");
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(
+            stderr.lines().filter(|l| l.starts_with("error")).count(),
+            1,
+            "{args:?}: one error line: {stderr}"
+        );
         assert!(!out.exists(), "{args:?} left an output file");
     }
 }

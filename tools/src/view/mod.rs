@@ -18,6 +18,12 @@
 //! own present pass ([`present`]: tone map and overlay into the swapchain image); it submits,
 //! presents and fences two frames in flight itself. A frame with nothing changed records only
 //! the object's shading pass (the report says why each other pass was skipped).
+//!
+//! The clear and the present pass are host passes around `record`, not frame-graph passes: they
+//! touch only the viewer's own images (the HDR target and the swapchain image), whose states the
+//! viewer tracks itself and hands to the object as the target's `before`/`after`; the graph's
+//! barriers cover everything the object owns. The present pass has its own profiler scope
+//! (`present`), a screenshot's copy `capture`.
 
 mod controls;
 mod host;
