@@ -106,7 +106,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         );
     } else {
         print_report(
-            &name,
+            name,
             &out,
             &outcome,
             &stats,

@@ -449,13 +449,16 @@ impl FrameSlots {
     }
 }
 
+/// One completed frame's GPU times: host frame, (scope, ms, depth) in execution order, total ms.
+type FrameTimes = (u64, Vec<(String, f64, u32)>, f64);
+
 /// What the overlay shows of the frames that completed.
 #[derive(Default)]
 struct Completed {
     /// GPU ms per scope of the last frame whose timings came back, and its total.
-    timings: Option<(u64, Vec<(String, f64, u32)>, f64)>,
+    timings: Option<FrameTimes>,
     /// The same of the last frame that solved (so the solve's passes stay in view).
-    solve_timings: Option<(u64, Vec<(String, f64, u32)>, f64)>,
+    solve_timings: Option<FrameTimes>,
     /// The last completed solve: host frame, iterations per level, converged.
     solve: Option<(u64, Vec<u32>, bool)>,
 }
@@ -1294,13 +1297,13 @@ impl ApplicationHandler for App {
                     v.stale = true;
                 }
             }
-            WindowEvent::KeyboardInput { event, .. } => {
-                if event.state == ElementState::Pressed && !event.repeat {
-                    if let Some(action) =
-                        key_name(&event.logical_key).and_then(|k| controls::key_action(&k))
-                    {
-                        self.input.push(action);
-                    }
+            WindowEvent::KeyboardInput { event, .. }
+                if event.state == ElementState::Pressed && !event.repeat =>
+            {
+                if let Some(action) =
+                    key_name(&event.logical_key).and_then(|k| controls::key_action(&k))
+                {
+                    self.input.push(action);
                 }
             }
             WindowEvent::MouseInput { state, button, .. } => {
