@@ -121,15 +121,33 @@ pub fn bake(
     std::fs::create_dir_all(&dir)
         .with_context(|| format!("creating the cache directory {}", dir.display()))?;
     let file = cache_file(&dir, object, params);
-    let (graph, stats, outcome, evicted) = cache::bake_cached_lru(
+    // A progress line on a terminal (hidden otherwise): stage, level and the share of the stage
+    // reports done so far (a bake of L levels reports 4L: tetrahedralize and graph per level,
+    // links per level but the coarsest, shading once, packing per level).
+    let bar = crate::progress::spinner();
+    let mut reports = 0usize;
+    let mut on_progress = |p: translucent::quadgraph::BakeProgress| {
+        let done = reports as f64 / (4 * p.levels.max(1)) as f64;
+        reports += 1;
+        bar.set_message(format!(
+            "baking {}: {} (level {} of {}), {:.0}%",
+            object.name,
+            p.stage,
+            p.level + 1,
+            p.levels,
+            100.0 * done.min(0.99)
+        ));
+    };
+    let baked = cache::bake_cached_lru(
         &file,
         &object.surface,
         object.solid.as_ref(),
         params,
         limit,
-        &mut |_| {},
-    )
-    .map_err(|e| object.explain_bake_error(e))?;
+        &mut on_progress,
+    );
+    bar.finish_and_clear();
+    let (graph, stats, outcome, evicted) = baked.map_err(|e| object.explain_bake_error(e))?;
     if let CacheOutcome::Rebuilt(reason) = &outcome {
         eprintln!("warning: {reason}; baked again");
     }

@@ -9,6 +9,7 @@ mod cache;
 mod info;
 mod material_args;
 mod object_args;
+mod progress;
 mod render;
 mod scene_args;
 #[cfg(feature = "window")]

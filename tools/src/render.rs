@@ -237,13 +237,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let solution = if on_gpu {
         None
     } else {
-        Some(solver::solve(
+        let bar = crate::progress::spinner();
+        bar.set_message("solving on the CPU (the f64 reference)");
+        let solved = solver::solve(
             &graph,
             &field,
             &solver_scene,
             Some(object.solid.as_ref()),
             &solve_params,
-        )?)
+        );
+        bar.finish_and_clear();
+        Some(solved?)
     };
     let solve_s = start.elapsed().as_secs_f64();
 
@@ -289,7 +293,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
         translucent.set_camera(frame_desc.camera)?;
         let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
+        let bar = crate::progress::spinner();
         for i in 0..args.frames {
+            bar.set_message(format!(
+                "frame {i} of {}: {}",
+                args.frames,
+                if i == 0 {
+                    "solving on the GPU and shading"
+                } else {
+                    "shading (solving only what changed)"
+                }
+            ));
             if i > 0 {
                 if let Some(deg) = args.orbit_light {
                     report_scene = scene::Scene {
@@ -332,6 +346,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             timings.extend(captured.timings.clone());
             last = Some(captured);
         }
+        bar.finish_and_clear();
         let quadgraph = translucent
             .quadgraph()
             .context("the QuadGraph method reports the solve")?;
