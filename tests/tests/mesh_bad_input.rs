@@ -226,9 +226,43 @@ fn tabs_crlf_and_faces_before_their_vertices_load() {
 }
 
 #[test]
-fn unparsable_obj_is_an_obj_error() {
-    let (err, _) = load_err("garbage.obj", "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n");
-    assert!(matches!(err, MeshError::Obj { .. }), "{err:?}");
+fn unparsable_or_truncated_obj_lines_name_their_line() {
+    for (name, text, line, needle) in [
+        (
+            "garbage.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n",
+            3,
+            "\"zero\" is not a number",
+        ),
+        (
+            "truncated-vertex.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1",
+            3,
+            "vertex 3 has 2 coordinate(s)",
+        ),
+        (
+            "truncated-face.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2",
+            4,
+            "face 1 has 2 vertex reference(s)",
+        ),
+        (
+            "bad-index.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+            4,
+            "\"x\" is not a vertex index",
+        ),
+    ] {
+        let (err, message) = load_err(name, text);
+        let MeshError::Syntax { line: at, .. } = err.root() else {
+            panic!("{name}: {err:?}")
+        };
+        assert_eq!(*at, line, "{name}: {message}");
+        assert!(
+            message.contains(&format!("line {line}")) && message.contains(needle),
+            "{name}: {message}"
+        );
+    }
 }
 
 #[test]

@@ -37,12 +37,14 @@ pub struct BakeArgs {
 
 pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     let params = args.object.bake_params();
+    let object = args.object.load(None)?;
     let Object {
         name,
         surface,
         solid,
         validation,
-    } = args.object.load(None)?;
+        ..
+    } = &object;
     let out = args
         .out
         .clone()
@@ -62,7 +64,8 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
     };
     let start = Instant::now();
     let (graph, stats, outcome) =
-        cache::bake_cached(&out, &surface, solid.as_ref(), &params, &mut on_progress)?;
+        cache::bake_cached(&out, surface, solid.as_ref(), &params, &mut on_progress)
+            .map_err(|e| object.explain_bake_error(e))?;
     let elapsed = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if let CacheOutcome::Rebuilt(reason) = &outcome {
@@ -103,7 +106,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         );
     } else {
         print_report(
-            &name,
+            name,
             &out,
             &outcome,
             &stats,

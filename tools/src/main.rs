@@ -5,12 +5,17 @@ use clap::{Parser, Subcommand};
 
 mod bake;
 mod bench;
+mod cache;
 mod info;
 mod material_args;
 mod object_args;
+mod progress;
 mod render;
 mod render_voxel;
 mod scene_args;
+#[cfg(feature = "window")]
+mod view;
+mod volume;
 
 #[derive(Parser)]
 #[command(
@@ -33,6 +38,13 @@ enum Command {
     Bake(bake::BakeArgs),
     /// Run time against error: sweep solver and bake settings, write CSV and a PNG plot.
     Bench(Box<bench::BenchArgs>),
+    /// An interactive window: orbit, move the light, switch materials, watch the skips.
+    #[cfg(feature = "window")]
+    View(Box<view::ViewArgs>),
+    /// Write a procedural heterogeneous material as a .vol grid (for --volume).
+    Volume(volume::VolumeArgs),
+    /// The bake cache: `info` lists it, `clean` empties or trims it.
+    Cache(cache::CacheArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -42,12 +54,51 @@ fn main() -> std::process::ExitCode {
         Command::Render(args) => render::run(args),
         Command::Bake(args) => bake::run(args),
         Command::Bench(args) => bench::run(args),
+        #[cfg(feature = "window")]
+        Command::View(args) => view::run(args),
+        Command::Volume(args) => volume::run(args),
+        Command::Cache(args) => cache::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_line(&e));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line, each cause once: a library error that already names its
+/// source (`thiserror`'s `{source}` in the message) would otherwise be printed twice
+/// ("no triangles: no triangles").
+fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn an_error_line_names_each_cause_once() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("no triangles")]
+        struct Empty;
+        #[derive(Debug, thiserror::Error)]
+        #[error("mesh: {0}")]
+        struct Mesh(#[source] Empty);
+        let e = anyhow::Error::new(Mesh(Empty)).context("--mesh a.obj");
+        assert_eq!(super::error_line(&e), "--mesh a.obj: mesh: no triangles");
+        let plain = anyhow::anyhow!("disk full").context("--out x.png");
+        assert_eq!(super::error_line(&plain), "--out x.png: disk full");
     }
 }

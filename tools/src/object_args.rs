@@ -49,6 +49,26 @@ pub struct Object {
     pub solid: Box<dyn Solid>,
     /// The validation summary of a mesh (`None` for shapes).
     pub validation: Option<String>,
+    /// Edges used by one face only (0 for shapes and closed meshes).
+    pub boundary_edges: usize,
+}
+
+impl Object {
+    /// A bake error with advice that fits this object: a lattice level with no tetrahedra in an
+    /// open surface (a sheet, a single triangle accepted with `--force`) is not cured by a finer
+    /// lattice, the surface encloses no volume.
+    pub fn explain_bake_error(&self, e: translucent::quadgraph::BakeError) -> anyhow::Error {
+        match e {
+            translucent::quadgraph::BakeError::Empty { .. } if self.boundary_edges > 0 => {
+                anyhow::anyhow!(
+                    "{}: an open surface ({} boundary edges) encloses no volume for the bake to fill: translucency needs a closed solid (close the mesh; --resolution and --levels do not help)",
+                    self.name,
+                    self.boundary_edges
+                )
+            }
+            e => e.into(),
+        }
+    }
 }
 
 /// A procedural shape of longest side `size_mm`.
@@ -103,6 +123,7 @@ impl ObjectArgs {
                     surface: s.triangulate(96),
                     solid: Box::new(s),
                     validation: None,
+                    boundary_edges: 0,
                 })
             }
             (None, None) => anyhow::bail!("give --mesh FILE.obj or --shape NAME"),
@@ -137,6 +158,7 @@ impl ObjectArgs {
             surface,
             solid: Box::new(solid),
             validation: Some(report.summary()),
+            boundary_edges: report.boundary_edges,
         })
     }
 }

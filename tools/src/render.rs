@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use std::sync::Arc;
-use translucent::quadgraph::cache::{self, CacheOutcome};
+use translucent::quadgraph::cache::CacheOutcome;
 use translucent::scene;
 
 use glam::{DQuat, DVec3};
@@ -114,6 +114,10 @@ pub struct RenderArgs {
     /// GPU solver: turn every skip off (each frame a full cold solve), for comparisons.
     #[arg(long)]
     pub no_skip: bool,
+    /// Write the image even when no pixel of the object is lit (otherwise that is an error:
+    /// usually a light or the camera inside the object, or a light pointing away).
+    #[arg(long)]
+    pub allow_black: bool,
     /// Print the per-pass GPU milliseconds of the last frame.
     #[arg(long)]
     pub profile: bool,
@@ -168,6 +172,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Some("png" | "exr") => {}
         _ => bail!("--out {}: must end in .png or .exr", args.out.display()),
     }
+    check_writable(&args.out)?;
+    let started = Instant::now();
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
@@ -235,23 +241,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Bake, or load the cached bake of the same surface and parameters.
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
     let params = args.object.bake_params();
-    let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
-    std::fs::create_dir_all(&cache_dir)
-        .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
-    let key = cache::cache_key(&object.surface, &params);
-    let cache_file = cache_dir.join(format!("{}-{key:016x}.qgraph", object.name));
     let start = Instant::now();
-    let (graph, stats, outcome) = cache::bake_cached(
-        &cache_file,
-        &object.surface,
-        object.solid.as_ref(),
-        &params,
-        &mut |_| {},
-    )?;
+    // The bake cache with its size limit (least recently used bakes are evicted).
+    let (graph, stats, outcome, cache_file) =
+        crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
     let bake_s = start.elapsed().as_secs_f64();
-    if let CacheOutcome::Rebuilt(reason) = &outcome {
-        eprintln!("warning: {reason}; baked again");
-    }
 
     let scheme = if args.scheme == "paper" {
         Scheme::Paper
@@ -285,13 +279,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let solution = if on_gpu {
         None
     } else {
-        Some(solver::solve(
+        let bar = crate::progress::spinner();
+        bar.set_message("solving on the CPU (the f64 reference)");
+        let solved = solver::solve(
             &graph,
             &field,
             &solver_scene,
             Some(object.solid.as_ref()),
             &solve_params,
-        )?)
+        );
+        bar.finish_and_clear();
+        Some(solved?)
     };
     let solve_s = start.elapsed().as_secs_f64();
 
@@ -337,7 +335,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
         translucent.set_camera(frame_desc.camera)?;
         let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
+        let bar = crate::progress::spinner();
         for i in 0..args.frames {
+            bar.set_message(format!(
+                "frame {i} of {}: {}",
+                args.frames,
+                if i == 0 {
+                    "solving on the GPU and shading"
+                } else {
+                    "shading (solving only what changed)"
+                }
+            ));
             if i > 0 {
                 if let Some(deg) = args.orbit_light {
                     report_scene = scene::Scene {
@@ -360,8 +368,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             let converged = solve.map(|s| s.converged());
             if converged == Some(false) && !args.json {
                 eprintln!(
-                    "warning: frame {}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations",
-                    captured.frame
+                    "warning: frame {i}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations"
                 );
             }
             let skipped: serde_json::Map<String, serde_json::Value> = report
@@ -370,7 +377,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 .map(|(pass, why)| (pass.to_string(), why.to_string().into()))
                 .collect();
             frames.push(serde_json::json!({
-                "frame": captured.frame,
+                "frame": i,
                 "passes": captured.passes,
                 "iterations": iterations,
                 "converged": converged,
@@ -381,6 +388,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             timings.extend(captured.timings.clone());
             last = Some(captured);
         }
+        bar.finish_and_clear();
         let quadgraph = translucent
             .quadgraph()
             .context("the QuadGraph method reports the solve")?;
@@ -408,7 +416,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 _ => vec![0; level_count],
             };
             frames.push(serde_json::json!({
-                "frame": captured.frame,
+                "frame": i,
                 "passes": captured.passes,
                 "iterations": iterations,
             }));
@@ -420,10 +428,32 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
     }
     let last = last.context("no frame rendered")?;
+    // An EXR keeps any radiance (a dim scene is data); a PNG must show something.
+    let png = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let lit = lit_pixels(&last.image, png.then_some(args.scene.exposure));
+    if lit == 0 && !args.allow_black {
+        bail!(
+            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it{}? --allow-black writes it anyway",
+            args.out.display(),
+            if png { ", or is --exposure too low" } else { "" }
+        );
+    }
     last.image
         .write(&args.out, args.scene.exposure)
         .with_context(|| format!("--out {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({} x {}, {} ms)",
+        args.out.display(),
+        last.image.width,
+        last.image.height,
+        started.elapsed().as_millis()
+    );
 
+    // The last frame's GPU scopes in execution order (nested ones indented) and its total.
+    let profile = last.timings.as_ref().map(profile_in_order);
     if args.profile && !args.json {
         println!(
             "bake {bake_s:9.3} s ({}), {}",
@@ -444,11 +474,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 },
             }
         );
-        if last.passes.is_empty() {
-            println!("no GPU timestamps on this device");
-        }
-        for (pass, ms) in &last.passes {
-            println!("{pass:<12} {ms:9.3} ms");
+        match &profile {
+            None => println!("no GPU timestamps on this device"),
+            Some((scopes, total)) => {
+                println!("GPU ms of the last frame (frame {}):", args.frames - 1);
+                for (name, depth, ms) in scopes {
+                    let indent = 2 + 2 * *depth as usize;
+                    println!("{:indent$}{name:<w$} {ms:9.3}", "", w = 30 - indent);
+                }
+                println!("  {:<28} {total:9.3}", "total");
+            }
         }
     }
     let (residual, energy, clamped) = match (&solution, &gpu_report) {
@@ -506,7 +541,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "absorbed": energy.absorbed,
             },
             "clamped_nodes": clamped,
-            "cpu_seconds": { "bake": bake_s, "solve": solve_s },
+            // A GPU solve has no CPU solve time (its GPU ms are in `frames` and `profile`).
+            "cpu_seconds": { "bake": bake_s, "solve": (!on_gpu).then_some(solve_s) },
+            "profile": args.profile.then(|| profile.as_ref().map(|(scopes, total)| serde_json::json!({
+                "frame": args.frames - 1,
+                "scopes": scopes.iter().map(|(n, d, ms)| serde_json::json!({"name": n, "depth": d, "ms": ms})).collect::<Vec<_>>(),
+                "total_ms": total,
+            }))),
             "cache": cache_file.display().to_string(),
         });
         println!("{out}");
@@ -517,6 +558,85 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
+}
+
+/// One step of an 8-bit PNG channel: a pixel whose tone-mapped sRGB value is below it shows as
+/// black.
+const PNG_STEP: f32 = 1.0 / 255.0;
+
+/// Pixels of the object (coverage > 0) with radiance: for a PNG (`Some(exposure)`) those it shows
+/// brighter than black (the PNG writer's tone map: Narkowicz's ACES fit, then the sRGB curve), for
+/// an EXR (`None`) any above 0.
+fn lit_pixels(image: &translucent::vk::LinearImage, png_exposure: Option<f32>) -> usize {
+    let lit = |v: f32| {
+        let Some(exposure) = png_exposure else {
+            return v > 0.0;
+        };
+        let x = (v * exposure).clamp(0.0, 1e6);
+        let t = ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
+        let shown = if t <= 0.003_130_8 {
+            12.92 * t
+        } else {
+            1.055 * t.powf(1.0 / 2.4) - 0.055
+        };
+        shown >= PNG_STEP
+    };
+    image
+        .pixels
+        .iter()
+        .filter(|p| p[3] > 0.0 && p[..3].iter().any(|&v| v.is_finite() && lit(v)))
+        .count()
+}
+
+/// A frame's GPU scopes in execution order as (name, depth, ms), scopes of the same name and
+/// depth summed at their first place, and the total of the top-level scopes.
+fn profile_in_order(t: &FrameTimings) -> (Vec<(String, u32, f64)>, f64) {
+    let mut scopes: Vec<(String, u32, f64)> = Vec::new();
+    let mut total = 0.0;
+    for s in &t.scopes {
+        if s.depth == 0 {
+            total += s.duration_ms;
+        }
+        match scopes
+            .iter_mut()
+            .find(|(n, d, _)| *n == s.name && *d == s.depth)
+        {
+            Some((_, _, ms)) => *ms += s.duration_ms,
+            None => scopes.push((s.name.clone(), s.depth, s.duration_ms)),
+        }
+    }
+    (scopes, total)
+}
+
+/// Fails unless a file can be created next to `out` (its folder exists and is writable), so a
+/// bad `--out` is reported before the bake and the solve. Leaves nothing behind.
+pub(crate) fn check_writable(out: &Path) -> anyhow::Result<()> {
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "--out {}: the folder {} does not exist",
+            out.display(),
+            dir.display()
+        );
+    }
+    if out.is_dir() {
+        bail!("--out {}: is a folder", out.display());
+    }
+    let probe = dir.join(format!(".translucent-write-probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!(
+            "--out {}: cannot write in {}: {e}",
+            out.display(),
+            dir.display()
+        ),
+    }
 }
 
 /// `lights` rotated about +Y by `degrees` (directions and positions).

@@ -111,9 +111,16 @@ fn render_writes_linear_exr_and_a_cached_bake_is_reused() {
     ];
     args.extend(SMALL);
     args.extend(["--out", exr.to_str().expect("utf-8 path"), "--json"]);
-    let first = json_of(&translucent(&args, &dir));
+    let first_run = translucent(&args, &dir);
+    let first = json_of(&first_run);
     let second = json_of(&translucent(&args, &dir));
     assert!(exr.is_file());
+    let said = String::from_utf8_lossy(&first_run.stderr);
+    assert!(
+        said.lines()
+            .any(|l| l.starts_with(&format!("wrote {}", exr.display())) && l.contains(" x ")),
+        "render says what it wrote: {said}"
+    );
     assert_eq!(first["cache"], second["cache"]);
     // Same graph, same solution; parallel reductions may differ in the last bits only.
     for key in ["transmitted_input", "exitance", "absorbed"] {
@@ -136,7 +143,22 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
     let dir = scratch("bad");
     let out = dir.join("never.png");
     let out_s = out.to_str().expect("utf-8 path");
+    let triangle = dir.join("triangle.obj");
+    std::fs::write(&triangle, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").expect("obj");
+    let triangle_s = triangle.to_str().expect("utf-8 path");
+    let truncated = dir.join("truncated.obj");
+    std::fs::write(&truncated, "v 0 0 0\nv 1 0 0\nv 0 1").expect("obj");
+    let truncated_s = truncated.to_str().expect("utf-8 path");
     for (args, needle) in [
+        // A single triangle encloses nothing: the advice is a closed solid, not a finer lattice.
+        (
+            vec!["render", "--mesh", triangle_s, "--force", "--out", out_s],
+            "open surface",
+        ),
+        (
+            vec!["render", "--mesh", truncated_s, "--out", out_s],
+            "line 3: vertex 3 has 2 coordinate(s)",
+        ),
         (vec!["render", "--out", "x.bmp"], "--out"),
         (
             vec!["render", "--material", "cheese", "--out", out_s],
@@ -204,7 +226,44 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
         assert!(!o.status.success(), "{args:?} succeeded");
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(
+            stderr.lines().filter(|l| l.starts_with("error")).count(),
+            1,
+            "{args:?}: one error line: {stderr}"
+        );
         assert!(!out.exists(), "{args:?} left an output file");
+    }
+}
+
+#[test]
+fn an_unwritable_out_fails_before_the_bake_with_one_error_line() {
+    let dir = scratch("unwritable");
+    let missing = dir.join("no-such-folder").join("x.png");
+    let folder = dir.join("a-folder.png");
+    std::fs::create_dir_all(&folder).expect("folder");
+    for (out, needle) in [(&missing, "does not exist"), (&folder, "is a folder")] {
+        let o = translucent(
+            &[
+                "render",
+                "--shape",
+                "sphere",
+                "--out",
+                out.to_str().expect("utf-8"),
+            ],
+            &dir,
+        );
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{out:?} succeeded");
+        assert!(stderr.contains(needle), "{out:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+        let bakes = std::fs::read_dir(&dir)
+            .expect("dir")
+            .filter(|e| {
+                e.as_ref()
+                    .is_ok_and(|e| e.file_name().to_string_lossy().ends_with(".qgraph"))
+            })
+            .count();
+        assert_eq!(bakes, 0, "{out:?}: baked before refusing");
     }
 }
 

@@ -99,6 +99,77 @@ fn gpu_solver_renders_with_gpu_counted_iterations_and_matches_the_cpu_energy() {
 }
 
 #[test]
+fn profile_is_in_execution_order_with_a_total_and_in_the_json() {
+    let dir = scratch("gpu-profile");
+    let json = json_of(&render(&dir, &["--frames", "2", "--profile"]));
+    let frames = json["frames"].as_array().expect("frames");
+    let indices: Vec<u64> = frames
+        .iter()
+        .map(|f| f["frame"].as_u64().expect("index"))
+        .collect();
+    assert_eq!(
+        indices,
+        [0, 1],
+        "frame indices from 0, only the frames rendered"
+    );
+    assert!(
+        json["cpu_seconds"]["solve"].is_null(),
+        "a GPU solve has no CPU solve time: {}",
+        json["cpu_seconds"]
+    );
+    let profile = &json["profile"];
+    assert_eq!(profile["frame"], 1, "the last frame's profile");
+    let scopes = profile["scopes"].as_array().expect("scopes");
+    let top: Vec<&str> = scopes
+        .iter()
+        .filter(|s| s["depth"] == 0)
+        .map(|s| s["name"].as_str().expect("name"))
+        .collect();
+    // The second frame of an unchanged scene: only the shading (and the host's capture) ran.
+    let shading = top.iter().position(|&n| n == "shading").expect("shading");
+    let capture = top.iter().position(|&n| n == "capture").expect("capture");
+    assert!(
+        shading < capture,
+        "execution order, not alphabetical: {top:?}"
+    );
+    let sum: f64 = scopes
+        .iter()
+        .filter(|s| s["depth"] == 0)
+        .map(|s| s["ms"].as_f64().expect("ms"))
+        .sum();
+    let total = profile["total_ms"].as_f64().expect("total");
+    assert!(
+        (sum - total).abs() <= 1e-9 * total.max(1.0),
+        "total {total} is the top-level scopes' sum {sum}"
+    );
+    // Without --profile there is no profile in the JSON.
+    let plain = json_of(&render(&dir, &[]));
+    assert!(plain["profile"].is_null());
+}
+
+#[test]
+fn a_black_image_is_an_error_unless_allowed() {
+    let dir = scratch("gpu-black");
+    let png = dir.join("out.png");
+    // A point light at the centre of the sphere lights no surface point from outside.
+    let inside = ["--light", "point:0,0,0:100,100,100"];
+    let refused = render(&dir, &inside);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success(), "a black image was accepted");
+    assert!(stderr.contains("no lit object pixel"), "{stderr}");
+    assert!(!png.exists(), "a refused image was written");
+    let mut allowed = inside.to_vec();
+    allowed.push("--allow-black");
+    let out = render(&dir, &allowed);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(png.is_file());
+}
+
+#[test]
 fn gpu_precision_modes_and_bad_combinations() {
     let dir = scratch("precision");
     for precision in ["fp16", "fp32"] {

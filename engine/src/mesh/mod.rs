@@ -114,6 +114,9 @@ pub enum MeshError {
         position: [f64; 3],
         line: Option<usize>,
     },
+    /// A `v` or `f` line that does not parse (tobj's own error names no line).
+    #[error("line {line}: {problem}")]
+    Syntax { line: usize, problem: String },
     #[error("all {faces} faces are degenerate (zero area or a repeated vertex)")]
     AllDegenerate { faces: usize },
     #[error(

@@ -131,7 +131,24 @@ fn prescan(bytes: &[u8]) -> Result<(), MeshError> {
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
-                let coords: Vec<f64> = words.take(3).filter_map(|w| w.parse().ok()).collect();
+                let words: Vec<&str> = words.take(3).collect();
+                if let Some(bad) = words.iter().find(|w| w.parse::<f64>().is_err()) {
+                    return Err(MeshError::Syntax {
+                        line: number + 1,
+                        problem: format!("vertex {}: {bad:?} is not a number", vertices + 1),
+                    });
+                }
+                if words.len() < 3 {
+                    return Err(MeshError::Syntax {
+                        line: number + 1,
+                        problem: format!(
+                            "vertex {} has {} coordinate(s), expected x y z (a truncated file?)",
+                            vertices + 1,
+                            words.len()
+                        ),
+                    });
+                }
+                let coords: Vec<f64> = words.iter().filter_map(|w| w.parse().ok()).collect();
                 // tobj stores f32: a finite f64 beyond its range would load as infinity.
                 if coords.iter().any(|&c| !(c as f32).is_finite()) {
                     let mut position = [f64::NAN; 3];
@@ -146,9 +163,22 @@ fn prescan(bytes: &[u8]) -> Result<(), MeshError> {
             }
             Some("f") => {
                 faces += 1;
+                let words: Vec<&str> = words.collect();
+                if words.len() < 3 {
+                    return Err(MeshError::Syntax {
+                        line: number + 1,
+                        problem: format!(
+                            "face {faces} has {} vertex reference(s), expected at least 3 (a truncated file?)",
+                            words.len()
+                        ),
+                    });
+                }
                 for word in words {
                     let Some(Ok(index)) = word.split('/').next().map(str::parse::<i64>) else {
-                        continue; // tobj reports the syntax error
+                        return Err(MeshError::Syntax {
+                            line: number + 1,
+                            problem: format!("face {faces}: {word:?} is not a vertex index"),
+                        });
                     };
                     let resolved = if index < 0 {
                         vertices as i64 + index + 1

@@ -501,3 +501,164 @@ fn check(g: &QuadGraph) -> Result<(), String> {
     }
     Ok(())
 }
+
+// ---- The cache directory: size limit with least-recently-used eviction ---------------------
+// (`translucent cache info|clean`; kept apart from the file format above.)
+
+/// The default size limit of a cache directory (a 48-resolution bake of a 50 mm object is
+/// 30-70 MB, so this keeps a few dozen).
+pub const DEFAULT_LIMIT_BYTES: u64 = 2 << 30;
+
+/// The extension of cache files; only such files are ever evicted or cleaned.
+pub const EXTENSION: &str = "qgraph";
+
+/// One cached bake in a cache directory.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CacheEntry {
+    pub path: PathBuf,
+    pub bytes: u64,
+    /// When it was last written or loaded through [`bake_cached_lru`] (its modification time).
+    pub last_used: std::time::SystemTime,
+}
+
+/// The `.qgraph` files of `dir`, least recently used first (a missing directory is empty).
+pub fn entries(dir: &Path) -> Result<Vec<CacheEntry>, BakeError> {
+    let read = match std::fs::read_dir(dir) {
+        Ok(r) => r,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io_error(dir, e)),
+    };
+    let mut out = Vec::new();
+    for item in read {
+        let item = item.map_err(|e| io_error(dir, e))?;
+        let path = item.path();
+        if path.extension().and_then(|e| e.to_str()) != Some(EXTENSION) {
+            continue;
+        }
+        let meta = match item.metadata() {
+            Ok(m) if m.is_file() => m,
+            Ok(_) => continue,
+            // Removed by another process since the listing: not an entry any more.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(io_error(&path, e)),
+        };
+        out.push(CacheEntry {
+            path,
+            bytes: meta.len(),
+            last_used: meta.modified().map_err(|e| io_error(dir, e))?,
+        });
+    }
+    out.sort_by(|a, b| a.last_used.cmp(&b.last_used).then(a.path.cmp(&b.path)));
+    Ok(out)
+}
+
+/// Marks `path` as used now (its modification time), so eviction keeps it longest.
+pub fn mark_used(path: &Path) -> Result<(), BakeError> {
+    let file = File::options()
+        .write(true)
+        .open(path)
+        .map_err(|e| io_error(path, e))?;
+    file.set_modified(std::time::SystemTime::now())
+        .map_err(|e| io_error(path, e))
+}
+
+/// Removes the least recently used `.qgraph` files of `dir` until the rest fit in
+/// `limit_bytes`; `keep` (the bake just used) is never removed. Returns what was removed.
+pub fn evict(
+    dir: &Path,
+    limit_bytes: u64,
+    keep: Option<&Path>,
+) -> Result<Vec<CacheEntry>, BakeError> {
+    let all = entries(dir)?;
+    let mut total: u64 = all.iter().map(|e| e.bytes).sum();
+    let mut removed = Vec::new();
+    for entry in all {
+        if total <= limit_bytes {
+            break;
+        }
+        if keep.is_some_and(|k| k == entry.path) {
+            continue;
+        }
+        match std::fs::remove_file(&entry.path) {
+            Ok(()) => {}
+            // Another process evicted it first: the space is free either way.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(io_error(&entry.path, e)),
+        }
+        total -= entry.bytes;
+        removed.push(entry);
+    }
+    Ok(removed)
+}
+
+/// [`bake_cached`], then marks the file used and evicts the directory's least recently used
+/// bakes beyond `limit_bytes` (never this one). Returns what was evicted too.
+pub fn bake_cached_lru(
+    path: &Path,
+    surface: &TriMesh,
+    solid: &dyn Solid,
+    params: &BakeParams,
+    limit_bytes: u64,
+    progress: &mut dyn FnMut(BakeProgress),
+) -> Result<(QuadGraph, BakeStats, CacheOutcome, Vec<CacheEntry>), BakeError> {
+    let (graph, stats, outcome) = bake_cached(path, surface, solid, params, progress)?;
+    mark_used(path)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let evicted = evict(dir, limit_bytes, Some(path))?;
+    Ok((graph, stats, outcome, evicted))
+}
+
+#[cfg(test)]
+mod lru_tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("translucent-lru-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch");
+        dir
+    }
+
+    fn file(dir: &Path, name: &str, bytes: usize, age_s: u64) -> PathBuf {
+        let path = dir.join(name);
+        std::fs::write(&path, vec![0u8; bytes]).expect("write");
+        let when = std::time::SystemTime::now() - std::time::Duration::from_secs(age_s);
+        File::options()
+            .write(true)
+            .open(&path)
+            .and_then(|f| f.set_modified(when))
+            .expect("mtime");
+        path
+    }
+
+    #[test]
+    fn eviction_removes_the_least_recently_used_bakes_and_nothing_else() {
+        let dir = scratch("evict");
+        let old = file(&dir, "old.qgraph", 100, 300);
+        let mid = file(&dir, "mid.qgraph", 100, 200);
+        let new = file(&dir, "new.qgraph", 100, 100);
+        let other = file(&dir, "notes.txt", 1000, 400);
+        let listed: Vec<_> = entries(&dir)
+            .expect("list")
+            .into_iter()
+            .map(|e| e.path)
+            .collect();
+        assert_eq!(
+            listed,
+            [old.clone(), mid.clone(), new.clone()],
+            "oldest first, only .qgraph"
+        );
+        // Using the oldest makes it the newest.
+        mark_used(&old).expect("mark");
+        let removed = evict(&dir, 200, None).expect("evict");
+        assert_eq!(removed.iter().map(|e| &e.path).collect::<Vec<_>>(), [&mid]);
+        assert!(old.exists() && new.exists() && other.exists());
+        // `keep` survives even when it alone is over the limit.
+        let removed = evict(&dir, 0, Some(&old)).expect("evict");
+        assert_eq!(removed.len(), 1);
+        assert!(old.exists() && !new.exists() && other.exists());
+        assert!(entries(&dir.join("missing")).expect("empty").is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
