@@ -6,9 +6,12 @@
 //! - [`scene`]: lights and environments, irradiance q at surface nodes.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
+//! - [`dipole`]: the third method, hierarchical boundary elements with the dipole BSSRDF
+//!   (Mertens et al. 2003).
 
 pub mod analytic;
 pub mod cpu;
+pub mod dipole;
 pub mod environment_map;
 pub mod gpu;
 pub mod krylov;
@@ -51,6 +54,8 @@ pub enum SolverError {
     MissingLinks { level: usize },
     #[error("solver: {what} is not finite")]
     NonFinite { what: String },
+    #[error(transparent)]
+    Dipole(#[from] dipole::DipoleError),
 }
 
 impl SolverError {
