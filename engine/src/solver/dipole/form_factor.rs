@@ -330,6 +330,35 @@ pub fn point_form_factor(
     profile.r_d_rgb(r).map(|v| v * area)
 }
 
+/// One point sample corrected to second order: A R_d(r) + (1/2) tr(H M2), with H the Hessian of
+/// R_d(|x - receiver|) at the centroid and M2 the patch's second moment of area about it
+/// (xx, yy, zz, xy, xz, yz; [`super::NodeGeometry::second_moment`]). Exact for quadratic R_d; the
+/// error is fourth order in the patch size over R_d's falloff length.
+pub fn moment_form_factor(
+    profile: &DipoleProfile,
+    receiver: DVec3,
+    centroid: DVec3,
+    area: f64,
+    second_moment: &[f64; 6],
+) -> [f64; 3] {
+    let d = receiver - centroid;
+    let r = d.length();
+    let u = if r > 0.0 { d / r } else { DVec3::ZERO };
+    let m = second_moment;
+    let trace = m[0] + m[1] + m[2];
+    let along = u.x * u.x * m[0]
+        + u.y * u.y * m[1]
+        + u.z * u.z * m[2]
+        + 2.0 * (u.x * u.y * m[3] + u.x * u.z * m[4] + u.y * u.z * m[5]);
+    std::array::from_fn(|c| {
+        let (v, slope_over_r, curvature) = profile.channels[c].r_d_derivatives(r);
+        // At r = 0 (u undefined) the Hessian is R_d''(0) I: the same formula with along = 0 and
+        // slope_over_r = R_d''(0).
+        let f = area * v + 0.5 * (curvature * along + slope_over_r * (trace - along));
+        f.max(0.0)
+    })
+}
+
 /// Point sampling of a triangle for comparison (the paper's Table 5 and Fig. 5): the triangle cut
 /// into 4^`levels` congruent triangles by midpoint subdivision, one sample at each centroid.
 pub fn sampled_triangle_form_factor(

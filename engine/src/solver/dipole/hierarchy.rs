@@ -75,6 +75,21 @@ pub struct NodeGeometry {
     pub planarity: f64,
     /// Radius of a sphere about `centroid` holding every triangle of the cluster, mm.
     pub radius: f64,
+    /// Second moment of the cluster's area about `centroid`, int (x - c)(x - c)^T dA (mm^4), as
+    /// xx, yy, zz, xy, xz, yz: what the second-order point sample needs.
+    pub second_moment: [f64; 6],
+}
+
+/// x x^T scaled, as xx, yy, zz, xy, xz, yz.
+fn outer(x: DVec3, w: f64) -> [f64; 6] {
+    [
+        w * x.x * x.x,
+        w * x.y * x.y,
+        w * x.z * x.z,
+        w * x.x * x.y,
+        w * x.x * x.z,
+        w * x.y * x.z,
+    ]
 }
 
 /// Counts and times of a build.
@@ -563,6 +578,12 @@ impl FaceClusterHierarchy {
                     .iter()
                     .map(|p| (*p - centroid).length())
                     .fold(0.0, f64::max);
+                // A triangle's second moment about its centroid: (A/12) sum d_i d_i^T.
+                let mut second_moment = [0.0; 6];
+                for p in [a, b, c] {
+                    let o = outer(p - centroid, area / 12.0);
+                    (0..6).for_each(|k| second_moment[k] += o[k]);
+                }
                 *g = NodeGeometry {
                     centroid,
                     area,
@@ -570,6 +591,7 @@ impl FaceClusterHierarchy {
                     normal: if area > 0.0 { n2 / area } else { DVec3::Y },
                     planarity: 1.0,
                     radius,
+                    second_moment,
                 };
                 *ch = tri.iter().any(|&i| moved[i as usize]);
             });
@@ -617,6 +639,12 @@ fn combine(x: &NodeGeometry, y: &NodeGeometry) -> NodeGeometry {
     let projected = vector_area.length();
     let radius = ((x.centroid - centroid).length() + x.radius)
         .max((y.centroid - centroid).length() + y.radius);
+    // Parallel axis theorem: each child's moment moved to the parent's centroid.
+    let mut second_moment = [0.0; 6];
+    for g in [x, y] {
+        let o = outer(g.centroid - centroid, g.area);
+        (0..6).for_each(|k| second_moment[k] += g.second_moment[k] + o[k]);
+    }
     NodeGeometry {
         centroid,
         area,
@@ -632,6 +660,7 @@ fn combine(x: &NodeGeometry, y: &NodeGeometry) -> NodeGeometry {
             1.0
         },
         radius,
+        second_moment,
     }
 }
 
@@ -719,6 +748,17 @@ mod tests {
                 }
             }
             assert!((0.0..=1.0).contains(&g.planarity));
+            // The combined second moment against a direct sum over the leaves (about g's centroid).
+            let mut direct = [0.0; 6];
+            for &f in &leaves[n] {
+                let l = &tree.geometry[f as usize];
+                let o = outer(l.centroid - g.centroid, l.area);
+                (0..6).for_each(|k| direct[k] += l.second_moment[k] + o[k]);
+            }
+            let scale = g.second_moment[..3].iter().sum::<f64>();
+            for k in 0..6 {
+                assert!((direct[k] - g.second_moment[k]).abs() <= 1e-9 * scale, "node {n}");
+            }
         }
         // The root covers the closed torus: its outline is empty, its net normal ~0.
         assert!(tree.boundary(tree.root()).is_empty());

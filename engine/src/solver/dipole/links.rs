@@ -3,21 +3,28 @@
 //!
 //! A link (R, E) says: the exitance at receiver R's midpoint gets E's area-averaged transmitted
 //! irradiance times the form factor F(E, c_R) (Eq. 7), and R passes it on to every triangle below
-//! it. Linking starts with the root linked to itself and refines (Jensen and Buhler's maximum
-//! solid angle criteria, with the solid angle of E seen from a point taken as A_E / d^2, d the
-//! distance to E's bounding sphere, infinite inside it):
-//! - receiver: if the solid angle of E varies by more than `receiver_epsilon` between R's midpoint
-//!   and its children's midpoints, split R;
-//! - emitter: if E subtends more than `emitter_epsilon` from R's midpoint, split E;
+//! it. Linking starts with the root linked to itself and refines:
+//! - receiver ([`ReceiverCriterion`]): the paper's (Jensen and Buhler's maximum solid angle
+//!   criterion: split R if the solid angle of E, taken as A_E / d^2 with d the distance to E's
+//!   bounding sphere, varies by more than epsilon_1 between R's midpoint and its children's), or
+//!   ours, which bounds what pushing one value to all of R gets wrong: split R if
+//!   rho_R k F_up > tolerance x R_total, with F_up = A_E R_d(gap between the bounding spheres),
+//!   k = sigma_tr + 3/s the largest log-slope of R_d there, R_total the total diffuse reflectance
+//!   (the exitance of a uniformly lit plane per unit irradiance); per channel. The paper's is
+//!   purely geometric and ignores R_d's exponential falloff (benches/RESULTS.md: its error stays
+//!   above 1% even at 390 links per triangle);
+//! - emitter: if E subtends more than `emitter_epsilon` from R's midpoint, split E (the paper's
+//!   epsilon_2);
 //! - when both ask, the larger cluster (bounding radius) is split.
 //!
-//! An accepted link's form factor is one point sample, A_E R_d(|c_R - c_E|), when R_d varies by less
-//! than `sample_tolerance` (relative) across E (|d ln R_d / dr| <= sigma_tr + 3/s bounds it): the role of
-//! "would need more than one sample" in the paper's section 3.2. Otherwise it is the semi-analytic
-//! form factor of E's boundary projected onto E's plane, scaled by A/A' so the cluster emits its
-//! true power; a cluster flatter than `min_planarity` (A'/A) is split first (section 5.1.1). With
-//! [`NearField::PointSampling`] (the comparison of Table 5) such clusters are split down to
-//! triangles, which are cut into 4^k pieces until each piece passes the sample tolerance.
+//! An accepted link's form factor is one point sample, A_E R_d(|c_R - c_E|), when the bound on that
+//! sample's error, (rho_E k)^2 / 8 x F_up, is below `sample_tolerance` x R_total (the role of "would
+//! need more than one sample" in the paper's section 3.2, weighted by the form factor's magnitude
+//! as its section 7.2 suggests). Otherwise it is the semi-analytic form factor of E's boundary
+//! projected onto E's plane, scaled by A/A' so the cluster emits its true power; a cluster flatter
+//! than `min_planarity` (A'/A) is split first (section 5.1.1). With [`NearField::PointSampling`]
+//! (the comparison of Table 5) such clusters are split down to triangles, which are cut into 4^k
+//! pieces until the bound holds for each piece.
 //!
 //! ```
 //! use translucent::material::Material;
@@ -29,7 +36,7 @@
 //! let (set, stats) = LinkSet::build(&tree, &dipole, &LinkParams::default());
 //! assert_eq!(set.len() as u64, stats.links);
 //! let irradiance = vec![[1.0; 3]; tree.leaf_count()];
-//! let exitance = links::render(&tree, &set, &irradiance, None);
+//! let exitance = links::render(&tree, &dipole, &set, &irradiance, None);
 //! assert_eq!(exitance.vertex.len(), mesh.positions.len());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -38,7 +45,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::form_factor::{
-    point_form_factor, polygon_form_factor, sampled_triangle_form_factor, FormFactorParams,
+    moment_form_factor, point_form_factor, polygon_form_factor, sampled_triangle_form_factor, FormFactorParams,
     FormFactorStats,
 };
 use super::hierarchy::{FaceClusterHierarchy, NodeGeometry};
@@ -55,29 +62,48 @@ pub enum NearField {
     PointSampling { max_levels: u32 },
 }
 
+/// When a receiver cluster is split (module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReceiverCriterion {
+    /// The paper's: epsilon_1 (sr), the largest change of E's solid angle across R's children.
+    SolidAngle { epsilon: f64 },
+    /// Ours: the largest error of pushing R's value to all of R, relative to R_total.
+    Transport { tolerance: f64 },
+}
+
 /// Oracle and form-factor settings (module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LinkParams {
-    /// epsilon_1 (sr): largest change of E's solid angle across R's children.
-    pub receiver_epsilon: f64,
+    pub receiver: ReceiverCriterion,
     /// epsilon_2 (sr): largest solid angle of E seen from R's midpoint.
     pub emitter_epsilon: f64,
     /// Smallest A'/A of a cluster integrated semi-analytically.
     pub min_planarity: f64,
-    /// Largest relative change of R_d across E for one point sample.
+    /// Largest error bound of one point sample, relative to R_total.
     pub sample_tolerance: f64,
     pub near_field: NearField,
 }
 
 impl Default for LinkParams {
-    /// Chosen on the link-count and accuracy benches (benches/RESULTS.md, "Dipole method").
+    /// Chosen on the accuracy sweep (benches/RESULTS.md, "Dipole method").
     fn default() -> Self {
         LinkParams {
-            receiver_epsilon: 0.05,
+            receiver: ReceiverCriterion::Transport { tolerance: 1e-3 },
             emitter_epsilon: 0.1,
             min_planarity: 0.9,
-            sample_tolerance: 0.25,
+            sample_tolerance: 1e-3,
             near_field: NearField::SemiAnalytic(FormFactorParams::default()),
+        }
+    }
+}
+
+impl LinkParams {
+    /// The paper's oracle (section 5.2) with thresholds epsilon_1 and epsilon_2.
+    pub fn paper(epsilon_1: f64, epsilon_2: f64) -> LinkParams {
+        LinkParams {
+            receiver: ReceiverCriterion::SolidAngle { epsilon: epsilon_1 },
+            emitter_epsilon: epsilon_2,
+            ..Default::default()
         }
     }
 }
@@ -95,7 +121,10 @@ impl LinkParams {
                 })
             }
         };
-        positive("receiver_epsilon", self.receiver_epsilon)?;
+        match self.receiver {
+            ReceiverCriterion::SolidAngle { epsilon } => positive("receiver_epsilon", epsilon)?,
+            ReceiverCriterion::Transport { tolerance } => positive("receiver_tolerance", tolerance)?,
+        }
         positive("emitter_epsilon", self.emitter_epsilon)?;
         positive("sample_tolerance", self.sample_tolerance)?;
         if !(0.0..=1.0).contains(&self.min_planarity) {
@@ -202,12 +231,44 @@ fn solid_angle(p: DVec3, e: &NodeGeometry) -> f64 {
     }
 }
 
-/// Whether one point sample suffices for `e` seen from `p` (module doc).
+/// Per channel: (F_up, k) at planar gap `gap` from a patch of area `area`: the largest form factor
+/// A R_d(gap) and R_d's largest log-slope sigma_tr + 3/s there.
+fn bounds(profile: &DipoleProfile, gap: f64, area: f64) -> [(f64, f64); 3] {
+    std::array::from_fn(|c| {
+        let ch = &profile.channels[c];
+        let s = (gap * gap + ch.z_r * ch.z_r).sqrt();
+        (area * ch.r_d(gap), ch.sigma_tr + 3.0 / s)
+    })
+}
+
+/// Whether one point sample at E's centroid suffices seen from `p` (module doc).
 fn one_sample(profile: &DipoleProfile, p: DVec3, e: &NodeGeometry, tolerance: f64) -> bool {
     let gap = ((p - e.centroid).length() - e.radius).max(0.0);
-    let z = profile.min_z_r();
-    let s_min = (gap * gap + z * z).sqrt();
-    e.radius * (profile.max_sigma_tr() + 3.0 / s_min) <= tolerance
+    let total = profile.total_reflectance();
+    bounds(profile, gap, e.area)
+        .iter()
+        .zip(total)
+        .all(|(&(f_up, k), t)| (e.radius * k).powi(4) / 64.0 * f_up <= tolerance * t)
+}
+
+/// Whether a plain midpoint sample (no moment correction, the comparison of Table 5) suffices: its
+/// error bound is second order, (rho k)^2 / 8 x F_up.
+fn midpoint_sample(profile: &DipoleProfile, p: DVec3, e: &NodeGeometry, tolerance: f64) -> bool {
+    let gap = ((p - e.centroid).length() - e.radius).max(0.0);
+    let total = profile.total_reflectance();
+    bounds(profile, gap, e.area)
+        .iter()
+        .zip(total)
+        .all(|(&(f_up, k), t)| (e.radius * k).powi(2) / 8.0 * f_up <= tolerance * t)
+}
+
+/// Whether one sample suffices for the link: moment-corrected with the semi-analytic near field,
+/// plain midpoint with point sampling (the paper's comparison uses plain samples throughout).
+fn single_sample(profile: &DipoleProfile, params: &LinkParams, p: DVec3, e: &NodeGeometry) -> bool {
+    match params.near_field {
+        NearField::SemiAnalytic(_) => one_sample(profile, p, e, params.sample_tolerance),
+        NearField::PointSampling { .. } => midpoint_sample(profile, p, e, params.sample_tolerance),
+    }
 }
 
 /// The oracle for the candidate link (r, e).
@@ -222,21 +283,32 @@ pub(crate) fn decide(
     let (r_node, e_node) = (&tree.nodes[r as usize], &tree.nodes[e as usize]);
     let omega = solid_angle(gr.centroid, ge);
     let mut split_e = !e_node.is_leaf() && omega > params.emitter_epsilon;
-    let split_r = !r_node.is_leaf() && {
-        let mut deviation: f64 = 0.0;
-        for c in r_node.children {
-            let w = solid_angle(tree.geometry[c as usize].centroid, ge);
-            deviation = if w.is_infinite() || omega.is_infinite() {
-                f64::INFINITY
-            } else {
-                deviation.max((w - omega).abs())
-            };
-        }
-        deviation > params.receiver_epsilon
-    };
+    let split_r = !r_node.is_leaf()
+        && match params.receiver {
+            ReceiverCriterion::SolidAngle { epsilon } => {
+                let mut deviation: f64 = 0.0;
+                for c in r_node.children {
+                    let w = solid_angle(tree.geometry[c as usize].centroid, ge);
+                    deviation = if w.is_infinite() || omega.is_infinite() {
+                        f64::INFINITY
+                    } else {
+                        deviation.max((w - omega).abs())
+                    };
+                }
+                deviation > epsilon
+            }
+            ReceiverCriterion::Transport { tolerance } => {
+                let gap = ((gr.centroid - ge.centroid).length() - gr.radius - ge.radius).max(0.0);
+                let total = profile.total_reflectance();
+                bounds(profile, gap, ge.area)
+                    .iter()
+                    .zip(total)
+                    .any(|(&(f_up, k), t)| 0.5 * (gr.radius * k).powi(2) * f_up > tolerance * t)
+            }
+        };
     if !split_e
         && !e_node.is_leaf()
-        && !one_sample(profile, gr.centroid, ge, params.sample_tolerance)
+        && !single_sample(profile, params, gr.centroid, ge)
     {
         split_e = match params.near_field {
             NearField::SemiAnalytic(_) => ge.planarity < params.min_planarity,
@@ -266,9 +338,16 @@ pub(crate) fn form_factor(
         stats.point_links += 1;
         return [0.0; 3];
     }
-    if one_sample(profile, receiver, ge, params.sample_tolerance) {
+    if single_sample(profile, params, receiver, ge) {
         stats.point_links += 1;
-        return point_form_factor(profile, receiver, ge.centroid, ge.area);
+        return match params.near_field {
+            NearField::SemiAnalytic(_) => {
+                moment_form_factor(profile, receiver, ge.centroid, ge.area, &ge.second_moment)
+            }
+            NearField::PointSampling { .. } => {
+                point_form_factor(profile, receiver, ge.centroid, ge.area)
+            }
+        };
     }
     stats.near_links += 1;
     match params.near_field {
@@ -291,11 +370,18 @@ pub(crate) fn form_factor(
             f.map(|v| v * scale)
         }
         NearField::PointSampling { max_levels } => {
-            // Only triangles get here (clusters needing more than one sample are split).
+            // Only triangles get here (clusters needing more than one sample are split): quarter
+            // the pieces until each passes the one-sample bound (which falls as radius^2).
             let tri = tree.triangle(e as usize);
-            let z = profile.min_z_r();
-            let needed = ge.radius * (profile.max_sigma_tr() + 3.0 / z) / params.sample_tolerance;
-            let levels = (needed.max(1.0).log2().ceil() as u32).min(max_levels);
+            let mut levels = 0;
+            let mut piece = *ge;
+            while levels < max_levels
+                && !midpoint_sample(profile, receiver, &piece, params.sample_tolerance)
+            {
+                levels += 1;
+                piece.radius *= 0.5;
+                piece.area *= 0.25;
+            }
             stats.samples += 4u64.pow(levels);
             sampled_triangle_form_factor(profile, receiver, tri, levels)
         }
@@ -540,34 +626,84 @@ pub fn child_weights(a: &NodeGeometry, b: &NodeGeometry) -> [f64; 2] {
     }
 }
 
-/// Per-node gathered exitance B(R) = sum over R's links of F E (Eq. 6).
-pub fn gather(links: &LinkSet, node_irradiance: &[[f64; 3]]) -> Vec<[f64; 3]> {
+/// What a node received: exitance B at its midpoint and, for clusters, B's gradient with respect to
+/// the receiving point (per channel, mm^-1), so the push hands each triangle its own first-order
+/// value instead of the midpoint's.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Received {
+    pub value: [f64; 3],
+    pub gradient: [DVec3; 3],
+}
+
+impl Received {
+    /// Adds one link's contribution `c` (F x E per channel) from source centroid `from` to the
+    /// receiver at `at`: the gradient of F E is F E (d ln R_d/dr) (at - from)/|at - from|.
+    fn add(&mut self, profile: &DipoleProfile, c: [f64; 3], at: DVec3, from: DVec3, cluster: bool) {
+        (0..3).for_each(|k| self.value[k] += c[k]);
+        if !cluster {
+            return;
+        }
+        let d = at - from;
+        let r = d.length();
+        if r > 0.0 {
+            let slope = profile.log_slope_rgb(r);
+            (0..3).for_each(|k| self.gradient[k] += d * (c[k] * slope[k] / r));
+        }
+    }
+
+    fn accumulate(&mut self, o: &Received) {
+        for k in 0..3 {
+            self.value[k] += o.value[k];
+            self.gradient[k] += o.gradient[k];
+        }
+    }
+}
+
+/// Per-node gathered exitance B(R) = sum over R's links of F E (Eq. 6), with its gradient.
+pub fn gather(
+    tree: &FaceClusterHierarchy,
+    profile: &DipoleProfile,
+    links: &LinkSet,
+    node_irradiance: &[[f64; 3]],
+) -> Vec<Received> {
+    let t = tree.leaf_count();
     (0..links.receiver_offsets.len() - 1)
         .into_par_iter()
         .map(|r| {
-            let mut b = [0.0; 3];
+            let mut b = Received::default();
+            let at = tree.geometry[r].centroid;
             for l in links.of(r as u32) {
                 let e = &node_irradiance[l.source as usize];
-                (0..3).for_each(|k| b[k] += l.form_factor[k] as f64 * e[k]);
+                let c = std::array::from_fn(|k| l.form_factor[k] as f64 * e[k]);
+                let from = tree.geometry[l.source as usize].centroid;
+                b.add(profile, c, at, from, r >= t);
             }
             b
         })
         .collect()
 }
 
-/// The push of section 3.2: every leaf's exitance is the sum of what it and its ancestors received.
-pub fn push(tree: &FaceClusterHierarchy, node_exitance: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let mut m = node_exitance.to_vec();
+/// The push of section 3.2, first order: every leaf gets what it received plus, from each ancestor,
+/// the ancestor's value continued linearly to the leaf's midpoint.
+pub fn push(tree: &FaceClusterHierarchy, received: &[Received]) -> Vec<[f64; 3]> {
+    let mut m = received.to_vec();
     // Top-down: parents are created after their children, so a reverse sweep sees parents first.
+    // Each node ends with the sum of its ancestors' affine functions: value at its own midpoint
+    // and the summed gradient.
     for n in (0..tree.nodes.len()).rev() {
         let p = tree.nodes[n].parent;
         if p != super::hierarchy::NO_NODE {
             let up = m[p as usize];
-            (0..3).for_each(|k| m[n][k] += up[k]);
+            let offset = tree.geometry[n].centroid - tree.geometry[p as usize].centroid;
+            let node = &mut m[n];
+            for k in 0..3 {
+                node.value[k] += up.value[k] + up.gradient[k].dot(offset);
+                node.gradient[k] += up.gradient[k];
+            }
         }
     }
     m.truncate(tree.leaf_count());
-    m
+    m.into_iter().map(|r| r.value.map(|v| v.max(0.0))).collect()
 }
 
 /// Area weights of the triangles around each vertex, normalized (uniform where all are empty).
@@ -628,12 +764,13 @@ pub struct Exitance {
 /// push to the leaves, average to vertices.
 pub fn render(
     tree: &FaceClusterHierarchy,
+    profile: &DipoleProfile,
     links: &LinkSet,
     leaf_irradiance: &[[f64; 3]],
     modulation: Option<&[[f64; 3]]>,
 ) -> Exitance {
     let node = pull(tree, leaf_irradiance);
-    let received = gather(links, &node);
+    let received = gather(tree, profile, links, &node);
     let leaf = push(tree, &received);
     let vertex = to_vertices(tree, &leaf, modulation);
     Exitance { leaf, vertex }
@@ -652,13 +789,18 @@ pub fn on_the_fly(
     let irradiance = pull(tree, leaf_irradiance);
     let n = tree.nodes.len();
     let mut stats = LinkStats::default();
-    let mut received = vec![[0.0; 3]; n];
-    let accumulate = |b: &mut Vec<[f64; 3]>, r: u32, e: u32, s: &mut LinkStats| {
+    let t = tree.leaf_count();
+    let mut received = vec![Received::default(); n];
+    let accumulate = |b: &mut Vec<Received>, r: u32, e: u32, s: &mut LinkStats| {
         let f = form_factor(tree, profile, params, r, e, s);
         s.links += 1;
         let src = &irradiance[e as usize];
-        let dst = &mut b[r as usize];
-        (0..3).for_each(|k| dst[k] += f[k] * src[k]);
+        let c = std::array::from_fn(|k| f[k] * src[k]);
+        let (at, from) = (
+            tree.geometry[r as usize].centroid,
+            tree.geometry[e as usize].centroid,
+        );
+        b[r as usize].add(profile, c, at, from, r as usize >= t);
     };
     let tasks = seed_tasks(
         tree,
@@ -668,15 +810,12 @@ pub fn on_the_fly(
         |r, e, s| accumulate(&mut received, r, e, s),
         &mut stats,
     );
-    // A few accumulators per thread (memory: chunks x nodes x 24 bytes), summed at the end.
-    let chunk = tasks
-        .len()
-        .div_ceil(4 * rayon::current_num_threads())
-        .max(1);
-    let parts: Vec<(Vec<[f64; 3]>, LinkStats)> = tasks
+    // A few accumulators per thread (memory: chunks x nodes x 96 bytes), summed at the end.
+    let chunk = tasks.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+    let parts: Vec<(Vec<Received>, LinkStats)> = tasks
         .par_chunks(chunk)
         .map(|chunk| {
-            let mut b = vec![[0.0; 3]; n];
+            let mut b = vec![Received::default(); n];
             let mut s = LinkStats::default();
             for &task in chunk {
                 refine(tree, profile, params, task, &mut s, |r, e, s| {
@@ -691,7 +830,7 @@ pub fn on_the_fly(
         received
             .par_iter_mut()
             .zip(b.par_iter())
-            .for_each(|(x, y)| (0..3).for_each(|k| x[k] += y[k]));
+            .for_each(|(x, y)| x.accumulate(y));
     }
     let leaf = push(tree, &received);
     let vertex = to_vertices(tree, &leaf, modulation);

@@ -34,7 +34,7 @@
 //! let (links, stats) = LinkSet::build(&tree, &material.profile, &LinkParams::default());
 //! let scene = Scene { lights: vec!["dir:0,-1,0:3,3,3".parse()?], ..Default::default() };
 //! let irradiance = dipole::irradiance::leaf_irradiance(&tree, &scene, material.base.eta, None)?;
-//! let m = dipole::links::render(&tree, &links, &irradiance, material.modulation.as_deref());
+//! let m = dipole::links::render(&tree, &material.profile, &links, &irradiance, material.modulation.as_deref());
 //! let top = mesh.positions.iter().position(|p| p.y > 9.99).unwrap();
 //! assert!(m.vertex[top][0] > 0.0); // lit from above
 //! println!("{} links, {:.1} per triangle", stats.links, stats.links as f64 / tree.leaf_count() as f64);
@@ -56,7 +56,7 @@ use std::path::PathBuf;
 pub use gpu::DipoleGatherPass;
 pub use hierarchy::{FaceClusterHierarchy, HierarchyStats, NodeGeometry, RefitReport};
 pub use incremental::{IncrementalLinks, StepReport};
-pub use links::{Exitance, Link, LinkParams, LinkSet, LinkStats, NearField};
+pub use links::{Exitance, Link, LinkParams, LinkSet, LinkStats, NearField, ReceiverCriterion};
 pub use material::{DipoleMaterial, HeterogeneousPolicy};
 pub use profile::{BoundaryModel, DipoleProfile};
 

@@ -147,6 +147,47 @@ impl ChannelDipole {
         self.flux_scale() * flux + self.phi_scale() * phi
     }
 
+    /// The derivative dR_d/dr at planar distance `r` (mm^-3): each source term's d/ds times ds/dr =
+    /// r/s; flux: d/ds[z (1 + sigma s) e^(-sigma s)/s^3] = -z e^(-sigma s)(sigma^2/s^2 + 3(1 + sigma s)/s^4),
+    /// fluence: d/ds[e^(-sigma s)/s] = -e^(-sigma s)(1 + sigma s)/s^2.
+    pub fn r_d_slope(&self, r: f64) -> f64 {
+        let k = self.sigma_tr;
+        let term = |z: f64, sign: f64| {
+            let s = (r * r + z * z).sqrt();
+            let e = (-k * s).exp();
+            let (s2, s4) = (s * s, s * s * s * s);
+            let flux = -z * e * (k * k / s2 + 3.0 * (1.0 + k * s) / s4);
+            let phi = -e * (1.0 + k * s) / s2;
+            (r / s) * (self.flux_scale() * flux + sign * self.phi_scale() * phi)
+        };
+        term(self.z_r, 1.0) + term(self.z_v, -1.0)
+    }
+
+    /// R_d, dR_d/dr divided by r, and d^2R_d/dr^2 at planar distance `r` (finite at r = 0): what the
+    /// second-order point sample needs (the Hessian of R_d(|x - x_o|) is
+    /// R_d'' u u^T + (R_d'/r)(I - u u^T), u the unit direction).
+    pub fn r_d_derivatives(&self, r: f64) -> (f64, f64, f64) {
+        let k = self.sigma_tr;
+        let (mut value, mut slope_over_r, mut curvature) = (0.0, 0.0, 0.0);
+        for (z, sign) in [(self.z_r, 1.0), (self.z_v, -1.0)] {
+            let s = (r * r + z * z).sqrt();
+            let e = (-k * s).exp();
+            let (s2, s3, s4, s5) = (s * s, s * s * s, s * s * s * s, s * s * s * s * s);
+            let (fs, ps) = (self.flux_scale(), sign * self.phi_scale());
+            // f(s), f'(s), f''(s) of the flux and fluence terms of this source.
+            let f = fs * z * (1.0 + k * s) * e / s3 + ps * e / s;
+            let d1 = -fs * z * e * (k * k / s2 + 3.0 * (1.0 + k * s) / s4)
+                - ps * e * (1.0 + k * s) / s2;
+            let d2 = fs * z * e * (k * k * k / s2 + 5.0 * k * k / s3 + 12.0 * k / s4 + 12.0 / s5)
+                + ps * e * (k * k / s + 2.0 * k / s2 + 2.0 / s3);
+            // d/dr = (r/s) d/ds: R' = (r/s) f', R'' = f'/s + r^2 (f'' s - f') / s^3.
+            value += f;
+            slope_over_r += d1 / s;
+            curvature += d1 / s + r * r * (d2 * s - d1) / s3;
+        }
+        (value, slope_over_r, curvature)
+    }
+
     /// The integral of R_d over the whole plane, in closed form: the flux term of one source
     /// integrates to 2 pi e^(-sigma_tr z), the fluence term to 2 pi e^(-sigma_tr z)/sigma_tr
     /// (real minus virtual: 2 pi (z_v - z_r) as sigma_tr -> 0). For the Jensen model this is
@@ -225,6 +266,19 @@ impl DipoleProfile {
     /// R_d of all channels at distance `r` mm.
     pub fn r_d_rgb(&self, r: f64) -> [f64; 3] {
         std::array::from_fn(|c| self.channels[c].r_d(r))
+    }
+
+    /// d ln R_d / dr per channel at distance `r` mm (0 where R_d vanishes).
+    pub fn log_slope_rgb(&self, r: f64) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            let ch = &self.channels[c];
+            let v = ch.r_d(r);
+            if v > 0.0 {
+                ch.r_d_slope(r) / v
+            } else {
+                0.0
+            }
+        })
     }
 
     /// Total diffuse reflectance per channel (closed form, [`ChannelDipole::total_reflectance`]).
@@ -318,6 +372,46 @@ mod tests {
                             0.5 * ch.albedo * (1.0 + (-4.0 / 3.0 * p.a * s).exp()) * (-s).exp();
                         assert!((jensen - total).abs() < 1e-12 * total, "{jensen} {total}");
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_slope_is_the_derivative_of_r_d() {
+        for model in [BoundaryModel::Jensen, BoundaryModel::Moments] {
+            let p = DipoleProfile::new(&Material::preset("skin1").unwrap(), model);
+            for ch in &p.channels {
+                for r in [0.0, 0.05, 0.3, 1.0, 4.0, 20.0] {
+                    let h = 1e-5 * (1.0 + r);
+                    let numeric = (ch.r_d(r + h) - ch.r_d((r - h).abs())) / (r + h - (r - h).abs());
+                    let slope = ch.r_d_slope(r);
+                    // why 1e-6: the central difference's own h^2 error, relative to the largest slope.
+                    assert!(
+                        (numeric - slope).abs() <= 1e-6 * ch.r_d_slope(0.5 * ch.z_r).abs().max(slope.abs()),
+                        "{model:?} r {r}: {numeric} vs {slope}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let p = DipoleProfile::new(&Material::preset("ketchup").unwrap(), BoundaryModel::Moments);
+        for ch in &p.channels {
+            for r in [0.0, 0.1, 0.7, 3.0, 12.0] {
+                let (v, slope_over_r, curvature) = ch.r_d_derivatives(r);
+                assert!((v - ch.r_d(r)).abs() <= 1e-14 * v);
+                let h = 1e-4 * (ch.z_r + r);
+                let second = (ch.r_d(r + h) - 2.0 * ch.r_d(r) + ch.r_d((r - h).abs())) / (h * h);
+                // why 1e-5: the second difference's round-off (eps / h^2 relative) and h^2 error.
+                assert!((second - curvature).abs() <= 1e-5 * curvature.abs().max(v / (ch.z_r * ch.z_r)), "r {r}: {second} vs {curvature}");
+                if r > 0.0 {
+                    assert!((slope_over_r * r - ch.r_d_slope(r)).abs() <= 1e-12 * ch.r_d_slope(r).abs());
+                } else {
+                    // At 0 both are R_d''(0) (R_d is even in r).
+                    assert!((slope_over_r - curvature).abs() <= 1e-12 * curvature.abs());
                 }
             }
         }
