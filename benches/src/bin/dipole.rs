@@ -20,8 +20,8 @@ use translucent::mesh::shapes::Shape;
 use translucent::mesh::TriMesh;
 use translucent::solver::dipole::form_factor::FormFactorParams;
 use translucent::solver::dipole::{
-    links, BoundaryModel, DipoleProfile, FaceClusterHierarchy, LinkParams, LinkSet, NearField,
-    links::ReceiverCriterion,
+    links, links::ReceiverCriterion, BoundaryModel, DipoleProfile, FaceClusterHierarchy,
+    LinkParams, LinkSet, NearField,
 };
 use translucent_benches::dipole::{load_normalized, subdivide_midpoint};
 
@@ -51,8 +51,16 @@ fn options(args: &[String]) -> Result<Options> {
                 .ok_or_else(|| format!("{a} needs a value").into())
         };
         match a.as_str() {
-            "--eps1" => o.params.receiver = ReceiverCriterion::SolidAngle { epsilon: value()?.parse()? },
-            "--receiver-tolerance" => o.params.receiver = ReceiverCriterion::Transport { tolerance: value()?.parse()? },
+            "--eps1" => {
+                o.params.receiver = ReceiverCriterion::SolidAngle {
+                    epsilon: value()?.parse()?,
+                }
+            }
+            "--receiver-tolerance" => {
+                o.params.receiver = ReceiverCriterion::Transport {
+                    tolerance: value()?.parse()?,
+                }
+            }
             "--eps2" => o.params.emitter_epsilon = value()?.parse()?,
             "--tolerance" => o.params.sample_tolerance = value()?.parse()?,
             "--planarity" => o.params.min_planarity = value()?.parse()?,
@@ -95,13 +103,30 @@ fn meshes(size_mm: f64, max_triangles: usize) -> Result<Vec<(String, TriMesh)>> 
     if let Ok(spot) = load_normalized(&dir.join("spot.obj"), size_mm) {
         let mut m = spot;
         for k in 0..3 {
-            out.push((format!("spot{}", if k == 0 { String::new() } else { format!(" /{k}") }), m.clone()));
+            out.push((
+                format!(
+                    "spot{}",
+                    if k == 0 {
+                        String::new()
+                    } else {
+                        format!(" /{k}")
+                    }
+                ),
+                m.clone(),
+            ));
             m = subdivide_midpoint(&m);
         }
     } else {
         eprintln!("spot.obj not found in {}: skipped", dir.display());
     }
-    for name in ["homer", "fandisk", "cheburashka", "rocker-arm", "stanford-bunny", "nefertiti"] {
+    for name in [
+        "homer",
+        "fandisk",
+        "cheburashka",
+        "rocker-arm",
+        "stanford-bunny",
+        "nefertiti",
+    ] {
         match load_normalized(&dir.join(format!("{name}.obj")), size_mm) {
             Ok(m) => out.push((name.to_string(), m)),
             Err(e) => eprintln!("{name}: {e}: skipped"),
@@ -191,11 +216,19 @@ fn rms_error(ours: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
 
 /// Exitance error and cost against the link parameters on one mesh (spot, or a torus without it).
 fn sweep(o: &Options) -> Result<()> {
+    use translucent::scene::Scene;
     use translucent::solver::dipole::irradiance::leaf_irradiance;
-    use translucent::solver::Scene;
     let mesh = match load_normalized(&mesh_dir().join("spot.obj"), o.size_mm) {
         Ok(m) => m,
-        Err(_) => Shape::Torus { major: 10.0, minor: 4.0 }.triangulate(38).normalized(o.size_mm)?.0,
+        Err(_) => {
+            Shape::Torus {
+                major: 10.0,
+                minor: 4.0,
+            }
+            .triangulate(38)
+            .normalized(o.size_mm)?
+            .0
+        }
     };
     let material = Material::preset(&o.material)?;
     let profile = DipoleProfile::new(&material, BoundaryModel::Moments);
@@ -215,12 +248,33 @@ fn sweep(o: &Options) -> Result<()> {
     let receivers: Vec<usize> = (0..t).step_by((t / 400).max(1)).collect();
     let start = Instant::now();
     let reference = reference_exitance(&tree, &profile, &irradiance, &receivers);
-    eprintln!("reference: {} receivers in {:.1} s", receivers.len(), start.elapsed().as_secs_f64());
-    println!("{} triangles, {} at {} mm, {}; error: relative RMS of leaf exitance at {} triangles", t, o.material, o.size_mm, if uniform { "uniform irradiance" } else { "directional light with shadows" }, receivers.len());
-    println!("| receiver | eps2 | sample tolerance | L/T | near links | segments/T | link s | error |");
+    eprintln!(
+        "reference: {} receivers in {:.1} s",
+        receivers.len(),
+        start.elapsed().as_secs_f64()
+    );
+    println!(
+        "{} triangles, {} at {} mm, {}; error: relative RMS of leaf exitance at {} triangles",
+        t,
+        o.material,
+        o.size_mm,
+        if uniform {
+            "uniform irradiance"
+        } else {
+            "directional light with shadows"
+        },
+        receivers.len()
+    );
+    println!(
+        "| receiver | eps2 | sample tolerance | L/T | near links | segments/T | link s | error |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     let eps = |v: &[String], i: usize, d: &str| -> Vec<f64> {
-        v.get(i).map_or(d, |s| s.as_str()).split(',').filter_map(|x| x.parse().ok()).collect()
+        v.get(i)
+            .map_or(d, |s| s.as_str())
+            .split(',')
+            .filter_map(|x| x.parse().ok())
+            .collect()
     };
     let rest = &o.rest;
     let rest: Vec<String> = rest.iter().filter(|a| *a != "uniform").cloned().collect();
@@ -234,7 +288,12 @@ fn sweep(o: &Options) -> Result<()> {
                 } else {
                     ReceiverCriterion::Transport { tolerance: e1 }
                 };
-                let params = LinkParams { receiver, emitter_epsilon: e2, sample_tolerance: tol, ..o.params };
+                let params = LinkParams {
+                    receiver,
+                    emitter_epsilon: e2,
+                    sample_tolerance: tol,
+                    ..o.params
+                };
                 let (set, ls) = LinkSet::build(&tree, &profile, &params);
                 let m = links::render(&tree, &profile, &set, &irradiance, None);
                 let ours: Vec<[f64; 3]> = receivers.iter().map(|&r| m.leaf[r]).collect();
@@ -284,7 +343,15 @@ fn diagnose(o: &Options) -> Result<()> {
                 let mut st = FormFactorStats::default();
                 let exact: f64 = leaves[l.source as usize]
                     .iter()
-                    .map(|&f| triangle_form_factor(&profile, cx, tree.triangle(f as usize), &params, &mut st)[2])
+                    .map(|&f| {
+                        triangle_form_factor(
+                            &profile,
+                            cx,
+                            tree.triangle(f as usize),
+                            &params,
+                            &mut st,
+                        )[2]
+                    })
                     .sum();
                 let ours = l.form_factor[2] as f64;
                 sum_exact += exact;
@@ -311,14 +378,20 @@ fn diagnose(o: &Options) -> Result<()> {
 #[allow(dead_code)]
 fn unused() -> Result<()> {
     let total_err = [0.0f64; 2];
-    println!("net signed error {:.3e} of {:.3e}", total_err[0], total_err[1]);
+    println!(
+        "net signed error {:.3e} of {:.3e}",
+        total_err[0], total_err[1]
+    );
     Ok(())
 }
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(command) = args.first() else {
-        return Err("usage: dipole links|accuracy|boundary|modes|images [options] (see the module doc)".into());
+        return Err(
+            "usage: dipole links|accuracy|boundary|modes|images [options] (see the module doc)"
+                .into(),
+        );
     };
     let o = options(&args[1..])?;
     match command.as_str() {

@@ -53,8 +53,8 @@ use ash::vk;
 use super::hierarchy::{FaceClusterHierarchy, NO_NODE};
 use super::links::{child_weights, vertex_weights, Link, LinkSet};
 use super::DipoleError;
+use crate::scene::MAX_LIGHT_COLOUR;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
-use crate::solver::scene::MAX_LIGHT_COLOUR;
 use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, MemoryUse};
 
 /// The pass's profiler scope and debug label.

@@ -757,7 +757,10 @@ mod tests {
             }
             let scale = g.second_moment[..3].iter().sum::<f64>();
             for k in 0..6 {
-                assert!((direct[k] - g.second_moment[k]).abs() <= 1e-9 * scale, "node {n}");
+                assert!(
+                    (direct[k] - g.second_moment[k]).abs() <= 1e-9 * scale,
+                    "node {n}"
+                );
             }
         }
         // The root covers the closed torus: its outline is empty, its net normal ~0.

@@ -1,13 +1,13 @@
 //! Per-leaf transmitted irradiance E T_i (the paper's Eq. 5 and section 5.3) on the CPU: lights and
 //! environment at each triangle's centroid with its face normal, through
-//! [`crate::solver::Scene::irradiance_at`] (q of DESIGN section 2: E max(0, n.l) F_t visibility, plus
+//! [`crate::scene::Scene::irradiance_at`] (q of DESIGN section 2: E max(0, n.l) F_t visibility, plus
 //! pi L (1 - F_dr,ext) for a constant environment). Shadows by ray casting when an occluder is
 //! given. On the GPU this comes from the shared irradiance gather (phase 2).
 //!
 //! ```
 //! use translucent::mesh::shapes::Shape;
 //! use translucent::solver::dipole::{irradiance::leaf_irradiance, FaceClusterHierarchy};
-//! use translucent::solver::{Environment, Scene};
+//! use translucent::scene::{Environment, Scene};
 //! let mesh = Shape::Sphere { radius: 10.0 }.triangulate(8);
 //! let (tree, _) = FaceClusterHierarchy::build(&mesh)?;
 //! let sky = Scene { lights: vec![], environment: Environment::Constant([1.0; 3]) };
@@ -22,7 +22,7 @@ use super::hierarchy::FaceClusterHierarchy;
 use super::DipoleError;
 use crate::material::check_eta;
 use crate::mesh::Solid;
-use crate::solver::Scene;
+use crate::scene::Scene;
 
 /// Transmitted irradiance per leaf (triangle), rgb.
 pub fn leaf_irradiance(

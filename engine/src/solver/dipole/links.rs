@@ -45,8 +45,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::form_factor::{
-    moment_form_factor, point_form_factor, polygon_form_factor, sampled_triangle_form_factor, FormFactorParams,
-    FormFactorStats,
+    moment_form_factor, point_form_factor, polygon_form_factor, sampled_triangle_form_factor,
+    FormFactorParams, FormFactorStats,
 };
 use super::hierarchy::{FaceClusterHierarchy, NodeGeometry};
 use super::profile::DipoleProfile;
@@ -123,7 +123,9 @@ impl LinkParams {
         };
         match self.receiver {
             ReceiverCriterion::SolidAngle { epsilon } => positive("receiver_epsilon", epsilon)?,
-            ReceiverCriterion::Transport { tolerance } => positive("receiver_tolerance", tolerance)?,
+            ReceiverCriterion::Transport { tolerance } => {
+                positive("receiver_tolerance", tolerance)?
+            }
         }
         positive("emitter_epsilon", self.emitter_epsilon)?;
         positive("sample_tolerance", self.sample_tolerance)?;
@@ -306,10 +308,7 @@ pub(crate) fn decide(
                     .any(|(&(f_up, k), t)| 0.5 * (gr.radius * k).powi(2) * f_up > tolerance * t)
             }
         };
-    if !split_e
-        && !e_node.is_leaf()
-        && !single_sample(profile, params, gr.centroid, ge)
-    {
+    if !split_e && !e_node.is_leaf() && !single_sample(profile, params, gr.centroid, ge) {
         split_e = match params.near_field {
             NearField::SemiAnalytic(_) => ge.planarity < params.min_planarity,
             NearField::PointSampling { .. } => true,
@@ -811,7 +810,10 @@ pub fn on_the_fly(
         &mut stats,
     );
     // A few accumulators per thread (memory: chunks x nodes x 96 bytes), summed at the end.
-    let chunk = tasks.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+    let chunk = tasks
+        .len()
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(1);
     let parts: Vec<(Vec<Received>, LinkStats)> = tasks
         .par_chunks(chunk)
         .map(|chunk| {

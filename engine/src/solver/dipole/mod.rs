@@ -14,7 +14,7 @@
 //! - [`links`]: the refinement oracle (section 5.2), link building, render mode (pull, gather, push)
 //!   and on-the-fly mode on the CPU; [`incremental`]: incremental mode (section 5.5).
 //! - [`material`]: homogeneous materials; heterogeneous ones refused or "texture only".
-//! - [`irradiance`]: per-leaf transmitted irradiance from a [`crate::solver::Scene`] on the CPU.
+//! - [`irradiance`]: per-leaf transmitted irradiance from a [`crate::scene::Scene`] on the CPU.
 //! - [`gpu`]: [`DipoleGatherPass`], the per-frame link evaluation on the GPU.
 //!
 //! Output contract (for the shared shading): per display vertex, the rgb radiant exitance M
@@ -26,7 +26,7 @@
 //! use translucent::material::Material;
 //! use translucent::mesh::shapes::Shape;
 //! use translucent::solver::dipole::{self, BoundaryModel, DipoleMaterial, FaceClusterHierarchy, LinkParams, LinkSet};
-//! use translucent::solver::Scene;
+//! use translucent::scene::Scene;
 //!
 //! let mesh = Shape::Sphere { radius: 10.0 }.triangulate(16); // normalized, mm
 //! let (tree, _) = FaceClusterHierarchy::build(&mesh)?; // once per topology (or dipole::cache)
@@ -80,6 +80,8 @@ pub enum DipoleError {
     Material(#[from] crate::material::MaterialError),
     #[error("dipole: scene: {0}")]
     Scene(#[source] Box<crate::solver::SolverError>),
+    #[error("dipole: {0}")]
+    SceneDesc(#[from] crate::scene::SceneError),
     #[error("dipole: {0}")]
     Vk(#[from] crate::vk::VkError),
     #[error("dipole: {0}")]

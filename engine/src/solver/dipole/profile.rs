@@ -176,8 +176,8 @@ impl ChannelDipole {
             let (fs, ps) = (self.flux_scale(), sign * self.phi_scale());
             // f(s), f'(s), f''(s) of the flux and fluence terms of this source.
             let f = fs * z * (1.0 + k * s) * e / s3 + ps * e / s;
-            let d1 = -fs * z * e * (k * k / s2 + 3.0 * (1.0 + k * s) / s4)
-                - ps * e * (1.0 + k * s) / s2;
+            let d1 =
+                -fs * z * e * (k * k / s2 + 3.0 * (1.0 + k * s) / s4) - ps * e * (1.0 + k * s) / s2;
             let d2 = fs * z * e * (k * k * k / s2 + 5.0 * k * k / s3 + 12.0 * k / s4 + 12.0 / s5)
                 + ps * e * (k * k / s + 2.0 * k / s2 + 2.0 / s3);
             // d/dr = (r/s) d/ds: R' = (r/s) f', R'' = f'/s + r^2 (f'' s - f') / s^3.
@@ -388,7 +388,8 @@ mod tests {
                     let slope = ch.r_d_slope(r);
                     // why 1e-6: the central difference's own h^2 error, relative to the largest slope.
                     assert!(
-                        (numeric - slope).abs() <= 1e-6 * ch.r_d_slope(0.5 * ch.z_r).abs().max(slope.abs()),
+                        (numeric - slope).abs()
+                            <= 1e-6 * ch.r_d_slope(0.5 * ch.z_r).abs().max(slope.abs()),
                         "{model:?} r {r}: {numeric} vs {slope}"
                     );
                 }
@@ -398,7 +399,10 @@ mod tests {
 
     #[test]
     fn derivatives_match_finite_differences() {
-        let p = DipoleProfile::new(&Material::preset("ketchup").unwrap(), BoundaryModel::Moments);
+        let p = DipoleProfile::new(
+            &Material::preset("ketchup").unwrap(),
+            BoundaryModel::Moments,
+        );
         for ch in &p.channels {
             for r in [0.0, 0.1, 0.7, 3.0, 12.0] {
                 let (v, slope_over_r, curvature) = ch.r_d_derivatives(r);
@@ -406,9 +410,14 @@ mod tests {
                 let h = 1e-4 * (ch.z_r + r);
                 let second = (ch.r_d(r + h) - 2.0 * ch.r_d(r) + ch.r_d((r - h).abs())) / (h * h);
                 // why 1e-5: the second difference's round-off (eps / h^2 relative) and h^2 error.
-                assert!((second - curvature).abs() <= 1e-5 * curvature.abs().max(v / (ch.z_r * ch.z_r)), "r {r}: {second} vs {curvature}");
+                assert!(
+                    (second - curvature).abs() <= 1e-5 * curvature.abs().max(v / (ch.z_r * ch.z_r)),
+                    "r {r}: {second} vs {curvature}"
+                );
                 if r > 0.0 {
-                    assert!((slope_over_r * r - ch.r_d_slope(r)).abs() <= 1e-12 * ch.r_d_slope(r).abs());
+                    assert!(
+                        (slope_over_r * r - ch.r_d_slope(r)).abs() <= 1e-12 * ch.r_d_slope(r).abs()
+                    );
                 } else {
                     // At 0 both are R_d''(0) (R_d is even in r).
                     assert!((slope_over_r - curvature).abs() <= 1e-12 * curvature.abs());
