@@ -133,6 +133,13 @@ pub enum MethodDesc {
         mesh: TriMesh,
         exitance: Vec<[f32; 3]>,
     },
+    /// Hierarchical boundary elements with the dipole ([`crate::frame::DipoleMethod`]) on the
+    /// display mesh `mesh`, whose face-cluster hierarchy is `hierarchy`.
+    Dipole {
+        mesh: TriMesh,
+        hierarchy: Arc<crate::solver::dipole::FaceClusterHierarchy>,
+        params: crate::frame::DipoleParams,
+    },
 }
 
 /// The host's side of one [`TranslucentObject::record`].
@@ -258,7 +265,7 @@ impl TranslucentObject {
         scene.validate()?;
         let surface = match &method {
             MethodDesc::QuadGraph(graph) => &graph.surface,
-            MethodDesc::Exitance { mesh, .. } => mesh,
+            MethodDesc::Exitance { mesh, .. } | MethodDesc::Dipole { mesh, .. } => mesh,
         };
         let framing = crate::mesh::bounding_sphere(&surface.positions);
         let mut shadows = ShadowMaps::new(
@@ -270,7 +277,7 @@ impl TranslucentObject {
         )?;
         let shadow_bounds = match &method {
             MethodDesc::QuadGraph(graph) => graph.finest().bounding_sphere(),
-            MethodDesc::Exitance { .. } => framing,
+            MethodDesc::Exitance { .. } | MethodDesc::Dipole { .. } => framing,
         };
         shadows.set_lights(&scene.lights, shadow_bounds, true)?;
         let (mesh, method): (Arc<GpuMesh>, Box<dyn Method>) = match method {
@@ -298,6 +305,25 @@ impl TranslucentObject {
             MethodDesc::Exitance { mesh, exitance } => {
                 let mesh = Arc::new(GpuMesh::new(ctx, &mesh, &exitance)?);
                 (mesh.clone(), Box::new(FixedExitance::new(mesh)))
+            }
+            MethodDesc::Dipole {
+                mesh: surface,
+                hierarchy,
+                params,
+            } => {
+                let vertices = surface.positions.len();
+                let mesh = Arc::new(GpuMesh::new(ctx, &surface, &vec![[0.0; 3]; vertices])?);
+                let method = crate::frame::DipoleMethod::new(
+                    ctx,
+                    hierarchy,
+                    surface,
+                    field,
+                    scene,
+                    &params,
+                    &shadows,
+                    mesh.clone(),
+                )?;
+                (mesh, Box::new(method))
             }
         };
         let shading = MeshPass::new(

@@ -9,6 +9,7 @@ mod info;
 mod material_args;
 mod object_args;
 mod render;
+mod render_dipole;
 mod scene_args;
 
 #[derive(Parser)]

@@ -44,10 +44,16 @@ pub struct RenderArgs {
     pub material: MaterialArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010). voxel and dipole are
-    /// not built yet.
+    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010) or dipole
+    /// (hierarchical boundary elements with the dipole BSSRDF, Mertens et al. 2003; homogeneous
+    /// materials). voxel is not built yet.
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
+    /// --method dipole with a heterogeneous material (--volume, procedural presets): transport
+    /// through the field's mean and modulate the exitance by the field like a texture (the
+    /// paper's "texture only"); without it such a material is refused.
+    #[arg(long)]
+    pub texture_only: bool,
     /// gpu (default): the GPU frame (shadow maps, irradiance gather and Jacobi on the GPU,
     /// convergence decided on the GPU). cpu: the f64 reference solver.
     #[arg(long, default_value = "gpu", value_parser = ["cpu", "gpu"])]
@@ -151,11 +157,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
-    if args.method != "quadgraph" {
-        bail!(
-            "--method {}: not built yet (only quadgraph is)",
-            args.method
-        );
+    if args.method == "voxel" {
+        bail!("--method voxel: not built yet (quadgraph and dipole are)");
+    }
+    if args.texture_only && args.method != "dipole" {
+        bail!("--texture-only applies to --method dipole");
     }
     let on_gpu = args.solver == "gpu";
     if args.beam_source && on_gpu {
@@ -204,6 +210,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
     std::fs::create_dir_all(&cache_dir)
         .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
+    if args.method == "dipole" {
+        return crate::render_dipole::run(crate::render_dipole::DipoleRender {
+            args,
+            object,
+            field,
+            scene: scene::Scene {
+                lights,
+                environment,
+            },
+            frame_desc,
+            cache_dir,
+        });
+    }
     let key = cache::cache_key(&object.surface, &params);
     let cache_file = cache_dir.join(format!("{}-{key:016x}.qgraph", object.name));
     let start = Instant::now();
@@ -457,13 +476,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// `lights` rotated about +Y by `degrees` (directions and positions).
-fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
+pub(crate) fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
     let q = DQuat::from_rotation_y(degrees.to_radians());
     lights.iter().map(|l| l.rotated(q)).collect()
 }
 
 /// `camera` with its eye rotated about the vertical line through its target.
-fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
+pub(crate) fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
     let q = DQuat::from_rotation_y(degrees.to_radians());
     let offset: DVec3 = camera.eye - camera.target;
     Camera {
@@ -472,7 +491,7 @@ fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
     }
 }
 
-fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
+pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
     write_atomically(path, |tmp| {
         std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
     })

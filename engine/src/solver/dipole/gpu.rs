@@ -91,6 +91,21 @@ pub struct PushDownPush {
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct VertexPush {
     pub vertex_count: u32,
+    /// Floats per vertex of the output and the first float written.
+    pub stride: u32,
+    pub offset: u32,
+    /// Multiplies the exitance (1 for M; 1 / (1 - F_dr) for J+).
+    pub scale: f32,
+}
+
+/// Where the vertex step writes: the pass's own vec4 buffer of M, or a display mesh's vertex
+/// buffer (see [`DipoleGatherPass::bind_mesh_output`]).
+#[derive(Clone, Copy, Debug)]
+struct VertexOutput {
+    set: vk::DescriptorSet,
+    stride: u32,
+    offset: u32,
+    scale: f32,
 }
 
 /// `ClusterChildren` of the pull shader (std430, 16 bytes).
@@ -133,6 +148,8 @@ pub struct DipoleGatherPass {
     gather_set: vk::DescriptorSet,
     push_set: vk::DescriptorSet,
     vertex_set: vk::DescriptorSet,
+    /// Set by [`DipoleGatherPass::bind_mesh_output`]: the vertex step writes there instead.
+    mesh_output: Option<VertexOutput>,
     rounds: Vec<Range<u32>>,
     leaf_count: u32,
     node_count: u32,
@@ -247,7 +264,7 @@ impl DipoleGatherPass {
                     "vertex_modulation",
                     "vertex_exitance",
                 ],
-                1,
+                2,
             ),
         )?;
         let leaf_irradiance = upload(ctx, "dipole leaf irradiance", &vec![[0.0f32; 4]; t])?;
@@ -330,6 +347,7 @@ impl DipoleGatherPass {
             gather_set: vk::DescriptorSet::null(),
             push_set,
             vertex_set,
+            mesh_output: None,
             rounds: tree.rounds.clone(),
             leaf_count: t as u32,
             node_count: n as u32,
@@ -353,6 +371,133 @@ impl DipoleGatherPass {
                 sb("node_exitance", &self.node_exitance),
             ],
         )?)
+    }
+
+    /// From now on the vertex step writes rgb `M * scale` at floats `[v * stride + offset, +3)` of
+    /// `buffer` (a display mesh's interleaved vertices: the exitance field in place, J+ with
+    /// `scale = 1 / (1 - F_dr)`) instead of the pass's own buffer. `buffer` must have STORAGE
+    /// usage, hold every vertex and outlive the pass's recordings.
+    pub fn bind_mesh_output(
+        &mut self,
+        ctx: &Context,
+        buffer: &Buffer,
+        stride: u32,
+        offset: u32,
+        scale: f32,
+    ) -> Result<(), DipoleError> {
+        let floats = u64::from(self.vertex_count) * u64::from(stride);
+        if self.mesh_output.is_some() {
+            return Err(DipoleError::Invalid(
+                "the mesh output is already bound (one per pass)".into(),
+            ));
+        }
+        if offset + 3 > stride || buffer.size < floats * 4 {
+            return Err(DipoleError::Invalid(format!(
+                "mesh output: {} bytes, stride {stride} and offset {offset} floats for {} vertices",
+                buffer.size, self.vertex_count
+            )));
+        }
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(DipoleError::Invalid(format!(
+                "mesh output scale {scale} must be finite and > 0"
+            )));
+        }
+        let set = self.vertices.allocate_set(
+            ctx,
+            &[
+                sb("node_exitance", &self.node_exitance),
+                sb("vertex_face_offsets", &self._vertex_face_offsets),
+                sb("vertex_faces", &self.vertex_faces),
+                sb("vertex_modulation", &self._vertex_modulation),
+                sb("vertex_exitance", buffer),
+            ],
+        )?;
+        self.mesh_output = Some(VertexOutput {
+            set,
+            stride,
+            offset,
+            scale,
+        });
+        Ok(())
+    }
+
+    /// Rewrites the per-vertex texture factor (`None`: 1), e.g. after a material change. Same
+    /// contract as [`Self::set_links`]: no submitted frame may still use the pass.
+    pub fn set_modulation(&mut self, modulation: Option<&[[f64; 3]]>) -> Result<(), DipoleError> {
+        let v = self.vertex_count as usize;
+        let factors: Vec<[f32; 4]> = match modulation {
+            Some(m) => {
+                if m.len() != v || m.iter().flatten().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                    return Err(DipoleError::Invalid(format!(
+                        "texture factors: {} values for {v} vertices, each finite and >= 0",
+                        m.len()
+                    )));
+                }
+                m.iter()
+                    .map(|x| [x[0] as f32, x[1] as f32, x[2] as f32, 1.0])
+                    .collect()
+            }
+            None => vec![[1.0; 4]; v],
+        };
+        self._vertex_modulation
+            .write_bytes(0, bytemuck::cast_slice(&factors))?;
+        Ok(())
+    }
+
+    /// Changes the scale of the mesh output (after a material change: 1 / (1 - F_dr)); no-op
+    /// without one.
+    pub fn set_output_scale(&mut self, scale: f32) {
+        if let Some(out) = &mut self.mesh_output {
+            out.scale = scale;
+        }
+    }
+
+    /// Bytes of the pass's GPU buffers.
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.leaf_irradiance,
+            &self.node_irradiance,
+            &self.clusters,
+            &self._node_parent,
+            &self.receiver_offsets,
+            &self.links,
+            &self.node_exitance,
+            &self._vertex_face_offsets,
+            &self.vertex_faces,
+            &self._vertex_modulation,
+            &self.vertex_exitance,
+        ]
+        .iter()
+        .map(|b| b.size)
+        .sum()
+    }
+
+    /// Triangles (leaves) of the hierarchy.
+    pub fn leaf_count(&self) -> u32 {
+        self.leaf_count
+    }
+
+    /// Links the buffer holds without reallocating.
+    pub fn link_capacity(&self) -> usize {
+        self.link_capacity
+    }
+
+    /// [`Self::set_links`] without reallocation: a set larger than [`Self::link_capacity`] is an
+    /// error (nothing written).
+    pub fn write_links(&mut self, links: &LinkSet) -> Result<(), DipoleError> {
+        links.check(self.node_count as usize)?;
+        if links.len() > self.link_capacity {
+            return Err(DipoleError::Invalid(format!(
+                "{} links do not fit the buffer's {}",
+                links.len(),
+                self.link_capacity
+            )));
+        }
+        self.links
+            .write_bytes(0, bytemuck::cast_slice(&links.links))?;
+        self.receiver_offsets
+            .write_bytes(0, bytemuck::cast_slice(&links.receiver_offsets))?;
+        Ok(())
     }
 
     /// Replaces the links (after incremental updates or a relink). A larger set than the buffer
@@ -452,13 +597,30 @@ impl DipoleGatherPass {
         cb: vk::CommandBuffer,
         mut profiler: Option<&mut GpuProfiler>,
     ) {
-        let t = self.leaf_count;
         // SAFETY: the caller's contract (recording `cb`, live pass and buffers).
         unsafe {
             ctx.begin_label(cb, PASS_NAME);
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin_scope(cb, PASS_NAME);
             }
+            self.record_dispatches(ctx, cb);
+            if let Some(p) = profiler {
+                p.end_scope(cb);
+            }
+            ctx.end_label(cb);
+        }
+    }
+
+    /// [`Self::record`] without its debug label and profiler scope: for a frame-graph pass, which
+    /// names and times itself.
+    ///
+    /// # Safety
+    /// As [`Self::record`]; inside a frame-graph pass, the pass must declare the leaf irradiance
+    /// (compute read) and the output buffer (compute write).
+    pub unsafe fn record_dispatches(&self, ctx: &Context, cb: vk::CommandBuffer) {
+        let t = self.leaf_count;
+        // SAFETY: the caller's contract (recording `cb`, live pass and buffers).
+        unsafe {
             // why: the pass's own buffers (node irradiance, node exitance) were read and written by
             // this pass in the previous frame: WAR/WAW against this frame's pull and gather.
             barrier::memory(ctx, cb, Access::ComputeReadWrite, Access::ComputeReadWrite);
@@ -494,15 +656,20 @@ impl DipoleGatherPass {
                 // (RAW); after the leaves, the vertex average reads them.
                 barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
             }
+            let out = self.mesh_output.unwrap_or(VertexOutput {
+                set: self.vertex_set,
+                stride: 4,
+                offset: 0,
+                scale: 1.0,
+            });
             let push = VertexPush {
                 vertex_count: self.vertex_count,
+                stride: out.stride,
+                offset: out.offset,
+                scale: out.scale,
             };
             self.vertices
-                .dispatch(ctx, cb, self.vertex_set, &push, [self.vertex_count, 1, 1]);
-            if let Some(p) = profiler {
-                p.end_scope(cb);
-            }
-            ctx.end_label(cb);
+                .dispatch(ctx, cb, out.set, &push, [self.vertex_count, 1, 1]);
         }
     }
 }
