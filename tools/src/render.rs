@@ -54,6 +54,11 @@ pub struct RenderArgs {
     /// paper's "texture only"); without it such a material is refused.
     #[arg(long)]
     pub texture_only: bool,
+    /// --method dipole: the refinement oracle's tolerance (the largest error of one link's push
+    /// and of one point sample, relative to the total diffuse reflectance): smaller is more
+    /// links, more accurate and slower (benches/RESULTS.md, "Dipole method in the frame").
+    #[arg(long, value_name = "F")]
+    pub link_tolerance: Option<f64>,
     /// gpu (default): the GPU frame (shadow maps, irradiance gather and Jacobi on the GPU,
     /// convergence decided on the GPU). cpu: the f64 reference solver.
     #[arg(long, default_value = "gpu", value_parser = ["cpu", "gpu"])]

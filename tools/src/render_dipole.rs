@@ -14,9 +14,10 @@ use anyhow::{bail, Context as _};
 use translucent::frame::DipoleParams;
 use translucent::headless::HeadlessHost;
 use translucent::material::MaterialField;
+use translucent::mesh::MeshSolid;
 use translucent::object::MethodDesc;
 use translucent::scene::{Camera, Scene};
-use translucent::solver::dipole::{self, cache, HeterogeneousPolicy};
+use translucent::solver::dipole::{self, cache, HeterogeneousPolicy, ReceiverCriterion};
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 use translucent::{ObjectParams, TranslucentObject};
 
@@ -59,7 +60,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         eprintln!("warning: {reason}; built again");
     }
     let tree = Arc::new(tree);
-    let params = DipoleParams {
+    let mut params = DipoleParams {
         heterogeneous: if args.texture_only {
             HeterogeneousPolicy::TextureOnly
         } else {
@@ -67,6 +68,11 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         },
         ..DipoleParams::default()
     };
+    if let Some(t) = args.link_tolerance {
+        params.links.receiver = ReceiverCriterion::Transport { tolerance: t };
+        params.links.sample_tolerance = t;
+        params.links.validate().context("--link-tolerance")?;
+    }
     let ctx = Context::headless(&ContextDesc {
         echo_validation: true,
         ..ContextDesc::default()
@@ -154,14 +160,16 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         .write(&args.out, args.scene.exposure)
         .with_context(|| format!("--out {}", args.out.display()))?;
 
-    // Energy on the CPU, in f64 (render mode with ray-cast shadows): sum E A and sum M A over the
+    // Energy on the CPU, in f64 (render mode with shadow rays against the display mesh, whose
+    // triangle centroids lie inside a procedural shape's own solid): sum E A and sum M A over the
     // triangles, the dipole's counterpart of the QuadGraph's balance.
     let start = Instant::now();
+    let occluder = MeshSolid::new(r.object.surface.clone())?;
     let irradiance = dipole::irradiance::leaf_irradiance(
         &tree,
         &report_scene,
         material.base.eta,
-        Some(r.object.solid.as_ref()),
+        Some(&occluder),
     )?;
     let exitance = dipole::links::render(&tree, &material.profile, &links, &irradiance, None);
     let energy_s = start.elapsed().as_secs_f64();
