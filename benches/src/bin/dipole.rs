@@ -193,9 +193,9 @@ fn reference_exitance(
             let x = tree.geometry[r].centroid;
             let mut m = [0.0; 3];
             let mut stats = FormFactorStats::default();
-            for f in 0..tree.leaf_count() {
+            for (f, e) in irradiance.iter().enumerate().take(tree.leaf_count()) {
                 let ff = triangle_form_factor(profile, x, tree.triangle(f), &params, &mut stats);
-                (0..3).for_each(|k| m[k] += ff[k] * irradiance[f][k]);
+                (0..3).for_each(|k| m[k] += ff[k] * e[k]);
             }
             m
         })

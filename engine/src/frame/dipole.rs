@@ -119,7 +119,7 @@ impl LeafImages {
         let mut positions = vec![[0.0f32; 4]; texels];
         let mut normals = vec![0u16; texels * 4];
         for (i, g) in tree.geometry[..t].iter().enumerate() {
-            if !(g.area > 0.0) {
+            if !(g.area > 0.0 && g.area.is_finite()) {
                 continue; // degenerate: no irradiance (as the CPU's leaf_irradiance)
             }
             let (p, n) = (g.centroid, g.normal);
@@ -253,6 +253,9 @@ impl DipoleMethod {
     /// Links `tree` (the hierarchy of `surface`, the display mesh uploaded as `mesh`) for `field`,
     /// builds the GPU gather writing into `mesh`'s exitance and the irradiance gather bound to
     /// the shared `shadows`.
+    // why: the method's inputs are distinct (hierarchy, its mesh on CPU and GPU, material, scene,
+    // settings, shared shadows), as QuadGraphMethod::new's.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &Context,
         tree: Arc<FaceClusterHierarchy>,

@@ -185,7 +185,7 @@ pub fn polygon_form_factor(
         let (a, b) = (project(a), project(b));
         let d = b - a;
         let length = d.length();
-        if !(length > 0.0) {
+        if !(length > 0.0 && length.is_finite()) {
             continue;
         }
         let e = d / length;
@@ -200,8 +200,8 @@ pub fn polygon_form_factor(
         stats.edges += 1;
         let dtheta = pa.cross(pb).dot(normal).atan2(pa.dot(pb));
         // I1 (Eq. 10's first term): -F(h) dtheta per edge.
-        for c in 0..3 {
-            for (k, s) in sources[c].iter().enumerate() {
+        for (c, channel) in sources.iter().enumerate() {
+            for (k, s) in channel.iter().enumerate() {
                 sums.flux[c][k] += s.z * (-s.sigma * s.h).exp() / s.h * dtheta;
                 sums.phi[c][k] -= fluence_antiderivative(s.sigma, s.h) * dtheta;
             }
@@ -305,7 +305,7 @@ pub fn triangle_form_factor(
 ) -> [f64; 3] {
     let n = (b - a).cross(c - a);
     let len = n.length();
-    if !(len > 0.0) {
+    if !(len > 0.0 && len.is_finite()) {
         return [0.0; 3];
     }
     polygon_form_factor(

@@ -88,7 +88,7 @@ impl DipoleMaterial {
             }
         }
         let total: f64 = weight.iter().sum();
-        if !(total > 0.0) {
+        if !(total > 0.0 && total.is_finite()) {
             return Err(DipoleError::Invalid(
                 "texture-only material: the mesh has no area".into(),
             ));
