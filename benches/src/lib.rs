@@ -347,3 +347,89 @@ pub mod fixtures {
         (v, f)
     }
 }
+
+pub mod dipole {
+    //! Meshes of the dipole method's benches and tests (`benches/src/bin/dipole.rs`,
+    //! `tests/tests/dipole_*.rs`): 4-to-1 midpoint subdivision (the paper's Table 3 uses a
+    //! subdivision model at 2k, 8k, 32k and 130k triangles), a flat lit patch, and loading a shared
+    //! mesh normalized to a size.
+
+    use std::collections::HashMap;
+    use std::path::Path;
+
+    use glam::DVec3;
+    use translucent::mesh::{MeshError, TriMesh, ValidateOptions};
+
+    /// Splits every triangle into four at its edge midpoints (the shape is unchanged; midpoints of
+    /// shared edges are shared, so a closed mesh stays closed).
+    pub fn subdivide_midpoint(mesh: &TriMesh) -> TriMesh {
+        let mut out = TriMesh {
+            positions: mesh.positions.clone(),
+            normals: Vec::new(),
+            indices: Vec::with_capacity(4 * mesh.indices.len()),
+        };
+        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut midpoint = |a: u32, b: u32, out: &mut TriMesh| {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                let p = 0.5 * (out.positions[a as usize] + out.positions[b as usize]);
+                out.positions.push(p);
+                out.positions.len() as u32 - 1
+            })
+        };
+        for &[a, b, c] in &mesh.indices {
+            let (ab, bc, ca) = (
+                midpoint(a, b, &mut out),
+                midpoint(b, c, &mut out),
+                midpoint(c, a, &mut out),
+            );
+            out.indices
+                .extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        out.compute_normals();
+        out
+    }
+
+    /// A flat square patch in the plane y = 0, normal +Y, `cells` x `cells` quads of two triangles
+    /// each, `side` mm wide, centred at the origin; interior vertices moved in the plane by up to
+    /// `jitter` of a cell (deterministic), so no symmetry of the grid helps the method.
+    pub fn flat_patch(side: f64, cells: u32, jitter: f64) -> TriMesh {
+        let n = cells + 1;
+        let h = side / cells as f64;
+        let mut mesh = TriMesh::default();
+        for j in 0..n {
+            for i in 0..n {
+                let mut p = DVec3::new(i as f64 * h - side / 2.0, 0.0, side / 2.0 - j as f64 * h);
+                if i > 0 && j > 0 && i < cells && j < cells {
+                    // A cheap hash to [-1, 1]^2.
+                    let k = (i * 7919 + j * 104_729) as f64;
+                    p.x += jitter * h * (k * 0.618_034).fract().mul_add(2.0, -1.0);
+                    p.z += jitter * h * (k * 0.414_214).fract().mul_add(2.0, -1.0);
+                }
+                mesh.positions.push(p);
+            }
+        }
+        for j in 0..cells {
+            for i in 0..cells {
+                let (a, b) = (j * n + i, j * n + i + 1);
+                let (c, d) = (a + n, b + n);
+                // Counter-clockwise seen from +Y (z decreases with j).
+                mesh.indices.push([a, b, d]);
+                mesh.indices.push([a, d, c]);
+            }
+        }
+        mesh.compute_normals();
+        mesh
+    }
+
+    /// Loads an OBJ, validates it (forced: the dipole method renders open meshes too) and
+    /// normalizes its longest side to `size_mm`.
+    pub fn load_normalized(path: &Path, size_mm: f64) -> Result<TriMesh, MeshError> {
+        let mut mesh = TriMesh::load_obj(path)?;
+        mesh.validate(&ValidateOptions {
+            force_open: true,
+            force_non_manifold: true,
+            ..Default::default()
+        })?;
+        Ok(mesh.normalized(size_mm)?.0)
+    }
+}

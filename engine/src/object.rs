@@ -142,6 +142,13 @@ pub enum MethodDesc {
         mesh: TriMesh,
         params: crate::solver::voxel::VoxelParams,
     },
+    /// Hierarchical boundary elements with the dipole ([`crate::frame::DipoleMethod`]) on the
+    /// display mesh `mesh`, whose face-cluster hierarchy is `hierarchy`.
+    Dipole {
+        mesh: TriMesh,
+        hierarchy: Arc<crate::solver::dipole::FaceClusterHierarchy>,
+        params: crate::frame::DipoleParams,
+    },
 }
 
 /// The host's side of one [`TranslucentObject::record`].
@@ -267,7 +274,9 @@ impl TranslucentObject {
         scene.validate()?;
         let surface = match &method {
             MethodDesc::QuadGraph(graph) => &graph.surface,
-            MethodDesc::Exitance { mesh, .. } | MethodDesc::Voxel { mesh, .. } => mesh,
+            MethodDesc::Exitance { mesh, .. }
+            | MethodDesc::Voxel { mesh, .. }
+            | MethodDesc::Dipole { mesh, .. } => mesh,
         };
         let framing = crate::mesh::bounding_sphere(&surface.positions);
         let mut shadows = ShadowMaps::new(
@@ -279,7 +288,9 @@ impl TranslucentObject {
         )?;
         let shadow_bounds = match &method {
             MethodDesc::QuadGraph(graph) => graph.finest().bounding_sphere(),
-            MethodDesc::Exitance { .. } | MethodDesc::Voxel { .. } => framing,
+            MethodDesc::Exitance { .. } | MethodDesc::Voxel { .. } | MethodDesc::Dipole { .. } => {
+                framing
+            }
         };
         shadows.set_lights(&scene.lights, shadow_bounds, true)?;
         let (mesh, method): (Arc<GpuMesh>, Box<dyn Method>) = match method {
@@ -310,6 +321,25 @@ impl TranslucentObject {
             }
             MethodDesc::Voxel { mesh, params } => {
                 let (method, mesh) = VoxelMethod::new(ctx, &mesh, field, scene, &params)?;
+                (mesh, Box::new(method))
+            }
+            MethodDesc::Dipole {
+                mesh: surface,
+                hierarchy,
+                params,
+            } => {
+                let vertices = surface.positions.len();
+                let mesh = Arc::new(GpuMesh::new(ctx, &surface, &vec![[0.0; 3]; vertices])?);
+                let method = crate::frame::DipoleMethod::new(
+                    ctx,
+                    hierarchy,
+                    surface,
+                    field,
+                    scene,
+                    &params,
+                    &shadows,
+                    mesh.clone(),
+                )?;
                 (mesh, Box::new(method))
             }
         };

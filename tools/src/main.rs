@@ -11,6 +11,7 @@ mod material_args;
 mod object_args;
 mod progress;
 mod render;
+mod render_dipole;
 mod render_voxel;
 mod scene_args;
 #[cfg(feature = "window")]

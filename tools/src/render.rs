@@ -45,9 +45,10 @@ pub struct RenderArgs {
     pub material: MaterialArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010) or voxel (shortest
-    /// optical paths on a voxel grid built every frame, Ozawa et al.; no bake). dipole is not
-    /// built yet.
+    /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010), voxel (shortest
+    /// optical paths on a voxel grid built every frame, Ozawa et al.; no bake) or dipole
+    /// (hierarchical boundary elements with the dipole BSSRDF, Mertens et al. 2003; homogeneous
+    /// materials).
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
     /// Voxel method: voxels along the object's longest side (4..=256), or auto (from the
@@ -62,6 +63,16 @@ pub struct RenderArgs {
     /// edge, 0..=0.3; 0: the hard minimum of the paper).
     #[arg(long, value_name = "BETA")]
     pub voxel_soft: Option<f32>,
+    /// --method dipole with a heterogeneous material (--volume, procedural presets): transport
+    /// through the field's mean and modulate the exitance by the field like a texture (the
+    /// paper's "texture only"); without it such a material is refused.
+    #[arg(long)]
+    pub texture_only: bool,
+    /// --method dipole: the refinement oracle's tolerance (the largest error of one link's push
+    /// and of one point sample, relative to the total diffuse reflectance): smaller is more
+    /// links, more accurate and slower (benches/RESULTS.md, "Dipole method in the frame").
+    #[arg(long, value_name = "F")]
+    pub link_tolerance: Option<f64>,
     /// gpu (default): the GPU frame (shadow maps, irradiance gather and Jacobi on the GPU,
     /// convergence decided on the GPU). cpu: the f64 reference solver.
     #[arg(long, default_value = "gpu", value_parser = ["cpu", "gpu"])]
@@ -185,10 +196,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             args.method
         );
     }
+    if args.texture_only && args.method != "dipole" {
+        bail!("--texture-only applies to --method dipole");
+    }
     match args.method.as_str() {
-        "quadgraph" => {}
+        "quadgraph" | "dipole" => {}
         "voxel" => return crate::render_voxel::run(args),
-        other => bail!("--method {other}: not built yet (quadgraph and voxel are)"),
+        other => bail!("--method {other}: unknown (quadgraph, voxel, dipole)"),
     }
     let on_gpu = args.solver == "gpu";
     if args.beam_source && on_gpu {
@@ -241,6 +255,22 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Bake, or load the cached bake of the same surface and parameters.
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
     let params = args.object.bake_params();
+    if args.method == "dipole" {
+        let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
+        std::fs::create_dir_all(&cache_dir)
+            .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
+        return crate::render_dipole::run(crate::render_dipole::DipoleRender {
+            args,
+            object,
+            field,
+            scene: scene::Scene {
+                lights,
+                environment,
+            },
+            frame_desc,
+            cache_dir,
+        });
+    }
     let start = Instant::now();
     // The bake cache with its size limit (least recently used bakes are evicted).
     let (graph, stats, outcome, cache_file) =
@@ -640,13 +670,13 @@ pub(crate) fn check_writable(out: &Path) -> anyhow::Result<()> {
 }
 
 /// `lights` rotated about +Y by `degrees` (directions and positions).
-fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
+pub(crate) fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
     let q = DQuat::from_rotation_y(degrees.to_radians());
     lights.iter().map(|l| l.rotated(q)).collect()
 }
 
 /// `camera` with its eye rotated about the vertical line through its target.
-fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
+pub(crate) fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
     let q = DQuat::from_rotation_y(degrees.to_radians());
     let offset: DVec3 = camera.eye - camera.target;
     Camera {
@@ -655,7 +685,7 @@ fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
     }
 }
 
-fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
+pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
     write_atomically(path, |tmp| {
         std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
     })

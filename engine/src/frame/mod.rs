@@ -5,7 +5,7 @@
 //!   what ran and what was skipped.
 //! - [`plan`]: [`FramePlan`]: what a frame runs, decided from what changed since the last one.
 //! - [`method`]: the [`Method`] seam: the passes that turn gathered light into surface
-//!   exitance ([`QuadGraphMethod`] today; [`FixedExitance`] for given values), between the
+//!   exitance ([`QuadGraphMethod`], [`DipoleMethod`]; [`FixedExitance`] for given values), between the
 //!   shared shadow maps and the shared shading.
 //! - [`report`]: [`FrameReport`] and [`SkipReason`].
 //!
@@ -14,6 +14,7 @@
 //! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
 //! `translucent bench`, the example host and the viewer all record frames through it.
 
+pub mod dipole;
 pub mod exitance;
 pub mod graph;
 pub mod method;
@@ -22,6 +23,7 @@ pub mod quadgraph;
 pub mod report;
 pub mod voxel;
 
+pub use dipole::{DipoleMethod, DipoleParams};
 pub use exitance::FixedExitance;
 pub use graph::{BarrierNote, FrameError, FrameGraph, GraphRun, PassCtx, ResourceId};
 pub use method::{Method, MethodFrame, MethodKind};

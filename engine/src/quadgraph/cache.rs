@@ -226,34 +226,35 @@ fn io_error(path: &Path, source: std::io::Error) -> BakeError {
     }
 }
 
+/// Little-endian encoder of the cache payloads (also the dipole hierarchy's cache).
 #[derive(Default)]
-struct Writer(Vec<u8>);
+pub(crate) struct Writer(pub(crate) Vec<u8>);
 
 impl Writer {
-    fn u32(&mut self, v: u32) {
+    pub(crate) fn u32(&mut self, v: u32) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
-    fn f64(&mut self, v: f64) {
+    pub(crate) fn f64(&mut self, v: f64) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
-    fn len(&mut self, n: usize) {
+    pub(crate) fn len(&mut self, n: usize) {
         self.0.extend_from_slice(&(n as u64).to_le_bytes());
     }
-    fn dvec3s(&mut self, v: &[DVec3]) {
+    pub(crate) fn dvec3s(&mut self, v: &[DVec3]) {
         self.len(v.len());
         self.0.reserve(v.len() * 24);
         for p in v {
             p.to_array().iter().for_each(|&x| self.f64(x));
         }
     }
-    fn u32s<const N: usize>(&mut self, v: &[[u32; N]]) {
+    pub(crate) fn u32s<const N: usize>(&mut self, v: &[[u32; N]]) {
         self.len(v.len());
         self.0.reserve(v.len() * 4 * N);
         for a in v {
             a.iter().for_each(|&x| self.u32(x));
         }
     }
-    fn f64s<const N: usize>(&mut self, v: &[[f64; N]]) {
+    pub(crate) fn f64s<const N: usize>(&mut self, v: &[[f64; N]]) {
         self.len(v.len());
         self.0.reserve(v.len() * 8 * N);
         for a in v {
@@ -262,32 +263,33 @@ impl Writer {
     }
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
+/// Decoder matching [`Writer`]; every length is checked against the bytes left.
+pub(crate) struct Reader<'a> {
+    pub(crate) bytes: &'a [u8],
+    pub(crate) at: usize,
 }
 
 impl Reader<'_> {
-    fn take(&mut self, n: usize) -> Result<&[u8], String> {
+    pub(crate) fn take(&mut self, n: usize) -> Result<&[u8], String> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
         let end = end.ok_or_else(|| format!("payload ends early at byte {}", self.at))?;
         let s = &self.bytes[self.at..end];
         self.at = end;
         Ok(s)
     }
-    fn u32(&mut self) -> Result<u32, String> {
+    pub(crate) fn u32(&mut self) -> Result<u32, String> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
-    fn u64(&mut self) -> Result<u64, String> {
+    pub(crate) fn u64(&mut self) -> Result<u64, String> {
         let b = self.take(8)?;
         Ok(u64::from_le_bytes(std::array::from_fn(|i| b[i])))
     }
-    fn f64(&mut self) -> Result<f64, String> {
+    pub(crate) fn f64(&mut self) -> Result<f64, String> {
         Ok(f64::from_bits(self.u64()?))
     }
     /// A length, checked against the bytes left so a corrupt length cannot allocate wildly.
-    fn len(&mut self, item_bytes: usize) -> Result<usize, String> {
+    pub(crate) fn len(&mut self, item_bytes: usize) -> Result<usize, String> {
         let n = self.u64()?;
         let left = (self.bytes.len() - self.at) as u64;
         if n.saturating_mul(item_bytes as u64) > left {
@@ -297,7 +299,7 @@ impl Reader<'_> {
         }
         Ok(n as usize)
     }
-    fn dvec3s(&mut self) -> Result<Vec<DVec3>, String> {
+    pub(crate) fn dvec3s(&mut self) -> Result<Vec<DVec3>, String> {
         let n = self.len(24)?;
         let b = self.take(n * 24)?;
         Ok(b.chunks_exact(24)
@@ -307,7 +309,7 @@ impl Reader<'_> {
             })
             .collect())
     }
-    fn u32s<const N: usize>(&mut self) -> Result<Vec<[u32; N]>, String> {
+    pub(crate) fn u32s<const N: usize>(&mut self) -> Result<Vec<[u32; N]>, String> {
         let n = self.len(4 * N)?;
         let b = self.take(n * 4 * N)?;
         Ok(b.chunks_exact(4 * N)
@@ -318,7 +320,7 @@ impl Reader<'_> {
             })
             .collect())
     }
-    fn f64s<const N: usize>(&mut self) -> Result<Vec<[f64; N]>, String> {
+    pub(crate) fn f64s<const N: usize>(&mut self) -> Result<Vec<[f64; N]>, String> {
         let n = self.len(8 * N)?;
         let b = self.take(n * 8 * N)?;
         Ok(b.chunks_exact(8 * N)

@@ -7,9 +7,12 @@
 //!   prototype of the GPU schedule.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
+//! - [`dipole`]: the third method, hierarchical boundary elements with the dipole BSSRDF
+//!   (Mertens et al. 2003).
 
 pub mod analytic;
 pub mod cpu;
+pub mod dipole;
 pub mod gpu;
 pub mod krylov;
 pub mod multigrid;
@@ -57,6 +60,8 @@ pub enum SolverError {
         cycles: usize,
         hint: &'static str,
     },
+    #[error(transparent)]
+    Dipole(#[from] dipole::DipoleError),
 }
 
 impl SolverError {

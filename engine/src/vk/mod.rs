@@ -46,6 +46,7 @@ mod profiler;
 
 pub use barrier::{Access, ImageState, Tracked};
 pub use capture::{ImageReadback, LinearImage};
+#[cfg(feature = "wgpu")]
 pub(crate) use context::HostOptions;
 pub use context::{
     Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationLog,
