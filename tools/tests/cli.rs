@@ -196,8 +196,8 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
             "--size-mm",
         ),
         (
-            vec!["render", "--method", "dipole", "--out", out_s],
-            "dipole",
+            vec!["render", "--texture-only", "--out", out_s],
+            "--texture-only",
         ),
         (
             vec![
