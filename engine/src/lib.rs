@@ -16,6 +16,7 @@
 //! - [`object`]: [`TranslucentObject`], the whole frame recorded into a host's command buffer,
 //!   skipping what the scene's changes do not need.
 
+pub mod limits;
 pub mod material;
 pub mod mesh;
 pub mod object;

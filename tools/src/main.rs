@@ -1,51 +1,15 @@
-//! `translucent`: the command line (DESIGN section 8). Each subcommand is a thin layer over the
-//! library, in its own module; shared scene options live in `scene_args`.
+//! `translucent`: the command line (DESIGN section 8); the commands live in the library
+//! (`lib.rs`), which the fuzz targets share.
 
-use clap::{Parser, Subcommand};
-
-mod bake;
-mod bench;
-mod info;
-mod material_args;
-mod object_args;
-mod render;
-mod scene_args;
-
-#[derive(Parser)]
-#[command(
-    name = "translucent",
-    version,
-    about = "Real-time heterogeneous translucency on Vulkan"
-)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// The Vulkan device, driver and the features used.
-    Info(info::InfoArgs),
-    /// Render a scene headless to PNG or EXR.
-    Render(Box<render::RenderArgs>),
-    /// Bake (or load from the cache) the QuadGraph of a mesh or shape.
-    Bake(bake::BakeArgs),
-    /// Run time against error: sweep solver and bake settings, write CSV and a PNG plot.
-    Bench(Box<bench::BenchArgs>),
-}
+use clap::Parser as _;
+use translucent_tools::{error_report, run, Cli};
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    let result = match &cli.command {
-        Command::Info(args) => info::run(args),
-        Command::Render(args) => render::run(args),
-        Command::Bake(args) => bake::run(args),
-        Command::Bench(args) => bench::run(args),
-    };
-    match result {
+    match run(&cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_report(&e));
             std::process::ExitCode::FAILURE
         }
     }

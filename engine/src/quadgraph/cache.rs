@@ -19,13 +19,14 @@
 //! ```
 
 use std::fs::File;
-use std::io::Write;
+use std::io::{Read as _, Write};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
 use super::graph::{GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks};
 use super::{BakeError, BakeParams, BakeProgress, BakeStats};
+use crate::limits::{Limit, Limits};
 use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
@@ -119,30 +120,53 @@ impl QuadGraph {
     /// Writes the graph to `path` under `key`, atomically: a temporary file in the same directory
     /// is written, synced and renamed over `path`.
     pub fn save(&self, path: &Path, key: u64) -> Result<(), BakeError> {
-        let mut w = Writer::default();
-        encode(self, &mut w);
-        let payload = w.0;
-        let mut bytes = Vec::with_capacity(HEADER + payload.len() + 8);
-        bytes.extend_from_slice(MAGIC);
-        bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-        bytes.extend_from_slice(&0u32.to_le_bytes());
-        bytes.extend_from_slice(&key.to_le_bytes());
-        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        bytes.extend_from_slice(&payload);
-        bytes.extend_from_slice(&fnv1a64(&payload, FNV_OFFSET).to_le_bytes());
-        write_atomically(path, &bytes)
+        write_atomically(path, &self.to_cache_bytes(key))
     }
 
     /// Reads a graph written by [`QuadGraph::save`]. With `expect_key`, a file made for another key
-    /// is [`BakeError::CacheStale`].
+    /// is [`BakeError::CacheStale`]. The file size is bounded by [`Limits::from_env`]'s
+    /// [`Limit::FileBytes`], checked while reading.
     pub fn load(path: &Path, expect_key: Option<u64>) -> Result<QuadGraph, BakeError> {
-        let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+        Self::load_with_limits(path, expect_key, &Limits::from_env())
+    }
+
+    /// [`QuadGraph::load`] with explicit limits.
+    pub fn load_with_limits(
+        path: &Path,
+        expect_key: Option<u64>,
+        limits: &Limits,
+    ) -> Result<QuadGraph, BakeError> {
+        let io = |source| BakeError::Io {
             path: path.into(),
             source,
-        })?;
+        };
+        let file = File::open(path).map_err(io)?;
+        let mut bytes = Vec::new();
+        // One byte past the limit tells "at the limit" from "above it" without reading the rest.
+        file.take(limits.max_file_bytes.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        limits
+            .check(Limit::FileBytes, bytes.len() as u64)
+            .map_err(|source| BakeError::CacheLimit {
+                path: path.into(),
+                source,
+            })?;
+        Self::from_cache_bytes(&bytes, path, expect_key)
+    }
+
+    /// Decodes the contents of a cache file held in memory (what [`QuadGraph::load`] does after
+    /// reading it); `path` only names it in errors. Every header field, length, index and size is
+    /// checked, so that no content, even one with a valid checksum, makes a consumer index out of
+    /// bounds or allocate beyond what the bytes hold.
+    pub fn from_cache_bytes(
+        bytes: &[u8],
+        path: &Path,
+        expect_key: Option<u64>,
+    ) -> Result<QuadGraph, BakeError> {
         let p = || path.to_path_buf();
         if bytes.len() < 8 || &bytes[..8] != MAGIC {
-            if bytes.len() < 8 && MAGIC.starts_with(&bytes) {
+            if bytes.len() < 8 && MAGIC.starts_with(bytes) {
                 return Err(BakeError::CacheTruncated {
                     path: p(),
                     len: bytes.len() as u64,
@@ -194,6 +218,22 @@ impl QuadGraph {
             decode(&mut r).map_err(|reason| BakeError::CacheContent { path: p(), reason })?;
         check(&graph).map_err(|reason| BakeError::CacheContent { path: p(), reason })?;
         Ok(graph)
+    }
+
+    /// The bytes [`QuadGraph::save`] writes for `key` (header, payload, checksum).
+    pub fn to_cache_bytes(&self, key: u64) -> Vec<u8> {
+        let mut w = Writer::default();
+        encode(self, &mut w);
+        let payload = w.0;
+        let mut bytes = Vec::with_capacity(HEADER + payload.len() + 8);
+        bytes.extend_from_slice(MAGIC);
+        bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        bytes.extend_from_slice(&0u32.to_le_bytes());
+        bytes.extend_from_slice(&key.to_le_bytes());
+        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&payload);
+        bytes.extend_from_slice(&fnv1a64(&payload, FNV_OFFSET).to_le_bytes());
+        bytes
     }
 }
 
