@@ -21,8 +21,8 @@ use translucent::limits::Limits;
 use translucent::material::{MaterialField, VolGrid};
 use translucent::mesh::{MeshError, MeshSolid, TriMesh, ValidateOptions};
 use translucent::quadgraph::{cache, BakeParams};
-use translucent::render::{level_bounds, Camera, Light};
-use translucent::solver::{self, CpuSolveParams, Environment};
+use translucent::scene::{Camera, Environment, Light, Scene};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::QuadGraph;
 
 use crate::material_args::MaterialArgs;
@@ -132,7 +132,7 @@ pub fn obj(data: &[u8]) -> Result<(), String> {
 fn check_graph(graph: &QuadGraph) {
     let stats = graph.stats();
     assert_eq!(stats.levels.len(), graph.levels.len());
-    let (centre, radius) = level_bounds(graph.finest());
+    let (centre, radius) = graph.finest().bounding_sphere();
     assert!(centre.is_finite() && radius.is_finite() && radius > 0.0);
 }
 
@@ -143,7 +143,7 @@ fn solve_is_finite(graph: &QuadGraph, baked: bool) -> Result<(), String> {
     let Ok(material) = translucent::material::Material::preset("marble") else {
         panic!("the marble preset is valid");
     };
-    let scene = solver::Scene {
+    let scene = Scene {
         lights: vec![Light::Directional {
             direction: DVec3::new(0.3, -1.0, 0.2).normalize(),
             irradiance: [3.0; 3],

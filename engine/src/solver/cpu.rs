@@ -11,7 +11,8 @@
 //! ```
 //! use glam::DVec3;
 //! use translucent::material::{Material, MaterialField};
-//! use translucent::solver::{self, CpuSolveParams, Environment, Scene};
+//! use translucent::solver::{self, CpuSolveParams};
+//! use translucent::scene::{Environment, Scene};
 //! use translucent::{tet::TetMesh, GraphLevel, QuadGraph};
 //! let level = GraphLevel::from_tets(TetMesh::bcc_box(DVec3::splat(-5.0), DVec3::splat(5.0), [5, 5, 5]), 2.0, |c, n| (c, n));
 //! let graph = QuadGraph { levels: vec![level], ..Default::default() };
@@ -30,37 +31,11 @@ use rayon::prelude::*;
 
 use super::krylov::{self, KrylovReport};
 use super::operator::{check_level, LevelOperator, Scheme};
-use super::scene::Scene;
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};
 use crate::mesh::Solid;
 use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
-
-/// How outgoing radiance is computed from J+ (DESIGN section 2).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum RadianceMode {
-    /// L_o = F_t(eta, theta_o) J+ / (pi eta^2): radiance crossing into air loses eta^2; integrated
-    /// over the hemisphere this returns (1 - F_dr) J+.
-    #[default]
-    Physical,
-    /// The paper's Eq. 4 (its Eq. 7 prints F_r, a typo): L_o = F_t J+ / pi.
-    Paper,
-}
-
-impl std::str::FromStr for RadianceMode {
-    type Err = SolverError;
-    /// `physical` or `paper` (the CLI's `--radiance`).
-    fn from_str(s: &str) -> Result<Self, SolverError> {
-        match s {
-            "physical" => Ok(Self::Physical),
-            "paper" => Ok(Self::Paper),
-            _ => Err(SolverError::BadParameter {
-                name: "radiance",
-                problem: format!("'{s}' (expected physical or paper)"),
-            }),
-        }
-    }
-}
+use crate::scene::{RadianceMode, Scene};
 
 /// Outgoing radiance at a surface point with outgoing current `j_plus`, viewed at `cos_o` to the
 /// normal (outside). Negative J+ gives zero radiance.
@@ -470,7 +445,7 @@ pub fn shade_vertices(
 pub fn beam_source(
     level: &GraphLevel,
     material: &MaterialField,
-    lights: &[super::Light],
+    lights: &[crate::scene::Light],
     op: &LevelOperator,
     occluder: &dyn Solid,
     eta: f64,
@@ -481,7 +456,7 @@ pub fn beam_source(
     for light in lights {
         let single = Scene {
             lights: vec![*light],
-            environment: super::Environment::None,
+            environment: crate::scene::Environment::None,
         };
         let q = single.surface_irradiance(level, eta, Some(occluder));
         // (extinction density, scattering density) per node.
