@@ -1,5 +1,5 @@
 //! Resource limits on hostile input (issue 17): the sizes a mesh, a `.vol` grid, a cache file or a
-//! bake may reach, each checked BEFORE the memory it implies is allocated, each refused with a
+//! bake or an environment map may reach, each checked BEFORE the memory it implies is allocated, each refused with a
 //! [`LimitExceeded`] that names the limit and how to raise it.
 //!
 //! The defaults fit a 16 GB machine with room to spare and are far above every mesh, grid and bake
@@ -39,10 +39,13 @@ pub enum Limit {
     /// Points sampled on the surface to seed the bake's lattice (one per half lattice spacing on
     /// every triangle: a few large triangles at a fine resolution make many).
     SurfaceSamples,
+    /// Texels (width * height) of an EXR environment map, checked from its header before its
+    /// pixels are decoded.
+    EnvTexels,
 }
 
 impl Limit {
-    pub const ALL: [Limit; 7] = [
+    pub const ALL: [Limit; 8] = [
         Limit::Vertices,
         Limit::Triangles,
         Limit::FileBytes,
@@ -50,6 +53,7 @@ impl Limit {
         Limit::VolAxis,
         Limit::LatticeNodes,
         Limit::SurfaceSamples,
+        Limit::EnvTexels,
     ];
 
     /// The environment variable that overrides it.
@@ -62,6 +66,7 @@ impl Limit {
             Limit::VolAxis => "TRANSLUCENT_MAX_VOL_AXIS",
             Limit::LatticeNodes => "TRANSLUCENT_MAX_LATTICE_NODES",
             Limit::SurfaceSamples => "TRANSLUCENT_MAX_SURFACE_SAMPLES",
+            Limit::EnvTexels => "TRANSLUCENT_MAX_ENV_TEXELS",
         }
     }
 
@@ -75,6 +80,7 @@ impl Limit {
             Limit::VolAxis => "max_vol_axis",
             Limit::LatticeNodes => "max_lattice_nodes",
             Limit::SurfaceSamples => "max_surface_samples",
+            Limit::EnvTexels => "max_env_texels",
         }
     }
 
@@ -88,6 +94,7 @@ impl Limit {
             Limit::VolAxis => "cells along one axis of the .vol grid",
             Limit::LatticeNodes => "lattice nodes (estimated) in one bake level",
             Limit::SurfaceSamples => "surface samples seeding the bake's lattice",
+            Limit::EnvTexels => "texels in the environment map",
         }
     }
 }
@@ -112,6 +119,9 @@ pub struct Limits {
     pub max_lattice_nodes: u64,
     /// Surface samples seeding one bake level's lattice. Default 32 M (~1.2 GB).
     pub max_surface_samples: u64,
+    /// EXR environment map texels. Default 64 M (768 MB of f32 RGB; a 16k x 8k map is 128 M: raise
+    /// it for such maps; the projection keeps only nine coefficients).
+    pub max_env_texels: u64,
 }
 
 impl Default for Limits {
@@ -124,6 +134,7 @@ impl Default for Limits {
             max_vol_axis: 4096,
             max_lattice_nodes: 16 << 20,
             max_surface_samples: 32 << 20,
+            max_env_texels: 64 << 20,
         }
     }
 }
@@ -178,6 +189,7 @@ impl Limits {
             Limit::VolAxis => self.max_vol_axis,
             Limit::LatticeNodes => self.max_lattice_nodes,
             Limit::SurfaceSamples => self.max_surface_samples,
+            Limit::EnvTexels => self.max_env_texels,
         }
     }
 
@@ -190,6 +202,7 @@ impl Limits {
             Limit::VolAxis => &mut self.max_vol_axis,
             Limit::LatticeNodes => &mut self.max_lattice_nodes,
             Limit::SurfaceSamples => &mut self.max_surface_samples,
+            Limit::EnvTexels => &mut self.max_env_texels,
         }
     }
 

@@ -12,6 +12,26 @@ fn main() -> anyhow::Result<()> {
     let target = args
         .next()
         .ok_or_else(|| anyhow::anyhow!("usage: fuzz_replay TARGET FILE..."))?;
+    if target == "make-env-seeds" {
+        // The env target's seeds: small equirectangular maps in the encodings users send.
+        let dir = std::path::PathBuf::from(args.next().unwrap_or_else(|| ".".into()));
+        use exr::prelude::*;
+        let sky = |x: usize, y: usize| (0.2 + x as f32 * 0.1, 0.5 + y as f32 * 0.2, 1.0f32);
+        for (name, encoding) in [
+            ("seed-8x4-uncompressed.exr", Encoding::UNCOMPRESSED),
+            ("seed-8x4-zip.exr", Encoding::SMALL_LOSSLESS),
+            ("seed-8x4-rle.exr", Encoding::FAST_LOSSLESS),
+        ] {
+            let image = Image::from_layer(Layer::new(
+                (8, 4),
+                LayerAttributes::named("sky"),
+                encoding,
+                SpecificChannels::rgb(|p: Vec2<usize>| sky(p.x(), p.y())),
+            ));
+            image.write().to_file(dir.join(name))?;
+        }
+        return Ok(());
+    }
     anyhow::ensure!(
         translucent_tools::hostile::TARGETS.contains(&target.as_str()),
         "no target {target:?}; known: {:?}",

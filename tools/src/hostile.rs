@@ -31,7 +31,7 @@ use crate::scene_args::{parse_camera, parse_light};
 use crate::{Cli, Command};
 
 /// The targets, by the name of their fuzz target and corpus directory.
-pub const TARGETS: [&str; 5] = ["obj", "vol", "cache", "scene_strings", "render_argv"];
+pub const TARGETS: [&str; 6] = ["obj", "vol", "cache", "env", "scene_strings", "render_argv"];
 
 /// Runs the entry point `target` (one of [`TARGETS`]) on `data`.
 pub fn run(target: &str, data: &[u8]) -> Result<(), String> {
@@ -39,6 +39,7 @@ pub fn run(target: &str, data: &[u8]) -> Result<(), String> {
         "obj" => obj(data),
         "vol" => vol(data),
         "cache" => cache_bytes(data),
+        "env" => env_exr(data),
         "scene_strings" => scene_strings(data),
         "render_argv" => render_argv(data),
         other => panic!("no hostile-input target {other:?} (known: {TARGETS:?})"),
@@ -57,6 +58,7 @@ pub fn limits() -> Limits {
         max_vol_axis: 1024,
         max_lattice_nodes: 1 << 18,
         max_surface_samples: 1 << 20,
+        max_env_texels: 1 << 20,
     }
 }
 
@@ -251,6 +253,27 @@ pub fn cache_bytes(data: &[u8]) -> Result<(), String> {
         .unwrap_or_else(|e| panic!("an accepted graph does not read back: {e}"));
     assert_eq!(back.levels.len(), graph.levels.len());
     solve_is_finite(&graph, false)
+}
+
+/// EXR bytes (an `--env` map) -> the EXR reader -> spherical-harmonic projection -> irradiance
+/// on a few normals, which must be finite and non-negative in every channel's sum.
+pub fn env_exr(data: &[u8]) -> Result<(), String> {
+    let env = Environment::from_exr_bytes(data, Path::new("fuzz.exr"), &limits()).map_err(text)?;
+    env.validate()
+        .unwrap_or_else(|e| panic!("an accepted map projects to an invalid environment: {e}"));
+    for n in [
+        DVec3::X,
+        DVec3::Y,
+        -DVec3::Z,
+        DVec3::new(1.0, 2.0, 3.0).normalize(),
+    ] {
+        let e = env.irradiance(n);
+        assert!(
+            e.iter().all(|v| v.is_finite()),
+            "an accepted map gives irradiance {e:?} on {n}"
+        );
+    }
+    Ok(())
 }
 
 /// `--light`, `--camera`, `--sigma-a/--sigma-s` strings -> their parsers. The first byte picks

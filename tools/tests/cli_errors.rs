@@ -97,6 +97,8 @@ fn limits_are_named_with_the_variable_that_raises_them() {
     )
     .expect("write");
     let tetra = tetra.to_str().expect("utf-8");
+    // The cache file goes to the scratch directory, not the working directory.
+    let cache = dir.join("tetra.qgraph");
     let bake = [
         "bake",
         "--mesh",
@@ -105,6 +107,8 @@ fn limits_are_named_with_the_variable_that_raises_them() {
         "16",
         "--levels",
         "1",
+        "--out",
+        cache.to_str().expect("utf-8"),
     ];
     for (var, needle) in [
         (
@@ -154,6 +158,26 @@ fn limits_are_named_with_the_variable_that_raises_them() {
         &[],
     );
     assert!(line.contains("TRANSLUCENT_MAX_VOL_VOXELS=N"), "{line}");
+    assert!(!out.exists());
+    // An environment map above the texel limit is refused from its header, before its pixels.
+    let env = dir.join("sky.exr");
+    exr::prelude::write_rgb_file(&env, 8, 4, |_, _| (0.5f32, 0.5f32, 0.5f32)).expect("write EXR");
+    let line = error_line(
+        &[
+            "render",
+            "--env",
+            env.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ],
+        &dir,
+        &[("TRANSLUCENT_MAX_ENV_TEXELS", "31")],
+    );
+    assert!(
+        line.contains("too many texels in the environment map: 32, the limit is 31")
+            && line.contains("TRANSLUCENT_MAX_ENV_TEXELS=N"),
+        "{line}"
+    );
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -173,6 +173,36 @@ fn every_corpus_input_through_the_command_line_exits_cleanly() {
             assert!(!out.exists(), "vol/{name}: a refused volume left an image");
         }
     }
+    for (name, data) in corpus("env") {
+        std::fs::write(dir.join("input.exr"), &data).expect("write the map");
+        let out = dir.join("e.png");
+        let _ = std::fs::remove_file(&out);
+        let o = run_cli(
+            &[
+                "render",
+                "--env",
+                "input.exr",
+                "--shape",
+                "sphere",
+                "--resolution",
+                "4",
+                "--levels",
+                "1",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--out",
+                "e.png",
+            ],
+            &dir,
+        );
+        assert_clean_exit(&format!("env/{name}"), &o);
+        if hostile::run("env", &data).is_err() {
+            assert_eq!(o.status.code(), Some(1), "env/{name} was rendered");
+            assert!(!out.exists(), "env/{name}: a refused map left an image");
+        }
+    }
     for (name, data) in corpus("cache") {
         // Payloads under the key the command computes, so that its load reaches the decoder.
         let bytes = match data.split_first() {

@@ -243,7 +243,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), BakeError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "cache".into());
-    let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    // Process id and a counter: two writers (processes or threads) never share a temporary file.
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()));
     let result = (|| {
         // Errors name the file the caller asked for; the temporary name means nothing to them.
         let mut f = File::create(&tmp).map_err(|e| io_error(path, e))?;

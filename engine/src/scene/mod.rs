@@ -42,6 +42,12 @@ pub use light::{Light, MAX_LIGHT_COLOUR};
 pub enum SceneError {
     #[error("{what}: {problem}")]
     Invalid { what: String, problem: String },
+    /// An input above a resource limit ([`crate::limits`]), named with how to raise it.
+    #[error("{what}: {source}")]
+    Limit {
+        what: String,
+        source: crate::limits::LimitExceeded,
+    },
 }
 
 /// How outgoing radiance is computed from the surface exitance (DESIGN section 2).
