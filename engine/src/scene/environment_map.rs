@@ -217,6 +217,14 @@ mod tests {
         }
     }
 
+    /// Finite texels can sum past what an environment may hold: a typed error, not an invalid
+    /// environment handed to the solvers.
+    #[test]
+    fn a_map_of_huge_finite_radiance_is_refused() {
+        let err = Environment::from_equirect(4, 2, &[[f32::MAX; 3]; 8]).expect_err("refused");
+        assert!(err.to_string().contains("finite and within"), "{err}");
+    }
+
     #[test]
     fn the_top_row_looks_up_and_u_follows_mitsuba() {
         let up = equirect_direction(0, 0, 64, 32);
