@@ -471,6 +471,10 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     })
 }
 
+/// The largest coordinate a cache may hold (mm): a hundred times the largest object
+/// (`mesh::SIZE_RANGE_MM`).
+const MAX_COORDINATE_MM: f64 = 1e10;
+
 /// Cross-checks sizes and indices, so that a file which passes the checksum but was written by a
 /// buggy or foreign writer still cannot make a consumer index out of bounds.
 fn check(g: &QuadGraph) -> Result<(), String> {
@@ -492,6 +496,54 @@ fn check(g: &QuadGraph) -> Result<(), String> {
     };
     if g.levels.is_empty() {
         return Err("no levels".into());
+    }
+    // Coordinates within a bound far above any object (`mesh::SIZE_RANGE_MM`), so that bounds,
+    // distances and the f32 upload stay finite (found by the cache fuzz target: nodes at +-1e308
+    // gave an infinite bounding sphere), and finite weights, normals and spacings.
+    let coordinates = |what: &str, points: &[DVec3]| match points
+        .iter()
+        .find(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE_MM))
+    {
+        Some(p) => Err(format!(
+            "{what} at ({:e}, {:e}, {:e}): coordinates must be finite and within \
+             +-{MAX_COORDINATE_MM:e} mm",
+            p.x, p.y, p.z
+        )),
+        None => Ok(()),
+    };
+    let finite = |what: &str, values: &mut dyn Iterator<Item = f64>| {
+        for v in values {
+            if !v.is_finite() {
+                return Err(format!("{what}: {v} is not finite"));
+            }
+        }
+        Ok(())
+    };
+    coordinates("surface vertex", &g.surface.positions)?;
+    finite(
+        "surface normals",
+        &mut g.surface.normals.iter().flat_map(|n| n.to_array()),
+    )?;
+    finite(
+        "shading weights",
+        &mut g.shading.weights.iter().flatten().copied(),
+    )?;
+    for (h, l) in g.levels.iter().enumerate() {
+        if !(l.spacing.is_finite() && l.spacing > 0.0 && l.spacing <= MAX_COORDINATE_MM) {
+            return Err(format!("level {h}: spacing {} mm", l.spacing));
+        }
+        coordinates("tetrahedron vertex", &l.tets.vertices)?;
+        coordinates("node", &l.positions)?;
+        finite(
+            "surface node normals",
+            &mut l.surface_normals.iter().flat_map(|n| n.to_array()),
+        )?;
+        if let Some(links) = &l.from_coarser {
+            finite(
+                "level link weights",
+                &mut links.weights.iter().flatten().copied(),
+            )?;
+        }
     }
     let nv = g.surface.positions.len();
     for t in &g.surface.indices {
