@@ -84,6 +84,7 @@ pub mod frame;
 pub mod headless;
 #[cfg(feature = "wgpu")]
 pub mod interop;
+pub mod limits;
 pub mod material;
 pub mod mesh;
 pub mod object;

@@ -129,7 +129,10 @@ fn non_finite_coordinates_name_the_vertex_and_line() {
             panic!("{name}: {err:?}")
         };
         assert_eq!((*v, *l), (vertex, Some(line)), "{name}");
-        assert!(message.contains(&format!("line {line}")), "{message}");
+        assert!(
+            message.starts_with(&format!("{}:{line}: ", obj(name, text).display())),
+            "{message}"
+        );
     }
     // Built in code: the vertex index, no line.
     let mesh = TriMesh {
@@ -186,7 +189,11 @@ fn face_indices_out_of_range_name_the_face_and_line() {
             panic!("{name}: {err:?}")
         };
         assert_eq!((*i, *vertices), (index, 3), "{name}");
-        assert!(line.is_some() && message.contains("line"), "{message}");
+        let line = line.expect("a line");
+        assert!(
+            message.contains(&format!("{name}:{line}: face")),
+            "{message}"
+        );
     }
     let mesh = TriMesh {
         positions: vec![DVec3::ZERO; 3],
@@ -226,40 +233,53 @@ fn tabs_crlf_and_faces_before_their_vertices_load() {
 }
 
 #[test]
-fn unparsable_or_truncated_obj_lines_name_their_line() {
-    for (name, text, line, needle) in [
+fn unparsable_obj_is_a_syntax_error_at_its_line() {
+    let (err, message) = load_err("garbage.obj", "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n");
+    assert!(
+        matches!(err.root(), MeshError::Syntax { line: 3, .. }),
+        "{err:?}"
+    );
+    assert!(
+        message.ends_with("garbage.obj:3: vertex 3: coordinate z \"zero\" is not a number"),
+        "{message}"
+    );
+    // Each rule tobj applies, refused at its line with the file named (FILE:LINE: problem).
+    let tetra = TETRA;
+    for (name, text, line) in [
+        ("cut-vertex.obj", format!("{tetra}v 1 2"), 9),
+        ("cut-number.obj", format!("{tetra}v 1 2 3e"), 9),
+        ("weight-zero.obj", format!("v 0 0 0 0\n{tetra}"), 1),
+        ("two-extra.obj", format!("v 0 0 0 1 1\n{tetra}"), 1),
+        ("mixed-colours.obj", format!("v 0 0 0 1 1 1\n{tetra}"), 2),
+        ("cut-normal.obj", format!("vn 0 0\n{tetra}"), 1),
+        ("cut-texcoord.obj", format!("{tetra}vt 0"), 9),
+        ("bad-index.obj", format!("{tetra}f 1 2 x"), 9),
+        ("four-slashes.obj", format!("{tetra}f 1/1/1/1 2 3"), 9),
+        ("empty-face.obj", format!("{tetra}f"), 9),
         (
-            "garbage.obj",
-            "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n",
-            3,
-            "\"zero\" is not a number",
+            "normal-index.obj",
+            format!("vn 0 0 1\n{tetra}f 1//2 2//1 3//1"),
+            10,
         ),
+        ("not-utf8.obj", tetra.to_string(), 9),
+        ("usemtl.obj", format!("{tetra}usemtl\n"), 9),
         (
-            "truncated-vertex.obj",
-            "v 0 0 0\nv 1 0 0\nv 0 1",
-            3,
-            "vertex 3 has 2 coordinate(s)",
-        ),
-        (
-            "truncated-face.obj",
-            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2",
-            4,
-            "face 1 has 2 vertex reference(s)",
-        ),
-        (
-            "bad-index.obj",
-            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
-            4,
-            "\"x\" is not a vertex index",
+            "forward-across-objects.obj",
+            format!("o a\nf 1 2 3\no b\n{tetra}"),
+            2,
         ),
     ] {
-        let (err, message) = load_err(name, text);
-        let MeshError::Syntax { line: at, .. } = err.root() else {
-            panic!("{name}: {err:?}")
-        };
-        assert_eq!(*at, line, "{name}: {message}");
+        let mut bytes = text.into_bytes();
+        if name == "not-utf8.obj" {
+            bytes.extend_from_slice(b"# caf\xe9\n"); // Latin-1, not UTF-8
+        }
+        let path = obj(name, "");
+        std::fs::write(&path, &bytes).unwrap();
+        let err = TriMesh::load_obj(&path).unwrap_err();
+        let message = err.to_string();
+        assert_eq!(err.line(), Some(line), "{name}: {message}");
         assert!(
-            message.contains(&format!("line {line}")) && message.contains(needle),
+            message.starts_with(&format!("{}:{line}: ", path.display())),
             "{name}: {message}"
         );
     }

@@ -87,7 +87,7 @@ pub fn parse_camera(text: &str) -> anyhow::Result<Camera> {
         target: vec3("--camera target", target)?,
         fovy_deg,
     };
-    // Camera::validate also bounds the coordinates (render::MAX_CAMERA_MM): an eye at 1e300 mm
+    // Camera::validate also bounds the coordinates (scene::MAX_CAMERA_MM): an eye at 1e300 mm
     // is finite but renders nothing through an f32 view matrix.
     camera
         .validate()

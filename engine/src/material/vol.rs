@@ -25,6 +25,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::{Coefficients, MaterialError};
+use crate::limits::{Limit, LimitExceeded, Limits};
 
 /// The channels every grid of ours has.
 pub const VOL_CHANNELS: usize = 6;
@@ -59,6 +60,8 @@ pub enum VolError {
     },
     #[error("voxel {voxel:?} has sigma_t' = 0 in channel {channel}")]
     ZeroExtinction { voxel: [usize; 3], channel: usize },
+    #[error(transparent)]
+    Limit(#[from] LimitExceeded),
 }
 
 /// A dense 6-channel grid, validated: every value finite and >= 0, sigma_t' > 0 everywhere.
@@ -159,50 +162,16 @@ impl VolGrid {
         out
     }
 
-    /// Decodes and validates file contents.
+    /// Decodes and validates file contents, within [`Limits::from_env`].
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, VolError> {
-        if bytes.len() < HEADER_BYTES {
-            return Err(VolError::Truncated {
-                expected: HEADER_BYTES,
-                actual: bytes.len(),
-            });
-        }
-        let magic = [bytes[0], bytes[1], bytes[2]];
-        if &magic != b"VOL" {
-            return Err(VolError::BadMagic(magic));
-        }
-        if bytes[3] != 3 {
-            return Err(VolError::BadVersion(bytes[3]));
-        }
-        let word = |i: usize| {
-            [
-                bytes[4 + 4 * i],
-                bytes[5 + 4 * i],
-                bytes[6 + 4 * i],
-                bytes[7 + 4 * i],
-            ]
-        };
-        let encoding = i32::from_le_bytes(word(0));
-        if encoding != 1 {
-            return Err(VolError::BadEncoding(encoding));
-        }
-        let res_i = [1, 2, 3].map(|i| i32::from_le_bytes(word(i)));
-        let channels = i32::from_le_bytes(word(4));
-        if res_i.iter().any(|&r| r < 1) {
-            return Err(VolError::BadResolution(res_i));
-        }
-        if channels != VOL_CHANNELS as i32 {
-            return Err(VolError::BadChannels(channels));
-        }
-        let res = res_i.map(|r| r as usize);
-        let floats = cell_count(res)
-            .and_then(|c| c.checked_mul(VOL_CHANNELS))
-            .ok_or(VolError::BadResolution(res_i))?;
-        let bbox: [f32; 6] = std::array::from_fn(|i| f32::from_le_bytes(word(5 + i)));
-        let expected = floats
-            .checked_mul(4)
-            .and_then(|b| b.checked_add(HEADER_BYTES))
-            .ok_or(VolError::BadResolution(res_i))?;
+        Self::from_bytes_with_limits(bytes, &Limits::from_env())
+    }
+
+    /// Decodes and validates file contents; the resolution is checked against `limits`
+    /// ([`Limit::VolAxis`], [`Limit::VolVoxels`]) before the data is looked at.
+    pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self, VolError> {
+        let header = Header::parse(bytes, limits)?;
+        let expected = header.file_bytes();
         if bytes.len() < expected {
             return Err(VolError::Truncated {
                 expected,
@@ -218,8 +187,9 @@ impl VolGrid {
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
             .collect();
+        let bbox = header.bbox;
         let grid = Self {
-            res,
+            res: header.res,
             bbox_min: DVec3::new(bbox[0] as f64, bbox[1] as f64, bbox[2] as f64),
             bbox_max: DVec3::new(bbox[3] as f64, bbox[4] as f64, bbox[5] as f64),
             data,
@@ -228,14 +198,31 @@ impl VolGrid {
         Ok(grid)
     }
 
-    /// Reads and validates a `.vol` file.
+    /// Reads and validates a `.vol` file, within [`Limits::from_env`].
     pub fn read(path: &Path) -> Result<Self, MaterialError> {
+        Self::read_with_limits(path, &Limits::from_env())
+    }
+
+    /// Reads and validates a `.vol` file. The header is read and checked against `limits` first;
+    /// then no more than the bytes it announces (plus one, to tell trailing bytes) are read, so
+    /// neither a huge resolution nor a huge file is allocated.
+    pub fn read_with_limits(path: &Path, limits: &Limits) -> Result<Self, MaterialError> {
+        use std::io::Read as _;
         let wrap = |problem| MaterialError::Vol {
             path: path.to_path_buf(),
             problem,
         };
-        let bytes = std::fs::read(path).map_err(|e| wrap(VolError::Io(e)))?;
-        Self::from_bytes(&bytes).map_err(wrap)
+        let mut file = std::fs::File::open(path).map_err(|e| wrap(VolError::Io(e)))?;
+        let mut bytes = Vec::new();
+        (&mut file)
+            .take(HEADER_BYTES as u64)
+            .read_to_end(&mut bytes)
+            .map_err(|e| wrap(VolError::Io(e)))?;
+        let expected = Header::parse(&bytes, limits).map_err(wrap)?.file_bytes();
+        file.take((expected - HEADER_BYTES) as u64 + 1)
+            .read_to_end(&mut bytes)
+            .map_err(|e| wrap(VolError::Io(e)))?;
+        Self::from_bytes_with_limits(&bytes, limits).map_err(wrap)
     }
 
     /// Writes atomically: a temporary file next to `path`, then a rename, so a failure never leaves
@@ -251,8 +238,13 @@ impl VolGrid {
             .unwrap_or_default();
         tmp_name.push(format!(".tmp{}", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
-        let result =
-            std::fs::write(&tmp, self.to_bytes()).and_then(|()| std::fs::rename(&tmp, path));
+        // Synced before the rename: a crash leaves the old grid or the new one under `path`.
+        let result = std::fs::File::create(&tmp)
+            .and_then(|mut f| {
+                std::io::Write::write_all(&mut f, &self.to_bytes())?;
+                f.sync_all()
+            })
+            .and_then(|()| std::fs::rename(&tmp, path));
         if result.is_err() {
             let _ = std::fs::remove_file(&tmp);
         }
@@ -295,6 +287,69 @@ impl VolGrid {
             let c11 = lerp(at(x0, y1, z1, c), at(x1, y1, z1, c), fx);
             lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz)
         })
+    }
+}
+
+/// The fixed-size start of a `.vol` file, checked.
+struct Header {
+    res: [usize; 3],
+    bbox: [f32; 6],
+}
+
+impl Header {
+    /// Parses and checks the header at the start of `bytes` (only its first [`HEADER_BYTES`]).
+    fn parse(bytes: &[u8], limits: &Limits) -> Result<Header, VolError> {
+        if bytes.len() < HEADER_BYTES {
+            return Err(VolError::Truncated {
+                expected: HEADER_BYTES,
+                actual: bytes.len(),
+            });
+        }
+        let magic = [bytes[0], bytes[1], bytes[2]];
+        if &magic != b"VOL" {
+            return Err(VolError::BadMagic(magic));
+        }
+        if bytes[3] != 3 {
+            return Err(VolError::BadVersion(bytes[3]));
+        }
+        let word = |i: usize| {
+            [
+                bytes[4 + 4 * i],
+                bytes[5 + 4 * i],
+                bytes[6 + 4 * i],
+                bytes[7 + 4 * i],
+            ]
+        };
+        let encoding = i32::from_le_bytes(word(0));
+        if encoding != 1 {
+            return Err(VolError::BadEncoding(encoding));
+        }
+        let res_i = [1, 2, 3].map(|i| i32::from_le_bytes(word(i)));
+        let channels = i32::from_le_bytes(word(4));
+        if res_i.iter().any(|&r| r < 1) {
+            return Err(VolError::BadResolution(res_i));
+        }
+        if channels != VOL_CHANNELS as i32 {
+            return Err(VolError::BadChannels(channels));
+        }
+        for &r in &res_i {
+            limits.check(Limit::VolAxis, r as u64)?;
+        }
+        let voxels = res_i.iter().fold(1u64, |n, &r| n.saturating_mul(r as u64));
+        limits.check(Limit::VolVoxels, voxels)?;
+        let res = res_i.map(|r| r as usize);
+        // Both limits are u64: on a 32-bit target the byte count could still overflow usize.
+        cell_count(res)
+            .and_then(|c| c.checked_mul(VOL_CHANNELS * 4))
+            .and_then(|b| b.checked_add(HEADER_BYTES))
+            .ok_or(VolError::BadResolution(res_i))?;
+        let bbox: [f32; 6] = std::array::from_fn(|i| f32::from_le_bytes(word(5 + i)));
+        Ok(Header { res, bbox })
+    }
+
+    /// The size of the whole file the header announces (checked not to overflow in `parse`).
+    fn file_bytes(&self) -> usize {
+        HEADER_BYTES + self.res.iter().product::<usize>() * VOL_CHANNELS * 4
     }
 }
 

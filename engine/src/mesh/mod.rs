@@ -81,21 +81,29 @@ pub enum MeshError {
         #[source]
         source: std::io::Error,
     },
+    /// An OBJ parse error that the line checks of [`TriMesh::parse_obj`] did not catch first (they
+    /// mirror tobj's rules, so this is not expected; it has no line number).
     #[error("{}: not a valid OBJ file: {source}", path.display())]
     Obj {
         path: PathBuf,
         #[source]
         source: tobj::LoadError,
     },
-    #[error("{}: {source}", path.display())]
+    /// Names the file, and the line where the inner error has one: `FILE:LINE: problem`.
+    #[error("{}{}: {source}", path.display(), source.line().map(|l| format!(":{l}")).unwrap_or_default())]
     InFile {
         path: PathBuf,
         #[source]
         source: Box<MeshError>,
     },
+    /// A malformed OBJ line (wrapped in [`MeshError::InFile`], which prints the file and line).
+    #[error("{problem}")]
+    Syntax { line: usize, problem: String },
+    #[error(transparent)]
+    Limit(#[from] crate::limits::LimitExceeded),
     #[error("the mesh has no triangles")]
     Empty,
-    #[error("face {face} refers to vertex {index}, but the mesh has {vertices} vertices{}", at_line(.line))]
+    #[error("face {face} refers to vertex {index}, but the mesh has {vertices} vertices")]
     IndexOutOfRange {
         face: usize,
         index: i64,
@@ -104,19 +112,15 @@ pub enum MeshError {
         line: Option<usize>,
     },
     #[error(
-        "vertex {vertex} has a non-finite coordinate {}{} (or one beyond the f32 range of OBJ \
+        "vertex {vertex} has a non-finite coordinate {} (or one beyond the f32 range of OBJ \
          loading)",
-        point(.position),
-        at_line(.line)
+        point(.position)
     )]
     NonFiniteVertex {
         vertex: usize,
         position: [f64; 3],
         line: Option<usize>,
     },
-    /// A `v` or `f` line that does not parse (tobj's own error names no line).
-    #[error("line {line}: {problem}")]
-    Syntax { line: usize, problem: String },
     #[error("all {faces} faces are degenerate (zero area or a repeated vertex)")]
     AllDegenerate { faces: usize },
     #[error(
@@ -176,16 +180,24 @@ fn point(p: &[f64; 3]) -> String {
     format!("({} {} {})", p[0] as f32, p[1] as f32, p[2] as f32)
 }
 
-fn at_line(line: &Option<usize>) -> String {
-    line.map(|l| format!(" (line {l})")).unwrap_or_default()
-}
-
 impl MeshError {
     /// The problem itself, without the [`MeshError::InFile`] layers naming the file.
     pub fn root(&self) -> &MeshError {
         match self {
             MeshError::InFile { source, .. } => source.root(),
             other => other,
+        }
+    }
+
+    /// The line of the input file the problem is on, where known.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            MeshError::InFile { source, .. } => source.line(),
+            MeshError::Syntax { line, .. } => Some(*line),
+            MeshError::IndexOutOfRange { line, .. } | MeshError::NonFiniteVertex { line, .. } => {
+                *line
+            }
+            _ => None,
         }
     }
 

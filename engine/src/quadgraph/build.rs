@@ -11,9 +11,10 @@ use serde::Serialize;
 
 use super::graph::{split_multi_boundary, GraphLevel, QuadGraph, NO_NODE};
 use super::{packing, shepard, BakeError};
+use crate::limits::{Limit, Limits};
 use crate::mesh::{Solid, TriMesh};
 use crate::tet::stuffing::{angle_range, StuffParams};
-use crate::tet::{tetrahedralize, TetParams};
+use crate::tet::{try_tetrahedralize, TetParams};
 
 /// Bake parameters. They are part of the cache key.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,6 +33,9 @@ pub struct BakeParams {
     /// Texture block size `r` (paper section 5.1).
     pub block: u32,
     pub stuffing: StuffParams,
+    /// Resource limits (surface size, lattice nodes, surface samples), checked before the memory
+    /// they bound is allocated; [`Limits::from_env`] by default. Not part of the cache key.
+    pub limits: Limits,
 }
 
 impl Default for BakeParams {
@@ -43,6 +47,7 @@ impl Default for BakeParams {
             relax: false,
             block: 32,
             stuffing: StuffParams::default(),
+            limits: Limits::from_env(),
         }
     }
 }
@@ -205,6 +210,15 @@ impl QuadGraph {
                 "the surface mesh has no triangles".into(),
             ));
         }
+        let limits = &params.limits;
+        for (limit, count) in [
+            (Limit::Vertices, surface.positions.len()),
+            (Limit::Triangles, surface.indices.len()),
+        ] {
+            limits
+                .check(limit, count as u64)
+                .map_err(|e| BakeError::Invalid(format!("the surface mesh: {e}")))?;
+        }
         let nlevels = params.levels as usize;
         let mut timings: Vec<(String, f64)> = Vec::new();
         let mut levels = Vec::with_capacity(nlevels);
@@ -222,7 +236,14 @@ impl QuadGraph {
                 grading: params.k,
                 stuffing: params.stuffing,
             };
-            let (mesh, stuffed) = tetrahedralize(solid, surface, &tet_params);
+            let (mesh, stuffed) =
+                try_tetrahedralize(solid, surface, &tet_params, limits).map_err(|source| {
+                    BakeError::Limit {
+                        level: l,
+                        spacing_mm: spacing,
+                        source,
+                    }
+                })?;
             let (mesh, split) = split_multi_boundary(mesh);
             if mesh.tets.is_empty() {
                 return Err(BakeError::Empty {

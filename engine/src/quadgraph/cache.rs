@@ -19,13 +19,14 @@
 //! ```
 
 use std::fs::File;
-use std::io::Write;
+use std::io::{Read as _, Write};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
 use super::graph::{GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks};
 use super::{BakeError, BakeParams, BakeProgress, BakeStats};
+use crate::limits::{Limit, Limits};
 use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
@@ -119,30 +120,53 @@ impl QuadGraph {
     /// Writes the graph to `path` under `key`, atomically: a temporary file in the same directory
     /// is written, synced and renamed over `path`.
     pub fn save(&self, path: &Path, key: u64) -> Result<(), BakeError> {
-        let mut w = Writer::default();
-        encode(self, &mut w);
-        let payload = w.0;
-        let mut bytes = Vec::with_capacity(HEADER + payload.len() + 8);
-        bytes.extend_from_slice(MAGIC);
-        bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-        bytes.extend_from_slice(&0u32.to_le_bytes());
-        bytes.extend_from_slice(&key.to_le_bytes());
-        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        bytes.extend_from_slice(&payload);
-        bytes.extend_from_slice(&fnv1a64(&payload, FNV_OFFSET).to_le_bytes());
-        write_atomically(path, &bytes)
+        write_atomically(path, &self.to_cache_bytes(key))
     }
 
     /// Reads a graph written by [`QuadGraph::save`]. With `expect_key`, a file made for another key
-    /// is [`BakeError::CacheStale`].
+    /// is [`BakeError::CacheStale`]. The file size is bounded by [`Limits::from_env`]'s
+    /// [`Limit::FileBytes`], checked while reading.
     pub fn load(path: &Path, expect_key: Option<u64>) -> Result<QuadGraph, BakeError> {
-        let bytes = std::fs::read(path).map_err(|source| BakeError::Io {
+        Self::load_with_limits(path, expect_key, &Limits::from_env())
+    }
+
+    /// [`QuadGraph::load`] with explicit limits.
+    pub fn load_with_limits(
+        path: &Path,
+        expect_key: Option<u64>,
+        limits: &Limits,
+    ) -> Result<QuadGraph, BakeError> {
+        let io = |source| BakeError::Io {
             path: path.into(),
             source,
-        })?;
+        };
+        let file = File::open(path).map_err(io)?;
+        let mut bytes = Vec::new();
+        // One byte past the limit tells "at the limit" from "above it" without reading the rest.
+        file.take(limits.max_file_bytes.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        limits
+            .check(Limit::FileBytes, bytes.len() as u64)
+            .map_err(|source| BakeError::CacheLimit {
+                path: path.into(),
+                source,
+            })?;
+        Self::from_cache_bytes(&bytes, path, expect_key)
+    }
+
+    /// Decodes the contents of a cache file held in memory (what [`QuadGraph::load`] does after
+    /// reading it); `path` only names it in errors. Every header field, length, index and size is
+    /// checked, so that no content, even one with a valid checksum, makes a consumer index out of
+    /// bounds or allocate beyond what the bytes hold.
+    pub fn from_cache_bytes(
+        bytes: &[u8],
+        path: &Path,
+        expect_key: Option<u64>,
+    ) -> Result<QuadGraph, BakeError> {
         let p = || path.to_path_buf();
         if bytes.len() < 8 || &bytes[..8] != MAGIC {
-            if bytes.len() < 8 && MAGIC.starts_with(&bytes) {
+            if bytes.len() < 8 && MAGIC.starts_with(bytes) {
                 return Err(BakeError::CacheTruncated {
                     path: p(),
                     len: bytes.len() as u64,
@@ -195,6 +219,22 @@ impl QuadGraph {
         check(&graph).map_err(|reason| BakeError::CacheContent { path: p(), reason })?;
         Ok(graph)
     }
+
+    /// The bytes [`QuadGraph::save`] writes for `key` (header, payload, checksum).
+    pub fn to_cache_bytes(&self, key: u64) -> Vec<u8> {
+        let mut w = Writer::default();
+        encode(self, &mut w);
+        let payload = w.0;
+        let mut bytes = Vec::with_capacity(HEADER + payload.len() + 8);
+        bytes.extend_from_slice(MAGIC);
+        bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        bytes.extend_from_slice(&0u32.to_le_bytes());
+        bytes.extend_from_slice(&key.to_le_bytes());
+        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&payload);
+        bytes.extend_from_slice(&fnv1a64(&payload, FNV_OFFSET).to_le_bytes());
+        bytes
+    }
 }
 
 /// Writes `bytes` to a temporary sibling of `path`, syncs it, and renames it over `path`.
@@ -203,7 +243,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), BakeError> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "cache".into());
-    let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    // Process id and a counter: two writers (processes or threads) never share a temporary file.
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()));
     let result = (|| {
         // Errors name the file the caller asked for; the temporary name means nothing to them.
         let mut f = File::create(&tmp).map_err(|e| io_error(path, e))?;
@@ -430,6 +473,10 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     })
 }
 
+/// The largest coordinate a cache may hold (mm): a hundred times the largest object
+/// (`mesh::SIZE_RANGE_MM`).
+const MAX_COORDINATE_MM: f64 = 1e10;
+
 /// Cross-checks sizes and indices, so that a file which passes the checksum but was written by a
 /// buggy or foreign writer still cannot make a consumer index out of bounds.
 fn check(g: &QuadGraph) -> Result<(), String> {
@@ -440,13 +487,70 @@ fn check(g: &QuadGraph) -> Result<(), String> {
             Err(format!("{what} index {i} out of range (< {n})"))
         }
     };
+    // Triangle and tetrahedron corners have no "none": NO_NODE there is out of range (a tetrahedron
+    // corner u32::MAX indexed past the vertices in `stats`: found by the cache fuzz target).
+    let corner = |what: &str, i: u32, n: usize| {
+        if (i as usize) < n {
+            Ok(())
+        } else {
+            Err(format!("{what} index {i} out of range (< {n})"))
+        }
+    };
     if g.levels.is_empty() {
         return Err("no levels".into());
+    }
+    // Coordinates within a bound far above any object (`mesh::SIZE_RANGE_MM`), so that bounds,
+    // distances and the f32 upload stay finite (found by the cache fuzz target: nodes at +-1e308
+    // gave an infinite bounding sphere), and finite weights, normals and spacings.
+    let coordinates = |what: &str, points: &[DVec3]| match points
+        .iter()
+        .find(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE_MM))
+    {
+        Some(p) => Err(format!(
+            "{what} at ({:e}, {:e}, {:e}): coordinates must be finite and within \
+             +-{MAX_COORDINATE_MM:e} mm",
+            p.x, p.y, p.z
+        )),
+        None => Ok(()),
+    };
+    let finite = |what: &str, values: &mut dyn Iterator<Item = f64>| {
+        for v in values {
+            if !v.is_finite() {
+                return Err(format!("{what}: {v} is not finite"));
+            }
+        }
+        Ok(())
+    };
+    coordinates("surface vertex", &g.surface.positions)?;
+    finite(
+        "surface normals",
+        &mut g.surface.normals.iter().flat_map(|n| n.to_array()),
+    )?;
+    finite(
+        "shading weights",
+        &mut g.shading.weights.iter().flatten().copied(),
+    )?;
+    for (h, l) in g.levels.iter().enumerate() {
+        if !(l.spacing.is_finite() && l.spacing > 0.0 && l.spacing <= MAX_COORDINATE_MM) {
+            return Err(format!("level {h}: spacing {} mm", l.spacing));
+        }
+        coordinates("tetrahedron vertex", &l.tets.vertices)?;
+        coordinates("node", &l.positions)?;
+        finite(
+            "surface node normals",
+            &mut l.surface_normals.iter().flat_map(|n| n.to_array()),
+        )?;
+        if let Some(links) = &l.from_coarser {
+            finite(
+                "level link weights",
+                &mut links.weights.iter().flatten().copied(),
+            )?;
+        }
     }
     let nv = g.surface.positions.len();
     for t in &g.surface.indices {
         t.iter()
-            .try_for_each(|&i| in_range("surface triangle", i, nv))?;
+            .try_for_each(|&i| corner("surface triangle", i, nv))?;
     }
     if g.shading.links.len() != nv || g.shading.weights.len() != nv {
         return Err("shading weights do not match the surface's vertices".into());
@@ -464,7 +568,7 @@ fn check(g: &QuadGraph) -> Result<(), String> {
         }
         for t in &l.tets.tets {
             t.iter()
-                .try_for_each(|&v| in_range("tetrahedron vertex", v, l.tets.vertices.len()))?;
+                .try_for_each(|&v| corner("tetrahedron vertex", v, l.tets.vertices.len()))?;
         }
         for nb in &l.neighbors {
             nb.iter()

@@ -69,6 +69,22 @@ pub enum BakeError {
     CacheStale { path: PathBuf },
     #[error("bake cache {path}: inconsistent content: {reason}")]
     CacheContent { path: PathBuf, reason: String },
+    #[error("bake cache {path}: {source}")]
+    CacheLimit {
+        path: PathBuf,
+        #[source]
+        source: crate::limits::LimitExceeded,
+    },
+    /// A bake level would exceed a resource limit (lattice nodes, surface samples).
+    #[error(
+        "bake: level {level} (lattice spacing {spacing_mm} mm): {source}; or lower --resolution"
+    )]
+    Limit {
+        level: usize,
+        spacing_mm: f64,
+        #[source]
+        source: crate::limits::LimitExceeded,
+    },
 }
 
 #[cfg(test)]

@@ -25,6 +25,9 @@ pub struct Camera {
 /// The largest camera coordinate [`Camera::validate`] accepts (mm).
 pub const MAX_CAMERA_MM: f64 = 1e10;
 
+/// The vertical fields of view [`Camera::validate`] accepts (degrees).
+pub const FOVY_RANGE_DEG: std::ops::RangeInclusive<f64> = 1e-3..=179.0;
+
 impl Camera {
     /// Frames the sphere (`centre`, `radius`) from the front, slightly above.
     pub fn framing(centre: DVec3, radius: f64, aspect: f64) -> Camera {
@@ -58,11 +61,19 @@ impl Camera {
                 "coordinates must be within +-{MAX_CAMERA_MM:e} mm"
             ));
         }
-        if (self.eye - self.target).length() < 1e-9 {
-            return bad("eye and target coincide");
+        // The view matrix is f32: eye and target that coincide in f32 give a NaN view (found by the
+        // scene_strings fuzz target, issue 17), hence a separation relative to their magnitude.
+        let scale = self.eye.abs().max(self.target.abs()).max_element();
+        if (self.eye - self.target).length() < 1e-9_f64.max(1e-6 * scale) {
+            return bad("eye and target coincide (closer than 1e-6 of their coordinates)");
         }
-        if !(self.fovy_deg > 0.0 && self.fovy_deg < 180.0) {
-            return bad("field of view must be in (0, 180) degrees");
+        // In f32 radians a field of view near 0 or 180 degrees has a zero or negative tangent.
+        if !(FOVY_RANGE_DEG.contains(&self.fovy_deg)) {
+            return bad(&format!(
+                "field of view must be within {} to {} degrees",
+                FOVY_RANGE_DEG.start(),
+                FOVY_RANGE_DEG.end()
+            ));
         }
         Ok(())
     }

@@ -17,11 +17,13 @@
 //! ```
 
 use std::f64::consts::PI;
+use std::io::Read as _;
 use std::path::Path;
 
 use glam::DVec3;
 
 use super::{Environment, SceneError};
+use crate::limits::{Limit, Limits};
 
 /// The nine real SH basis functions in the order of [`Environment::SphericalHarmonics`].
 fn sh_basis(d: DVec3) -> [f64; 9] {
@@ -99,24 +101,84 @@ impl Environment {
                 }
             }
         }
-        Ok(Environment::SphericalHarmonics(c))
+        // Finite texels can still sum past what an environment may hold (f32::MAX radiance).
+        let env = Environment::SphericalHarmonics(c);
+        env.validate()?;
+        Ok(env)
     }
 
     /// Reads an equirectangular EXR (first RGBA layer, linear radiance) and projects it with
-    /// [`Environment::from_equirect`]. Errors name the file.
+    /// [`Environment::from_equirect`]. Errors name the file. The file size and the map's texels are
+    /// bounded by [`Limits::from_env`] ([`Limit::FileBytes`], [`Limit::EnvTexels`]).
     pub fn load_exr(path: &Path) -> Result<Environment, SceneError> {
-        let image = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
-            |(w, buf), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                buf[pos.y() * *w + pos.x()] = [r, g, b]
-            },
-        )
-        .map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        Self::load_exr_with_limits(path, &Limits::from_env())
+    }
+
+    /// [`Environment::load_exr`] with explicit limits.
+    pub fn load_exr_with_limits(path: &Path, limits: &Limits) -> Result<Environment, SceneError> {
+        let file =
+            std::fs::File::open(path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        let mut bytes = Vec::new();
+        // One byte past the limit tells "at the limit" from "above it" without reading the rest.
+        file.take(limits.max_file_bytes.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        limits
+            .check(Limit::FileBytes, bytes.len() as u64)
+            .map_err(|source| SceneError::Limit {
+                what: format!("environment map {}", path.display()),
+                source,
+            })?;
+        Self::from_exr_bytes(&bytes, path, limits)
+    }
+
+    /// Decodes an EXR held in memory (what [`Environment::load_exr`] does after reading the file);
+    /// `path` only names it in errors. The header is read first and every layer's size checked
+    /// against [`Limit::EnvTexels`] before any pixel memory is allocated.
+    pub fn from_exr_bytes(
+        bytes: &[u8],
+        path: &Path,
+        limits: &Limits,
+    ) -> Result<Environment, SceneError> {
+        let named = |e: String| bad(format!("{}: {e}", path.display()));
+        let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+            .map_err(|e| named(e.to_string()))?;
+        for header in meta.headers.iter() {
+            let size = header.layer_size;
+            let texels = (size.width() as u64).saturating_mul(size.height() as u64);
+            limits
+                .check(Limit::EnvTexels, texels)
+                .map_err(|source| SceneError::Limit {
+                    what: format!("environment map {}", path.display()),
+                    source,
+                })?;
+        }
+        use exr::prelude::{ReadChannels as _, ReadLayers as _};
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgba_channels(
+                |res: exr::math::Vec2<usize>, _: &exr::image::RgbaChannels| {
+                    (res.width(), vec![[0.0f32; 3]; res.width() * res.height()])
+                },
+                |(w, buf): &mut (usize, Vec<[f32; 3]>),
+                 pos: exr::math::Vec2<usize>,
+                 (r, g, b, _a): (f32, f32, f32, f32)| {
+                    // `get_mut`: a pixel outside the size the decoder announced is dropped, not a
+                    // panic (the size check in `from_equirect` then refuses the map).
+                    if let Some(t) = buf.get_mut(pos.y() * *w + pos.x()) {
+                        *t = [r, g, b];
+                    }
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(bytes))
+            .map_err(|e| named(e.to_string()))?;
         let size = image.layer_data.size;
         let (_, texels) = &image.layer_data.channel_data.pixels;
         Environment::from_equirect(size.width(), size.height(), texels)
-            .map_err(|e| bad(format!("{}: {e}", path.display())))
+            .map_err(|e| named(e.to_string()))
     }
 }
 
@@ -153,6 +215,14 @@ mod tests {
             assert!((e[1] - PI * a).abs() < 1e-3 * PI * a);
             assert!(e[2].abs() < 1e-12);
         }
+    }
+
+    /// Finite texels can sum past what an environment may hold: a typed error, not an invalid
+    /// environment handed to the solvers.
+    #[test]
+    fn a_map_of_huge_finite_radiance_is_refused() {
+        let err = Environment::from_equirect(4, 2, &[[f32::MAX; 3]; 8]).expect_err("refused");
+        assert!(err.to_string().contains("finite and within"), "{err}");
     }
 
     #[test]

@@ -69,12 +69,14 @@ pub(super) fn check_colour(what: &str, c: [f64; 3]) -> Result<(), SceneError> {
 }
 
 fn check_direction(what: &str, d: DVec3) -> Result<(), SceneError> {
-    if d.is_finite() && d.length() > 0.0 {
+    // `try_normalize`, not `length() > 0`: a finite 1e200 has an infinite length and normalized
+    // to zero (found by the scene_strings fuzz target's invariants, issue 17).
+    if d.is_finite() && d.try_normalize().is_some() {
         Ok(())
     } else {
         Err(bad(
             what,
-            format!("direction {d} must be finite and non-zero"),
+            format!("direction {d} must be finite, non-zero and normalizable"),
         ))
     }
 }

@@ -32,7 +32,7 @@ use crate::material::fresnel;
 use crate::mesh::Solid;
 use crate::quadgraph::graph::GraphLevel;
 
-pub use camera::{Camera, MAX_CAMERA_MM};
+pub use camera::{Camera, FOVY_RANGE_DEG, MAX_CAMERA_MM};
 pub use environment::Environment;
 pub use environment_map::equirect_direction;
 pub use light::{Light, MAX_LIGHT_COLOUR};
@@ -42,6 +42,12 @@ pub use light::{Light, MAX_LIGHT_COLOUR};
 pub enum SceneError {
     #[error("{what}: {problem}")]
     Invalid { what: String, problem: String },
+    /// An input above a resource limit ([`crate::limits`]), named with how to raise it.
+    #[error("{what}: {source}")]
+    Limit {
+        what: String,
+        source: crate::limits::LimitExceeded,
+    },
 }
 
 /// How outgoing radiance is computed from the surface exitance (DESIGN section 2).

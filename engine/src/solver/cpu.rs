@@ -391,6 +391,15 @@ pub fn solve(
         }
     }
     let vertex_j_plus = shade_vertices(graph, &j_plus_clamped)?;
+    // Finite phi can still give a non-finite exitance (huge finite shading weights, or an f32
+    // overflow at the vertices): found by the cache fuzz target on a crafted cache (issue 17).
+    if j_plus.iter().flatten().any(|v| !v.is_finite())
+        || vertex_j_plus.iter().flatten().any(|v| !v.is_finite())
+    {
+        return Err(SolverError::NonFinite {
+            what: "the exitance J+ (at the surface nodes or the shaded vertices)".into(),
+        });
+    }
     Ok(CpuSolution {
         phi,
         q,

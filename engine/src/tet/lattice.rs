@@ -28,6 +28,8 @@ use std::collections::{HashMap, HashSet, VecDeque};
 
 use glam::{DVec3, IVec3};
 
+use crate::limits::{Limit, LimitExceeded};
+
 /// Leaves within this many fine cells (Chebyshev distance) of a cell holding a surface sample have
 /// the finest size. Every point of the surface lies within one cell of a sample, so the lattice
 /// tetrahedra the surface cuts are finest BCC ones; [`crate::tet::stuffing::StuffStats::coarse_cut_tets`]
@@ -213,6 +215,21 @@ impl BccLattice {
         bounds: (DVec3, DVec3),
         surface_samples: &[DVec3],
     ) -> Self {
+        // Without a limit nothing can be refused.
+        Self::build_limited(params, bounds, surface_samples, u64::MAX).unwrap_or_default()
+    }
+
+    /// [`BccLattice::build`], refused with [`Limit::LatticeNodes`] when the lattice would have more
+    /// than `max_nodes` nodes. The estimate, twice the octree's leaves (a leaf brings its centre
+    /// and, shared with its neighbours, about one corner), is counted by a walk of the octree that
+    /// stores nothing, before the leaves and the lattice are allocated. The fine distance grid the
+    /// walk needs is bounded by the spacing (the bake's resolution, at most 512 cells across).
+    pub fn build_limited(
+        params: &LatticeParams,
+        bounds: (DVec3, DVec3),
+        surface_samples: &[DVec3],
+        max_nodes: u64,
+    ) -> Result<Self, LimitExceeded> {
         let h = params.spacing;
         let margin = FINE_BAND_CELLS as f64 + 2.0;
         let extent = (bounds.1 - bounds.0) / h + 2.0 * margin;
@@ -235,35 +252,25 @@ impl BccLattice {
             .collect();
         let grid = DistanceGrid::new(dims, &seeds, root_level);
 
-        // Top-down refinement by the distance rule.
         let inv_k = if params.grading > 0.0 {
             1.0 / params.grading
         } else {
             f64::INFINITY
         };
-        let mut leaves: HashSet<Cell> = HashSet::new();
-        let mut stack = vec![Cell {
-            level: root_level,
-            min: IVec3::ZERO,
-        }];
-        while let Some(cell) = stack.pop() {
-            if cell.level == 0 {
-                leaves.insert(cell);
-                continue;
-            }
-            let [all, interior, exterior] = grid.block_min(cell);
-            let s = cell.size() as f64;
-            let in_band = all <= FINE_BAND_CELLS;
-            let interior_too_close = interior != u16::MAX && (interior as f64) < s * inv_k;
-            // Outside, the lattice only has to stay balanced; K = 1 there.
-            let exterior_too_close = (exterior as f64) < s;
-            let split = in_band || interior_too_close || exterior_too_close;
-            if split {
-                stack.extend(cell.children());
-            } else {
-                leaves.insert(cell);
-            }
+        let mut leaf_count = 0u64;
+        refine(&grid, root_level, inv_k, |_| leaf_count += 1);
+        let estimate = leaf_count.saturating_mul(2);
+        if estimate > max_nodes {
+            return Err(LimitExceeded {
+                limit: Limit::LatticeNodes,
+                count: estimate,
+                max: max_nodes,
+            });
         }
+        let mut leaves: HashSet<Cell> = HashSet::new();
+        refine(&grid, root_level, inv_k, |cell| {
+            leaves.insert(cell);
+        });
         balance(&mut leaves, root_level);
         let mut leaves_per_size = vec![0usize; root_level as usize + 1];
         for c in &leaves {
@@ -271,12 +278,38 @@ impl BccLattice {
         }
         let mut lattice = assemble(&leaves, root_level, origin, h);
         lattice.leaves_per_size = leaves_per_size;
-        lattice
+        Ok(lattice)
     }
 
     /// The kind of lattice vertex `v` (corners have all-even half-cell coordinates).
     pub fn kind(&self, v: u32) -> LatticeVertexKind {
         self.kinds[v as usize]
+    }
+}
+
+/// Top-down refinement of the octree by the distance rule: `leaf` is called once per leaf (before
+/// balancing).
+fn refine(grid: &DistanceGrid, root_level: u8, inv_k: f64, mut leaf: impl FnMut(Cell)) {
+    let mut stack = vec![Cell {
+        level: root_level,
+        min: IVec3::ZERO,
+    }];
+    while let Some(cell) = stack.pop() {
+        if cell.level == 0 {
+            leaf(cell);
+            continue;
+        }
+        let [all, interior, exterior] = grid.block_min(cell);
+        let s = cell.size() as f64;
+        let in_band = all <= FINE_BAND_CELLS;
+        let interior_too_close = interior != u16::MAX && (interior as f64) < s * inv_k;
+        // Outside, the lattice only has to stay balanced; K = 1 there.
+        let exterior_too_close = (exterior as f64) < s;
+        if in_band || interior_too_close || exterior_too_close {
+            stack.extend(cell.children());
+        } else {
+            leaf(cell);
+        }
     }
 }
 
@@ -462,13 +495,42 @@ fn ids_get(ids: &HashMap<IVec3, u32>, c: IVec3) -> u32 {
     ids.get(&c).copied().unwrap_or(u32::MAX)
 }
 
+/// How many points [`sample_surface`] returns for these triangles (saturating), counted without
+/// allocating them: what the [`Limit::SurfaceSamples`] check needs.
+pub fn surface_sample_count(positions: &[DVec3], triangles: &[[u32; 3]], max_gap: f64) -> u64 {
+    triangles
+        .iter()
+        .map(|tri| {
+            let Some([a, b, c]) = corners(positions, tri) else {
+                return 0;
+            };
+            let n = per_edge(a, b, c, max_gap);
+            // (n + 1)(n + 2) / 2 points of the triangular grid, in f64 to saturate, not wrap.
+            ((n + 1.0) * (n + 2.0) / 2.0).min(u64::MAX as f64) as u64
+        })
+        .fold(0u64, u64::saturating_add)
+}
+
+fn corners(positions: &[DVec3], tri: &[u32; 3]) -> Option<[DVec3; 3]> {
+    let [a, b, c] = tri.map(|i| positions.get(i as usize).copied());
+    Some([a?, b?, c?])
+}
+
+/// Subdivisions of the longest edge so that samples are at most `max_gap` apart.
+fn per_edge(a: DVec3, b: DVec3, c: DVec3, max_gap: f64) -> f64 {
+    let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+    (longest / max_gap).ceil().max(1.0)
+}
+
 /// Points on the triangles of a surface, no farther apart than `max_gap` (for [`BccLattice::build`]).
 pub fn sample_surface(positions: &[DVec3], triangles: &[[u32; 3]], max_gap: f64) -> Vec<DVec3> {
     let mut out = Vec::new();
     for tri in triangles {
-        let [a, b, c] = tri.map(|i| positions[i as usize]);
-        let longest = (b - a).length().max((c - b).length()).max((a - c).length());
-        let n = (longest / max_gap).ceil().max(1.0) as usize;
+        // A face with an index out of range is skipped, as `surface_sample_count` counts it.
+        let Some([a, b, c]) = corners(positions, tri) else {
+            continue;
+        };
+        let n = per_edge(a, b, c, max_gap) as usize;
         for i in 0..=n {
             for j in 0..=(n - i) {
                 let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);

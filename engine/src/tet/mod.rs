@@ -26,6 +26,7 @@ pub mod stuffing;
 
 use glam::DVec3;
 
+use crate::limits::{Limit, LimitExceeded, Limits};
 use crate::mesh::{Solid, TriMesh};
 
 /// A tetrahedral mesh. Every tetrahedron is positively oriented:
@@ -77,6 +78,31 @@ pub fn tetrahedralize(
         &samples,
     );
     stuffing::stuff(&lattice, solid, &params.stuffing)
+}
+
+/// [`tetrahedralize`] within `limits`: the surface samples ([`Limit::SurfaceSamples`]) are
+/// counted before they are made, and the lattice's nodes ([`Limit::LatticeNodes`]) estimated
+/// before it is built (see [`lattice::BccLattice::build_limited`]).
+pub fn try_tetrahedralize(
+    solid: &dyn Solid,
+    surface: &TriMesh,
+    params: &TetParams,
+    limits: &Limits,
+) -> Result<(TetMesh, stuffing::StuffStats), LimitExceeded> {
+    let max_gap = params.spacing / 2.0;
+    let samples = lattice::surface_sample_count(&surface.positions, &surface.indices, max_gap);
+    limits.check(Limit::SurfaceSamples, samples)?;
+    let samples = lattice::sample_surface(&surface.positions, &surface.indices, max_gap);
+    let lattice = lattice::BccLattice::build_limited(
+        &lattice::LatticeParams {
+            spacing: params.spacing,
+            grading: params.grading,
+        },
+        solid.bounds(),
+        &samples,
+        limits.max_lattice_nodes,
+    )?;
+    Ok(stuffing::stuff(&lattice, solid, &params.stuffing))
 }
 
 /// Signed volume of a tetrahedron (positive for the orientation of [`TetMesh`]).

@@ -139,7 +139,14 @@ pub fn write_atomically(
         std::process::id(),
         next_tmp_id()
     ));
-    if let Err(e) = write(&tmp) {
+    // The bytes reach the disk before the name does: after a crash or power loss the real name
+    // holds the old file or the complete new one, never an empty or partial one.
+    let written = write(&tmp).and_then(|()| {
+        std::fs::File::open(&tmp)
+            .and_then(|f| f.sync_all())
+            .map_err(|e| e.to_string())
+    });
+    if let Err(e) = written {
         let _ = std::fs::remove_file(&tmp);
         return Err(fail(e));
     }

@@ -1,0 +1,183 @@
+//! How the command line reports bad input (issues 16 and 17): one `error:` line with each cause
+//! once, OBJ problems at `FILE:LINE:`, resource limits named with the variable that raises them;
+//! all before any output is written.
+
+mod common;
+
+use common::{scratch, translucent};
+
+/// Runs a command expected to fail and returns its single error line.
+fn error_line(args: &[&str], dir: &std::path::Path, env: &[(&str, &str)]) -> String {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_translucent"));
+    command
+        .args(args)
+        .env("TRANSLUCENT_DEVICE", "llvmpipe")
+        .env("TRANSLUCENT_CACHE_DIR", dir);
+    for (k, v) in env {
+        command.env(k, v);
+    }
+    let o = command.output().expect("run translucent");
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {stderr}");
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
+    assert_eq!(lines.len(), 1, "{args:?}: {stderr}");
+    lines[0].to_string()
+}
+
+#[test]
+fn each_cause_is_printed_once() {
+    let dir = scratch("causes");
+    let empty = dir.join("empty.obj");
+    std::fs::write(&empty, "v 0 0 0\nv 1 0 0\n").expect("write");
+    let out = dir.join("x.png");
+    let line = error_line(
+        &[
+            "render",
+            "--mesh",
+            empty.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ],
+        &dir,
+        &[],
+    );
+    assert_eq!(line.matches("no triangles").count(), 1, "{line}");
+    assert!(
+        line.contains("empty.obj: the mesh has no triangles"),
+        "{line}"
+    );
+    // A chain whose causes are not repeated keeps every one of them.
+    let missing = dir.join("missing.obj");
+    let line = error_line(
+        &["bake", "--mesh", missing.to_str().expect("utf-8")],
+        &dir,
+        &[],
+    );
+    assert!(
+        line.contains("missing.obj") && line.contains("No such file"),
+        "{line}"
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_obj_cut_inside_a_vertex_line_names_the_file_and_line() {
+    let dir = scratch("cut-obj");
+    let cut = dir.join("cut.obj");
+    std::fs::write(
+        &cut,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\nv 0.25 0.5",
+    )
+    .expect("write");
+    let path = cut.to_str().expect("utf-8");
+    let line = error_line(
+        &["bake", "--mesh", path, "--resolution", "4", "--levels", "1"],
+        &dir,
+        &[],
+    );
+    assert_eq!(
+        line,
+        format!("error: {path}:9: vertex 5: coordinate z is missing"),
+        "{line}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn limits_are_named_with_the_variable_that_raises_them() {
+    let dir = scratch("limits");
+    let tetra = dir.join("tetra.obj");
+    std::fs::write(
+        &tetra,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    )
+    .expect("write");
+    let tetra = tetra.to_str().expect("utf-8");
+    // The cache file goes to the scratch directory, not the working directory.
+    let cache = dir.join("tetra.qgraph");
+    let bake = [
+        "bake",
+        "--mesh",
+        tetra,
+        "--resolution",
+        "16",
+        "--levels",
+        "1",
+        "--out",
+        cache.to_str().expect("utf-8"),
+    ];
+    for (var, needle) in [
+        (
+            "TRANSLUCENT_MAX_TRIANGLES",
+            "too many triangles: 4, the limit is 3",
+        ),
+        (
+            "TRANSLUCENT_MAX_VERTICES",
+            "too many vertices: 4, the limit is 3",
+        ),
+        ("TRANSLUCENT_MAX_FILE_BYTES", "too many bytes in the file"),
+        ("TRANSLUCENT_MAX_LATTICE_NODES", "too many lattice nodes"),
+        (
+            "TRANSLUCENT_MAX_SURFACE_SAMPLES",
+            "too many surface samples",
+        ),
+    ] {
+        let line = error_line(&bake, &dir, &[(var, "3")]);
+        assert!(
+            line.contains(needle) && line.contains(&format!("{var}=N")),
+            "{var}: {line}"
+        );
+    }
+    // Raised, the same bake runs.
+    let o = translucent(&bake, &dir);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A .vol header announcing more voxels than allowed is refused before its data is read.
+    let vol = dir.join("big.vol");
+    let mut header = b"VOL\x03".to_vec();
+    for v in [1i32, 4096, 4096, 4096, 6] {
+        header.extend_from_slice(&v.to_le_bytes());
+    }
+    for v in [-1f32, -1.0, -1.0, 1.0, 1.0, 1.0] {
+        header.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(&vol, &header).expect("write");
+    let out = dir.join("v.png");
+    let line = error_line(
+        &[
+            "render",
+            "--volume",
+            vol.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ],
+        &dir,
+        &[],
+    );
+    assert!(line.contains("TRANSLUCENT_MAX_VOL_VOXELS=N"), "{line}");
+    assert!(!out.exists());
+    // An environment map above the texel limit is refused from its header, before its pixels.
+    let env = dir.join("sky.exr");
+    exr::prelude::write_rgb_file(&env, 8, 4, |_, _| (0.5f32, 0.5f32, 0.5f32)).expect("write EXR");
+    let line = error_line(
+        &[
+            "render",
+            "--env",
+            env.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ],
+        &dir,
+        &[("TRANSLUCENT_MAX_ENV_TEXELS", "31")],
+    );
+    assert!(
+        line.contains("too many texels in the environment map: 32, the limit is 31")
+            && line.contains("TRANSLUCENT_MAX_ENV_TEXELS=N"),
+        "{line}"
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
