@@ -157,7 +157,7 @@ fn bad_input_is_refused_with_a_message_and_no_output_file() {
         ),
         (
             vec!["render", "--mesh", truncated_s, "--out", out_s],
-            "line 3: vertex 3 has 2 coordinate(s)",
+            "truncated.obj:3: vertex 3: coordinate z is missing",
         ),
         (vec!["render", "--out", "x.bmp"], "--out"),
         (
