@@ -14,6 +14,7 @@ pub mod gpu;
 pub mod krylov;
 pub mod operator;
 pub mod scene;
+pub mod transport;
 
 pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, RadianceMode};
 pub use operator::Scheme;
