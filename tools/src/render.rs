@@ -70,8 +70,9 @@ pub struct RenderArgs {
     /// projected onto order-2 spherical harmonics.
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
-    /// Experiment (CPU solver only): the lights' transmitted light as a volume source along the
-    /// unscattered beam (solver::cpu::beam_source) instead of a boundary flux.
+    /// CPU solver only: the lights' transmitted light as the collimated source of DESIGN 2.7
+    /// with the exit query of 2.6 (solver::transport::Transport::collimated) instead of a
+    /// boundary flux.
     #[arg(long)]
     pub beam_source: bool,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
@@ -229,7 +230,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or(CpuSolveParams::default().iterations[0])],
         tolerance: args.tolerance,
         exact: args.iterations.is_none(),
-        beam_source: args.beam_source,
+        transport: if args.beam_source {
+            solver::transport::Transport::collimated()
+        } else {
+            solver::transport::Transport::default()
+        },
         ..CpuSolveParams::default()
     };
     let solver_scene = solver::Scene {
