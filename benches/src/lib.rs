@@ -234,8 +234,12 @@ pub mod soak {
 
     use glam::{DVec3, Mat4, Vec3};
     use translucent::material::{Material, MaterialField, Procedural};
+    use translucent::scene::{Environment, Light, Scene};
     use translucent::solver::gpu::Deformation;
-    use translucent::solver::{Environment, Light, Scene};
+
+    /// Frames after which the material and deformation schedules repeat (4 and 10): what the
+    /// object allocates for them depends only on `i % SCHEDULE_PERIOD`.
+    pub const SCHEDULE_PERIOD: usize = 20;
 
     /// A directional light turning 0.2 rad per frame, brightness 1 +- 0.5, a dim environment.
     pub fn scene_at(i: usize) -> Scene {

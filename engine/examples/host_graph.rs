@@ -28,9 +28,10 @@ use ash::vk;
 use glam::DVec3;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
-use translucent::object::{ImageState, RecordCtx, TargetImage, Targets};
+use translucent::object::{RecordCtx, TargetImage, Targets};
 use translucent::quadgraph::BakeParams;
-use translucent::solver::{Environment, Light, Scene};
+use translucent::scene::{Environment, Light, Scene};
+use translucent::vk::ImageState;
 use translucent::vk::{Access, Context};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 

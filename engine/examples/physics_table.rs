@@ -9,8 +9,9 @@ use glam::DVec3;
 use translucent::material::{fresnel, Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
+use translucent::scene::{Environment, Scene};
 use translucent::solver::analytic::Homogeneous;
-use translucent::solver::{self, CpuSolveParams, Environment, Scene, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::tet::TetMesh;
 use translucent::{GraphLevel, QuadGraph};
 

@@ -1,12 +1,15 @@
 //! [`TranslucentObject`]: one translucent object as a host render graph embeds it (DESIGN sections
-//! 5 and 7). It owns the GPU frame (shadow atlas, irradiance gather, multi-level Jacobi solve), the
-//! display mesh (which also casts the shadows) and the shading pipeline, and records all of it into
+//! 5 and 7). It owns the method ([`crate::frame::Method`]: the QuadGraph solve, or a fixed
+//! exitance), the shadow atlas, the display mesh (which also casts the shadows) and the shading
+//! pipeline, and records all of it, as one [`crate::frame::FrameGraph`], into
 //! the HOST's command buffer: it never begins, ends or submits a command buffer, never waits and
 //! never destroys a host object.
 //!
-//! Changes only mark what is dirty ([`TranslucentObject::set_lights`], `set_material`, `deform`,
-//! `set_camera`); [`TranslucentObject::record`] then records only the work they require (DESIGN
-//! section 5) and says in its [`FrameReport`] what ran and, per skipped pass, why:
+//! Changes are validated and applied by the setters ([`TranslucentObject::set_lights`],
+//! `set_material`, `deform`, `set_camera`: a typed error changes nothing) and mark what is dirty;
+//! [`TranslucentObject::record`] then records only the work they require (DESIGN section 5,
+//! decided in one place, [`crate::frame::FramePlan`]) and says in its [`FrameReport`] what ran
+//! and, per skipped pass, why:
 //! - nothing changed: no shadow map, gather or solve, only the shading;
 //! - camera only: the same (the view-dependent Fresnel term is in the shading);
 //! - lights, material or shape changed: a warm-started solve: every level from its own last
@@ -33,7 +36,7 @@
 //! use translucent::object::{ObjectParams, RecordCtx, TargetImage, Targets, TranslucentObject};
 //! use translucent::vk::Access;
 //! # fn f(ctx: &translucent::vk::Context, graph: Arc<translucent::QuadGraph>,
-//! #      field: &translucent::material::MaterialField, scene: &translucent::solver::Scene,
+//! #      field: &translucent::material::MaterialField, scene: &translucent::scene::Scene,
 //! #      cb: ash::vk::CommandBuffer, color: ash::vk::Image, view: ash::vk::ImageView)
 //! #      -> Result<(), translucent::Error> {
 //! let mut object = TranslucentObject::new(ctx, graph, field, scene, &ObjectParams::default())?;
@@ -58,45 +61,32 @@
 //! # Ok(()) }
 //! ```
 
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use ash::vk;
+use glam::DVec3;
 
+use crate::frame::graph::FrameGraph;
+use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHADOW};
+use crate::frame::quadgraph::QuadGraphParams;
+use crate::frame::{FixedExitance, FrameReport, Method, QuadGraphMethod, SINGLE_LEVEL_NODES};
 use crate::material::MaterialField;
+use crate::mesh::{GpuMesh, TriMesh};
 use crate::render::{
-    environment_sh, level_bounds, Camera, GpuMesh, MeshPass, RadianceMode, RenderError,
-    ShadeAttachments, ShadePush, ShadeUniforms, COLOR_FORMAT, DEPTH_FORMAT,
+    environment_sh, MeshPass, RenderError, ShadeAttachments, ShadePush, ShadeUniforms, ShadowMaps,
+    ShadowMapsDesc, COLOR_FORMAT, DEPTH_FORMAT, MAX_SHADOW_VIEWS,
 };
-
-use crate::solver::gpu::frame::{FrameParts, SolvePlan};
-use crate::solver::gpu::{Deformation, GpuFrame, GpuSolveParams};
-use crate::solver::{Light, Scene};
-use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc};
+use crate::scene::{Camera, Light, RadianceMode, Scene};
+use crate::solver::gpu::{Deformation, GpuSolveParams};
+use crate::vk::{Access, Context, GpuProfiler, Image, ImageDesc, ImageState};
 use crate::{Error, QuadGraph};
 
-pub use crate::solver::gpu::frame::CompletedSolve;
-
-/// Pass names of [`FrameReport::passes`] and [`FrameReport::skipped`].
-pub const PASS_SHADOW: &str = "shadow_map";
-pub const PASS_GATHER: &str = "gather_q";
-pub const PASS_SOLVE: &str = "solve";
-/// Sub-parts of the solve that a warm start (the Shepard init) or a small graph (the coarse
-/// levels) leaves out.
-pub const PASS_INIT: &str = "diffusion init";
-pub const PASS_COARSE: &str = "coarse levels";
-pub const PASS_SHADING: &str = "shading";
-
-/// Below this many finest-level nodes a cold solve iterates the finest level only. Chosen by
-/// measurement (benches/RESULTS.md, "Host frames", part (c), lavapipe): a one-level cold solve of
-/// a sphere was faster at 4248 finest nodes (307 vs 363 ms), even at 11952 and 2x-5x slower from
-/// 26592 up, and it always runs more iterations (dispatches), which a GPU with per-dispatch cost
-/// pays for: the threshold stays below the smallest graph where it was measured to win.
-pub const SINGLE_LEVEL_NODES: usize = 4096;
+pub use crate::frame::{CompletedSolve, SkipReason};
 
 /// How to build a [`TranslucentObject`].
 #[derive(Clone, Debug)]
 pub struct ObjectParams {
+    /// The QuadGraph method's solve.
     pub solve: GpuSolveParams,
     /// The host colour target's format (the shading pipeline is built for it).
     pub color_format: vk::Format,
@@ -132,6 +122,19 @@ impl Default for ObjectParams {
     }
 }
 
+/// What computes the surface exitance of a [`TranslucentObject`] (the method seam,
+/// [`crate::frame::Method`]); the display mesh comes with it.
+#[derive(Clone, Debug)]
+pub enum MethodDesc {
+    /// Diffusion on a baked QuadGraph; the display mesh is `graph.surface`.
+    QuadGraph(Arc<QuadGraph>),
+    /// Exitance J+ given per vertex of `mesh` (the CPU reference's output, fixtures).
+    Exitance {
+        mesh: TriMesh,
+        exitance: Vec<[f32; 3]>,
+    },
+}
+
 /// The host's side of one [`TranslucentObject::record`].
 pub struct RecordCtx<'a> {
     pub ctx: &'a Context,
@@ -143,25 +146,6 @@ pub struct RecordCtx<'a> {
     pub completed_frame: u64,
     /// The host's profiler (its frame begun): our passes add named scopes.
     pub profiler: Option<&'a mut GpuProfiler>,
-}
-
-/// A synchronization2 state of an image: stage, access and layout.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ImageState {
-    pub stage: vk::PipelineStageFlags2,
-    pub access: vk::AccessFlags2,
-    pub layout: vk::ImageLayout,
-}
-
-impl From<Access> for ImageState {
-    fn from(a: Access) -> Self {
-        let (stage, access, layout) = a.info();
-        ImageState {
-            stage,
-            access,
-            layout,
-        }
-    }
 }
 
 /// One host image we render into, with the state it comes in and must leave in.
@@ -208,88 +192,30 @@ pub struct ResourceUse {
     pub write: bool,
 }
 
-/// Why a pass did not run this frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SkipReason {
-    /// Nothing changed since the last solve.
-    Unchanged,
-    /// Only the camera changed: the view-dependent part is in the shading.
-    CameraOnly,
-    /// No light casts a shadow (environment only, or the lights are black).
-    NoShadowCaster,
-    /// The lights and the shape did not change (the last shadow maps still hold).
-    ShadowsUnchanged,
-    /// Started from the last solution (no Shepard initialisation).
-    WarmStart,
-    /// The finest level has fewer than [`ObjectParams::single_level_nodes`] nodes.
-    SmallGraph,
-}
-
-impl std::fmt::Display for SkipReason {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            SkipReason::Unchanged => "nothing changed",
-            SkipReason::CameraOnly => "camera only",
-            SkipReason::NoShadowCaster => "no shadow-casting light",
-            SkipReason::ShadowsUnchanged => "lights and shape unchanged",
-            SkipReason::WarmStart => "warm start",
-            SkipReason::SmallGraph => "small graph: one level",
-        })
-    }
-}
-
-/// What one [`TranslucentObject::record`] recorded.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FrameReport {
-    pub frame: u64,
-    /// Passes recorded, in order (names: the `PASS_*` constants; the profiler's scopes are
-    /// `shadow_map`, `gather_q`, `diffusion *` and `shading`).
-    pub passes: Vec<&'static str>,
-    /// Per pass not recorded, why.
-    pub skipped: BTreeMap<&'static str, SkipReason>,
-    /// The solve started from the last solution.
-    pub warm_start: bool,
-    /// Levels the solve iterated (0 without a solve).
-    pub levels_iterated: u32,
-    /// `homogeneous` (kappa, mu from push constants) or `heterogeneous` (per-node weights).
-    pub material_variant: &'static str,
-    /// Solves of earlier frames that completed since the last report (iterations, convergence).
-    pub completed: Vec<CompletedSolve>,
-}
-
-/// What changed since the last recorded frame.
-#[derive(Clone, Debug, Default)]
-struct Pending {
-    lights: Option<Scene>,
-    material: Option<MaterialField>,
-    deformation: Option<Deformation>,
-    camera: bool,
-}
-
-/// Our own depth buffer when the host gives none.
-struct OwnDepth {
-    image: Image,
-    state: Access,
-}
+/// The shading pass's use of the host's colour target (its declaration and [`TranslucentObject::declare`]).
+const COLOR_USE: Access = Access::ColorAttachmentWrite;
+/// The shading pass's use of a depth target.
+const DEPTH_USE: Access = Access::DepthAttachmentWrite;
 
 /// A translucent object recorded into a host's frames (see the module doc).
 pub struct TranslucentObject {
-    graph: Arc<QuadGraph>,
-    frame: GpuFrame,
-    /// The display mesh: J+ written in place by the solve; it also casts the shadows.
-    mesh: GpuMesh,
+    method: Box<dyn Method>,
+    /// The display mesh: the method writes its exitance; it also casts the shadows.
+    mesh: Arc<GpuMesh>,
+    shadows: ShadowMaps,
     shading: MeshPass,
     params: ObjectParams,
     lights: Vec<Light>,
-    /// The rest pose's bounding sphere: what the automatic camera frames (computed once: it
-    /// walks every finest-level node).
-    framing: (glam::DVec3, f64),
+    /// The rest pose's bounding sphere: what the automatic camera frames.
+    framing: (DVec3, f64),
+    /// The bounding sphere the shadow views are fitted to (follows deformations).
+    shadow_bounds: (DVec3, f64),
     /// The environment's mirror reflection in the shading's basis (zero without specular).
     env_sh: [[f32; 4]; 9],
     eta: f32,
     camera: Option<Camera>,
-    pending: Pending,
-    own_depth: Option<OwnDepth>,
+    changes: Changes,
+    own_depth: Option<Image>,
     last_frame: Option<u64>,
 }
 
@@ -301,12 +227,23 @@ fn invalid(what: &str, problem: String) -> Error {
 }
 
 impl TranslucentObject {
-    /// Builds the GPU frame for `graph` with `field` lit by `scene`, the display mesh and the
-    /// shading pipeline for `params`' formats. Uploads run at creation (see
-    /// [`Context::from_host`] for hosts).
+    /// The QuadGraph method on `graph` with `field` lit by `scene`: builds the solve, the display
+    /// mesh, the shadow maps and the shading pipeline for `params`' formats. Uploads run at
+    /// creation (see [`Context::from_host`] for hosts).
     pub fn new(
         ctx: &Context,
         graph: Arc<QuadGraph>,
+        field: &MaterialField,
+        scene: &Scene,
+        params: &ObjectParams,
+    ) -> Result<TranslucentObject, Error> {
+        Self::with_method(ctx, MethodDesc::QuadGraph(graph), field, scene, params)
+    }
+
+    /// An object whose exitance comes from `method` (see [`MethodDesc`]).
+    pub fn with_method(
+        ctx: &Context,
+        method: MethodDesc,
         field: &MaterialField,
         scene: &Scene,
         params: &ObjectParams,
@@ -317,60 +254,122 @@ impl TranslucentObject {
                 format!("{} is not in (0, 1]", params.roughness),
             ));
         }
-        let mut frame = GpuFrame::new(ctx, &graph, field, scene, &params.solve)?;
-        let vertices = graph.surface.positions.len();
-        let mesh = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; vertices])?;
-        frame.solve.bind_mesh(ctx, &mesh)?;
+        check_light_count(scene)?;
+        scene.validate()?;
+        let surface = match &method {
+            MethodDesc::QuadGraph(graph) => &graph.surface,
+            MethodDesc::Exitance { mesh, .. } => mesh,
+        };
+        let framing = crate::mesh::bounding_sphere(&surface.positions);
+        let mut shadows = ShadowMaps::new(
+            ctx,
+            &ShadowMapsDesc {
+                max_views: MAX_SHADOW_VIEWS as u32,
+                ..ShadowMapsDesc::default()
+            },
+        )?;
+        let shadow_bounds = match &method {
+            MethodDesc::QuadGraph(graph) => graph.finest().bounding_sphere(),
+            MethodDesc::Exitance { .. } => framing,
+        };
+        shadows.set_lights(&scene.lights, shadow_bounds, true)?;
+        let (mesh, method): (Arc<GpuMesh>, Box<dyn Method>) = match method {
+            MethodDesc::QuadGraph(graph) => {
+                let vertices = graph.surface.positions.len();
+                let mesh = Arc::new(GpuMesh::new(
+                    ctx,
+                    &graph.surface,
+                    &vec![[0.0; 3]; vertices],
+                )?);
+                let method = QuadGraphMethod::new(
+                    ctx,
+                    graph,
+                    field,
+                    scene,
+                    &QuadGraphParams {
+                        solve: params.solve.clone(),
+                        single_level_nodes: params.single_level_nodes,
+                    },
+                    &shadows,
+                    mesh.clone(),
+                )?;
+                (mesh, Box::new(method))
+            }
+            MethodDesc::Exitance { mesh, exitance } => {
+                let mesh = Arc::new(GpuMesh::new(ctx, &mesh, &exitance)?);
+                (mesh.clone(), Box::new(FixedExitance::new(mesh)))
+            }
+        };
         let shading = MeshPass::new(
             ctx,
-            &frame.shadows().atlas,
+            &shadows.atlas,
             params.color_format,
             params.depth_format,
         )?;
         Ok(TranslucentObject {
-            framing: level_bounds(graph.finest()),
-            eta: field.eta() as f32,
-            graph,
-            frame,
+            method,
             mesh,
+            shadows,
             shading,
             params: params.clone(),
             lights: scene.lights.clone(),
+            framing,
+            shadow_bounds,
             env_sh: environment_sh(&scene.environment),
+            eta: field.eta() as f32,
             camera: None,
-            pending: Pending::default(),
+            // The first frame draws everything: nothing of it exists yet (a fixed exitance has its
+            // solution, but no shadow map).
+            changes: Changes {
+                lights: true,
+                material: true,
+                shape: true,
+                camera: true,
+            },
             own_depth: None,
             last_frame: None,
         })
     }
 
-    /// New lights and environment; applied (shadow views refitted) at the next record. A bad
-    /// light or environment, or more than [`crate::render::MAX_LIGHTS`], is a typed error here and changes
-    /// nothing.
+    /// New lights and environment: the shadow views are refitted and the method updated now; the
+    /// next frame renders them. A bad light or environment, or more than
+    /// [`crate::render::MAX_LIGHTS`], is a typed error and changes nothing.
     pub fn set_lights(&mut self, scene: &Scene) -> Result<(), Error> {
-        if scene.lights.len() > crate::render::MAX_LIGHTS {
-            return Err(invalid(
-                "lights",
-                format!(
-                    "{} lights; at most {} are supported",
-                    scene.lights.len(),
-                    crate::render::MAX_LIGHTS
-                ),
-            ));
-        }
+        check_light_count(scene)?;
         scene.validate()?;
-        self.pending.lights = Some(scene.clone());
+        let previous = (
+            self.shadows.views().to_vec(),
+            self.shadows.light_views().to_vec(),
+        );
+        self.shadows
+            .set_lights(&scene.lights, self.shadow_bounds, true)?;
+        if let Err(e) = self.method.set_lights(scene, &self.shadows) {
+            self.shadows.restore(previous);
+            return Err(e);
+        }
+        self.env_sh = environment_sh(&scene.environment);
+        self.lights = scene.lights.clone();
+        self.changes.lights = true;
         Ok(())
     }
 
-    /// A new material (homogeneous or heterogeneous); applied on the GPU at the next record.
-    pub fn set_material(&mut self, field: &MaterialField) {
-        self.pending.material = Some(field.clone());
+    /// A new material (homogeneous or heterogeneous): validated and staged now (a typed error
+    /// changes nothing), uploaded by the next frame, which warm-starts the solve.
+    pub fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
+        self.method.set_material(ctx, field)?;
+        self.eta = field.eta() as f32;
+        self.changes.material = true;
+        Ok(())
     }
 
-    /// A new shape (relative to the baked rest pose); applied on the GPU at the next record.
-    pub fn deform(&mut self, deformation: &Deformation) {
-        self.pending.deformation = Some(deformation.clone());
+    /// A new shape (relative to the baked rest pose): validated and staged now (a typed error
+    /// changes nothing); the next frame deforms the object on the GPU and warm-starts the solve.
+    pub fn deform(&mut self, ctx: &Context, deformation: &Deformation) -> Result<(), Error> {
+        let bounds = self.method.deform(ctx, deformation)?;
+        self.shadows.set_lights(&self.lights, bounds, true)?;
+        self.shadow_bounds = bounds;
+        self.changes.shape = true;
+        Ok(())
     }
 
     /// A new camera; `None` frames the object automatically. Checked here.
@@ -380,7 +379,7 @@ impl TranslucentObject {
         }
         if self.camera != camera {
             self.camera = camera;
-            self.pending.camera = true;
+            self.changes.camera = true;
         }
         Ok(())
     }
@@ -390,20 +389,54 @@ impl TranslucentObject {
         self.camera
     }
 
-    /// The GPU frame (for reports: residual, energy, read-backs).
-    pub fn gpu_frame(&self) -> &GpuFrame {
-        &self.frame
+    /// The method computing the exitance (`as_any().downcast_ref::<QuadGraphMethod>()` for the
+    /// QuadGraph's report and read-backs).
+    pub fn method(&self) -> &dyn Method {
+        &*self.method
     }
 
-    /// The baked graph.
-    pub fn graph(&self) -> &QuadGraph {
-        &self.graph
+    /// The QuadGraph method, if that is the object's method.
+    pub fn quadgraph(&self) -> Option<&QuadGraphMethod> {
+        self.method.as_any().downcast_ref::<QuadGraphMethod>()
+    }
+
+    /// The sphere the shadow views are fitted to (the deformed shape's, after `deform`).
+    pub fn shadow_bounds(&self) -> (DVec3, f64) {
+        self.shadow_bounds
+    }
+
+    /// The display mesh (its exitance field holds the method's last output).
+    pub fn mesh(&self) -> &Arc<GpuMesh> {
+        &self.mesh
+    }
+
+    /// Replaces the exitance of a [`MethodDesc::Exitance`] object (drawn from the next frame).
+    pub fn set_exitance(&mut self, ctx: &Context, exitance: &[[f32; 3]]) -> Result<(), Error> {
+        let Some(fixed) = self.method_mut::<FixedExitance>() else {
+            return Err(invalid(
+                "exitance",
+                format!("the {} method computes its own", self.method.name()),
+            ));
+        };
+        fixed.set_exitance(ctx, exitance)?;
+        self.changes.material = true;
+        Ok(())
+    }
+
+    fn method_mut<T: 'static>(&mut self) -> Option<&mut T> {
+        let any: &mut dyn std::any::Any = self.method.as_any_mut();
+        any.downcast_mut::<T>()
     }
 
     /// Solves whose frame is `<= completed_frame` not reported yet (a frame's [`FrameReport`]
     /// carries those of earlier frames; this reads the last one's once it completed).
     pub fn completed_solves(&mut self, completed_frame: u64) -> Result<Vec<CompletedSolve>, Error> {
-        self.frame.completed_solves(completed_frame)
+        self.method.completed(completed_frame)
+    }
+
+    /// GPU bytes of the method's resources.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.method.gpu_bytes()
     }
 
     /// How [`TranslucentObject::record`] uses the host's targets, for a host graph that places
@@ -412,8 +445,8 @@ impl TranslucentObject {
     /// reads and writes, the depth likewise in `DEPTH_ATTACHMENT_OPTIMAL`; after it, our writes
     /// are at these stages. Everything else we record touches only our own resources.
     pub fn declare(&self) -> Vec<ResourceUse> {
-        let color: ImageState = Access::ColorAttachmentWrite.into();
-        let depth: ImageState = Access::DepthAttachmentWrite.into();
+        let color: ImageState = COLOR_USE.into();
+        let depth: ImageState = DEPTH_USE.into();
         vec![
             ResourceUse {
                 resource: HostResource::Color,
@@ -496,27 +529,6 @@ impl TranslucentObject {
         Ok(())
     }
 
-    /// Applies the pending changes to the GPU frame; returns (lights, material, shape) changed.
-    fn apply_pending(&mut self, ctx: &Context) -> Result<(bool, bool, bool), Error> {
-        let pending = std::mem::take(&mut self.pending);
-        let lights = pending.lights.is_some();
-        let material = pending.material.is_some();
-        let shape = pending.deformation.is_some();
-        if let Some(scene) = pending.lights {
-            self.frame.set_lights(&self.graph, &scene)?;
-            self.env_sh = environment_sh(&scene.environment);
-            self.lights = scene.lights;
-        }
-        if let Some(field) = pending.material {
-            self.frame.set_material(ctx, &self.graph, &field)?;
-            self.eta = field.eta() as f32;
-        }
-        if let Some(d) = pending.deformation {
-            self.frame.deform(ctx, &self.graph, &d, &[&self.mesh])?;
-        }
-        Ok((lights, material, shape))
-    }
-
     /// The shading uniforms for an `extent` target: camera, and the first directional light's
     /// atlas tile for the specular shadow.
     fn uniforms(&self, extent: vk::Extent2D) -> (ShadeUniforms, bool) {
@@ -525,7 +537,7 @@ impl TranslucentObject {
         let camera = self
             .camera
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
-        let shadows = self.frame.shadows();
+        let shadows = &self.shadows;
         let specular = self
             .params
             .specular
@@ -567,20 +579,22 @@ impl TranslucentObject {
     }
 
     /// Records this frame's work into the host's command buffer: what the changes since the last
-    /// frame require (see the module doc), then the shading into `targets`.
+    /// frame require (see the module doc), then the shading into `targets`, all through one
+    /// frame graph (barriers between passes from their declarations, one label and timestamp
+    /// scope per pass).
     ///
     /// # Safety
     /// `rc.cb` must be recording, outside a rendering scope, on a queue with graphics and compute;
     /// the targets' images and views must be valid, in their `before` states (or the declared
     /// ones with `host_barriers`), and outlive the command buffer's execution, as must `self`;
-    /// `rc.frame` must be the frame being recorded and `rc.completed_frame` truly completed.
+    /// `rc.frame` must be the frame being recorded and `rc.completed_frame` truly completed. After
+    /// an error the command buffer must not be submitted.
     pub unsafe fn record(
         &mut self,
         rc: &mut RecordCtx<'_>,
         targets: &Targets,
     ) -> Result<FrameReport, Error> {
         let ctx = rc.ctx;
-        let cb = rc.cb;
         self.check_targets(targets)?;
         if self.last_frame.is_some_and(|f| rc.frame < f) || rc.completed_frame >= rc.frame {
             return Err(invalid(
@@ -593,79 +607,39 @@ impl TranslucentObject {
         }
         ctx.begin_frame(rc.frame);
         ctx.frame_completed(rc.completed_frame);
-        let completed = self.frame.completed_solves(rc.completed_frame)?;
-        let camera_changed = self.pending.camera;
-        let (lights, material, shape) = self.apply_pending(ctx)?;
-
-        let mut skipped = BTreeMap::new();
-        let mut passes = Vec::new();
-        let first = !self.frame.has_solution();
-        let small = self.frame.finest_nodes() < self.params.single_level_nodes;
-        let parts = if !self.params.skip {
-            FrameParts::ALL
-        } else if first {
-            FrameParts {
-                shadows: true,
-                gather: true,
-                solve: Some(SolvePlan {
-                    warm: false,
-                    finest_only: small,
-                }),
-            }
-        } else if lights || material || shape {
-            FrameParts {
-                shadows: lights || shape,
-                gather: true,
-                solve: Some(SolvePlan {
-                    warm: true,
-                    finest_only: small,
-                }),
-            }
-        } else {
-            let reason = if camera_changed {
-                SkipReason::CameraOnly
-            } else {
-                SkipReason::Unchanged
-            };
-            skipped.insert(PASS_SHADOW, reason);
-            skipped.insert(PASS_GATHER, reason);
-            skipped.insert(PASS_SOLVE, reason);
-            FrameParts {
-                shadows: false,
-                gather: false,
-                solve: None,
-            }
-        };
-        if parts.shadows && !self.frame.shadows().any_shadows() {
-            skipped.insert(PASS_SHADOW, SkipReason::NoShadowCaster);
-        } else if !parts.shadows && parts.gather {
-            skipped.insert(PASS_SHADOW, SkipReason::ShadowsUnchanged);
-        }
+        let completed = self.method.completed(rc.completed_frame)?;
+        let plan = FramePlan::decide(
+            self.changes,
+            &Conditions {
+                skip: self.params.skip,
+                has_solution: self.method.has_solution(),
+                casts_shadows: self.shadows.any_shadows(),
+                shadows_read: self.method.reads_shadows() || self.params.specular,
+            },
+        );
+        let method = self.method.prepare(plan.method, rc.frame)?;
+        self.changes = Changes::default();
 
         // Our own depth buffer, sized to the target (an old one is released after its frames).
         if targets.depth.is_none() {
             let extent = targets.color.extent;
-            let fits = self
+            if !self
                 .own_depth
                 .as_ref()
-                .is_some_and(|d| d.image.extent() == extent);
-            if !fits {
-                self.own_depth = Some(OwnDepth {
-                    image: Image::new(
-                        ctx,
-                        &ImageDesc {
-                            name: "object depth",
-                            width: extent.width,
-                            height: extent.height,
-                            format: self.params.depth_format,
-                            usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                        },
-                    )?,
-                    state: Access::Undefined,
-                });
+                .is_some_and(|d| d.extent() == extent)
+            {
+                self.own_depth = Some(Image::new(
+                    ctx,
+                    &ImageDesc {
+                        name: "object depth",
+                        width: extent.width,
+                        height: extent.height,
+                        format: self.params.depth_format,
+                        usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                    },
+                )?);
             }
         }
-
         let (uniforms, specular) = self.uniforms(targets.color.extent);
         let push = ShadePush {
             eta: self.eta,
@@ -676,147 +650,89 @@ impl TranslucentObject {
             roughness: self.params.roughness,
             specular: u32::from(specular),
         };
-        let mut profiler = rc.profiler.as_deref_mut();
-        // SAFETY: the caller's contract; every resource of ours lives in `self`.
-        let done = unsafe {
-            self.frame.record_parts(
-                ctx,
-                cb,
-                &self.mesh,
-                &parts,
-                rc.frame,
-                profiler.as_deref_mut(),
-            )?
-        };
-        if done.shadows {
-            passes.push(PASS_SHADOW);
-        }
-        if done.gather {
-            passes.push(PASS_GATHER);
-        }
-        if done.solve {
-            passes.push(PASS_SOLVE);
-            if done.warm {
-                skipped.insert(PASS_INIT, SkipReason::WarmStart);
-            }
-            if done.levels_iterated < self.graph.levels.len() as u32 {
-                // Only a small graph leaves the coarse levels out (cold or warm): a warm start
-                // iterates them for the finer levels' correction.
-                skipped.insert(PASS_COARSE, SkipReason::SmallGraph);
-            }
-        }
 
-        // Boundary barriers: host states -> attachment states.
-        let color_state: ImageState = Access::ColorAttachmentWrite.into();
-        let depth_state: ImageState = Access::DepthAttachmentWrite.into();
-        let mut into = Vec::new();
-        if !targets.host_barriers {
-            into.push(host_barrier(
-                &targets.color,
-                targets.color.before,
-                color_state,
-            ));
-            if let Some(d) = &targets.depth {
-                into.push(host_barrier(d, d.before, depth_state));
-            }
+        let mut graph = FrameGraph::new(ctx);
+        let after = |t: &TargetImage| (!targets.host_barriers).then_some(t.after);
+        let c = &targets.color;
+        let color = graph.import("colour target", c.image, c.format, c.before, after(c));
+        let host_depth = targets
+            .depth
+            .as_ref()
+            .map(|d| graph.import("depth target", d.image, d.format, d.before, after(d)));
+        for &(pass, why) in plan.skipped.iter().chain(&method.skipped) {
+            graph.skip(pass, why);
         }
-        if let Some(own) = self.own_depth.as_mut().filter(|_| targets.depth.is_none()) {
-            // Cleared every frame: the old contents may go (from UNDEFINED the first time).
-            into.push(barrier::image_barrier(
-                &own.image,
-                own.state,
-                Access::DepthAttachmentWrite,
-            ));
-            own.state = Access::DepthAttachmentWrite;
+        self.method.add_edit_passes(&mut graph);
+        let mesh = &*self.mesh;
+        let shadows = &self.shadows;
+        if plan.shadows {
+            graph
+                .pass(PASS_SHADOW)
+                .uses(shadows.uses(mesh))
+                .record(move |p| {
+                    // SAFETY: inside the graph's pass declaring the shadow maps' uses; `self`
+                    // outlives the frame (the record contract).
+                    unsafe { shadows.record(p.ctx, p.cb, mesh) };
+                    Ok(())
+                });
         }
+        self.method.add_passes(&mut graph, shadows)?;
+        let own_depth = self.own_depth.as_ref().filter(|_| targets.depth.is_none());
+        let mut shading = graph
+            .pass(PASS_SHADING)
+            .uses(self.shading.uses(mesh, shadows))
+            .host(color, COLOR_USE);
+        shading = match (host_depth, own_depth) {
+            (Some(id), _) => shading.host(id, DEPTH_USE),
+            (None, Some(own)) => shading.uses([crate::vk::barrier::Use::image(own, DEPTH_USE)]),
+            (None, None) => return Err(invalid("depth", "no depth buffer".into())),
+        };
+        let attachments = ShadeAttachments {
+            color: c.view,
+            load_color: true,
+            depth: targets.depth.map_or_else(
+                || own_depth.map_or(vk::ImageView::null(), |d| d.view),
+                |d| d.view,
+            ),
+            load_depth: targets.depth.is_some(),
+            store_depth: targets.depth.is_some(),
+            extent: c.extent,
+        };
+        let shading_pass = &self.shading;
+        shading.record(move |p| {
+            // SAFETY: inside the graph's pass declaring the attachments in their attachment
+            // layouts; everything outlives the frame (the record contract).
+            unsafe { shading_pass.record_into(p.ctx, p.cb, mesh, &attachments, &uniforms, &push) }
+                .map_err(Error::from)
+        });
         // SAFETY: the caller's contract.
-        unsafe {
-            if !into.is_empty() {
-                // why: our draws load and write the colour and test/write depth after the host's
-                // last use (RAW for its background, WAW/WAR otherwise), in attachment layouts.
-                barrier::record(ctx, cb, &[], &into);
-            }
-            let (depth_view, host_depth) = match (&targets.depth, &self.own_depth) {
-                (Some(d), _) => (d.view, true),
-                (None, Some(own)) => (own.image.view, false),
-                (None, None) => return Err(invalid("depth", "no depth buffer".into())),
-            };
-            self.shading.record_into(
-                ctx,
-                cb,
-                &self.mesh,
-                &ShadeAttachments {
-                    color: targets.color.view,
-                    load_color: true,
-                    depth: depth_view,
-                    load_depth: host_depth,
-                    store_depth: host_depth,
-                    extent: targets.color.extent,
-                },
-                &uniforms,
-                &push,
-                profiler,
-            )?;
-            passes.push(PASS_SHADING);
-            if !targets.host_barriers {
-                let mut out = vec![host_barrier(
-                    &targets.color,
-                    color_state,
-                    targets.color.after,
-                )];
-                if let Some(d) = &targets.depth {
-                    out.push(host_barrier(d, depth_state, d.after));
-                }
-                // why: hand the targets back in the states the host asked for, our writes
-                // available to its next use (RAW/WAR, layout).
-                barrier::record(ctx, cb, &[], &out);
-            }
-        }
+        let run =
+            unsafe { graph.execute(rc.cb, rc.profiler.as_deref_mut(), targets.host_barriers)? };
         self.last_frame = Some(rc.frame);
         Ok(FrameReport {
             frame: rc.frame,
-            passes,
-            skipped,
-            warm_start: done.warm,
-            levels_iterated: done.levels_iterated,
-            material_variant: self.frame.material_variant(),
+            method: self.method.name(),
+            passes: run.passes,
+            skipped: run.skipped.into_iter().collect(),
+            warm_start: method.warm_start,
+            levels_iterated: method.levels_iterated,
+            material_variant: self.method.material_variant(),
             completed,
+            barriers: run.barriers,
         })
     }
 }
 
-/// A whole-image barrier on a host image between two states.
-fn host_barrier(
-    target: &TargetImage,
-    from: ImageState,
-    to: ImageState,
-) -> vk::ImageMemoryBarrier2<'static> {
-    let aspect = match target.format {
-        vk::Format::D16_UNORM | vk::Format::D32_SFLOAT | vk::Format::X8_D24_UNORM_PACK32 => {
-            vk::ImageAspectFlags::DEPTH
-        }
-        vk::Format::D16_UNORM_S8_UINT
-        | vk::Format::D24_UNORM_S8_UINT
-        | vk::Format::D32_SFLOAT_S8_UINT => {
-            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
-        }
-        _ => vk::ImageAspectFlags::COLOR,
-    };
-    vk::ImageMemoryBarrier2::default()
-        .src_stage_mask(from.stage)
-        .src_access_mask(from.access)
-        .dst_stage_mask(to.stage)
-        .dst_access_mask(to.access)
-        .old_layout(from.layout)
-        .new_layout(to.layout)
-        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .image(target.image)
-        .subresource_range(vk::ImageSubresourceRange {
-            aspect_mask: aspect,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: 1,
-        })
+fn check_light_count(scene: &Scene) -> Result<(), Error> {
+    if scene.lights.len() > crate::render::MAX_LIGHTS {
+        return Err(invalid(
+            "lights",
+            format!(
+                "{} lights; at most {} are supported",
+                scene.lights.len(),
+                crate::render::MAX_LIGHTS
+            ),
+        ));
+    }
+    Ok(())
 }

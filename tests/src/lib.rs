@@ -233,3 +233,167 @@ pub fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32
     }
     worst
 }
+
+/// A QuadGraph object (the one frame composition) for `graph` with the solve `params`, every
+/// other setting default (skips on, specular on).
+pub fn quadgraph_object(
+    ctx: &Context,
+    graph: &translucent::QuadGraph,
+    field: &translucent::material::MaterialField,
+    scene: &translucent::scene::Scene,
+    params: translucent::solver::gpu::GpuSolveParams,
+) -> translucent::TranslucentObject {
+    translucent::TranslucentObject::new(
+        ctx,
+        std::sync::Arc::new(graph.clone()),
+        field,
+        scene,
+        &translucent::ObjectParams {
+            solve: params,
+            ..translucent::ObjectParams::default()
+        },
+    )
+    .expect("object")
+}
+
+/// [`quadgraph_object`] whose cold solves iterate every level whatever the graph's size
+/// (`single_level_nodes: 0`): the multi-level solve the solver tests' tolerances were set for.
+pub fn multilevel_object(
+    ctx: &Context,
+    graph: &translucent::QuadGraph,
+    field: &translucent::material::MaterialField,
+    scene: &translucent::scene::Scene,
+    params: translucent::solver::gpu::GpuSolveParams,
+) -> translucent::TranslucentObject {
+    translucent::TranslucentObject::new(
+        ctx,
+        std::sync::Arc::new(graph.clone()),
+        field,
+        scene,
+        &translucent::ObjectParams {
+            solve: params,
+            single_level_nodes: 0,
+            ..translucent::ObjectParams::default()
+        },
+    )
+    .expect("object")
+}
+
+/// One frame of `object` into a fresh `width x height` headless host (waited, read back).
+pub fn render_once(
+    ctx: &Context,
+    object: &mut translucent::TranslucentObject,
+    width: u32,
+    height: u32,
+) -> (translucent::headless::Captured, translucent::FrameReport) {
+    let mut host = translucent::headless::HeadlessHost::new(ctx, width, height).expect("host");
+    host.render(ctx, object).expect("frame")
+}
+
+/// A procedural shape with lambert exitance (see `ExitanceMesh::procedural`) and the scene of
+/// `lights` without environment: what the old `render::Scene::procedural` built in one value.
+pub fn exitance_scene(
+    shape: &str,
+    size_mm: f64,
+    lights: Vec<translucent::scene::Light>,
+    eta: f64,
+) -> (
+    translucent::headless::ExitanceMesh,
+    translucent::scene::Scene,
+) {
+    let mesh = translucent::headless::ExitanceMesh::procedural(shape, size_mm, &lights, eta)
+        .expect("procedural mesh");
+    (
+        mesh,
+        translucent::scene::Scene {
+            lights,
+            environment: translucent::scene::Environment::None,
+        },
+    )
+}
+
+/// One solve of `gpu` in its own waited submission, as the old `GpuDiffusion::record` recorded
+/// it: the staged edits (material, deformation) if any, then the solve of every level (warm when
+/// `warm` and a solution is held) and J+ into the surface nodes and the
+/// bound display mesh, each a frame-graph pass. Returns the plan and the profiler's milliseconds
+/// per scope (passes and their nested scopes: "diffusion jacobi", "edit deform", ...).
+pub fn solve_once(
+    ctx: &Context,
+    gpu: &mut translucent::solver::gpu::GpuDiffusion,
+    warm: bool,
+) -> (
+    translucent::solver::gpu::SolvePlan,
+    std::collections::BTreeMap<String, f64>,
+) {
+    use translucent::frame::quadgraph::PASS_EDITS;
+    use translucent::frame::FrameGraph;
+    use translucent::solver::gpu::{PASS_EXITANCE, PASS_SOLVE};
+    let edits = gpu.take_edits();
+    let plan = gpu.plan(warm, false);
+    let gpu = &*gpu;
+    let mut profiler =
+        translucent::vk::GpuProfiler::new(ctx, "test solve", 4096).expect("profiler");
+    let mut result = Ok(());
+    let submission = ctx
+        .submit("test solve", |cb| {
+            let (frame, _) = ctx.frames();
+            let mut graph = FrameGraph::new(ctx);
+            if let Some(edits) = &edits {
+                graph
+                    .pass(PASS_EDITS)
+                    .uses(gpu.edit_uses(edits))
+                    .record(move |p| {
+                        // SAFETY: inside the pass declaring the edits' uses; `gpu` and `edits`
+                        // outlive the waited submission.
+                        unsafe { gpu.record_edits(p.ctx, p.cb, edits, p.profiler()) };
+                        Ok(())
+                    });
+            }
+            let plan = &plan;
+            graph
+                .pass(PASS_SOLVE)
+                .uses(gpu.solve_uses(None))
+                .record(move |p| {
+                    // SAFETY: inside the pass declaring the solve's uses.
+                    unsafe { gpu.record_solve(p.ctx, p.cb, plan, None, p.profiler()) };
+                    Ok(())
+                });
+            graph
+                .pass(PASS_EXITANCE)
+                .uses(gpu.exitance_uses())
+                .record(move |p| {
+                    // SAFETY: inside the pass declaring the exitance's uses.
+                    unsafe { gpu.record_exitance(p.ctx, p.cb, p.profiler()) };
+                    Ok(())
+                });
+            // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
+            unsafe {
+                profiler.begin_frame(cb, frame);
+                result = graph.execute(cb, Some(&mut profiler), false).map(|_| ());
+            }
+            Ok(())
+        })
+        .expect("submit solve");
+    let frame = submission.frame();
+    submission.wait().expect("wait solve");
+    result.expect("solve graph");
+    drop(edits);
+    profiler.frame_completed(frame);
+    let passes = profiler
+        .latest()
+        .filter(|t| t.frame == frame)
+        .map(|t| t.passes())
+        .unwrap_or_default();
+    (plan, passes)
+}
+
+/// Named tolerances shared by the GPU tests, each with its reason.
+pub mod tol {
+    /// GPU J+ or phi (mixed or fp32 state) against the f64 exact discrete solve of the same graph,
+    /// relative RMS: the GPU stops at a 1e-4 convergence estimate and gathers q in fp16 (~5e-4),
+    /// so a few 1e-3 remain.
+    pub const GPU_VS_EXACT: f64 = 5e-3;
+    /// The same for fp16 state: ~1e-3 relative rounding per Jacobi step accumulates over tens of
+    /// iterations.
+    pub const GPU_FP16_VS_EXACT: f64 = 2e-2;
+}

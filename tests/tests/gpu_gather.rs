@@ -4,17 +4,19 @@
 //! gather's q is within 1e-3 of the reference where lit (its own test), the terminator nodes see
 //! PCF instead of a hard n.l cut, and the solve adds < 1e-3 (gpu_diffusion.rs).
 
+use translucent::frame::quadgraph::PASS_GATHER;
+use translucent::frame::{FrameGraph, PASS_SHADOW};
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
+use translucent::mesh::GpuMesh;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{
-    level_bounds, q_scale_for, GatherScene, GpuMesh, IrradiancePass, ShadowMaps, ShadowMapsDesc,
-};
+use translucent::render::{q_scale_for, GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc};
+use translucent::scene::{Environment, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene};
-use translucent::vk::{Access, VkError};
-use translucent::QuadGraph;
-use translucent_tests::GpuTest;
+use translucent::solver::{self, rel_rms, CpuSolveParams};
+use translucent::vk::VkError;
+use translucent::{ObjectParams, QuadGraph, TranslucentObject};
+use translucent_tests::{render_once, solve_once, GpuTest};
 
 #[test]
 fn gathered_q_feeds_the_gpu_solve() {
@@ -58,7 +60,7 @@ fn gathered_q_feeds_the_gpu_solve() {
     .unwrap();
     let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default()).unwrap();
     shadows
-        .set_lights(&scene.lights, level_bounds(graph.finest()), true)
+        .set_lights(&scene.lights, graph.finest().bounding_sphere(), true)
         .unwrap();
     let levels = graph.levels.len();
     let pass = IrradiancePass::new(ctx, levels as u32).unwrap();
@@ -76,33 +78,53 @@ fn gathered_q_feeds_the_gpu_solve() {
         })
         .collect();
     let uniforms = GatherScene::new(&scene, &shadows).unwrap();
-    ctx.execute("gather + solve", |cb| {
-        // SAFETY: `cb` is recording; everything outlives the waited submission.
-        unsafe {
-            shadows.record(ctx, cb, &caster, None);
-            pass.record_scene(ctx, cb, &uniforms);
-            for (h, set) in sets.iter().enumerate() {
-                pass.record(
-                    ctx,
-                    cb,
-                    set,
-                    &shadows,
-                    solve.q_image(h).unwrap(),
-                    Access::ComputeReadWrite,
-                    q_scale,
-                    eta as f32,
-                    None,
-                )
-                .map_err(|e| VkError::InvalidArgument {
-                    what: "gather".into(),
-                    problem: e.to_string(),
-                })?;
+    ctx.execute("shadow maps + gather", |cb| {
+        let mut graph = FrameGraph::new(ctx);
+        let (shadows, caster, pass, sets, solve) = (&shadows, &caster, &pass, &sets, &solve);
+        graph
+            .pass(PASS_SHADOW)
+            .uses(shadows.uses(caster))
+            .record(move |p| {
+                // SAFETY: inside the pass declaring the shadow maps' uses; everything outlives
+                // the waited submission.
+                unsafe { shadows.record(p.ctx, p.cb, caster) };
+                Ok(())
+            });
+        // The atlas once, then every level's images (a pass declares each resource once).
+        let uses = (0..levels).flat_map(|h| {
+            IrradiancePass::uses(
+                shadows,
+                solve.surface_position(h).unwrap(),
+                solve.surface_normal(h).unwrap(),
+                solve.q_image(h).unwrap(),
+            )
+            .into_iter()
+            .skip(usize::from(h > 0))
+        });
+        graph.pass(PASS_GATHER).uses(uses).record(move |p| {
+            // SAFETY: inside the pass declaring every level's gather uses; everything outlives
+            // the waited submission.
+            unsafe {
+                pass.record_scene(p.ctx, p.cb, &uniforms);
+                for set in sets {
+                    pass.record(p.ctx, p.cb, set, q_scale, eta as f32)
+                        .map_err(|e| VkError::InvalidArgument {
+                            what: "gather".into(),
+                            problem: e.to_string(),
+                        })?;
+                }
             }
-            solve.record(ctx, cb, None);
-        }
+            Ok(())
+        });
+        // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
+        unsafe { graph.execute(cb, None, false) }.map_err(|e| VkError::InvalidArgument {
+            what: "frame graph".into(),
+            problem: e.to_string(),
+        })?;
         Ok(())
     })
     .unwrap();
+    solve_once(ctx, &mut solve, false);
     let j = solve.read_j_plus(ctx).unwrap();
     let cpu = solver::solve(
         &graph,
@@ -117,15 +139,8 @@ fn gathered_q_feeds_the_gpu_solve() {
         },
     )
     .unwrap();
-    let (mut d2, mut r2) = (0.0, 0.0);
-    for (g, c) in j.iter().zip(&cpu.j_plus_clamped) {
-        for ch in 0..3 {
-            assert!(g[ch].is_finite());
-            d2 += (f64::from(g[ch]) - c[ch]).powi(2);
-            r2 += c[ch] * c[ch];
-        }
-    }
-    let err = (d2 / r2).sqrt();
+    assert!(j.iter().flatten().all(|v| v.is_finite()));
+    let err = rel_rms(&j, &cpu.j_plus_clamped);
     println!("gathered q -> GPU solve vs CPU: relative RMS of J+ {err:.2e}");
     assert!(err < 1e-2, "relative RMS {err}");
     assert_eq!(solve.iterations_run(ctx).unwrap(), vec![ITERATIONS; levels]);
@@ -136,13 +151,12 @@ fn gathered_q_feeds_the_gpu_solve() {
     gpu.finish();
 }
 
-/// `GpuFrame` (shadow maps + gather + solve, J+ written into the displayed mesh) rendered by the
-/// headless renderer, against the same renderer showing the CPU reference's vertex J+ (same
+/// A QuadGraph `TranslucentObject` (shadow maps + gather + solve, J+ written into the displayed
+/// mesh, shaded) rendered by the headless host, against the same renderer showing the CPU reference's vertex J+ (same
 /// schedule); plus its CPU-side report (residual, energy) from the GPU's phi.
 #[test]
 fn gpu_frame_renders_like_the_cpu_reference() {
-    use translucent::render::{FrameDesc, HeadlessRenderer, Scene as RenderScene};
-    use translucent::solver::gpu::GpuFrame;
+    use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessRenderer};
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let ball = Shape::Sphere { radius: 10.0 };
@@ -177,10 +191,9 @@ fn gpu_frame_renders_like_the_cpu_reference() {
         },
     )
     .unwrap();
-    let render_scene = RenderScene {
+    let render_mesh = ExitanceMesh {
         mesh: graph.surface.clone(),
         exitance: cpu.vertex_j_plus.clone(),
-        lights: scene.lights.clone(),
         eta: field.eta(),
     };
     let desc = FrameDesc {
@@ -189,27 +202,23 @@ fn gpu_frame_renders_like_the_cpu_reference() {
         specular: false,
         ..Default::default()
     };
-    let mut renderer = HeadlessRenderer::new(ctx, &render_scene, &desc).unwrap();
+    let mut renderer = HeadlessRenderer::new(ctx, &render_mesh, &scene, &desc).unwrap();
     let reference = renderer.render_frame(ctx).unwrap().image;
-    renderer
-        .set_exitance(ctx, &vec![[0.0; 3]; graph.surface.positions.len()])
-        .unwrap();
-    let mut frame = GpuFrame::new(ctx, &graph, &field, &scene, &solve_params).unwrap();
-    frame.solve.bind_mesh(ctx, renderer.mesh()).unwrap();
-    let caster = GpuMesh::new(
+    drop(renderer);
+    let mut object = TranslucentObject::new(
         ctx,
-        &graph.surface,
-        &vec![[0.0; 3]; graph.surface.positions.len()],
+        std::sync::Arc::new(graph.clone()),
+        &field,
+        &scene,
+        &ObjectParams {
+            solve: solve_params,
+            specular: false,
+            single_level_nodes: 0,
+            ..ObjectParams::default()
+        },
     )
     .unwrap();
-    let mut failed = None;
-    let captured = renderer
-        .render_frame_after(ctx, |cb, profiler| {
-            // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
-            failed = unsafe { frame.record(ctx, cb, &caster, Some(profiler)) }.err();
-        })
-        .unwrap();
-    assert!(failed.is_none(), "{failed:?}");
+    let (captured, _) = render_once(ctx, &mut object, desc.width, desc.height);
     let (mut diff, mut sum) = (0.0f64, 0.0f64);
     for (a, b) in captured.image.pixels.iter().zip(&reference.pixels) {
         for c in 0..3 {
@@ -218,12 +227,14 @@ fn gpu_frame_renders_like_the_cpu_reference() {
             sum += f64::from(b[c].abs());
         }
     }
-    let report = frame
-        .report(ctx, &graph, &field, &scene, None, &solve_params)
+    let report = object
+        .quadgraph()
+        .expect("quadgraph")
+        .report(ctx, &field, &scene, None)
         .unwrap();
     let cpu_residual = cpu.residual;
     println!(
-        "GpuFrame image relative L1 {:.2e}; passes {:?}; report {report:?}; CPU residual {cpu_residual:?}",
+        "object image relative L1 {:.2e}; passes {:?}; report {report:?}; CPU residual {cpu_residual:?}",
         diff / sum,
         captured.passes
     );
@@ -248,8 +259,6 @@ fn gpu_frame_renders_like_the_cpu_reference() {
         println!("{pass}: {present}");
     }
     assert!(captured.passes.contains_key("diffusion jacobi"));
-    drop(frame);
-    drop(caster);
-    drop(renderer);
+    drop(object);
     gpu.finish();
 }

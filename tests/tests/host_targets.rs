@@ -7,12 +7,14 @@ use std::sync::Arc;
 
 use ash::vk;
 use glam::DVec3;
+use translucent::headless::HeadlessHost;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
-use translucent::object::{HostResource, ImageState, RecordCtx, TargetImage, Targets};
+use translucent::object::{HostResource, RecordCtx, TargetImage, Targets};
 use translucent::quadgraph::BakeParams;
-use translucent::render::{HeadlessHost, OffscreenTarget, COLOR_FORMAT};
-use translucent::solver::{Environment, Light, Scene};
+use translucent::render::{OffscreenTarget, COLOR_FORMAT};
+use translucent::scene::{Environment, Light, Scene};
+use translucent::vk::ImageState;
 use translucent::vk::{barrier, Access, ImageReadback};
 use translucent::{Error, ObjectParams, QuadGraph, TranslucentObject};
 use translucent_tests::GpuTest;

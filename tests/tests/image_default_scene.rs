@@ -6,8 +6,11 @@
 //!   whose normal faces the camera, L_o = F_t(eta, 0) J+ / (pi eta^2) (physical) and F_t J+ / pi
 //!   (paper, DESIGN section 2), to fp16 precision.
 
-use translucent::render::{render_headless, FrameDesc, Light, RadianceMode, Scene};
-use translucent_tests::{compare_to_reference, workspace_root, GpuTest, ImageTolerance};
+use translucent::headless::{render_headless, FrameDesc, HeadlessRenderer};
+use translucent::scene::{Light, RadianceMode};
+use translucent_tests::{
+    compare_to_reference, exitance_scene, workspace_root, GpuTest, ImageTolerance,
+};
 
 /// The reference was rendered on lavapipe; other drivers rasterize and round slightly
 /// differently, mostly along the silhouette. Mean absolute difference at most 1.0 of 255 per
@@ -21,14 +24,13 @@ const TOLERANCE: ImageTolerance = ImageTolerance {
 #[test]
 fn default_sphere_matches_the_reference_image() {
     let gpu = GpuTest::new();
-    let scene =
-        Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3).expect("scene");
+    let (mesh, scene) = exitance_scene("sphere", 50.0, vec![Light::default_light()], 1.3);
     let frame = FrameDesc {
         width: 128,
         height: 128,
         ..FrameDesc::default()
     };
-    let captured = render_headless(&gpu.ctx, &scene, &frame).expect("render");
+    let captured = render_headless(&gpu.ctx, &mesh, &scene, &frame).expect("render");
     let image = &captured.image;
     assert!(
         image.pixels.iter().flatten().all(|v| v.is_finite()),
@@ -69,12 +71,11 @@ fn default_sphere_matches_the_reference_image() {
 fn uniform_exitance_gives_the_exact_fresnel_radiance_at_normal_view() {
     let gpu = GpuTest::new();
     let eta = 1.3;
-    let mut scene =
-        Scene::procedural("sphere", 50.0, vec![Light::default_light()], eta).expect("scene");
+    let (mut mesh, scene) = exitance_scene("sphere", 50.0, vec![Light::default_light()], eta);
     let j = [0.8f32, 0.4, 0.2];
-    scene.exitance = vec![j; scene.mesh.positions.len()];
+    mesh.exitance = vec![j; mesh.mesh.positions.len()];
     // The camera on the +Z axis: the centre pixel sees the sphere's normal (0, 0, 1) head on.
-    let camera = translucent::render::Camera {
+    let camera = translucent::scene::Camera {
         eye: glam::DVec3::new(0.0, 0.0, 200.0),
         target: glam::DVec3::ZERO,
         fovy_deg: 30.0,
@@ -86,12 +87,12 @@ fn uniform_exitance_gives_the_exact_fresnel_radiance_at_normal_view() {
         specular: false,
         ..FrameDesc::default()
     };
-    let physical = render_headless(&gpu.ctx, &scene, &frame)
+    let physical = render_headless(&gpu.ctx, &mesh, &scene, &frame)
         .expect("render")
         .image
         .pixel(32, 32);
     frame.radiance = RadianceMode::Paper;
-    let paper = render_headless(&gpu.ctx, &scene, &frame)
+    let paper = render_headless(&gpu.ctx, &mesh, &scene, &frame)
         .expect("render")
         .image
         .pixel(32, 32);
@@ -117,14 +118,13 @@ fn consecutive_frames_are_identical_and_hazard_free() {
     // Frame 2 starts from the states frame 1 left (shadow map sampled, color copied, uniforms
     // read): synchronization validation checks those barriers.
     let gpu = GpuTest::new();
-    let scene = Scene::procedural("torus", 40.0, vec![Light::default_light()], 1.4).expect("scene");
+    let (mesh, scene) = exitance_scene("torus", 40.0, vec![Light::default_light()], 1.4);
     let frame = FrameDesc {
         width: 96,
         height: 64,
         ..FrameDesc::default()
     };
-    let mut renderer =
-        translucent::render::HeadlessRenderer::new(&gpu.ctx, &scene, &frame).expect("renderer");
+    let mut renderer = HeadlessRenderer::new(&gpu.ctx, &mesh, &scene, &frame).expect("renderer");
     let first = renderer.render_frame(&gpu.ctx).expect("frame 1");
     let second = renderer.render_frame(&gpu.ctx).expect("frame 2");
     assert!(second.frame > first.frame);
@@ -155,9 +155,9 @@ fn specular_of_a_light_behind_the_camera_matches_cook_torrance_at_normal_view() 
         direction: glam::DVec3::new(0.0, 0.0, -1.0),
         irradiance,
     };
-    let mut scene = Scene::procedural("sphere", 50.0, vec![light], eta).expect("scene");
-    scene.exitance = vec![[0.1; 3]; scene.mesh.positions.len()];
-    let camera = translucent::render::Camera {
+    let (mut mesh, scene) = exitance_scene("sphere", 50.0, vec![light], eta);
+    mesh.exitance = vec![[0.1; 3]; mesh.mesh.positions.len()];
+    let camera = translucent::scene::Camera {
         eye: glam::DVec3::new(0.0, 0.0, 200.0),
         target: glam::DVec3::ZERO,
         fovy_deg: 30.0,
@@ -170,12 +170,12 @@ fn specular_of_a_light_behind_the_camera_matches_cook_torrance_at_normal_view() 
         roughness: 1.0,
         ..FrameDesc::default()
     };
-    let with = render_headless(&gpu.ctx, &scene, &frame)
+    let with = render_headless(&gpu.ctx, &mesh, &scene, &frame)
         .expect("render")
         .image
         .pixel(32, 32);
     frame.specular = false;
-    let without = render_headless(&gpu.ctx, &scene, &frame)
+    let without = render_headless(&gpu.ctx, &mesh, &scene, &frame)
         .expect("render")
         .image
         .pixel(32, 32);
@@ -205,10 +205,10 @@ fn the_shadow_map_removes_the_specular_of_an_occluded_point_only() {
         direction: glam::DVec3::new(-1.0, 0.0, 0.0),
         irradiance,
     };
-    let mut scene = Scene::procedural("torus", 40.0, vec![light], eta).expect("scene");
-    scene.exitance = vec![[0.1; 3]; scene.mesh.positions.len()];
+    let (mut mesh, scene) = exitance_scene("torus", 40.0, vec![light], eta);
+    mesh.exitance = vec![[0.1; 3]; mesh.mesh.positions.len()];
     let eye = glam::DVec3::new(30.0, 60.0, 0.0);
-    let camera = translucent::render::Camera {
+    let camera = translucent::scene::Camera {
         eye,
         target: glam::DVec3::new(6.0, 0.0, 0.0),
         fovy_deg: 50.0,
@@ -222,15 +222,15 @@ fn the_shadow_map_removes_the_specular_of_an_occluded_point_only() {
         roughness: 1.0,
         ..FrameDesc::default()
     };
-    let with = render_headless(&gpu.ctx, &scene, &frame)
+    let with = render_headless(&gpu.ctx, &mesh, &scene, &frame)
         .expect("render")
         .image;
     frame.specular = false;
-    let without = render_headless(&gpu.ctx, &scene, &frame)
+    let without = render_headless(&gpu.ctx, &mesh, &scene, &frame)
         .expect("render")
         .image;
 
-    let (centre, radius) = scene.bounding_sphere();
+    let (centre, radius) = mesh.bounding_sphere();
     let view_proj = camera.view_proj(1.0, centre, radius);
     let specular_at = |p: glam::DVec3| {
         let clip = view_proj * p.as_vec3().extend(1.0);
@@ -282,19 +282,17 @@ fn exitance_supplied_later_replaces_the_old_one() {
     // As a solver would: new J+ per vertex for the same mesh, here zero with no specular, which
     // must leave only the black background; a wrong length is refused.
     let gpu = GpuTest::new();
-    let scene =
-        Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3).expect("scene");
+    let (mesh, scene) = exitance_scene("sphere", 50.0, vec![Light::default_light()], 1.3);
     let frame = FrameDesc {
         width: 32,
         height: 32,
         specular: false,
         ..FrameDesc::default()
     };
-    let mut renderer =
-        translucent::render::HeadlessRenderer::new(&gpu.ctx, &scene, &frame).expect("renderer");
+    let mut renderer = HeadlessRenderer::new(&gpu.ctx, &mesh, &scene, &frame).expect("renderer");
     let lit = renderer.render_frame(&gpu.ctx).expect("frame 1");
     assert!(lit.image.pixel(16, 16)[0] > 0.0);
-    let zero = vec![[0.0f32; 3]; scene.mesh.positions.len()];
+    let zero = vec![[0.0f32; 3]; mesh.mesh.positions.len()];
     assert!(
         renderer.set_exitance(&gpu.ctx, &zero[1..]).is_err(),
         "one value per vertex"

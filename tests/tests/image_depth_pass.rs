@@ -10,17 +10,19 @@
 //! 8e-5 in depth; depth bias and texel offset add less than 1e-5. Texels outside the silhouette
 //! keep the clear value 1.
 
-use translucent::render::{GpuMesh, Light, Scene, ShadowMaps, ShadowMapsDesc};
+use translucent::frame::{FrameGraph, PASS_SHADOW};
+use translucent::mesh::GpuMesh;
+use translucent::render::{ShadowMaps, ShadowMapsDesc};
+use translucent::scene::Light;
 use translucent::vk::{Access, ImageReadback};
-use translucent_tests::GpuTest;
+use translucent_tests::{exitance_scene, GpuTest};
 
 #[test]
 fn shadow_map_holds_the_analytic_depth_of_a_sphere() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
-    let scene =
-        Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3).expect("scene");
-    let mesh = GpuMesh::new(ctx, &scene.mesh, &scene.exitance).expect("mesh");
+    let (object, scene) = exitance_scene("sphere", 50.0, vec![Light::default_light()], 1.3);
+    let mesh = GpuMesh::new(ctx, &object.mesh, &object.exitance).expect("mesh");
     let mut shadow = ShadowMaps::new(
         ctx,
         &ShadowMapsDesc {
@@ -30,18 +32,34 @@ fn shadow_map_holds_the_analytic_depth_of_a_sphere() {
     )
     .expect("shadow maps");
     shadow
-        .set_lights(&scene.lights, scene.bounding_sphere(), true)
+        .set_lights(&scene.lights, object.bounding_sphere(), true)
         .expect("one directional light");
     assert_eq!(shadow.views().len(), 1);
     assert_eq!((shadow.atlas.width, shadow.atlas.height), (128, 128));
     ctx.execute("depth pass", |cb| {
-        // SAFETY: `cb` is recording; mesh and pass outlive the waited submission.
-        unsafe { shadow.record(ctx, cb, &mesh, None) };
+        let mut graph = FrameGraph::new(ctx);
+        let (shadow, mesh) = (&shadow, &mesh);
+        graph
+            .pass(PASS_SHADOW)
+            .uses(shadow.uses(mesh))
+            .record(move |p| {
+                // SAFETY: inside the pass declaring the shadow maps' uses; mesh and maps outlive
+                // the waited submission.
+                unsafe { shadow.record(p.ctx, p.cb, mesh) };
+                Ok(())
+            });
+        // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
+        unsafe { graph.execute(cb, None, false) }.expect("frame graph");
         Ok(())
     })
     .expect("render");
-    assert_eq!(shadow.atlas_state, Access::DepthSampledShaders);
-    let depth = ImageReadback::capture(ctx, &shadow.atlas, shadow.atlas_state).expect("read back");
+    // The graph left the atlas in its last use's state, the depth attachment.
+    assert_eq!(
+        shadow.atlas.tracked().layout,
+        ash::vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL
+    );
+    let depth = ImageReadback::capture(ctx, &shadow.atlas, Access::DepthAttachmentWrite)
+        .expect("read back");
 
     // Texel (64, 64) is centred 0.5 texel off the axis: on a 128-texel map spanning 2.04 r that
     // moves the surface by less than 1e-5 in depth.

@@ -8,13 +8,15 @@
 use std::sync::Arc;
 
 use glam::{DVec3, Mat4, Vec3};
+use translucent::frame::quadgraph::PASS_GATHER;
+use translucent::frame::PASS_SHADOW;
+use translucent::headless::HeadlessHost;
 use translucent::material::{Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
-use translucent::object::{PASS_GATHER, PASS_SHADOW, PASS_SOLVE};
 use translucent::quadgraph::BakeParams;
-use translucent::render::HeadlessHost;
+use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::Deformation;
-use translucent::solver::{Environment, Light, Scene};
+use translucent::solver::gpu::PASS_SOLVE;
 use translucent::vk::{Context, LinearImage};
 use translucent::{ObjectParams, QuadGraph, SkipReason, TranslucentObject};
 use translucent_tests::{relative_difference, GpuTest};
@@ -106,7 +108,7 @@ fn set_material_solves_warm_and_matches_a_fresh_object() {
         (split(), "heterogeneous"),
         (preset("skimmilk"), "homogeneous"),
     ] {
-        live.set_material(&field);
+        live.set_material(ctx, &field).expect("set_material");
         let (edited, report) = host.render(ctx, &mut live).expect("edited frame");
         assert_eq!(report.material_variant, variant);
         assert!(report.passes.contains(&PASS_SOLVE), "{:?}", report.passes);
@@ -144,7 +146,7 @@ fn deform_moves_the_object_solves_and_identity_restores_it() {
     let mut live = object(ctx, &graph, &field, true);
     let (rest, _) = host.render(ctx, &mut live).expect("rest pose");
     let scale = Deformation::Affine(Mat4::from_scale(Vec3::splat(1.25)));
-    live.deform(&scale);
+    live.deform(ctx, &scale).expect("deform");
     let (scaled, report) = host.render(ctx, &mut live).expect("scaled");
     for pass in [PASS_SHADOW, PASS_GATHER, PASS_SOLVE] {
         assert!(report.passes.contains(&pass), "{pass}: {:?}", report.passes);
@@ -154,13 +156,13 @@ fn deform_moves_the_object_solves_and_identity_restores_it() {
     assert!(after as f64 > 1.2 * before as f64, "{before} -> {after}");
 
     let mut full = object(ctx, &graph, &field, false);
-    full.deform(&scale);
+    full.deform(ctx, &scale).expect("deform");
     let (reference, _) = host.render(ctx, &mut full).expect("unskipped, scaled");
     let d = relative_difference(&scaled.image, &reference.image);
     eprintln!("scaled: live vs unskipped {d:.2e}");
     assert!(d <= WARM, "live vs unskipped: {d}");
 
-    live.deform(&Deformation::Identity);
+    live.deform(ctx, &Deformation::Identity).expect("deform");
     let (restored, report) = host.render(ctx, &mut live).expect("identity");
     assert!(report.passes.contains(&PASS_SOLVE), "{:?}", report.passes);
     assert_eq!(covered(&restored.image), before);

@@ -5,8 +5,9 @@
 use glam::DVec3;
 use translucent::material::{Material, MaterialField};
 use translucent::quadgraph::graph::{ShadingWeights, NO_NODE};
+use translucent::scene::{Environment, RadianceMode, Scene};
 use translucent::solver::cpu::radiance;
-use translucent::solver::{self, CpuSolveParams, Environment, RadianceMode, Scene, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::tet::TetMesh;
 use translucent::{GraphLevel, QuadGraph};
 

@@ -6,7 +6,8 @@
 
 use glam::DVec3;
 use translucent::material::{Coefficients, Material, MaterialField, Procedural};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene};
+use translucent::scene::{Environment, Scene};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::tet::TetMesh;
 use translucent::{GraphLevel, QuadGraph};
 

@@ -3,7 +3,8 @@
 
 use glam::DVec3;
 use translucent::material::{Material, MaterialField};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene, Scheme};
+use translucent::scene::{Environment, Scene};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::tet::structured::nearest_shepard_links;
 use translucent::tet::TetMesh;
 use translucent::{GraphLevel, QuadGraph};

@@ -8,7 +8,7 @@ use translucent::material::fresnel;
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::Solid;
 use translucent::quadgraph::BakeParams;
-use translucent::solver::{Environment, Light, Scene};
+use translucent::scene::{Environment, Light, Scene};
 use translucent::QuadGraph;
 
 #[test]

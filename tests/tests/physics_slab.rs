@@ -6,8 +6,9 @@
 
 use glam::DVec3;
 use translucent::material::{fresnel, Material, MaterialField};
+use translucent::scene::{Environment, Scene};
 use translucent::solver::analytic::Homogeneous;
-use translucent::solver::{self, CpuSolution, CpuSolveParams, Environment, Scene, Scheme};
+use translucent::solver::{self, CpuSolution, CpuSolveParams, Scheme};
 use translucent::tet::TetMesh;
 use translucent::{GraphLevel, QuadGraph};
 

@@ -5,8 +5,9 @@
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
+use translucent::scene::{Environment, Scene};
 use translucent::solver::analytic::Homogeneous;
-use translucent::solver::{self, CpuSolveParams, Environment, Scene};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::QuadGraph;
 
 const RADIUS: f64 = 10.0;

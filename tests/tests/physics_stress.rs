@@ -5,9 +5,8 @@
 use glam::DVec3;
 use translucent::material::{Coefficients, Material, MaterialField, Procedural};
 use translucent::quadgraph::graph::{ShadingWeights, ShepardLinks, NO_NODE};
-use translucent::solver::{
-    self, CpuSolution, CpuSolveParams, Environment, Scene, Scheme, SolverError,
-};
+use translucent::scene::{self, Environment, Scene};
+use translucent::solver::{self, CpuSolution, CpuSolveParams, Scheme, SolverError};
 use translucent::tet::TetMesh;
 use translucent::{GraphLevel, QuadGraph};
 
@@ -96,21 +95,21 @@ fn extreme_materials_sizes_and_lights_stay_finite() {
 
 #[test]
 fn irradiance_beyond_the_supported_range_is_an_error_not_a_nan() {
-    use translucent::solver::scene::MAX_LIGHT_COLOUR;
+    use translucent::scene::MAX_LIGHT_COLOUR;
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
     let graph = cube(5.0, 3);
     // Parsed lights above the bound are refused where they are parsed...
     for e in [1e31, 1e150, 1e300] {
-        let parsed = format!("dir:0,-1,0:{e},{e},{e}").parse::<solver::Light>();
+        let parsed = format!("dir:0,-1,0:{e},{e},{e}").parse::<scene::Light>();
         assert!(
-            matches!(parsed, Err(SolverError::BadScene { .. })),
+            matches!(parsed, Err(scene::SceneError::Invalid { .. })),
             "E = {e}: {parsed:?}"
         );
     }
     // ...and lights built by hand are refused by the solve, before any arithmetic.
     for e in [MAX_LIGHT_COLOUR * 2.0, 1e300] {
         let scene = Scene {
-            lights: vec![solver::Light::Directional {
+            lights: vec![scene::Light::Directional {
                 direction: DVec3::NEG_Y,
                 irradiance: [e; 3],
             }],
@@ -126,7 +125,7 @@ fn irradiance_beyond_the_supported_range_is_an_error_not_a_nan() {
     };
     assert!(matches!(
         solver::solve(&graph, &field, &sh, None, &CpuSolveParams::default()),
-        Err(SolverError::BadScene { .. })
+        Err(SolverError::Scene(_))
     ));
     // At the bound itself the solve is finite.
     let scene = Scene {
@@ -211,7 +210,7 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
     };
     assert!(matches!(
         run(&g, &bad_scene, &ok),
-        Err(SolverError::BadScene { .. })
+        Err(SolverError::Scene(_))
     ));
     let negative = Scene {
         lights: vec![],
@@ -219,7 +218,7 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
     };
     assert!(matches!(
         run(&g, &negative, &ok),
-        Err(SolverError::BadScene { .. })
+        Err(SolverError::Scene(_))
     ));
     for p in [
         CpuSolveParams {
@@ -255,8 +254,8 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
     });
     let e = solver::solve(&g, &bad_eta, &scene, None, &ok).unwrap_err();
     assert!(matches!(e, SolverError::Material(_)), "{e}");
-    assert!("paper".parse::<solver::RadianceMode>().unwrap() == solver::RadianceMode::Paper);
-    assert!("phys".parse::<solver::RadianceMode>().is_err());
+    assert!("paper".parse::<scene::RadianceMode>().unwrap() == scene::RadianceMode::Paper);
+    assert!("phys".parse::<scene::RadianceMode>().is_err());
     assert!(
         "--scheme=fv".parse::<Scheme>().is_err()
             && "paper".parse::<Scheme>().unwrap() == Scheme::Paper

@@ -17,15 +17,18 @@
 use std::path::Path;
 
 use glam::DVec3;
+use translucent::headless::{render_headless, ExitanceMesh, FrameDesc, HeadlessRenderer};
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{Camera, FrameDesc, GpuMesh, HeadlessRenderer, RadianceMode, Scene};
-use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
-use translucent::solver::{self, CpuSolveParams, Environment, Light, SolverError};
+use translucent::scene::{self, Camera, RadianceMode};
+use translucent::scene::{Environment, Light};
+use translucent::solver::gpu::GpuSolveParams;
+use translucent::solver::transport::Transport;
+use translucent::solver::{self, CpuSolveParams, SolverError};
 use translucent::vk::LinearImage;
-use translucent::QuadGraph;
-use translucent_tests::{workspace_root, GpuTest};
+use translucent::{ObjectParams, QuadGraph, TranslucentObject};
+use translucent_tests::{render_once, workspace_root, GpuTest};
 
 const EYE: DVec3 = DVec3::new(0.0, 20.0, 60.0);
 const FOVY: f64 = 30.0;
@@ -82,11 +85,7 @@ fn frame(specular: bool) -> FrameDesc {
     FrameDesc {
         width: SIZE,
         height: SIZE,
-        camera: Some(Camera {
-            eye: EYE,
-            target: DVec3::ZERO,
-            fovy_deg: FOVY,
-        }),
+        camera: Some(camera()),
         radiance: RadianceMode::Physical,
         specular,
         ..FrameDesc::default()
@@ -106,13 +105,34 @@ fn sphere_graph() -> (QuadGraph, Shape) {
     (graph, ball)
 }
 
-fn display(graph: &QuadGraph, exitance: Vec<[f32; 3]>, lights: Vec<Light>, eta: f64) -> Scene {
-    Scene {
-        mesh: graph.surface.clone(),
-        exitance,
-        lights,
-        eta,
+fn camera() -> Camera {
+    Camera {
+        eye: EYE,
+        target: DVec3::ZERO,
+        fovy_deg: FOVY,
     }
+}
+
+/// The graph's display surface with the given exitance, and the scene of `lights` in
+/// `environment` (shaded: the specular term and the environment's reflection).
+fn display(
+    graph: &QuadGraph,
+    exitance: Vec<[f32; 3]>,
+    lights: Vec<Light>,
+    eta: f64,
+    environment: Environment,
+) -> (ExitanceMesh, scene::Scene) {
+    (
+        ExitanceMesh {
+            mesh: graph.surface.clone(),
+            exitance,
+            eta,
+        },
+        scene::Scene {
+            lights,
+            environment,
+        },
+    )
 }
 
 /// Unpolarized Fresnel reflectance from outside at `cos_i` (the textbook formula).
@@ -165,9 +185,8 @@ fn environment_reflection_is_fresnel_times_the_reflected_radiance() {
         ),
     ] {
         // J+ = 0: only the reflection is left.
-        let scene = display(&graph, vec![[0.0; 3]; vertices], vec![], eta);
-        let mut renderer = HeadlessRenderer::new(&gpu.ctx, &scene, &frame(true)).unwrap();
-        renderer.set_environment(&environment).unwrap();
+        let (mesh, scene) = display(&graph, vec![[0.0; 3]; vertices], vec![], eta, environment);
+        let mut renderer = HeadlessRenderer::new(&gpu.ctx, &mesh, &scene, &frame(true)).unwrap();
         let image = renderer.render_frame(&gpu.ctx).unwrap().image;
         let (mut worst, mut checked) = (0.0f64, 0);
         for y in 0..SIZE {
@@ -196,17 +215,25 @@ fn environment_reflection_is_fresnel_times_the_reflected_radiance() {
         );
 
         // Without specular nothing is reflected.
-        let mut dark = HeadlessRenderer::new(&gpu.ctx, &scene, &frame(false)).unwrap();
-        dark.set_environment(&environment).unwrap();
+        let mut dark = HeadlessRenderer::new(&gpu.ctx, &mesh, &scene, &frame(false)).unwrap();
         let image = dark.render_frame(&gpu.ctx).unwrap().image;
         assert!(image.pixels.iter().all(|p| p[..3] == [0.0; 3]));
     }
     // A non-finite environment is a typed error, not a NaN image.
-    let scene = display(&graph, vec![[0.0; 3]; vertices], vec![], eta);
-    let mut renderer = HeadlessRenderer::new(&gpu.ctx, &scene, &frame(true)).unwrap();
-    assert!(renderer
-        .set_environment(&Environment::Constant([f64::NAN, 0.0, 0.0]))
-        .is_err());
+    let (mesh, scene) = display(
+        &graph,
+        vec![[0.0; 3]; vertices],
+        vec![],
+        eta,
+        Environment::None,
+    );
+    let mut renderer = HeadlessRenderer::new(&gpu.ctx, &mesh, &scene, &frame(true)).unwrap();
+    let bad = scene::Scene {
+        environment: Environment::Constant([f64::NAN, 0.0, 0.0]),
+        ..scene.clone()
+    };
+    assert!(renderer.object().set_lights(&bad).is_err());
+    assert!(HeadlessRenderer::new(&gpu.ctx, &mesh, &bad, &frame(true)).is_err());
     drop(renderer);
     gpu.finish();
 }
@@ -218,7 +245,6 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let (graph, ball) = sphere_graph();
-    let vertices = graph.surface.positions.len();
     let field = MaterialField::Homogeneous(
         Material::new(
             Material::preset("marble").unwrap().sigma_s,
@@ -227,33 +253,35 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
         )
         .unwrap(),
     );
-    let scene = solver::Scene {
+    let scene = scene::Scene {
         lights: vec![],
         environment: Environment::Constant([1.0; 3]),
     };
     let params = GpuSolveParams::default();
-    let display = display(&graph, vec![[0.0; 3]; vertices], vec![], field.eta());
     let reference = reference("marble-sphere-env-eta1.3.exr");
     let mut errors = Vec::new();
     for reflect in [true, false] {
-        let mut renderer = HeadlessRenderer::new(ctx, &display, &frame(true)).unwrap();
-        if reflect {
-            renderer.set_environment(&scene.environment).unwrap();
-        }
-        let mut solve = GpuFrame::new(ctx, &graph, &field, &scene, &params).unwrap();
-        solve.solve.bind_mesh(ctx, renderer.mesh()).unwrap();
-        let caster = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; vertices]).unwrap();
-        let mut failed = None;
-        let image = renderer
-            .render_frame_after(ctx, |cb, profiler| {
-                // SAFETY: `cb` is recording; `solve` and `caster` outlive the waited frame.
-                failed = unsafe { solve.record(ctx, cb, &caster, Some(profiler)) }.err();
-            })
-            .unwrap()
-            .image;
-        assert!(failed.is_none(), "{failed:?}");
-        let report = solve
-            .report(ctx, &graph, &field, &scene, Some(&ball), &params)
+        // Without the reflection: no specular (there is no light, so the environment's mirror
+        // reflection is all the specular term draws).
+        let mut object = TranslucentObject::new(
+            ctx,
+            std::sync::Arc::new(graph.clone()),
+            &field,
+            &scene,
+            &ObjectParams {
+                solve: params.clone(),
+                specular: reflect,
+                single_level_nodes: 0,
+                ..ObjectParams::default()
+            },
+        )
+        .unwrap();
+        object.set_camera(Some(camera())).unwrap();
+        let image = render_once(ctx, &mut object, SIZE, SIZE).0.image;
+        let report = object
+            .quadgraph()
+            .expect("quadgraph")
+            .report(ctx, &field, &scene, Some(&ball))
             .unwrap();
         assert!(report.iterations.iter().all(|&n| n > 0), "{report:?}");
         errors.push(relative_rms(&image, &reference));
@@ -275,7 +303,7 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
     let milk = Material::preset("skimmilk").unwrap();
     let field = MaterialField::Homogeneous(Material::new(milk.sigma_s, milk.sigma_a, 1.0).unwrap());
     let light: Light = "dir:0.5,-1,-0.5:4,4,4".parse().unwrap();
-    let scene = solver::Scene {
+    let scene = scene::Scene {
         lights: vec![light],
         environment: Environment::None,
     };
@@ -283,7 +311,11 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
     let mut errors = Vec::new();
     for beam_source in [true, false] {
         let params = CpuSolveParams {
-            beam_source,
+            transport: if beam_source {
+                Transport::collimated()
+            } else {
+                Transport::default()
+            },
             ..CpuSolveParams::default()
         };
         let sol = solver::solve(&graph, &field, &scene, Some(&ball), &params).unwrap();
@@ -293,8 +325,14 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
             let balance = e.transmitted_input[c] - e.exitance[c] - e.absorbed[c];
             assert!(balance.abs() < 1e-6 * e.transmitted_input[c], "{e:?}");
         }
-        let display = display(&graph, sol.vertex_j_plus.clone(), vec![light], 1.0);
-        let image = translucent::render::render_headless(&gpu.ctx, &display, &frame(false))
+        let (mesh, display) = display(
+            &graph,
+            sol.vertex_j_plus.clone(),
+            vec![light],
+            1.0,
+            Environment::None,
+        );
+        let image = render_headless(&gpu.ctx, &mesh, &display, &frame(false))
             .unwrap()
             .image;
         errors.push(relative_rms(&image, &reference));
@@ -305,7 +343,7 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
 
     // The entry points are ray-cast: without the solid it is a typed error.
     let params = CpuSolveParams {
-        beam_source: true,
+        transport: Transport::collimated(),
         ..CpuSolveParams::default()
     };
     assert!(matches!(

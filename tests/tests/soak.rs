@@ -1,24 +1,38 @@
 //! Soak, CI size (issue 6 item 4; the long run is `benches/src/bin/soak.rs --frames 10000`):
-//! 100 frames of a small sphere in which every frame changes the light (`GpuFrame::set_lights`),
+//! 100 frames of a small sphere in which every frame changes the light (`TranslucentObject::set_lights`),
 //! the material (`set_material`: drifting homogeneous coefficients, every fourth frame a
 //! heterogeneous split with another eta) and the shape (`deform`: a twist of varying angle, an
-//! affine squash, the identity), recorded as a host would with
-//! `HeadlessRenderer::render_frame_after`. Asserts: no validation message (synchronization
+//! affine squash, the identity), recorded as a host would
+//! (`HeadlessHost::render`). Asserts: no validation message (synchronization
 //! validation on), no NaN or Inf in J+ (surface nodes and display vertices) or in the image every
 //! 10 frames and at the end, and the allocator flat: live allocations, allocated bytes and memory
 //! blocks identical at frame 10 and at the end.
 
+use translucent::headless::HeadlessHost;
 use translucent::material::MaterialField;
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer};
-use translucent::solver::gpu::{GpuFrame, GpuSolveParams};
+use translucent::solver::gpu::GpuSolveParams;
 use translucent::QuadGraph;
 use translucent_benches::soak::{deformation_at, material_at, scene_at};
-use translucent_tests::GpuTest;
+use translucent_tests::{quadgraph_object, GpuTest};
 
 const FRAMES: usize = 100;
 const CHECK_EVERY: usize = 10;
+
+/// The allocator's totals once the last frame's edits are released: a frame with nothing
+/// changed (the object lets go of the staged edits it held for the last frame), waited, then
+/// every completed frame's releases done. Without it the totals would differ by the staging
+/// buffers of whichever edits the last frame happened to make.
+fn settled_usage(
+    ctx: &translucent::vk::Context,
+    host: &mut HeadlessHost,
+    object: &mut translucent::TranslucentObject,
+) -> (usize, u64, u64) {
+    let (captured, _) = host.render(ctx, object).expect("quiet frame");
+    ctx.frame_completed(captured.frame);
+    ctx.allocator_usage()
+}
 
 #[test]
 fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() {
@@ -38,48 +52,23 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
     let params = GpuSolveParams {
         iterations: vec![16],
         tolerance: 1e-4,
-        warm_start: true,
         ..Default::default()
     };
     let field = material_at(0).expect("material");
     let scene = scene_at(0);
-    let n = graph.surface.positions.len();
-    let mut renderer = HeadlessRenderer::new(
-        ctx,
-        &translucent::render::Scene {
-            mesh: graph.surface.clone(),
-            exitance: vec![[0.0; 3]; n],
-            lights: scene.lights.clone(),
-            eta: field.eta(),
-        },
-        &FrameDesc {
-            width: 48,
-            height: 48,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let mut frame = GpuFrame::new(ctx, &graph, &field, &scene, &params).unwrap();
-    frame.solve.bind_mesh(ctx, renderer.mesh()).unwrap();
-    let caster = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; n]).unwrap();
+    let mut object = quadgraph_object(ctx, &graph, &field, &scene, params);
+    let mut host = HeadlessHost::new(ctx, 48, 48).unwrap();
     let mut at_frame_10 = None;
     let mut kinds = [0usize; 2];
     for i in 0..FRAMES {
-        frame.set_lights(&graph, &scene_at(i)).unwrap();
+        object.set_lights(&scene_at(i)).unwrap();
         let field = material_at(i).expect("material");
         kinds[usize::from(matches!(field, MaterialField::Homogeneous(_)))] += 1;
-        frame.set_material(ctx, &graph, &field).unwrap();
-        frame
-            .deform(ctx, &graph, &deformation_at(i), &[renderer.mesh(), &caster])
-            .unwrap();
-        let mut failed = None;
-        let captured = renderer
-            .render_frame_after(ctx, |cb, profiler| {
-                // SAFETY: `cb` is recording; frame and caster outlive the waited frame.
-                failed = unsafe { frame.record(ctx, cb, &caster, Some(profiler)) }.err();
-            })
-            .unwrap();
-        assert!(failed.is_none(), "frame {i}: {failed:?}");
+        object.set_material(ctx, &field).unwrap();
+        object.deform(ctx, &deformation_at(i)).unwrap();
+        let (captured, _report) = host
+            .render(ctx, &mut object)
+            .unwrap_or_else(|e| panic!("frame {i}: {e:?}"));
         // Each edit pass shows in the profiler exactly in the frames that need it.
         let has = |name: &str| captured.passes.contains_key(name);
         assert_eq!(
@@ -94,13 +83,23 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
             "frame {i}"
         );
         if i % CHECK_EVERY == CHECK_EVERY - 1 || i + 1 == FRAMES {
-            let j = frame.solve.read_j_plus(ctx).unwrap();
+            let j = object
+                .quadgraph()
+                .expect("quadgraph")
+                .solve()
+                .read_j_plus(ctx)
+                .unwrap();
             assert!(
                 j.iter().flatten().all(|v| v.is_finite() && *v >= 0.0),
                 "frame {i}: J+"
             );
             assert!(j.iter().flatten().any(|v| *v > 0.0), "frame {i}: black");
-            let v = frame.solve.read_vertex_j_plus(ctx).unwrap();
+            let v = object
+                .quadgraph()
+                .expect("quadgraph")
+                .solve()
+                .read_vertex_j_plus(ctx)
+                .unwrap();
             assert!(
                 v.iter().flatten().all(|v| v.is_finite()),
                 "frame {i}: vertex J+"
@@ -117,16 +116,16 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
             gpu.assert_no_messages();
         }
         if i == 10 {
-            at_frame_10 = Some(ctx.allocator_usage());
+            at_frame_10 = Some(settled_usage(ctx, &mut host, &mut object));
         }
     }
-    let end = ctx.allocator_usage();
+    let end = settled_usage(ctx, &mut host, &mut object);
     println!(
         "allocator (allocations, bytes, block bytes): frame 10 {at_frame_10:?}, end {end:?}; \
          {} heterogeneous / {} homogeneous frames",
         kinds[0], kinds[1]
     );
     assert_eq!(Some(end), at_frame_10, "allocator grew");
-    drop((frame, caster, renderer));
+    drop((object, host));
     gpu.finish();
 }

@@ -13,7 +13,8 @@ use translucent::material::{Material, MaterialField, VolGrid};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshError, MeshSolid, TriMesh, ValidateOptions, SIZE_RANGE_MM};
 use translucent::quadgraph::{BakeError, BakeParams};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene};
+use translucent::scene::{self, Environment, Scene};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::QuadGraph;
 use translucent_benches::fixtures::{box_mesh, write_obj};
 
@@ -243,7 +244,7 @@ fn non_finite_inputs_are_typed_errors() {
         "dir:1e-320,0,0:1,1,1",
         "dir:0,-1,0:1e31,1,1",
     ] {
-        assert!(light.parse::<solver::Light>().is_err(), "{light}");
+        assert!(light.parse::<scene::Light>().is_err(), "{light}");
     }
     for env in [[f64::NAN, 0.0, 0.0], [f64::INFINITY; 3], [1e31; 3]] {
         assert!(Environment::Constant(env).validate().is_err(), "{env:?}");

@@ -1,5 +1,5 @@
 //! The numerical stress matrix (issue 6, DESIGN section 9), CI-sized, through the whole GPU frame a
-//! host runs (`GpuFrame`: shadow maps, irradiance gather with the `render::q_scale_for` exposure,
+//! host runs (`TranslucentObject`: shadow maps, irradiance gather with the `render::q_scale_for` exposure,
 //! the solve, J+ into the displayed mesh) and a 16 x 16 render (sphere, 12 cells across, 2 levels), at every precision, against the
 //! f64 CPU reference. The full matrix is `cargo run --release -p translucent-benches --bin stress`.
 //!
@@ -18,12 +18,13 @@ use glam::DVec3;
 use translucent::material::{fresnel, Coefficients, Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{FrameDesc, GpuMesh, HeadlessRenderer, Scene as RenderScene};
-use translucent::solver::gpu::{GpuFrame, GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolveParams, Environment, Light, Scene};
+use translucent::scene::{Environment, Light, Scene};
+use translucent::solver::gpu::{GpuSolveParams, Precision};
+use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
-use translucent_tests::GpuTest;
+use translucent_tests::tol;
+use translucent_tests::{multilevel_object, render_once, GpuTest};
 
 const PRECISIONS: [Precision; 3] = [Precision::Mixed, Precision::Fp32, Precision::Fp16];
 
@@ -31,7 +32,7 @@ fn tolerance(p: Precision) -> f64 {
     if p == Precision::Fp16 {
         0.2
     } else {
-        5e-3
+        tol::GPU_VS_EXACT
     }
 }
 
@@ -95,39 +96,18 @@ fn gpu_frame(
         tolerance: 1e-5,
         ..Default::default()
     };
-    let n = graph.surface.positions.len();
-    let render = RenderScene {
-        mesh: graph.surface.clone(),
-        exitance: vec![[0.0; 3]; n],
-        lights: scene.lights.clone(),
-        eta: field.eta(),
-    };
-    let desc = FrameDesc {
-        width: 16,
-        height: 16,
-        ..FrameDesc::default()
-    };
-    let mut renderer = HeadlessRenderer::new(ctx, &render, &desc).unwrap();
-    let mut frame = GpuFrame::new(ctx, graph, field, scene, &params).unwrap();
-    frame.solve.bind_mesh(ctx, renderer.mesh()).unwrap();
-    let caster = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; n]).unwrap();
-    let mut failed = None;
-    let captured = renderer
-        .render_frame_after(ctx, |cb, profiler| {
-            // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
-            failed = unsafe { frame.record(ctx, cb, &caster, Some(profiler)) }.err();
-        })
-        .unwrap();
-    assert!(failed.is_none(), "{failed:?}");
+    let mut object = multilevel_object(ctx, graph, field, scene, params);
+    let (captured, _) = render_once(ctx, &mut object, 16, 16);
+    let solve = object.quadgraph().expect("quadgraph").solve();
     let out = Frame {
-        phi: frame.solve.read_phi(ctx, graph.levels.len() - 1).unwrap(),
-        j_plus: frame.solve.read_j_plus(ctx).unwrap(),
+        phi: solve.read_phi(ctx, graph.levels.len() - 1).unwrap(),
+        j_plus: solve.read_j_plus(ctx).unwrap(),
         pixels: captured.image.pixels,
     };
-    let vertex = frame.solve.read_vertex_j_plus(ctx).unwrap();
+    let vertex = solve.read_vertex_j_plus(ctx).unwrap();
     println!(
         "  {precision:?}: iterations {:?}",
-        frame.solve.iterations_run(ctx).unwrap()
+        solve.iterations_run(ctx).unwrap()
     );
     let values = out
         .phi
@@ -159,17 +139,6 @@ fn cpu_phi(graph: &QuadGraph, field: &MaterialField, scene: &Scene) -> Vec<[f64;
         assert!(imbalance <= 1e-8 * e.transmitted_input[c], "energy {e:?}");
     }
     sol.phi
-}
-
-fn rel_rms(got: &[[f32; 3]], want: &[[f64; 3]]) -> f64 {
-    let (mut d2, mut r2) = (0.0, 0.0);
-    for (g, w) in got.iter().zip(want) {
-        for c in 0..3 {
-            d2 += (f64::from(g[c]) - w[c]).powi(2);
-            r2 += w[c] * w[c];
-        }
-    }
-    (d2 / r2).sqrt()
 }
 
 /// sigma_a = 0 under uniform light: phi = 4q/(1 - F_dr) at every node, for any kappa(x), here

@@ -19,12 +19,15 @@ use std::time::Instant;
 use anyhow::{bail, Context as _};
 use std::sync::Arc;
 use translucent::quadgraph::cache::{self, CacheOutcome};
+use translucent::scene;
 
 use glam::{DQuat, DVec3};
-use translucent::render::{level_bounds, Camera, HeadlessHost, HeadlessRenderer, Scene};
+use translucent::headless::{ExitanceMesh, HeadlessHost, HeadlessRenderer};
+use translucent::scene::Camera;
+use translucent::scene::Environment;
+use translucent::scene::Light;
 use translucent::solver::gpu::{GpuSolveParams, Precision};
-use translucent::solver::Light;
-use translucent::solver::{self, CpuSolveParams, Environment, Scheme};
+use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 use translucent::{ObjectParams, TranslucentObject};
@@ -237,7 +240,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         },
         ..CpuSolveParams::default()
     };
-    let solver_scene = solver::Scene {
+    let solver_scene = scene::Scene {
         lights: lights.clone(),
         environment,
     };
@@ -291,7 +294,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-        let (centre, radius) = level_bounds(graph.finest());
+        let (centre, radius) = graph.finest().bounding_sphere();
         let base_camera = frame_desc
             .camera
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
@@ -300,7 +303,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         for i in 0..args.frames {
             if i > 0 {
                 if let Some(deg) = args.orbit_light {
-                    report_scene = solver::Scene {
+                    report_scene = scene::Scene {
                         lights: orbit_lights(&solver_scene.lights, deg * f64::from(i)),
                         environment: solver_scene.environment,
                     };
@@ -341,30 +344,26 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             timings.extend(captured.timings.clone());
             last = Some(captured);
         }
-        gpu_report = Some(translucent.gpu_frame().report(
-            &ctx,
-            &graph,
-            &field,
-            &report_scene,
-            Some(object.solid.as_ref()),
-            &gpu_params,
-        )?);
-        gpu_bytes = Some(translucent.gpu_frame().solve.bytes().0);
+        let quadgraph = translucent
+            .quadgraph()
+            .context("the QuadGraph method reports the solve")?;
+        gpu_report =
+            Some(quadgraph.report(&ctx, &field, &report_scene, Some(object.solid.as_ref()))?);
+        gpu_bytes = Some(translucent.gpu_bytes());
         drop(host);
         drop(translucent);
     } else {
         let vertices = graph.surface.positions.len();
-        let scene = Scene {
+        let mesh = ExitanceMesh {
             mesh: graph.surface.clone(),
             exitance: solution
                 .as_ref()
                 .map_or_else(|| vec![[0.0; 3]; vertices], |s| s.vertex_j_plus.clone()),
-            lights: solver_scene.lights.clone(),
             eta: field.eta(),
         };
-        let mut renderer = HeadlessRenderer::new(&ctx, &scene, &frame_desc)?;
-        // The environment's mirror reflection off the boundary (off with --no-specular).
-        renderer.set_environment(&solver_scene.environment)?;
+        // The same frame as the GPU path's (shadow maps, shading with the environment's mirror
+        // reflection), with the f64 solution as the given exitance.
+        let mut renderer = HeadlessRenderer::new(&ctx, &mesh, &solver_scene, &frame_desc)?;
         for i in 0..args.frames {
             let captured = renderer.render_frame(&ctx)?;
             let iterations: Vec<usize> = match (&solution, i) {

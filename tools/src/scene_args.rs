@@ -4,7 +4,8 @@
 
 use anyhow::{bail, Context as _};
 use glam::DVec3;
-use translucent::render::{Camera, FrameDesc, Light, RadianceMode};
+use translucent::headless::FrameDesc;
+use translucent::scene::{Camera, Light, RadianceMode};
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct SceneArgs {

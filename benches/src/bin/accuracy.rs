@@ -20,16 +20,17 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessRenderer};
 use translucent::material::{Material, MaterialField, VolGrid};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
 use translucent::quadgraph::{cache, BakeParams};
-use translucent::render::{Camera, FrameDesc, HeadlessRenderer, RadianceMode, Scene};
+use translucent::scene::{Camera, Environment, Light, RadianceMode, Scene};
 use translucent::solver::single_scattering::vertex_single_scattering;
 use translucent::solver::transport::{
     ExitQuery, SingleScattering, Source, SurfaceReconstruction, Transport,
 };
-use translucent::solver::{self, CpuSolveParams, Environment, Light};
+use translucent::solver::{self, CpuSolveParams};
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;
 
@@ -54,19 +55,136 @@ const FRONT: &str = "dir:0.5,-1,-0.5:4,4,4";
 const BACK: &str = "dir:0.2,-0.35,1:5,5,5";
 
 const SCENES: &[SceneSpec] = &[
-    SceneSpec { name: "milk-sphere", reference: "skimmilk-sphere-dir-eta1.exr", object: "sphere", size_mm: 20.0, material: "skimmilk", eta: 1.0, lights: &[FRONT], env: None },
-    SceneSpec { name: "marble-sphere", reference: "marble-sphere-dir-eta1.exr", object: "sphere", size_mm: 20.0, material: "marble", eta: 1.0, lights: &[FRONT], env: None },
-    SceneSpec { name: "split-sphere", reference: "split-sphere-dir-eta1.exr", object: "sphere", size_mm: 20.0, material: "vol:milk-skin-split.vol", eta: 1.0, lights: &[FRONT], env: None },
-    SceneSpec { name: "bunny-front", reference: "bunny-marble-dir-eta1.exr", object: "mesh:stanford-bunny.obj", size_mm: 20.0, material: "marble", eta: 1.0, lights: &[FRONT], env: None },
-    SceneSpec { name: "marble-sphere-back", reference: "marble-sphere-backlit-eta1.exr", object: "sphere", size_mm: 20.0, material: "marble", eta: 1.0, lights: &[BACK], env: None },
-    SceneSpec { name: "torus-back", reference: "marble-torus-backlit-eta1.exr", object: "torus", size_mm: 20.0, material: "marble", eta: 1.0, lights: &[BACK], env: None },
-    SceneSpec { name: "bunny-side", reference: "bunny-marble-side-eta1.exr", object: "mesh:stanford-bunny.obj", size_mm: 20.0, material: "marble", eta: 1.0, lights: &["dir:1,-0.2,0:5,5,5"], env: None },
-    SceneSpec { name: "plate-back", reference: "marble-plate-backlit-eta1.exr", object: "ref:plate-on-base.obj", size_mm: 30.0, material: "marble", eta: 1.0, lights: &[BACK], env: None },
-    SceneSpec { name: "u-front", reference: "marble-u-front-eta1.exr", object: "ref:u-block.obj", size_mm: 20.0, material: "marble", eta: 1.0, lights: &[FRONT], env: None },
-    SceneSpec { name: "u-back", reference: "marble-u-backlit-eta1.exr", object: "ref:u-block.obj", size_mm: 20.0, material: "marble", eta: 1.0, lights: &[BACK], env: None },
-    SceneSpec { name: "marble-env", reference: "marble-sphere-env-eta1.3.exr", object: "sphere", size_mm: 20.0, material: "marble", eta: 1.3, lights: &[], env: Some(1.0) },
-    SceneSpec { name: "skin1-env", reference: "skin1-sphere-env-eta1.3.exr", object: "sphere", size_mm: 20.0, material: "skin1", eta: 1.3, lights: &[], env: Some(1.0) },
-    SceneSpec { name: "ketchup-env", reference: "ketchup-sphere-env-eta1.3.exr", object: "sphere", size_mm: 20.0, material: "ketchup", eta: 1.3, lights: &[], env: Some(1.0) },
+    SceneSpec {
+        name: "milk-sphere",
+        reference: "skimmilk-sphere-dir-eta1.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "skimmilk",
+        eta: 1.0,
+        lights: &[FRONT],
+        env: None,
+    },
+    SceneSpec {
+        name: "marble-sphere",
+        reference: "marble-sphere-dir-eta1.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[FRONT],
+        env: None,
+    },
+    SceneSpec {
+        name: "split-sphere",
+        reference: "split-sphere-dir-eta1.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "vol:milk-skin-split.vol",
+        eta: 1.0,
+        lights: &[FRONT],
+        env: None,
+    },
+    SceneSpec {
+        name: "bunny-front",
+        reference: "bunny-marble-dir-eta1.exr",
+        object: "mesh:stanford-bunny.obj",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[FRONT],
+        env: None,
+    },
+    SceneSpec {
+        name: "marble-sphere-back",
+        reference: "marble-sphere-backlit-eta1.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[BACK],
+        env: None,
+    },
+    SceneSpec {
+        name: "torus-back",
+        reference: "marble-torus-backlit-eta1.exr",
+        object: "torus",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[BACK],
+        env: None,
+    },
+    SceneSpec {
+        name: "bunny-side",
+        reference: "bunny-marble-side-eta1.exr",
+        object: "mesh:stanford-bunny.obj",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &["dir:1,-0.2,0:5,5,5"],
+        env: None,
+    },
+    SceneSpec {
+        name: "plate-back",
+        reference: "marble-plate-backlit-eta1.exr",
+        object: "ref:plate-on-base.obj",
+        size_mm: 30.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[BACK],
+        env: None,
+    },
+    SceneSpec {
+        name: "u-front",
+        reference: "marble-u-front-eta1.exr",
+        object: "ref:u-block.obj",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[FRONT],
+        env: None,
+    },
+    SceneSpec {
+        name: "u-back",
+        reference: "marble-u-backlit-eta1.exr",
+        object: "ref:u-block.obj",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.0,
+        lights: &[BACK],
+        env: None,
+    },
+    SceneSpec {
+        name: "marble-env",
+        reference: "marble-sphere-env-eta1.3.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "marble",
+        eta: 1.3,
+        lights: &[],
+        env: Some(1.0),
+    },
+    SceneSpec {
+        name: "skin1-env",
+        reference: "skin1-sphere-env-eta1.3.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "skin1",
+        eta: 1.3,
+        lights: &[],
+        env: Some(1.0),
+    },
+    SceneSpec {
+        name: "ketchup-env",
+        reference: "ketchup-sphere-env-eta1.3.exr",
+        object: "sphere",
+        size_mm: 20.0,
+        material: "ketchup",
+        eta: 1.3,
+        lights: &[],
+        env: Some(1.0),
+    },
 ];
 
 /// A named preset or a `key=value/...` list.
@@ -102,7 +220,9 @@ fn parse_variant(spec: &str, bounce_rays: u32) -> Result<Transport> {
     }
     let mut t = Transport::default();
     for kv in spec.split('/') {
-        let (k, v) = kv.split_once('=').ok_or_else(|| format!("variant {spec}: {kv} is not key=value"))?;
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("variant {spec}: {kv} is not key=value"))?;
         match (k, v) {
             ("exit", "classic") => t.exit = ExitQuery::Classic,
             ("exit", "moments") => t.exit = ExitQuery::Moments,
@@ -128,20 +248,36 @@ fn repo() -> PathBuf {
 }
 
 fn mesh_dir() -> PathBuf {
-    std::env::var_os("TRANSLUCENT_MESH_DIR").map_or_else(|| repo().join("../shared/meshes"), PathBuf::from)
+    std::env::var_os("TRANSLUCENT_MESH_DIR")
+        .map_or_else(|| repo().join("../shared/meshes"), PathBuf::from)
 }
 
 /// The display surface and the solid of a scene's object, normalized to `size_mm`.
 fn object(spec: &SceneSpec) -> Result<(TriMesh, Box<dyn Solid>)> {
-    let shape = |s: Shape| -> Result<(TriMesh, Box<dyn Solid>)> { Ok((s.triangulate(96), Box::new(s))) };
+    let shape =
+        |s: Shape| -> Result<(TriMesh, Box<dyn Solid>)> { Ok((s.triangulate(96), Box::new(s))) };
     match spec.object {
-        "sphere" => shape(Shape::Sphere { radius: 0.5 * spec.size_mm }),
-        "torus" => shape(Shape::Torus { major: 0.35 * spec.size_mm, minor: 0.15 * spec.size_mm }),
+        "sphere" => shape(Shape::Sphere {
+            radius: 0.5 * spec.size_mm,
+        }),
+        "torus" => shape(Shape::Torus {
+            major: 0.35 * spec.size_mm,
+            minor: 0.15 * spec.size_mm,
+        }),
         other => {
             let path = if let Some(file) = other.strip_prefix("mesh:") {
                 mesh_dir().join(file)
             } else if let Some(file) = other.strip_prefix("ref:") {
-                repo().join("tests/reference/pt").join(file)
+                // Generated, never committed: `python3 tests/reference/pt/make_shapes.py`.
+                let path = repo().join("target/pt-shapes").join(file);
+                if !path.exists() {
+                    return Err(format!(
+                        "{}: run python3 tests/reference/pt/make_shapes.py first",
+                        path.display()
+                    )
+                    .into());
+                }
+                path
             } else {
                 return Err(format!("unknown object {other}").into());
             };
@@ -158,7 +294,9 @@ fn material(spec: &SceneSpec) -> Result<MaterialField> {
         return Ok(MaterialField::grid(grid, spec.eta)?);
     }
     let m = Material::preset(spec.material)?;
-    Ok(MaterialField::Homogeneous(Material::new(m.sigma_s, m.sigma_a, spec.eta)?))
+    Ok(MaterialField::Homogeneous(Material::new(
+        m.sigma_s, m.sigma_a, spec.eta,
+    )?))
 }
 
 /// A reference image: (rgb, alpha) per pixel, row 0 at the top, and its width.
@@ -166,8 +304,15 @@ fn reference(name: &str) -> Result<(usize, Vec<([f32; 3], f32)>)> {
     let path = repo().join("tests/reference/pt").join(name);
     let image = exr::prelude::read_first_rgba_layer_from_file(
         &path,
-        |res, _| (res.width(), vec![([0.0f32; 3], 0.0f32); res.width() * res.height()]),
-        |(w, buf), pos, (r, g, b, a): (f32, f32, f32, f32)| buf[pos.y() * *w + pos.x()] = ([r, g, b], a),
+        |res, _| {
+            (
+                res.width(),
+                vec![([0.0f32; 3], 0.0f32); res.width() * res.height()],
+            )
+        },
+        |(w, buf), pos, (r, g, b, a): (f32, f32, f32, f32)| {
+            buf[pos.y() * *w + pos.x()] = ([r, g, b], a)
+        },
     )?;
     let (w, pixels) = image.layer_data.channel_data.pixels;
     Ok((w, pixels))
@@ -185,7 +330,10 @@ fn relative_rms(ours: &[[f32; 4]], reference: &[([f32; 3], f32)]) -> ([f64; 3], 
         }
     }
     let per = std::array::from_fn(|c| (err[c] / norm[c].max(1e-300)).sqrt());
-    (per, (err.iter().sum::<f64>() / norm.iter().sum::<f64>().max(1e-300)).sqrt())
+    (
+        per,
+        (err.iter().sum::<f64>() / norm.iter().sum::<f64>().max(1e-300)).sqrt(),
+    )
 }
 
 struct Args {
@@ -201,9 +349,15 @@ fn parse_args() -> Result<Args> {
     let mut args = Args {
         resolution: BakeParams::default().resolution,
         scenes: None,
-        variants: ["classic", "collimated", "collimated-ss", "second", "second-bounce"]
-            .map(String::from)
-            .to_vec(),
+        variants: [
+            "classic",
+            "collimated",
+            "collimated-ss",
+            "second",
+            "second-bounce",
+        ]
+        .map(String::from)
+        .to_vec(),
         out: None,
         ss_samples: 16,
         bounce_rays: 64,
@@ -233,11 +387,19 @@ fn main() -> Result<()> {
     if let Some(out) = &args.out {
         std::fs::create_dir_all(out)?;
     }
-    println!("resolution {}, variants {}", args.resolution, args.variants.join(", "));
+    println!(
+        "resolution {}, variants {}",
+        args.resolution,
+        args.variants.join(", ")
+    );
     println!("| scene | {} |", args.variants.join(" | "));
     println!("|---|{}", "---|".repeat(args.variants.len()));
     for spec in SCENES {
-        if args.scenes.as_ref().is_some_and(|s| !s.iter().any(|n| n == spec.name)) {
+        if args
+            .scenes
+            .as_ref()
+            .is_some_and(|s| !s.iter().any(|n| n == spec.name))
+        {
             continue;
         }
         let Ok((width, reference)) = reference(spec.reference) else {
@@ -245,14 +407,27 @@ fn main() -> Result<()> {
             continue;
         };
         let (surface, solid) = object(spec)?;
-        let params = BakeParams { resolution: args.resolution, ..BakeParams::default() };
+        let params = BakeParams {
+            resolution: args.resolution,
+            ..BakeParams::default()
+        };
         let key = cache::cache_key(&surface, &params);
         let file = cache_dir.join(format!("{}-{key:016x}.qgraph", spec.name));
-        let (graph, _, _) = cache::bake_cached(&file, &surface, solid.as_ref(), &params, &mut |_| {})?;
+        let (graph, _, _) =
+            cache::bake_cached(&file, &surface, solid.as_ref(), &params, &mut |_| {})?;
         let field = material(spec)?;
-        let lights: Vec<Light> = spec.lights.iter().map(|l| l.parse()).collect::<std::result::Result<_, _>>()?;
-        let environment = spec.env.map_or(Environment::None, |l| Environment::Constant([l; 3]));
-        let scene = solver::Scene { lights: lights.clone(), environment };
+        let lights: Vec<Light> = spec
+            .lights
+            .iter()
+            .map(|l| l.parse())
+            .collect::<std::result::Result<_, _>>()?;
+        let environment = spec
+            .env
+            .map_or(Environment::None, |l| Environment::Constant([l; 3]));
+        let scene = Scene {
+            lights: lights.clone(),
+            environment,
+        };
         let mut cells = Vec::new();
         let mut notes = BTreeMap::new();
         for variant in &args.variants {
@@ -275,17 +450,24 @@ fn main() -> Result<()> {
                 .zip(&ss)
                 .map(|(x, s)| std::array::from_fn(|c| (f64::from(x[c]) + s[c]) as f32))
                 .collect();
-            let display = Scene { mesh: graph.surface.clone(), exitance, lights: lights.clone(), eta: spec.eta };
+            let display = ExitanceMesh {
+                mesh: graph.surface.clone(),
+                exitance,
+                eta: spec.eta,
+            };
             let frame = FrameDesc {
                 width: width as u32,
                 height: (reference.len() / width) as u32,
-                camera: Some(Camera { eye: EYE, target: DVec3::ZERO, fovy_deg: FOVY }),
+                camera: Some(Camera {
+                    eye: EYE,
+                    target: DVec3::ZERO,
+                    fovy_deg: FOVY,
+                }),
                 radiance: RadianceMode::Physical,
                 specular: true,
                 ..FrameDesc::default()
             };
-            let mut renderer = HeadlessRenderer::new(&ctx, &display, &frame)?;
-            renderer.set_environment(&scene.environment)?;
+            let mut renderer = HeadlessRenderer::new(&ctx, &display, &scene, &frame)?;
             let image = renderer.render_frame(&ctx)?.image;
             if let Some(out) = &args.out {
                 let name = variant.replace(['/', '='], "_");
@@ -299,11 +481,22 @@ fn main() -> Result<()> {
                 100.0 * per[2],
                 100.0 * all
             ));
-            notes.insert(variant.clone(), format!("{seconds:.1} s, clamped {:?}", sol.vertex_clamped));
+            notes.insert(
+                variant.clone(),
+                format!("{seconds:.1} s, clamped {:?}", sol.vertex_clamped),
+            );
             if spec.env.is_some() && spec.lights.is_empty() {
                 // Constant exact exitance: how flat is ours per vertex?
                 let cv = coefficient_of_variation(&sol.vertex_exitance);
-                notes.insert(format!("{variant} cv"), format!("{:.2}, {:.2}, {:.2} %", 100.0 * cv[0], 100.0 * cv[1], 100.0 * cv[2]));
+                notes.insert(
+                    format!("{variant} cv"),
+                    format!(
+                        "{:.2}, {:.2}, {:.2} %",
+                        100.0 * cv[0],
+                        100.0 * cv[1],
+                        100.0 * cv[2]
+                    ),
+                );
             }
         }
         println!("| {} | {} |", spec.name, cells.join(" | "));
@@ -326,10 +519,13 @@ fn coefficient_of_variation(values: &[[f64; 3]]) -> [f64; 3] {
 fn solve(
     graph: &QuadGraph,
     field: &MaterialField,
-    scene: &solver::Scene,
+    scene: &Scene,
     solid: &dyn Solid,
     transport: Transport,
 ) -> Result<solver::CpuSolution> {
-    let params = CpuSolveParams { transport, ..CpuSolveParams::default() };
+    let params = CpuSolveParams {
+        transport,
+        ..CpuSolveParams::default()
+    };
     Ok(solver::solve(graph, field, scene, Some(solid), &params)?)
 }

@@ -1,26 +1,35 @@
-//! GPU diffusion solve measurements for `benches/RESULTS.md` (gpu section):
+//! GPU diffusion solve measurements for `benches/RESULTS.md` (gpu section), each solve one frame
+//! of a `TranslucentObject` rendered by the headless host (shadow maps, irradiance gather, a cold
+//! multi-level solve, exitance, shading): the frame the object ships, timed by its timestamps.
 //! 1. multi-level against single-level (paper Fig. 14): for a list of tolerances, the Jacobi
-//!    iterations the GPU ran (its counter), GPU time (timestamps) and the J+ error against the exact
-//!    f64 solve, for `levels = 3` and `levels = 1` bakes of the same finest level; CSV + PNG plot;
-//! 2. per-pass GPU timings of one solve of spot and nefertiti (when the meshes are found).
+//!    iterations the GPU ran (its counter), GPU time of the solve (the frame's `diffusion` and
+//!    `exitance` passes) and the J+ error against the exact f64 solve (PCG) of the q the frame
+//!    gathered, for `levels = 3` and `levels = 1` bakes of the same finest level; CSV + PNG plot;
+//! 2. per-pass GPU timings of one frame of spot and nefertiti (when the meshes are found).
 //!
 //! ```text
 //! cargo run --release -p translucent-benches --bin gpu_solve -- [OUT_DIR] [RESOLUTION]
 //! ```
 //! Writes `OUT_DIR/gpu_multilevel.csv`, `OUT_DIR/gpu_multilevel.png` (default OUT_DIR
-//! `benches/results`), prints markdown tables. `TRANSLUCENT_DEVICE` picks the Vulkan device.
+//! `benches/results`), prints markdown tables. `TRANSLUCENT_DEVICE` picks the Vulkan device;
+//! `TRANSLUCENT_VALIDATION=1` prints validation messages.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
+use translucent::headless::HeadlessHost;
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
 use translucent::quadgraph::BakeParams;
-use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolveParams, Environment, Scene};
-use translucent::vk::{Context, ContextDesc, GpuProfiler};
-use translucent::QuadGraph;
+use translucent::scene::{Environment, Scene};
+use translucent::solver::gpu::{GpuSolveParams, Precision, PASS_EXITANCE, PASS_SOLVE};
+use translucent::solver::krylov;
+use translucent::solver::operator::LevelOperator;
+use translucent::solver::{self, CpuSolveParams, Scheme};
+use translucent::vk::{Access, Context, ContextDesc, ImageReadback};
+use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 use translucent_benches::plot::{error_vs_time, palette, Panel, Series};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -34,52 +43,127 @@ fn scene() -> Scene {
 
 struct Run {
     iterations: Vec<u32>,
+    /// GPU ms of the solve as the frame ships it: its `diffusion` and `exitance` passes.
     ms: f64,
+    /// GPU ms per pass of the whole frame (nested scopes summed by name; the host's capture left
+    /// out).
     passes: BTreeMap<String, f64>,
     j_plus: Vec<[f32; 3]>,
+    /// The q the frame gathered at the finest surface nodes (unscaled): what the GPU solved.
+    q: Vec<[f64; 3]>,
+    bytes: (u64, f64),
 }
 
+/// The per-level iteration cap. The headless host's profiler holds 4096 scopes per frame and a
+/// solve records two per block of `block` iterations (blocks after convergence are recorded but
+/// dispatch nothing): 4000 iterations x 3 levels / 8 x 2 = 3000 scopes. The tolerances measured
+/// here stop every level well below it (at most 2640 iterations, benches/RESULTS.md).
+const CAP: u32 = 4000;
+
+/// One frame of a `TranslucentObject` (shadow maps, gather, a cold multi-level solve on
+/// `graph`'s levels, exitance, shading) rendered by the headless host: the frame the object
+/// ships. Times its solve passes from the host's timestamps and reads back J+ and the gathered q.
 fn run(
     ctx: &Context,
-    graph: &QuadGraph,
+    graph: &Arc<QuadGraph>,
     field: &MaterialField,
     params: &GpuSolveParams,
 ) -> Result<Run> {
-    let q: Vec<Vec<[f32; 3]>> = graph
-        .levels
+    let mut object = TranslucentObject::new(
+        ctx,
+        graph.clone(),
+        field,
+        &scene(),
+        &ObjectParams {
+            solve: params.clone(),
+            // Every level iterates (the 1-level bake is the single-level comparison).
+            single_level_nodes: 0,
+            // A cold solve every frame.
+            skip: false,
+            ..ObjectParams::default()
+        },
+    )?;
+    let mut host = HeadlessHost::new(ctx, 64, 64)?;
+    let (captured, report) = host.render(ctx, &mut object)?;
+    if report.warm_start || !report.passes.contains(&PASS_SOLVE) {
+        return Err(format!("the frame did not run a cold solve: {report:?}").into());
+    }
+    let timings = captured
+        .timings
+        .as_ref()
+        .ok_or("no GPU timestamps on this device: gpu_solve measures GPU time")?;
+    // The capture is recorded last: without it the profiler ran out of scopes and the solve's
+    // time would be short.
+    if !captured.passes.contains_key("capture") {
+        return Err("the frame profiler ran out of timestamp scopes (lower CAP)".into());
+    }
+    let ms = timings
+        .scopes
         .iter()
-        .map(|l| {
-            scene()
-                .surface_irradiance(l, field.eta(), None)
-                .iter()
-                .map(|v| v.map(|x| x as f32))
-                .collect()
+        .filter(|s| s.depth == 0 && (s.name == PASS_SOLVE || s.name == PASS_EXITANCE))
+        .map(|s| s.duration_ms)
+        .sum();
+    let mut passes = captured.passes;
+    passes.remove("capture");
+    let method = object
+        .quadgraph()
+        .ok_or("the QuadGraph method reports the solve")?;
+    let solve = method.solve();
+    let finest = graph.levels.len() - 1;
+    let level = graph.finest();
+    let gathered = ImageReadback::capture(
+        ctx,
+        solve.q_image(finest).ok_or("no q image")?,
+        Access::ComputeReadWrite,
+    )?;
+    let unscale = 1.0 / f64::from(method.q_scale());
+    let q = level.packing.texels[level.inner_count()..]
+        .iter()
+        .map(|&[u, v]| {
+            let p = gathered.pixel(u, v);
+            [p[0], p[1], p[2]].map(|x| f64::from(x) * unscale)
         })
         .collect();
-    let mut gpu = GpuDiffusion::new(ctx, graph, field, params)?;
-    gpu.set_q_scale(GpuDiffusion::exposure_for(q.iter().flatten()));
-    for (h, q) in q.iter().enumerate() {
-        gpu.upload_q(ctx, h, q)?;
-    }
-    let mut profiler = GpuProfiler::new(ctx, "gpu solve", 16384)?;
-    let mut frame = 0;
-    ctx.execute("gpu solve", |cb| {
-        frame = ctx.frames().0;
-        // SAFETY: `cb` is recording; `gpu` and `profiler` outlive the waited submission.
-        unsafe {
-            profiler.begin_frame(cb, frame);
-            gpu.record(ctx, cb, Some(&mut profiler));
-        }
-        Ok(())
-    })?;
-    profiler.frame_completed(frame);
-    let passes = profiler.latest().map(|t| t.passes()).unwrap_or_default();
     Ok(Run {
-        iterations: gpu.iterations_run(ctx)?,
-        ms: passes.values().sum(),
+        iterations: solve.iterations_run(ctx)?,
+        ms,
         passes,
-        j_plus: gpu.read_j_plus(ctx)?,
+        j_plus: solve.read_j_plus(ctx)?,
+        q,
+        bytes: solve.bytes(),
     })
+}
+
+/// The exact f64 J+ at the finest surface nodes for the gathered `q` (PCG to 1e-10 from `phi`),
+/// clamped at 0 as the GPU's.
+fn exact_for_q(
+    graph: &QuadGraph,
+    field: &MaterialField,
+    scheme: Scheme,
+    q: &[[f64; 3]],
+    phi: &[[f64; 3]],
+) -> Result<Vec<[f64; 3]>> {
+    let level = graph.finest();
+    let op = LevelOperator::build(level, field, scheme)?;
+    let b = op.rhs(q);
+    let mut phi = phi.to_vec();
+    let report = krylov::solve(&op, &b, &mut phi, 1e-10, 100_000);
+    if !report.converged {
+        return Err(format!(
+            "the exact solve did not converge (relative residual {:?})",
+            report.residual
+        )
+        .into());
+    }
+    let inner = level.inner_count();
+    Ok(q.iter()
+        .enumerate()
+        .map(|(s, q)| {
+            std::array::from_fn(|c| {
+                ((1.0 + 1.0 / op.a) * phi[inner + s][c] / 4.0 - q[c] / (1.0 + op.f_dr)).max(0.0)
+            })
+        })
+        .collect())
 }
 
 fn rel_rms(gpu: &[[f32; 3]], exact: &[[f64; 3]]) -> f64 {
@@ -93,13 +177,15 @@ fn rel_rms(gpu: &[[f32; 3]], exact: &[[f64; 3]]) -> f64 {
     (d2 / r2.max(f64::MIN_POSITIVE)).sqrt()
 }
 
-fn bake(mesh: &TriMesh, solid: &dyn Solid, resolution: u32, levels: u32) -> Result<QuadGraph> {
+fn bake(mesh: &TriMesh, solid: &dyn Solid, resolution: u32, levels: u32) -> Result<Arc<QuadGraph>> {
     let params = BakeParams {
         resolution,
         levels,
         ..Default::default()
     };
-    Ok(QuadGraph::bake(mesh, solid, &params, &mut |_| {})?.0)
+    Ok(Arc::new(
+        QuadGraph::bake(mesh, solid, &params, &mut |_| {})?.0,
+    ))
 }
 
 fn multilevel(ctx: &Context, out: &Path, resolution: u32) -> Result<()> {
@@ -125,18 +211,34 @@ fn multilevel(ctx: &Context, out: &Path, resolution: u32) -> Result<()> {
                 ..Default::default()
             },
         )?;
+        // The exact solution for the q the frame gathered (the same at every tolerance: same
+        // lights, shadow maps and exposure).
+        let mut same_q: Option<Vec<[f64; 3]>> = None;
         let mut points = Vec::new();
         let mut work = Vec::new();
         let nodes: Vec<f64> = graph.levels.iter().map(|l| l.node_count() as f64).collect();
         for &tol in &tolerances {
             let params = GpuSolveParams {
                 precision: Precision::Mixed,
-                iterations: vec![20_000],
+                iterations: vec![CAP],
                 tolerance: tol,
                 ..Default::default()
             };
             let r = run(ctx, &graph, &field, &params)?;
-            let err = rel_rms(&r.j_plus, &exact.j_plus_clamped);
+            if r.iterations.iter().any(|&i| i >= CAP) {
+                println!("(levels {levels}, tolerance {tol:.0e}: a level reached the cap {CAP})");
+            }
+            let reference = match &same_q {
+                Some(j) => j,
+                None => same_q.insert(exact_for_q(
+                    &graph,
+                    &field,
+                    params.scheme,
+                    &r.q,
+                    &exact.phi,
+                )?),
+            };
+            let err = rel_rms(&r.j_plus, reference);
             let updates: f64 = r
                 .iterations
                 .iter()
@@ -213,16 +315,15 @@ fn per_pass(ctx: &Context, mesh_dir: &Path, resolution: u32) -> Result<()> {
                 tolerance: 1e-3,
                 ..Default::default()
             };
-            let gpu = GpuDiffusion::new(ctx, &graph, &field, &params)?;
-            let (bytes, per_node) = gpu.bytes();
-            drop(gpu);
             let r = run(ctx, &graph, &field, &params)?;
+            let (bytes, per_node) = r.bytes;
             let passes: Vec<String> = r
                 .passes
                 .iter()
                 .map(|(k, v)| format!("{k} {v:.2}"))
                 .collect();
-            let err = rel_rms(&r.j_plus, &exact.j_plus_clamped);
+            let reference = exact_for_q(&graph, &field, params.scheme, &r.q, &exact.phi)?;
+            let err = rel_rms(&r.j_plus, &reference);
             println!(
                 "| {name} | {nodes:?} | {precision:?} | {:?} | {err:.1e} | {:.1} | {} | {:.1} MB, {per_node:.0} B/node |",
                 r.iterations,
@@ -245,6 +346,8 @@ fn main() -> Result<()> {
         .filter(|d| !d.is_empty());
     let ctx = Context::headless(&ContextDesc {
         device_name: device,
+        // `TRANSLUCENT_VALIDATION=1`: validation messages are printed as they come.
+        echo_validation: true,
         ..ContextDesc::default()
     })?;
     println!("device: {}", ctx.info().device_name);

@@ -14,15 +14,17 @@
 //! A fourth argument `a` runs part (a) only, `c` part (c) only (`-`: all); a fifth sets the
 //! iterations per convergence block (default 8).
 //! Defaults: torus resolution 24 (3 levels), 8 frames, 3 degrees per frame. Prints markdown
-//! tables. `TRANSLUCENT_DEVICE` picks the Vulkan device.
+//! tables. `TRANSLUCENT_DEVICE` picks the Vulkan device; `TRANSLUCENT_VALIDATION=1` prints
+//! validation messages.
 
 use std::sync::Arc;
 
+use translucent::headless::{Captured, HeadlessHost};
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
-use translucent::render::{Captured, HeadlessHost};
-use translucent::solver::{Environment, Light, Scene};
+use translucent::scene::{Environment, Light, Scene};
+use translucent::solver::gpu::GpuDiffusion;
 use translucent::vk::{Context, ContextDesc};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 
@@ -50,13 +52,16 @@ fn bake(shape: Shape, resolution: u32, levels: u32) -> Result<Arc<QuadGraph>> {
     ))
 }
 
-/// GPU ms of a frame's own passes (the capture is the headless host's, not ours).
+/// GPU ms of a frame's own passes: the frame graph's top-level scopes (`Captured::passes` also
+/// holds the nested ones, summed by name), less the capture (the headless host's, not ours).
 fn frame_ms(c: &Captured) -> f64 {
-    c.passes
-        .iter()
-        .filter(|(k, _)| k.as_str() != "capture")
-        .map(|(_, v)| v)
-        .sum()
+    c.timings.as_ref().map_or(f64::NAN, |t| {
+        t.scopes
+            .iter()
+            .filter(|s| s.depth == 0 && s.name != "capture")
+            .map(|s| s.duration_ms)
+            .sum()
+    })
 }
 
 fn shading_ms(c: &Captured) -> f64 {
@@ -79,6 +84,14 @@ fn frame(
     Ok((captured, its))
 }
 
+/// The object's diffusion solve (its read-backs).
+fn solve(object: &TranslucentObject) -> Result<&GpuDiffusion> {
+    Ok(object
+        .quadgraph()
+        .ok_or("the object's method is not the QuadGraph")?
+        .solve())
+}
+
 fn max_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     let peak = b.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
     a.iter()
@@ -93,7 +106,11 @@ fn main() -> Result<()> {
     let resolution: u32 = args.first().map_or(Ok(24), |s| s.parse())?;
     let frames: u32 = args.get(1).map_or(Ok(8), |s| s.parse())?;
     let degrees: f64 = args.get(2).map_or(Ok(3.0), |s| s.parse())?;
-    let ctx = Context::headless(&ContextDesc::default())?;
+    // `TRANSLUCENT_VALIDATION=1`: validation messages are printed as they come.
+    let ctx = Context::headless(&ContextDesc {
+        echo_validation: true,
+        ..ContextDesc::default()
+    })?;
     println!("device: {}", ctx.info().device_name);
     let field = MaterialField::Homogeneous(Material::preset("marble")?);
     let torus = Shape::Torus {
@@ -154,9 +171,9 @@ fn main() -> Result<()> {
         finest.set_lights(&lights)?;
         let (fc, fi) = frame(&ctx, &mut host, &mut finest, levels)?;
         let (wc, wi) = frame(&ctx, &mut host, &mut warm, levels)?;
-        let wj = warm.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
+        let wj = solve(&warm)?.read_vertex_j_plus(&ctx)?;
         let (cc, ci) = frame(&ctx, &mut host, &mut cold, levels)?;
-        let cj = cold.gpu_frame().solve.read_vertex_j_plus(&ctx)?;
+        let cj = solve(&cold)?.read_vertex_j_plus(&ctx)?;
         let (wms, cms) = (frame_ms(&wc), frame_ms(&cc));
         if i > 0 {
             warm_finest += wi[levels - 1];

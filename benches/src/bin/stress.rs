@@ -19,18 +19,21 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
 
 use glam::DVec3;
+use translucent::headless::HeadlessHost;
 use translucent::material::{fresnel, Coefficients, Material, MaterialField, Procedural, VolGrid};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
 use translucent::quadgraph::BakeParams;
-use translucent::render::{Camera, FrameDesc, GpuMesh, HeadlessRenderer, Scene as RenderScene};
+use translucent::scene::Camera;
+use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::analytic::Homogeneous;
-use translucent::solver::gpu::{GpuDiffusion, GpuFrame, GpuSolveParams, Precision};
-use translucent::solver::{self, CpuSolution, CpuSolveParams, Environment, Light, Scene};
+use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, Precision};
+use translucent::solver::{self, CpuSolution, CpuSolveParams};
 use translucent::vk::{Context, ContextDesc};
-use translucent::QuadGraph;
+use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 use translucent_benches::fixtures::{box_mesh, write_obj};
 
 type Result<T, E = Box<dyn std::error::Error>> = std::result::Result<T, E>;
@@ -127,7 +130,7 @@ impl Scan {
     }
 }
 
-fn sphere(diameter_mm: f64, resolution: u32, levels: u32) -> Result<QuadGraph> {
+fn sphere(diameter_mm: f64, resolution: u32, levels: u32) -> Result<Arc<QuadGraph>> {
     let shape = Shape::Sphere {
         radius: 0.5 * diameter_mm,
     };
@@ -136,7 +139,9 @@ fn sphere(diameter_mm: f64, resolution: u32, levels: u32) -> Result<QuadGraph> {
         levels,
         ..Default::default()
     };
-    Ok(QuadGraph::bake(&shape.triangulate(24), &shape, &params, &mut |_| {})?.0)
+    Ok(Arc::new(
+        QuadGraph::bake(&shape.triangulate(24), &shape, &params, &mut |_| {})?.0,
+    ))
 }
 
 fn homogeneous(sigma_s: [f64; 3], sigma_a: [f64; 3]) -> MaterialField {
@@ -232,11 +237,12 @@ impl GpuOut {
     }
 }
 
-/// The whole frame as `translucent render --solver gpu` runs it: GpuFrame (shadow maps, gather,
-/// solve) writing J+ into the renderer's mesh, then shading into a 32 x 32 target.
+/// The whole frame as `translucent render --solver gpu` runs it: a `TranslucentObject` (shadow
+/// maps from its display mesh, gather, solve, J+ into the display mesh, shading) rendered by the
+/// headless host into a 32 x 32 target.
 fn gpu(
     ctx: &Context,
-    graph: &QuadGraph,
+    graph: &Arc<QuadGraph>,
     field: &MaterialField,
     scene: &Scene,
     precision: Precision,
@@ -246,46 +252,36 @@ fn gpu(
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(3000);
-    let params = GpuSolveParams {
-        precision,
-        iterations: vec![cap],
-        tolerance: 1e-5,
-        ..Default::default()
+    let params = ObjectParams {
+        solve: GpuSolveParams {
+            precision,
+            iterations: vec![cap],
+            tolerance: 1e-5,
+            ..Default::default()
+        },
+        ..ObjectParams::default()
     };
-    let vertices = graph.surface.positions.len();
-    let render_scene = RenderScene {
-        mesh: graph.surface.clone(),
-        exitance: vec![[0.0; 3]; vertices],
-        lights: scene.lights.clone(),
-        eta: field.eta(),
-    };
-    let frame_desc = FrameDesc {
-        width: 32,
-        height: 32,
-        ..FrameDesc::default()
-    };
-    let mut renderer = HeadlessRenderer::new(ctx, &render_scene, &frame_desc)?;
-    let mut frame = GpuFrame::new(ctx, graph, field, scene, &params)?;
-    frame.solve.bind_mesh(ctx, renderer.mesh())?;
-    let caster = GpuMesh::new(ctx, &graph.surface, &vec![[0.0; 3]; vertices])?;
-    let mut failed = None;
-    let captured = renderer.render_frame_after(ctx, |cb, profiler| {
-        // SAFETY: `cb` is recording; `frame` and `caster` outlive the waited frame.
-        failed = unsafe { frame.record(ctx, cb, &caster, Some(profiler)) }.err();
-    })?;
-    if let Some(e) = failed {
-        return Err(e.into());
-    }
-    let solve = &frame.solve;
+    let mut object = TranslucentObject::new(ctx, graph.clone(), field, scene, &params)?;
+    let mut host = HeadlessHost::new(ctx, 32, 32)?;
+    let (captured, _) = host.render(ctx, &mut object)?;
+    let method = object
+        .quadgraph()
+        .ok_or("the object's method is not the QuadGraph")?;
+    let solve = method.solve();
     Ok(GpuOut {
         phi: solve.read_phi(ctx, graph.levels.len() - 1)?,
         j_plus: solve.read_j_plus(ctx)?,
         vertex_j_plus: solve.read_vertex_j_plus(ctx)?,
         pixels: captured.image.pixels,
-        q_scale: frame.q_scale(),
+        q_scale: method.q_scale(),
         iterations: solve.iterations_run(ctx)?,
         clamped: solve.clamped(ctx)?,
-        converged: solve.control(ctx)?.iter().all(|c| c.stopped_early != 0),
+        // Levels the frame did not iterate (a small graph's cold solve iterates the finest
+        // level alone) do not count.
+        converged: solve
+            .control(ctx)?
+            .iter()
+            .all(|c| c.iterations == 0 || c.stopped_early != 0),
     })
 }
 
@@ -316,7 +312,7 @@ fn gpu_rows(
     ctx: &Context,
     case: &'static str,
     variant: &str,
-    graph: &QuadGraph,
+    graph: &Arc<QuadGraph>,
     field: &MaterialField,
     scene: &Scene,
     reference: &'static str,
@@ -820,7 +816,7 @@ fn case_geometry(rows: &mut Vec<Row>, ctx: &Context, dir: &Path) -> Result<()> {
             name.replace([' ', ',', '(', ')', '.'], "_")
         ));
         write_obj(&path, &v, &f)?;
-        let baked = (|| -> Result<QuadGraph> {
+        let baked = (|| -> Result<Arc<QuadGraph>> {
             let mut mesh = TriMesh::load_obj(&path)?;
             mesh.validate(&ValidateOptions::default())?;
             let (mut mesh, _) = mesh.normalized(50.0)?;
@@ -831,7 +827,9 @@ fn case_geometry(rows: &mut Vec<Row>, ctx: &Context, dir: &Path) -> Result<()> {
                 levels: 2,
                 ..Default::default()
             };
-            Ok(QuadGraph::bake(solid.mesh(), &solid, &params, &mut |_| {})?.0)
+            Ok(Arc::new(
+                QuadGraph::bake(solid.mesh(), &solid, &params, &mut |_| {})?.0,
+            ))
         })();
         let graph = match baked {
             Ok(g) => g,

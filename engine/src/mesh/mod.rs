@@ -20,12 +20,14 @@
 //! bridged and inside-out meshes are still solids; [`shapes::Shape`] is the exact counterpart.
 
 mod bvh;
+mod gpu;
 mod obj;
 mod orient;
 pub mod shapes;
 mod solid;
 mod validate;
 
+pub use gpu::{GpuMesh, Vertex};
 pub use solid::{ClosestPoint, MeshSolid, RayHit};
 pub use validate::{MeshReport, Normalization, ValidateOptions};
 
@@ -40,6 +42,25 @@ use glam::DVec3;
 /// is refused, not attempted. Inside it, objects below about one mean free path need many more
 /// Jacobi iterations on the GPU than the default cap (see the README).
 pub const SIZE_RANGE_MM: std::ops::RangeInclusive<f64> = 1e-4..=1e8;
+
+/// The bounding sphere (centre of the bounding box, radius in mm, at least 1e-3) of `points`;
+/// (origin, 1) when there is none or one is not finite. What the shadow views and the automatic
+/// camera are fitted to.
+pub fn bounding_sphere(points: &[DVec3]) -> (DVec3, f64) {
+    let (lo, hi) = points.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (DVec3::ZERO, 1.0);
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = points
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0, f64::max);
+    (centre, radius.max(1e-3))
+}
 
 /// An indexed triangle mesh in f64 (converted to f32 at upload). Counter-clockwise faces seen from
 /// outside; `normals` are per-vertex unit normals (same length as `positions`).

@@ -126,6 +126,12 @@ impl QuadGraph {
 }
 
 impl GraphLevel {
+    /// The bounding sphere (centre, radius in mm) of the level's nodes (see
+    /// [`crate::mesh::bounding_sphere`]).
+    pub fn bounding_sphere(&self) -> (glam::DVec3, f64) {
+        crate::mesh::bounding_sphere(&self.positions)
+    }
+
     pub fn inner_count(&self) -> usize {
         self.tets.tets.len()
     }

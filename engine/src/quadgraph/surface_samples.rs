@@ -93,10 +93,11 @@ fn locate(level: &GraphLevel, start: usize, p: DVec3) -> Option<usize> {
     let mut t = start;
     for _ in 0..256 {
         let b = barycentric(level, t, p);
-        let (f, min) = b
-            .iter()
-            .enumerate()
-            .fold((0, f64::INFINITY), |acc, (i, &v)| if v < acc.1 { (i, v) } else { acc });
+        let (f, min) =
+            b.iter().enumerate().fold(
+                (0, f64::INFINITY),
+                |acc, (i, &v)| if v < acc.1 { (i, v) } else { acc },
+            );
         if min >= -1e-9 {
             return Some(t);
         }
@@ -112,12 +113,7 @@ fn locate(level: &GraphLevel, start: usize, p: DVec3) -> Option<usize> {
 /// Moving-least-squares weights (linear basis) of `nodes` at `p`; Shepard weights where the
 /// nodes do not span 3D.
 fn mls_weights(points: &[DVec3], p: DVec3) -> Vec<f64> {
-    let radius = points
-        .iter()
-        .map(|q| q.distance(p))
-        .fold(0.0, f64::max)
-        * 1.05
-        + 1e-12;
+    let radius = points.iter().map(|q| q.distance(p)).fold(0.0, f64::max) * 1.05 + 1e-12;
     let kernel: Vec<f64> = points
         .iter()
         .map(|q| {
@@ -158,7 +154,11 @@ fn mls_weights(points: &[DVec3], p: DVec3) -> Vec<f64> {
 
 /// The sample points of `surface`'s vertices (outward unit normals in `surface.normals`, or
 /// computed from the faces) in the finest level, inside `solid`.
-pub fn surface_samples(surface: &TriMesh, finest: &GraphLevel, solid: &dyn Solid) -> SurfaceSamples {
+pub fn surface_samples(
+    surface: &TriMesh,
+    finest: &GraphLevel,
+    solid: &dyn Solid,
+) -> SurfaceSamples {
     let normals: Vec<DVec3> = if surface.normals.len() == surface.positions.len() {
         surface.normals.clone()
     } else {
@@ -241,7 +241,11 @@ mod tests {
         let points: Vec<DVec3> = (0..16)
             .map(|i| {
                 let f = i as f64;
-                DVec3::new((f * 0.37).sin(), (f * 1.3).cos(), (f * 0.71).sin() * 0.5 + 0.1 * f)
+                DVec3::new(
+                    (f * 0.37).sin(),
+                    (f * 1.3).cos(),
+                    (f * 0.71).sin() * 0.5 + 0.1 * f,
+                )
             })
             .collect();
         let p = DVec3::new(0.1, 0.2, 0.3);

@@ -4,38 +4,51 @@
 //! times `q_scale`, into an RGBA16F storage image. Visibility is 3x3 PCF in the light's
 //! [`ShadowMaps`] view; the environment is constant (`E = pi L`) or order-2 spherical harmonics
 //! (Ramamoorthi and Hanrahan 2001, Eq. 13), with no visibility, exactly as the f64 reference
-//! [`crate::solver::Scene::surface_irradiance`].
+//! [`crate::scene::Scene::surface_irradiance`].
 //!
 //! Interface with the solver (one set of images per level, texel (u, v) = `packing.texels`):
 //! - `surface_position`: RGBA32F, rgb = node position (mm), a = 1 at a surface node, else 0;
 //! - `surface_normal`: RGBA16F, rgb = outward unit normal;
 //! - `q`: RGBA16F storage image in GENERAL, rgb = q * q_scale (written only where a = 1).
 //!
-//! Inputs must be in [`Access::ComputeRead`] (GENERAL, writes visible); the pass leaves `q` in
-//! [`Access::ComputeWrite`] and the reader records the barrier to its read.
+//! [`IrradiancePass::uses`] declares the pass's resources to a [`crate::frame::FrameGraph`], which
+//! places the barriers before and after it.
 //! [`SurfaceImages::upload`] builds all three from a baked [`GraphLevel`].
 //!
 //! ```no_run
 //! use translucent::render::{GatherScene, IrradiancePass, ShadowMaps, ShadowMapsDesc, SurfaceImages};
-//! use translucent::solver::{Environment, Scene};
-//! use translucent::vk::Access;
+//! use translucent::scene::{Environment, Scene};
 //! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph, cb: ash::vk::CommandBuffer,
-//! #      caster: &translucent::render::GpuMesh) -> Result<(), translucent::Error> {
+//! #      caster: &translucent::mesh::GpuMesh) -> Result<(), translucent::Error> {
 //! let scene = Scene { lights: vec!["dir:1,-1,0:3,3,3".parse()?], environment: Environment::Constant([0.1; 3]) };
 //! let level = graph.finest();
 //! let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
-//! shadows.set_lights(&scene.lights, translucent::render::level_bounds(level), true)?;
+//! shadows.set_lights(&scene.lights, level.bounding_sphere(), true)?;
 //! let gather = IrradiancePass::new(ctx, 4)?;
 //! let images = SurfaceImages::upload(ctx, level)?;
 //! let set = gather.bind_level(ctx, &shadows, &images.position, &images.normal, &images.q, images.surface_rows)?;
 //! let uniforms = GatherScene::new(&scene, &shadows)?;
 //! let q_scale = translucent::render::q_scale_for(&scene, level, 1.3);
+//! // The passes inside one frame graph: it places the atlas and q barriers from `uses`.
+//! let mut frame = translucent::frame::FrameGraph::new(ctx);
+//! frame.pass("shadow_map").uses(shadows.uses(caster)).record(|p| {
+//!     // SAFETY: inside a pass declaring `shadows.uses`.
+//!     unsafe { shadows.record(p.ctx, p.cb, caster) };
+//!     Ok(())
+//! });
+//! frame
+//!     .pass("gather_q")
+//!     .uses(IrradiancePass::uses(&shadows, &images.position, &images.normal, &images.q))
+//!     .record(|p| {
+//!         // SAFETY: inside a pass declaring `IrradiancePass::uses`.
+//!         unsafe {
+//!             gather.record_scene(p.ctx, p.cb, &uniforms);
+//!             gather.record(p.ctx, p.cb, &set, q_scale, 1.3)?;
+//!         }
+//!         Ok(())
+//!     });
 //! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
-//! unsafe {
-//!     shadows.record(ctx, cb, caster, None);
-//!     gather.record_scene(ctx, cb, &uniforms);
-//!     gather.record(ctx, cb, &set, &shadows, &images.q, Access::Undefined, q_scale, 1.3, None)?;
-//! }
+//! unsafe { frame.execute(cb, None, false)? };
 //! # Ok(()) }
 //! ```
 
@@ -46,10 +59,11 @@ use super::shadow_maps::{ShadowMaps, MAX_LIGHTS, MAX_SHADOW_VIEWS};
 use super::RenderError;
 use crate::material::fresnel;
 use crate::quadgraph::graph::GraphLevel;
+use crate::scene::{Environment, Light, Scene};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
-use crate::solver::{Environment, Light, Scene};
+use crate::vk::barrier::Use;
 use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, MemoryUse, Sampler,
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, MemoryUse, Sampler,
 };
 
 /// Format of `surface_position`.
@@ -223,29 +237,6 @@ impl GatherScene {
     }
 }
 
-/// The bounding sphere (centre, radius in mm) of a level's nodes, for [`ShadowMaps::set_lights`].
-pub fn level_bounds(level: &GraphLevel) -> (DVec3, f64) {
-    point_bounds(&level.positions)
-}
-
-/// The bounding sphere (centre of the bounding box, radius in mm, at least 1e-3) of `points`;
-/// (origin, 1) when there is none or one is not finite.
-pub fn point_bounds(points: &[DVec3]) -> (DVec3, f64) {
-    let (lo, hi) = points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    if !(lo.is_finite() && hi.is_finite()) {
-        return (DVec3::ZERO, 1.0);
-    }
-    let centre = (lo + hi) * 0.5;
-    let radius = points
-        .iter()
-        .map(|p| p.distance(centre))
-        .fold(0.0, f64::max);
-    (centre, radius.max(1e-3))
-}
-
 /// A q scale for fp16 storage: the largest unshadowed q over the level's surface nodes maps to
 /// 2048, so phi (up to ~7 q) stays below fp16's 65504 and dim light keeps fp16's relative precision.
 /// 1 when nothing is lit.
@@ -409,26 +400,36 @@ impl IrradiancePass {
         }
     }
 
-    /// Gathers q for one level. `shadows` must have been recorded this frame (or have no
-    /// shadow-casting light); `q` was last used in `q_state` and is left in
-    /// [`Access::ComputeWrite`]. Bad `q_scale` or `eta` is a typed error (nothing recorded).
+    /// What a gather of one level uses: the shadow atlas, the level's surface position and
+    /// normal images, and its q image (written).
+    pub fn uses<'a>(
+        shadows: &'a ShadowMaps,
+        position: &'a Image,
+        normal: &'a Image,
+        q: &'a Image,
+    ) -> [Use<'a>; 4] {
+        [
+            Use::image(&shadows.atlas, Access::DepthSampledShaders),
+            Use::image(position, Access::ComputeRead),
+            Use::image(normal, Access::ComputeRead),
+            Use::image(q, Access::ComputeWrite),
+        ]
+    }
+
+    /// Gathers q for one level (bound by [`Self::bind_level`]). Bad `q_scale` or `eta` is a typed
+    /// error (nothing recorded).
     ///
     /// # Safety
-    /// `cb` must be recording outside a rendering scope, after [`IrradiancePass::record_scene`]
-    /// and [`ShadowMaps::record`]; `level` must come from this pass with `q` its q image; all of
-    /// it must outlive the execution.
-    #[allow(clippy::too_many_arguments)]
+    /// `cb` must be recording outside a rendering scope, after [`IrradiancePass::record_scene`],
+    /// inside a frame-graph pass declaring [`Self::uses`] of the level's images; all of it must
+    /// outlive the execution.
     pub unsafe fn record(
         &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
         level: &GatherLevel,
-        shadows: &ShadowMaps,
-        q: &Image,
-        q_state: Access,
         q_scale: f32,
         eta: f32,
-        profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), RenderError> {
         if !(q_scale.is_finite() && q_scale > 0.0) {
             return Err(invalid(
@@ -440,12 +441,6 @@ impl IrradiancePass {
         if !(f64::from(eta) >= lo && f64::from(eta) <= hi) {
             return Err(invalid("eta", format!("{eta} is outside [{lo}, {hi}]")));
         }
-        if shadows.atlas_state != Access::DepthSampledShaders {
-            return Err(invalid(
-                "shadow maps",
-                "not recorded this frame (ShadowMaps::record leaves the atlas sampleable)",
-            ));
-        }
         let push = GatherPush {
             extent: level.extent,
             q_scale,
@@ -453,16 +448,8 @@ impl IrradiancePass {
             normal_offset: self.normal_offset,
             pad: 0.0,
         };
-        let mut profiler = profiler;
         // SAFETY: the caller's contract.
         unsafe {
-            ctx.begin_label(cb, "gather q");
-            if let Some(p) = profiler.as_deref_mut() {
-                p.begin_scope(cb, "gather_q");
-            }
-            // why: q's previous readers (last frame's Jacobi) finish before it is overwritten
-            // (WAR), and a first use moves it from UNDEFINED to GENERAL.
-            barrier::image(ctx, cb, q, q_state, Access::ComputeWrite);
             self.pipeline.dispatch(
                 ctx,
                 cb,
@@ -470,10 +457,6 @@ impl IrradiancePass {
                 &push,
                 [level.extent[0], level.extent[1], 1],
             );
-            if let Some(p) = profiler {
-                p.end_scope(cb);
-            }
-            ctx.end_label(cb);
         }
         Ok(())
     }

@@ -10,137 +10,13 @@
 
 use ash::vk;
 
-use super::target::OffscreenTarget;
+use super::shadow_maps::ShadowMaps;
 use super::RenderError;
-use crate::mesh::TriMesh;
+use crate::mesh::{GpuMesh, Vertex};
+use crate::scene::Environment;
 use crate::shader::{DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::solver::Environment;
-use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse, Sampler,
-};
-
-/// One vertex as the shaders read it (f32; the mesh is f64 on the CPU).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Vertex {
-    pub position: [f32; 3],
-    pub normal: [f32; 3],
-    /// Outgoing partial current J+ (linear RGB).
-    pub exitance: [f32; 3],
-}
-
-/// A mesh on the GPU: interleaved vertices and 32-bit indices (host-visible memory).
-pub struct GpuMesh {
-    vertices: Buffer,
-    indices: Buffer,
-    index_count: u32,
-}
-
-impl GpuMesh {
-    /// Uploads `mesh` with one exitance per vertex; rejects mismatched lengths, out-of-range
-    /// indices and non-finite values.
-    pub fn new(
-        ctx: &Context,
-        mesh: &TriMesh,
-        exitance: &[[f32; 3]],
-    ) -> Result<GpuMesh, RenderError> {
-        let invalid = |problem: String| RenderError::Invalid {
-            what: "mesh".into(),
-            problem,
-        };
-        let n = mesh.positions.len();
-        if n == 0 || mesh.indices.is_empty() {
-            return Err(invalid("no vertices or no triangles".into()));
-        }
-        if mesh.normals.len() != n || exitance.len() != n {
-            return Err(invalid(format!(
-                "{n} positions, {} normals, {} exitance values",
-                mesh.normals.len(),
-                exitance.len()
-            )));
-        }
-        if let Some(t) = mesh
-            .indices
-            .iter()
-            .position(|t| t.iter().any(|&i| i as usize >= n))
-        {
-            return Err(invalid(format!(
-                "triangle {t} indexes past the {n} vertices"
-            )));
-        }
-        let mut vertices = Vec::with_capacity(n);
-        for (i, ((p, nrm), e)) in mesh
-            .positions
-            .iter()
-            .zip(&mesh.normals)
-            .zip(exitance)
-            .enumerate()
-        {
-            let v = Vertex {
-                position: p.as_vec3().to_array(),
-                normal: nrm.as_vec3().to_array(),
-                exitance: *e,
-            };
-            if v.position
-                .iter()
-                .chain(&v.normal)
-                .chain(&v.exitance)
-                .any(|x| !x.is_finite())
-            {
-                return Err(invalid(format!("vertex {i} is not finite in f32")));
-            }
-            vertices.push(v);
-        }
-        let indices: Vec<u32> = mesh.indices.iter().flatten().copied().collect();
-        Ok(GpuMesh {
-            vertices: Buffer::with_data(
-                ctx,
-                "mesh vertices",
-                // STORAGE: the GPU diffusion solve writes the exitance field in place
-                // (solver::gpu::GpuDiffusion::bind_mesh), so the solved J+ never visits the CPU.
-                // TRANSFER_DST: a deformation copies new positions and normals in
-                // (solver::gpu::edit).
-                vk::BufferUsageFlags::VERTEX_BUFFER
-                    | vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST,
-                &vertices,
-            )?,
-            index_count: indices.len() as u32,
-            indices: Buffer::with_data(
-                ctx,
-                "mesh indices",
-                vk::BufferUsageFlags::INDEX_BUFFER,
-                &indices,
-            )?,
-        })
-    }
-
-    /// The interleaved [`Vertex`] buffer (for passes that write the exitance on the GPU).
-    pub fn vertex_buffer(&self) -> &Buffer {
-        &self.vertices
-    }
-
-    /// Vertices in [`Self::vertex_buffer`].
-    pub fn vertex_count(&self) -> usize {
-        (self.vertices.size / std::mem::size_of::<Vertex>() as u64) as usize
-    }
-
-    /// Binds the buffers and draws every triangle.
-    ///
-    /// # Safety
-    /// `cb` must be recording inside a rendering scope with a pipeline bound whose vertex layout
-    /// is [`Vertex`]; the mesh must outlive `cb`'s execution.
-    pub unsafe fn draw(&self, ctx: &Context, cb: vk::CommandBuffer) {
-        // SAFETY: the caller's contract.
-        unsafe {
-            ctx.raw()
-                .cmd_bind_vertex_buffers(cb, 0, &[self.vertices.raw], &[0]);
-            ctx.raw()
-                .cmd_bind_index_buffer(cb, self.indices.raw, 0, vk::IndexType::UINT32);
-            ctx.raw().cmd_draw_indexed(cb, self.index_count, 1, 0, 0, 0);
-        }
-    }
-}
+use crate::vk::barrier::Use;
+use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, Image, MemoryUse, Sampler};
 
 /// The `ShadeUniforms` block of `mesh/shade_mesh.{vert,frag}` (std140).
 #[repr(C)]
@@ -346,77 +222,31 @@ impl MeshPass {
         (self.color_format, self.depth_format)
     }
 
-    /// Draws `mesh` into `target` (cleared to black, depth to 1). The shadow atlas must be in
-    /// [`Access::DepthSampledShaders`]. Leaves the color in [`Access::ColorAttachmentWrite`].
-    ///
-    /// # Safety
-    /// `cb` must be recording outside a rendering scope; everything passed in and `self` must
-    /// outlive its execution.
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn record(
-        &mut self,
-        ctx: &Context,
-        cb: vk::CommandBuffer,
-        mesh: &GpuMesh,
-        target: &mut OffscreenTarget,
-        uniforms: &ShadeUniforms,
-        push: &ShadePush,
-        profiler: Option<&mut GpuProfiler>,
-    ) -> Result<(), RenderError> {
-        // SAFETY: the caller's contract.
-        unsafe {
-            barrier::record(
-                ctx,
-                cb,
-                &[],
-                &[
-                    // why: the clear and draws write color after whatever used it last (WAW/WAR),
-                    // in COLOR_ATTACHMENT layout.
-                    barrier::image_barrier(
-                        &target.color,
-                        target.color_state,
-                        Access::ColorAttachmentWrite,
-                    ),
-                    // why: same for depth (cleared, so old contents may be discarded).
-                    barrier::image_barrier(
-                        &target.depth,
-                        target.depth_state,
-                        Access::DepthAttachmentWrite,
-                    ),
-                ],
-            );
-        }
-        target.color_state = Access::ColorAttachmentWrite;
-        target.depth_state = Access::DepthAttachmentWrite;
-        let attachments = ShadeAttachments {
-            color: target.color.view,
-            load_color: false,
-            depth: target.depth.view,
-            load_depth: false,
-            store_depth: false,
-            extent: target.extent(),
-        };
-        // SAFETY: the caller's contract; the attachments are in attachment layouts now.
-        unsafe { self.record_into(ctx, cb, mesh, &attachments, uniforms, push, profiler) }
+    /// What [`Self::record_into`] uses besides the attachments: `mesh`'s vertices and the shadow
+    /// atlas (sampled for the specular term).
+    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh, shadows: &'a ShadowMaps) -> [Use<'a>; 2] {
+        [
+            Use::buffer(mesh.vertex_buffer(), Access::VertexInput),
+            Use::image(&shadows.atlas, Access::DepthSampledShaders),
+        ]
     }
 
     /// Updates the uniforms in the command stream, then draws `mesh` into `attachments` (in
     /// `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL`, their earlier uses ordered by the
-    /// caller's barriers). Profiler scope `shading`.
+    /// frame graph).
     ///
     /// # Safety
-    /// `cb` must be recording outside a rendering scope; the views' images, `mesh` and `self`
-    /// must outlive its execution; the views must have this pass's formats.
-    #[allow(clippy::too_many_arguments)]
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::uses`] and the attachments; the views' images, `mesh` and `self` must outlive
+    /// its execution; the views must have this pass's formats.
     pub unsafe fn record_into(
-        &mut self,
+        &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
         mesh: &GpuMesh,
         attachments: &ShadeAttachments,
         uniforms: &ShadeUniforms,
         push: &ShadePush,
-        profiler: Option<&mut GpuProfiler>,
     ) -> Result<(), RenderError> {
         let extent = attachments.extent;
         if extent.width == 0 || extent.height == 0 {
@@ -463,13 +293,8 @@ impl MeshPass {
             .layer_count(1)
             .color_attachments(&color)
             .depth_attachment(&depth);
-        let mut profiler = profiler;
         // SAFETY: the caller's contract; the pipeline's formats match the rendering scope.
         unsafe {
-            ctx.begin_label(cb, "shade mesh");
-            if let Some(p) = profiler.as_deref_mut() {
-                p.begin_scope(cb, "shading");
-            }
             // why: last frame's vertex/fragment uniform reads must finish before the update (WAR).
             barrier::memory(ctx, cb, Access::GraphicsUniformRead, Access::TransferDst);
             ctx.raw()
@@ -480,10 +305,6 @@ impl MeshPass {
             self.pipeline.bind(ctx, cb, self.set, push, extent);
             mesh.draw(ctx, cb);
             ctx.raw().cmd_end_rendering(cb);
-            if let Some(p) = profiler {
-                p.end_scope(cb);
-            }
-            ctx.end_label(cb);
         }
         Ok(())
     }

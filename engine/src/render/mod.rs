@@ -8,44 +8,25 @@
 //!   atlas; [`IrradiancePass`]: q at the surface nodes of a level from lights, shadows, environment.
 //! - [`MeshPass`]: the final shading of DESIGN section 5 from per-vertex exitance J+; its
 //!   specular shadow reads the same atlas (no separate depth pass).
-//! - [`HeadlessRenderer`] / [`render_headless`]: a whole frame into an [`OffscreenTarget`],
-//!   read back with per-pass GPU times. Until the diffusion solver exists, J+ comes from
-//!   [`lambert_exitance`]; a solver's per-vertex J+ goes into [`Scene::exitance`].
 //! - [`LaplaceJacobiPass`]: the ping-pong compute pattern on a problem with a known solution.
 //!
-//! ```no_run
-//! use translucent::render::{FrameDesc, HeadlessRenderer, Light, Scene};
-//! use translucent::vk::{Context, ContextDesc};
-//! # fn main() -> Result<(), translucent::Error> {
-//! let ctx = Context::headless(&ContextDesc::default())?;
-//! let mut scene = Scene::procedural("sphere", 50.0, vec![Light::default_light()], 1.3)?;
-//! // scene.exitance = solver_output; // one [r, g, b] J+ per vertex of scene.mesh
-//! let mut renderer = HeadlessRenderer::new(&ctx, &scene, &FrameDesc::default())?;
-//! let frame = renderer.render_frame(&ctx)?;
-//! println!("{:?}", frame.passes); // {"capture": .., "shading": .., "shadow_map": ..}
-//! frame.image.write_exr(std::path::Path::new("sphere.exr"))?;
-//! # Ok(()) }
-//! ```
+//! Every pass declares its resources (`uses`) and records inside a pass of a
+//! [`crate::frame::FrameGraph`], which places the barriers between passes. Nothing here knows
+//! about the solvers; whole frames are composed in [`crate::TranslucentObject`] and rendered
+//! headless by [`crate::headless`].
 
-mod headless;
 mod irradiance;
 mod laplace;
 mod mesh_pass;
-mod scene;
 mod shadow_maps;
 mod target;
 
-pub use headless::{render_headless, Captured, HeadlessHost, HeadlessRenderer};
 pub use irradiance::{
-    level_bounds, point_bounds, q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene,
-    GatherView, IrradiancePass, SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT,
-    SURFACE_POSITION_FORMAT,
+    q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView, IrradiancePass,
+    SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT, SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
-pub use mesh_pass::{
-    environment_sh, GpuMesh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms, Vertex,
-};
-pub use scene::{lambert_exitance, Camera, FrameDesc, Light, RadianceMode, Scene, MAX_CAMERA_MM};
+pub use mesh_pass::{environment_sh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT,
@@ -62,5 +43,5 @@ pub enum RenderError {
     #[error(transparent)]
     Shader(#[from] crate::shader::ShaderError),
     #[error(transparent)]
-    Scene(#[from] crate::solver::SolverError),
+    Scene(#[from] crate::scene::SceneError),
 }

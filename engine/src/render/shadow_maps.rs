@@ -14,27 +14,34 @@
 //!
 //! ```no_run
 //! use glam::DVec3;
-//! use translucent::render::{GpuMesh, ShadowMaps, ShadowMapsDesc};
+//! use translucent::render::{ShadowMaps, ShadowMapsDesc};
+//! use translucent::mesh::GpuMesh;
 //! # fn f(ctx: &translucent::vk::Context, mesh: &translucent::mesh::TriMesh, cb: ash::vk::CommandBuffer,
-//! #      profiler: &mut translucent::vk::GpuProfiler) -> Result<(), translucent::render::RenderError> {
+//! #      profiler: &mut translucent::vk::GpuProfiler) -> Result<(), translucent::Error> {
 //! let mut shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
 //! let lights = ["spot:0,60,0:0,-1,0:4000,4000,4000:20,30".parse()?];
 //! shadows.set_lights(&lights, (DVec3::ZERO, 25.0), true)?;
 //! let caster = GpuMesh::new(ctx, mesh, &vec![[0.0; 3]; mesh.positions.len()])?;
+//! let mut frame = translucent::frame::FrameGraph::new(ctx);
+//! frame.pass("shadow_map").uses(shadows.uses(&caster)).record(|p| {
+//!     // SAFETY: inside a pass declaring `shadows.uses`.
+//!     unsafe { shadows.record(p.ctx, p.cb, &caster) };
+//!     Ok(())
+//! });
 //! // SAFETY: `cb` is recording outside a rendering scope; everything outlives its execution.
-//! unsafe { shadows.record(ctx, cb, &caster, Some(profiler)) };
-//! // shadows.atlas is now in Access::DepthSampledShaders.
+//! unsafe { frame.execute(cb, Some(profiler), false)? };
 //! # Ok(()) }
 //! ```
 
 use ash::vk;
 use glam::{DVec3, Mat4, Vec3};
 
-use super::mesh_pass::{GpuMesh, Vertex};
 use super::RenderError;
+use crate::mesh::{GpuMesh, Vertex};
+use crate::scene::Light;
 use crate::shader::{GraphicsPipeline, GraphicsPipelineDesc, VertexAttribute};
-use crate::solver::Light;
-use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc};
+use crate::vk::barrier::Use;
+use crate::vk::{barrier, Access, Context, Image, ImageDesc};
 
 /// Depth format of the atlas.
 pub const SHADOW_ATLAS_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
@@ -97,8 +104,6 @@ pub struct ShadowMaps {
     pipeline: GraphicsPipeline<ShadowPush>,
     /// The depth atlas (`D32_SFLOAT`), sampled by the irradiance gather and shading.
     pub atlas: Image,
-    /// How the last recorded command used `atlas`.
-    pub atlas_state: Access,
     tile: u32,
     columns: u32,
     max_views: u32,
@@ -293,10 +298,25 @@ impl ShadowMaps {
                     | vk::ImageUsageFlags::TRANSFER_SRC,
             },
         )?;
+        // The gather's and the shading's descriptors name the atlas in a read-only depth layout
+        // even while no light samples it: put it there once (a first shadow pass moves it on).
+        ctx.execute("shadow atlas layout", |cb| {
+            // SAFETY: `cb` is recording; the atlas outlives the waited submission.
+            unsafe {
+                // why: first use: UNDEFINED -> the sampled layout the descriptors name.
+                barrier::image(
+                    ctx,
+                    cb,
+                    &atlas,
+                    Access::Undefined,
+                    Access::DepthSampledShaders,
+                )
+            };
+            Ok(())
+        })?;
         Ok(ShadowMaps {
             pipeline,
             atlas,
-            atlas_state: Access::Undefined,
             tile: desc.tile_resolution,
             columns,
             max_views: desc.max_views,
@@ -411,35 +431,21 @@ impl ShadowMaps {
         !self.views.is_empty()
     }
 
-    /// Renders `mesh`'s depth into every view's tile and leaves the atlas in
-    /// [`Access::DepthSampledShaders`]. Without shadow-casting lights it records no pass and no
-    /// profiler scope (only, the first time, the layout change the gather's descriptor needs).
+    /// What [`Self::record`] uses: the atlas as depth attachment, `mesh`'s vertices.
+    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh) -> [Use<'a>; 2] {
+        [
+            Use::image(&self.atlas, Access::DepthAttachmentWrite),
+            Use::buffer(mesh.vertex_buffer(), Access::VertexInput),
+        ]
+    }
+
+    /// Renders `mesh`'s depth into every view's tile (nothing without shadow-casting lights).
     ///
     /// # Safety
-    /// `cb` must be recording outside a rendering scope; `mesh` and `self` must outlive it.
-    pub unsafe fn record(
-        &mut self,
-        ctx: &Context,
-        cb: vk::CommandBuffer,
-        mesh: &GpuMesh,
-        profiler: Option<&mut GpuProfiler>,
-    ) {
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::uses`]; `mesh` and `self` must outlive it.
+    pub unsafe fn record(&self, ctx: &Context, cb: vk::CommandBuffer, mesh: &GpuMesh) {
         if self.views.is_empty() {
-            if self.atlas_state == Access::Undefined {
-                // why: the gather's descriptor names the atlas in a read-only depth layout even
-                // when no light samples it.
-                // SAFETY: the caller's contract.
-                unsafe {
-                    barrier::image(
-                        ctx,
-                        cb,
-                        &self.atlas,
-                        Access::Undefined,
-                        Access::DepthSampledShaders,
-                    )
-                };
-                self.atlas_state = Access::DepthSampledShaders;
-            }
             return;
         }
         let extent = self.atlas.extent();
@@ -467,22 +473,8 @@ impl ShadowMaps {
             })
             .layer_count(1)
             .depth_attachment(&depth);
-        let mut profiler = profiler;
         // SAFETY: the caller's contract; the pipeline's formats match the rendering scope.
         unsafe {
-            ctx.begin_label(cb, "shadow map");
-            if let Some(p) = profiler.as_deref_mut() {
-                p.begin_scope(cb, "shadow_map");
-            }
-            // why: the depth writes must wait for last frame's shadow lookups (WAR) and need
-            // DEPTH_ATTACHMENT layout; the old contents are cleared anyway.
-            barrier::image(
-                ctx,
-                cb,
-                &self.atlas,
-                self.atlas_state,
-                Access::DepthAttachmentWrite,
-            );
             ctx.raw().cmd_begin_rendering(cb, &rendering);
             for v in &self.views {
                 let push = ShadowPush {
@@ -517,21 +509,7 @@ impl ShadowMaps {
                 mesh.draw(ctx, cb);
             }
             ctx.raw().cmd_end_rendering(cb);
-            // why: the gather (compute) and shading (fragment) sample the depth written here (RAW),
-            // in a read-only layout.
-            barrier::image(
-                ctx,
-                cb,
-                &self.atlas,
-                Access::DepthAttachmentWrite,
-                Access::DepthSampledShaders,
-            );
-            if let Some(p) = profiler {
-                p.end_scope(cb);
-            }
-            ctx.end_label(cb);
         }
-        self.atlas_state = Access::DepthSampledShaders;
     }
 }
 

@@ -83,7 +83,8 @@ pub fn bounce_sources(
                     let y = x + n * offset + dir * hit_t;
                     let near = tree.nearest_n::<SquaredEuclidean>(
                         &y.to_array(),
-                        std::num::NonZero::new(CANDIDATES).unwrap_or(std::num::NonZero::<usize>::MIN),
+                        std::num::NonZero::new(CANDIDATES)
+                            .unwrap_or(std::num::NonZero::<usize>::MIN),
                     );
                     let Some(source) = near
                         .iter()

@@ -11,7 +11,8 @@
 //! ```
 //! use glam::DVec3;
 //! use translucent::material::{Material, MaterialField};
-//! use translucent::solver::{self, CpuSolveParams, Environment, Scene};
+//! use translucent::solver::{self, CpuSolveParams};
+//! use translucent::scene::{Environment, Scene};
 //! use translucent::{tet::TetMesh, GraphLevel, QuadGraph};
 //! let level = GraphLevel::from_tets(TetMesh::bcc_box(DVec3::splat(-5.0), DVec3::splat(5.0), [5, 5, 5]), 2.0, |c, n| (c, n));
 //! let graph = QuadGraph { levels: vec![level], ..Default::default() };
@@ -32,39 +33,13 @@ use glam::DVec3;
 
 use super::krylov::{self, KrylovReport};
 use super::operator::{check_level, LevelOperator, Scheme};
-use super::scene::Scene;
 use super::sources::{LocalSource, SourceModel};
 use super::transport::{profile_from_sample, Boundary, Optics, SurfaceReconstruction, Transport};
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};
 use crate::mesh::Solid;
 use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
-
-/// How outgoing radiance is computed from J+ (DESIGN section 2).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum RadianceMode {
-    /// L_o = F_t(eta, theta_o) J+ / (pi eta^2): radiance crossing into air loses eta^2; integrated
-    /// over the hemisphere this returns (1 - F_dr) J+.
-    #[default]
-    Physical,
-    /// The paper's Eq. 4 (its Eq. 7 prints F_r, a typo): L_o = F_t J+ / pi.
-    Paper,
-}
-
-impl std::str::FromStr for RadianceMode {
-    type Err = SolverError;
-    /// `physical` or `paper` (the CLI's `--radiance`).
-    fn from_str(s: &str) -> Result<Self, SolverError> {
-        match s {
-            "physical" => Ok(Self::Physical),
-            "paper" => Ok(Self::Paper),
-            _ => Err(SolverError::BadParameter {
-                name: "radiance",
-                problem: format!("'{s}' (expected physical or paper)"),
-            }),
-        }
-    }
-}
+use crate::scene::{RadianceMode, Scene};
 
 /// Outgoing radiance at a surface point with outgoing current `j_plus`, viewed at `cos_o` to the
 /// normal (outside). Negative J+ gives zero radiance.
@@ -308,7 +283,8 @@ pub fn solve(
     if transport.bounce_rays > 0 && occluder.is_none() {
         return Err(SolverError::BadParameter {
             name: "bounce_rays",
-            problem: "one bounce between surface points needs the solid (occluder) to cast rays".into(),
+            problem: "one bounce between surface points needs the solid (occluder) to cast rays"
+                .into(),
         });
     }
     if !(transport.thin_wall_mfp.is_finite() && transport.thin_wall_mfp >= 0.0) {
@@ -594,7 +570,9 @@ pub fn reconstruct_vertices(
                 .normalize_or(DVec3::Y);
             // The local coefficients: those of the tetrahedron holding the sample point.
             let cell = samples.cell[v] as usize;
-            let here = model.material.sample(level.positions[cell.min(level.inner_count() - 1)]);
+            let here = model
+                .material
+                .sample(level.positions[cell.min(level.inner_count() - 1)]);
             let optics: [Optics; 3] = std::array::from_fn(|c| Optics::channel(&here, c));
             let h: [f64; 3] = std::array::from_fn(|c| boundary.h(optics[c]));
             let mut src = model.at_with(x, n, &here, h);
@@ -623,7 +601,10 @@ pub fn reconstruct_vertices(
 
 /// Per display vertex, the Shepard interpolation (shading weights) of per-node sources; the
 /// right-hand sides are left for the caller to recompute with the vertex's own h.
-fn shade_sources(graph: &QuadGraph, per_node: &[LocalSource]) -> Result<Vec<LocalSource>, SolverError> {
+fn shade_sources(
+    graph: &QuadGraph,
+    per_node: &[LocalSource],
+) -> Result<Vec<LocalSource>, SolverError> {
     let fields: [fn(&LocalSource) -> [f64; 3]; 5] = [
         |s| s.phi_p,
         |s| s.dphi_p,

@@ -3,7 +3,6 @@
 //! - [`analytic`]: closed-form solutions (sphere, slab, semi-infinite medium), the oracles.
 //! - [`operator`]: the assembled linear system of one level (`fv` or `paper` scheme).
 //! - [`krylov`]: exact solves (PCG, BiCGSTAB) of that system.
-//! - [`scene`]: lights and environments, irradiance q at surface nodes.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
 //! - [`transport`], [`sources`], [`single_scattering`], [`bounce`]: the terms beyond the
@@ -13,18 +12,15 @@
 pub mod analytic;
 pub mod bounce;
 pub mod cpu;
-pub mod environment_map;
 pub mod gpu;
 pub mod krylov;
 pub mod operator;
-pub mod scene;
 pub mod single_scattering;
 pub mod sources;
 pub mod transport;
 
-pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, RadianceMode};
+pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy};
 pub use operator::Scheme;
-pub use scene::{Environment, Light, Scene};
 
 /// Solver failures: bad graphs, materials, scenes or parameters, each naming the problem.
 #[derive(Debug, thiserror::Error)]
@@ -50,8 +46,8 @@ pub enum SolverError {
     },
     #[error("solver: {0}")]
     Material(#[from] crate::material::MaterialError),
-    #[error("solver: {what}: {problem}")]
-    BadScene { what: String, problem: String },
+    #[error("solver: {0}")]
+    Scene(#[from] crate::scene::SceneError),
     #[error("solver: parameter {name}: {problem}")]
     BadParameter { name: &'static str, problem: String },
     #[error("solver: level {level} has no Shepard links from the coarser level (the bake must provide them for multi-level solves)")]
@@ -68,5 +64,31 @@ impl SolverError {
             _ => {}
         }
         self
+    }
+}
+
+/// Relative RMS difference `||got - want|| / ||want||` over every channel of every node (the
+/// absolute RMS norm of the difference when `want` is all zero). Lengths must match.
+///
+/// ```
+/// let got = [[1.1f32, 2.0, 0.0]];
+/// let want = [[1.0, 2.0, 0.0]];
+/// let e = translucent::solver::rel_rms(&got, &want);
+/// assert!((e - 0.1 / 5f64.sqrt()).abs() < 1e-6);
+/// ```
+pub fn rel_rms<A: Copy + Into<f64>>(got: &[[A; 3]], want: &[[f64; 3]]) -> f64 {
+    assert_eq!(got.len(), want.len(), "rel_rms of different lengths");
+    let (mut d2, mut r2) = (0.0, 0.0);
+    for (g, w) in got.iter().zip(want) {
+        for c in 0..3 {
+            let g: f64 = g[c].into();
+            d2 += (g - w[c]).powi(2);
+            r2 += w[c] * w[c];
+        }
+    }
+    if r2 > 0.0 {
+        (d2 / r2).sqrt()
+    } else {
+        d2.sqrt()
     }
 }

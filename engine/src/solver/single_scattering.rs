@@ -26,13 +26,13 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::scene::Scene;
 use super::sources::{arrival, environment_beams, Arrival};
 use super::transport::{
     flat_single_scattering, refract_inward, Refraction, SingleScattering, Transport,
 };
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::{Solid, TriMesh};
+use crate::scene::Scene;
 
 /// Material samples per segment for heterogeneous optical depths (midpoint rule).
 const DEPTH_SAMPLES: usize = 8;
@@ -83,7 +83,12 @@ pub fn vertex_single_scattering(
         .into_par_iter()
         .map(|v| {
             let x = mesh.positions[v];
-            let n = mesh.normals.get(v).copied().unwrap_or(DVec3::ZERO).normalize_or_zero();
+            let n = mesh
+                .normals
+                .get(v)
+                .copied()
+                .unwrap_or(DVec3::ZERO)
+                .normalize_or_zero();
             let to_eye = (eye - x).normalize_or_zero();
             let mu_o = n.dot(to_eye);
             if mu_o <= 0.0 || n == DVec3::ZERO {

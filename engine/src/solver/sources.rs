@@ -29,13 +29,13 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::scene::{Environment, Light, Scene};
 use super::transport::{
     beam_particular, diffuse_quadrature, second_collision_ratio, tangent_frame, Boundary,
     ExitQuery, Optics, Refraction, Source, Transport,
 };
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::Solid;
+use crate::scene::{Environment, Light, Scene};
 
 /// Optical depth beyond which a beam is taken to be extinguished (exp(-30) ~ 1e-13).
 const MAX_OPTICAL_DEPTH: f64 = 30.0;
@@ -80,7 +80,10 @@ impl LocalSource {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Arrival {
     /// Directly: irradiance on a surface facing the light and the cosine to the normal.
-    Lit { irradiance: [f64; 3], mu_i: f64 },
+    Lit {
+        irradiance: [f64; 3],
+        mu_i: f64,
+    },
     /// Through the object: the beam entered at `entry` (outward normal `normal`, cosine `mu_i`)
     /// and travelled `distance` inside (straight, towards the light) to the point.
     Behind {
@@ -320,7 +323,16 @@ impl<'a> SourceModel<'a> {
                     for ch in 0..3 {
                         let irr = irradiance[ch] * mu_i;
                         if self.beams() && !thin {
-                            add_beam(&mut out, ch, Optics::channel(here, ch), r, irr, 1.0, 1.0, true);
+                            add_beam(
+                                &mut out,
+                                ch,
+                                Optics::channel(here, ch),
+                                r,
+                                irr,
+                                1.0,
+                                1.0,
+                                true,
+                            );
                         } else {
                             out.q_flux[ch] += irr * r.t_i;
                             out.transmitted[ch] += irr * r.t_i;
@@ -378,8 +390,8 @@ impl<'a> SourceModel<'a> {
             }
         }
         for ch in 0..3 {
-            out.rhs[ch] = self.boundary.flux_gain * out.q_flux[ch]
-                - (out.phi_p[ch] - h[ch] * out.dphi_p[ch]);
+            out.rhs[ch] =
+                self.boundary.flux_gain * out.q_flux[ch] - (out.phi_p[ch] - h[ch] * out.dphi_p[ch]);
         }
         out
     }
@@ -408,8 +420,8 @@ impl<'a> SourceModel<'a> {
             }
         }
         for ch in 0..3 {
-            out.rhs[ch] = self.boundary.flux_gain * out.q_flux[ch]
-                - (out.phi_p[ch] - h[ch] * out.dphi_p[ch]);
+            out.rhs[ch] =
+                self.boundary.flux_gain * out.q_flux[ch] - (out.phi_p[ch] - h[ch] * out.dphi_p[ch]);
         }
         out
     }
@@ -428,7 +440,11 @@ impl<'a> SourceModel<'a> {
             let r = Refraction::new(self.boundary.eta, mu);
             for ch in 0..3 {
                 let o = Optics::channel(here, ch);
-                let gain = if first_collision { 1.0 } else { self.gain(o, r.mu_t) };
+                let gain = if first_collision {
+                    1.0
+                } else {
+                    self.gain(o, r.mu_t)
+                };
                 let (k, beta) = beam_particular(o, r, irr[ch], gain);
                 let p = irr[ch] * r.t_i;
                 out.phi_p[ch] += k;

@@ -455,7 +455,7 @@ mod tests {
     #[test]
     fn profile_reproduces_the_exact_1d_solution() {
         // phi_h = a cosh(s z) + b sinh(s z) / s with the Robin condition: recover a, b from p.
-        let (s, h, depth) = (0.8, 0.5, 1.3);
+        let (s, h, depth): (f64, f64, f64) = (0.8, 0.5, 1.3);
         let (a, b) = (2.0, -0.7);
         let p = a * (s * depth).cosh() + b * (s * depth).sinh() / s;
         let rhs = a - h * b;

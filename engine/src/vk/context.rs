@@ -735,6 +735,31 @@ impl Context {
         };
     }
 
+    /// Inserts a one-off label (e.g. the frame graph's "why" of a barrier) where debug utils exist.
+    ///
+    /// # Safety
+    /// `cb` must be in the recording state.
+    pub unsafe fn insert_label(&self, cb: vk::CommandBuffer, text: &str) {
+        let Some(utils) = &self.device.debug_utils else {
+            return;
+        };
+        let Ok(cname) = CString::new(text) else {
+            return;
+        };
+        // SAFETY: caller guarantees `cb` is recording.
+        unsafe {
+            utils.cmd_insert_debug_utils_label(
+                cb,
+                &vk::DebugUtilsLabelEXT::default().label_name(&cname),
+            )
+        };
+    }
+
+    /// Whether command-buffer labels are recorded (debug utils present).
+    pub fn labels_enabled(&self) -> bool {
+        self.device.debug_utils.is_some()
+    }
+
     /// Closes the label opened last by [`Context::begin_label`].
     ///
     /// # Safety

@@ -1,12 +1,13 @@
 //! [`Buffer`] and [`Image`]: each owns its gpu-allocator allocation; dropping one queues it for
 //! release after the frame being recorded completes.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 use gpu_allocator::vulkan::Allocation;
 use gpu_allocator::MemoryLocation;
 
+use super::barrier::Tracked;
 use super::device::{Device, Retired};
 use super::{Context, VkError};
 
@@ -47,6 +48,8 @@ pub struct Buffer {
     pub name: &'static str,
     allocation: Option<Allocation>,
     device: Arc<Device>,
+    /// How the GPU last used it, for the frame graph's barriers (`crate::frame`).
+    tracked: Mutex<Tracked>,
 }
 
 impl Buffer {
@@ -92,6 +95,7 @@ impl Buffer {
             name: desc.name,
             allocation: Some(allocation),
             device,
+            tracked: Mutex::new(Tracked::UNUSED),
         })
     }
 
@@ -137,6 +141,16 @@ impl Buffer {
         Ok(())
     }
 
+    /// How the GPU last used the buffer (what the frame graph's next barrier starts from).
+    pub fn tracked(&self) -> Tracked {
+        *self.tracked.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Records how the GPU last used the buffer (the frame graph after each pass).
+    pub fn set_tracked(&self, tracked: Tracked) {
+        *self.tracked.lock().unwrap_or_else(|e| e.into_inner()) = tracked;
+    }
+
     /// The contents of a host-visible buffer (the caller has waited for the GPU writes).
     pub fn read_bytes(&self) -> Result<&[u8], VkError> {
         let slice = self.allocation.as_ref().and_then(|a| a.mapped_slice());
@@ -175,6 +189,9 @@ pub struct Image {
     pub name: &'static str,
     allocation: Option<Allocation>,
     device: Arc<Device>,
+    /// Layout and last use, for the frame graph's barriers (`crate::frame`); barriers recorded
+    /// through [`super::barrier::image`] keep it current too.
+    tracked: Mutex<Tracked>,
 }
 
 /// The aspect a format's view and barriers use.
@@ -304,7 +321,18 @@ impl Image {
             name: desc.name,
             allocation: Some(allocation),
             device,
+            tracked: Mutex::new(Tracked::UNUSED),
         })
+    }
+
+    /// The image's layout and how the GPU last used it.
+    pub fn tracked(&self) -> Tracked {
+        *self.tracked.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Records the image's layout and last use (the frame graph after each pass).
+    pub fn set_tracked(&self, tracked: Tracked) {
+        *self.tracked.lock().unwrap_or_else(|e| e.into_inner()) = tracked;
     }
 
     pub fn extent(&self) -> vk::Extent2D {

@@ -44,7 +44,7 @@ pub(crate) mod device;
 mod memory;
 mod profiler;
 
-pub use barrier::Access;
+pub use barrier::{Access, ImageState, Tracked};
 pub use capture::{ImageReadback, LinearImage};
 pub use context::{
     Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationLog,

@@ -103,7 +103,9 @@ pub struct GpuProfiler {
     queries_per_slot: u32,
     slots: Vec<Slot>,
     current: Option<usize>,
-    open: Vec<usize>,
+    /// The open scopes, innermost last (`None`: a scope dropped for lack of queries, so its
+    /// `end_scope` closes nothing else).
+    open: Vec<Option<usize>>,
     completed: u64,
     results: Vec<FrameTimings>,
 }
@@ -213,7 +215,9 @@ impl GpuProfiler {
         };
         let slot = &mut self.slots[index];
         if slot.used + 2 > self.queries_per_slot {
-            return; // out of queries: the scope is dropped from the results, nothing breaks.
+            // Out of queries: the scope is dropped from the results; its end closes nothing.
+            self.open.push(None);
+            return;
         }
         let query = index as u32 * self.queries_per_slot + slot.used;
         slot.used += 2;
@@ -223,7 +227,7 @@ impl GpuProfiler {
             begin: query,
             end: None,
         });
-        self.open.push(slot.scopes.len() - 1);
+        self.open.push(Some(slot.scopes.len() - 1));
         // SAFETY: `cb` is recording; the query was reset in `begin_frame`.
         unsafe {
             self.device.raw().cmd_write_timestamp2(
@@ -243,7 +247,9 @@ impl GpuProfiler {
         let Some(index) = self.current.filter(|_| self.enabled) else {
             return;
         };
-        let Some(scope) = self.open.pop() else { return };
+        let Some(Some(scope)) = self.open.pop() else {
+            return;
+        };
         let scope = &mut self.slots[index].scopes[scope];
         let query = scope.begin + 1;
         scope.end = Some(query);

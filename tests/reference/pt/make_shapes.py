@@ -4,7 +4,8 @@ procedural shapes (issue 12): the boundary faces of a union of axis-aligned boxe
 of CELL mm, every face split into CELL-sized squares (two triangles each), so the display mesh has
 vertices everywhere for per-vertex shading, and no T-junctions (vertices are shared on the grid).
 
-    tests/reference/pt/make_shapes.py          # writes plate-on-base.obj and u-block.obj here
+    tests/reference/pt/make_shapes.py [DIR]    # writes plate-on-base.obj and u-block.obj into DIR
+                                               # (default target/pt-shapes; never committed)
 
 - plate-on-base.obj: a 30 x 4 x 16 mm base (x, y, z) with a 20 x 16 x 2 mm plate standing on it,
   its 2 mm thickness along z, centred: the thin wall of issue 12 item 5 (render with --size-mm 30).
@@ -85,7 +86,11 @@ def cells(mm):
 
 
 if __name__ == "__main__":
-    here = Path(__file__).resolve().parent
+    import sys
+
+    repo = Path(__file__).resolve().parents[3]
+    here = Path(sys.argv[1]) if len(sys.argv) > 1 else repo / "target" / "pt-shapes"
+    here.mkdir(parents=True, exist_ok=True)
     # Plate on a base: base x [0,30] y [0,4] z [0,16]; plate x [5,25] y [4,20] z [7,9]; centred.
     base = (0, cells(30), 0, cells(4), 0, cells(16))
     plate = (cells(5), cells(25), cells(4), cells(20), cells(7), cells(9))

@@ -1,6 +1,7 @@
 //! The GPU diffusion solve of a baked QuadGraph (paper sections 4.3 and 5; DESIGN sections 4 and 5):
 //! per level, coarsest first, Shepard initialisation from the coarser level (Eq. 10) or, warm
-//! ([`GpuSolveParams::warm_start`]), the level's last solution plus the Shepard-prolonged change
+//! ([`GpuDiffusion::plan`] with `warm`: what the object's plan asks for when the lights, material
+//! or shape changed), the level's last solution plus the Shepard-prolonged change
 //! of the coarser level's solution (`shepard/warm_correct.glsl`), pure Jacobi
 //! ping-pong (Eqs. 8/9 in the `fv` or `paper` form, surface and inner nodes in one dispatch, told
 //! apart by their row), convergence decided on the GPU with indirect dispatch; then J+ at the
@@ -31,10 +32,11 @@
 //! frame, a = 1 on surface-node texels, 0 on padding; the same width as the level's textures but
 //! only its `surface_rows` rows, [`GpuDiffusion::surface_rows`]), [`GpuDiffusion::surface_normal`]
 //! (RGBA16F, rgb = outward unit normal) and [`GpuDiffusion::q_image`] (RGBA16F storage image in
-//! GENERAL, rgb = q * [`GpuDiffusion::q_scale`], to be written where position.a = 1). The gather is
-//! recorded before [`GpuDiffusion::record`], which starts with a barrier (compute|transfer write ->
-//! compute read) covering the q images of every level. Tests and the CPU-q path use
-//! [`GpuDiffusion::upload_q`] instead.
+//! GENERAL, rgb = q * [`GpuDiffusion::q_scale`], to be written where position.a = 1). The gather
+//! and the solve are passes of one [`crate::frame::FrameGraph`] ([`GpuDiffusion::solve_uses`]
+//! declares what the solve reads and writes, so the graph places the barrier between them); the
+//! QuadGraph method ([`crate::frame::quadgraph`]) composes them. Tests and the CPU-q path use
+//! [`GpuDiffusion::upload_q`] and [`crate::frame::quadgraph::solve_headless`] instead.
 //!
 //! ```no_run
 //! # use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
@@ -45,22 +47,29 @@
 //! for (level, q) in q.iter().enumerate() {
 //!     solve.upload_q(ctx, level, q)?;
 //! }
-//! ctx.execute("solve", |cb| {
-//!     // SAFETY: `cb` is recording; `solve` outlives the waited submission.
-//!     unsafe { solve.record(ctx, cb, None) };
-//!     Ok(())
-//! })?;
+//! translucent::frame::quadgraph::solve_headless(ctx, &mut solve, false)?; // submits and waits
 //! let j_plus = solve.read_j_plus(ctx)?; // per surface node of the finest level
 //! let iterations = solve.iterations_run(ctx)?; // per level, from the GPU counter
 //! # Ok(()) }
 //! ```
 
 pub mod edit;
-pub mod frame;
+mod params;
+mod ping_pong;
+mod pipelines;
+mod push;
+mod readback;
+pub mod record;
 pub mod textures;
+mod upload;
 
 pub use edit::Deformation;
-pub use frame::{GpuFrame, GpuFrameReport};
+pub use params::{GpuSolveParams, Precision};
+pub use ping_pong::PingPong;
+pub use push::*;
+pub use record::{SolvePlan, PASS_EXITANCE, PASS_SOLVE};
+
+use std::sync::Arc;
 
 use ash::vk;
 use half::f16;
@@ -69,176 +78,13 @@ use self::textures::{HomogeneousMaterial, LevelTexels};
 use super::operator::{LevelOperator, Scheme};
 use super::SolverError;
 use crate::material::MaterialField;
+use crate::mesh::GpuMesh;
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
-use crate::render::{GpuMesh, Vertex};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::vk::{
-    barrier, Access, Buffer, BufferDesc, Context, GpuProfiler, Image, ImageDesc, ImageReadback,
-    MemoryUse,
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, ImageReadback, MemoryUse,
 };
 use crate::Error;
-
-/// How phi is stored (DESIGN section 4).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Precision {
-    /// phi RGBA32F, correction sweeps in RGBA16F against the fp32 residual (the default).
-    #[default]
-    Mixed,
-    /// phi RGBA16F ping-pong (the paper's state; stalls on fine levels).
-    Fp16,
-    /// phi RGBA32F ping-pong.
-    Fp32,
-}
-
-impl std::str::FromStr for Precision {
-    type Err = SolverError;
-    fn from_str(s: &str) -> Result<Self, SolverError> {
-        match s {
-            "mixed" => Ok(Self::Mixed),
-            "fp16" => Ok(Self::Fp16),
-            "fp32" => Ok(Self::Fp32),
-            _ => Err(SolverError::BadParameter {
-                name: "precision",
-                problem: format!("'{s}' (expected mixed, fp16 or fp32)"),
-            }),
-        }
-    }
-}
-
-/// Parameters of [`GpuDiffusion`].
-#[derive(Clone, Debug)]
-pub struct GpuSolveParams {
-    pub scheme: Scheme,
-    pub precision: Precision,
-    /// Iteration cap per level, coarsest first; the last entry repeats. Rounded up to whole blocks.
-    pub iterations: Vec<u32>,
-    /// Iterations per block (even, >= 2): the convergence test runs after each block.
-    pub block: u32,
-    /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
-    pub tolerance: f32,
-    /// Start every level from the previous solve's phi instead of Shepard resampling (DESIGN
-    /// section 5: light or material changes), each finer level corrected by the coarser level's
-    /// change, phi_h += P(phi_(h-1),new - phi_(h-1),prev) (`shepard/warm_correct.glsl`); the first
-    /// solve, and the first after [`GpuDiffusion::set_q_scale`], still initialises. The skipped
-    /// init is absent from the profiler output; the correction is [`PASS_WARM`].
-    pub warm_start: bool,
-}
-
-impl Default for GpuSolveParams {
-    fn default() -> Self {
-        Self {
-            scheme: Scheme::Fv,
-            precision: Precision::Mixed,
-            iterations: vec![200],
-            block: 8,
-            tolerance: 1e-4,
-            warm_start: false,
-        }
-    }
-}
-
-/// Push constants of the per-level diffusion passes (`diffusion/*.comp`, `graph_common.glsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LevelPush {
-    pub size: [i32; 2],
-    pub width: u32,
-    pub surface_rows: u32,
-    /// Homogeneous material only (`graph_weights.glsl`): kappa per channel, 2A in a.
-    pub kappa: [f32; 4],
-    /// Homogeneous material only: mu per channel, q_gain = 4 / (1 - F_dr) in a.
-    pub mu_gain: [f32; 4],
-}
-
-/// Push constants of `shepard/init_phi*.comp`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ShepardPush {
-    pub size: [i32; 2],
-    pub coarse_width: u32,
-    /// 1: write zero (coarsest level, no warm start).
-    pub zero: u32,
-}
-
-/// Push constants of `shepard/warm_correct*.comp`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct WarmPush {
-    pub size: [i32; 2],
-    pub coarse_width: u32,
-    /// Bit 0 ([`WARM_CORRECT`]): add the coarser level's change; bit 1 ([`WARM_SAVE`]): first
-    /// save this level's phi for the next finer level's correction.
-    pub flags: u32,
-}
-
-/// [`WarmPush::flags`]: add P(coarse new - coarse previous) to this level's phi.
-pub const WARM_CORRECT: u32 = 1;
-/// [`WarmPush::flags`]: save this level's phi (before the correction) for the finer level.
-pub const WARM_SAVE: u32 = 2;
-
-/// Push constants of `reduce/convergence*.comp`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ReducePush {
-    pub size: [i32; 2],
-    pub level: u32,
-    pub k: u32,
-    pub tolerance: f32,
-}
-
-/// Push constants of `diffusion/j_plus*.comp`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct JPlusPush {
-    pub size: [i32; 2],
-    pub surface_rows: u32,
-    pub inv_q_scale: f32,
-    pub phi_factor: f32,
-    pub q_factor: f32,
-}
-
-/// Push constants of `diffusion/vertex_j_plus.comp`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct VertexPush {
-    pub count: u32,
-    pub width: u32,
-    /// Floats per vertex in the output buffer and the float offset of J+ in a vertex.
-    pub stride: u32,
-    pub offset: u32,
-}
-
-/// One level's record in the control buffer (`LevelControl` in `reduce/convergence.glsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LevelControl {
-    /// `VkDispatchIndirectCommand` of the level's iteration dispatches.
-    pub groups: [u32; 3],
-    pub iterations: u32,
-    pub blocks: u32,
-    pub rel_previous: f32,
-    /// Error estimate after the last block that ran (f32::MAX-like when not contracting yet).
-    pub estimate: f32,
-    pub stopped_early: u32,
-}
-
-/// What the last [`GpuDiffusion::record`] put in the command buffer (for tests and reports).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RecordStats {
-    /// Iteration dispatches (Jacobi, or residual + correction sweeps + apply in `Mixed`).
-    pub iteration_dispatches: u32,
-    /// Memory barriers recorded in front of iteration dispatches.
-    pub iteration_barriers: u32,
-    /// Blocks recorded (each followed by one reduction and one indirect-argument barrier).
-    pub blocks: u32,
-    /// Iterations the recorded blocks can run at most (blocks x k).
-    pub iterations_recorded: u32,
-    /// The solve started from the previous solution (a requested warm start falls back to a cold
-    /// one when a level to iterate holds no solution at the current exposure).
-    pub warm: bool,
-    /// Warm start: levels whose start was corrected by the coarser level's change.
-    pub corrected_levels: u32,
-}
 
 /// Pass names: profiler scopes and debug labels.
 pub const PASS_INIT: &str = "diffusion init";
@@ -302,9 +148,11 @@ pub struct GpuLevel {
 }
 
 impl GpuLevel {
-    /// The image holding this level's phi after whole blocks.
-    fn result(&self) -> &Image {
-        self.phi.as_ref().unwrap_or(&self.state[0])
+    /// The image holding this level's phi after whole blocks (in `Mixed` phi, else the latest
+    /// state: [`PingPong::latest`]).
+    pub(crate) fn result(&self) -> &Image {
+        // Fp32/Fp16 blocks end where they start (an even number of sweeps).
+        self.phi.as_ref().unwrap_or(&self.state[PingPong::FIRST])
     }
     fn push(&self) -> LevelPush {
         LevelPush {
@@ -384,8 +232,11 @@ pub struct GpuDiffusion {
     vertex_j_plus: Buffer,
     vertex_count: u32,
     vertex_set: vk::DescriptorSet,
-    /// The display mesh's vertex buffer, written in place ([`Self::bind_mesh`]).
-    mesh_set: Option<vk::DescriptorSet>,
+    /// The display mesh, whose exitance [`Self::record_exitance`] writes in place, and the set
+    /// binding its vertex buffer ([`Self::bind_mesh`]).
+    mesh: Option<(Arc<GpuMesh>, vk::DescriptorSet)>,
+    /// The parity rule of the iterations.
+    ping_pong: PingPong,
     /// Blocks recorded per level.
     blocks: Vec<u32>,
     stats: RecordStats,
@@ -701,10 +552,8 @@ impl GpuDiffusion {
         )?;
         let mut reduce_sets = Vec::with_capacity(levels.len());
         for l in &levels {
-            let (latest, previous) = match params.precision {
-                Precision::Mixed => (&l.state[1], &l.state[0]),
-                _ => (&l.state[0], &l.state[1]),
-            };
+            let (latest, previous) = PingPong::new(params.precision).latest();
+            let (latest, previous) = (&l.state[latest], &l.state[previous]);
             reduce_sets.push(pipelines.reduce.allocate_set(
                 ctx,
                 &[
@@ -761,7 +610,8 @@ impl GpuDiffusion {
             vertex_j_plus,
             vertex_count,
             vertex_set,
-            mesh_set: None,
+            mesh: None,
+            ping_pong: PingPong::new(params.precision),
             blocks,
             stats: RecordStats::default(),
             solved: false,
@@ -831,7 +681,7 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("weight_b", weights[2]),
             ];
             let mut sets = Vec::new();
-            for (src, dst) in [(&l.state[0], &l.state[1]), (&l.state[1], &l.state[0])] {
+            for (src, dst) in PingPong::SETS.map(|(s, d)| (&l.state[s], &l.state[d])) {
                 let mut w = vec![
                     DescriptorWrite::storage_image("src", src),
                     DescriptorWrite::storage_image("dst", dst),
@@ -849,7 +699,7 @@ impl GpuDiffusion {
                 let mut w = vec![
                     DescriptorWrite::storage_image("phi", phi),
                     DescriptorWrite::storage_image("residual", residual),
-                    DescriptorWrite::storage_image("delta", &l.state[0]),
+                    DescriptorWrite::storage_image("delta", &l.state[PingPong::FIRST]),
                     DescriptorWrite::storage_image("q", &l.q),
                     DescriptorWrite::storage_image("connectivity", &l.connectivity),
                 ];
@@ -861,320 +711,34 @@ impl GpuDiffusion {
         Ok(())
     }
 
-    fn variant(
-        ctx: &Context,
-        precision: Precision,
-        homogeneous: bool,
-        levels: u32,
-    ) -> Result<Variant, Error> {
-        let sets = 2 * levels + 2;
-        let spec = [SpecConstant::bool(0, homogeneous)];
-        let iterate = match precision {
-            Precision::Mixed => "diffusion/correction_sweep_mixed.comp",
-            Precision::Fp32 => "diffusion/jacobi_fp32.comp",
-            Precision::Fp16 => "diffusion/jacobi_fp16.comp",
-        };
-        let weights = ["weight_geo", "weight_r", "weight_g", "weight_b"];
-        let with_weights = |names: &[&'static str]| -> Vec<&'static str> {
-            names.iter().chain(&weights).copied().collect()
-        };
-        let graph_bindings = if precision == Precision::Mixed {
-            with_weights(&["src", "dst", "residual", "connectivity"])
-        } else {
-            with_weights(&["src", "dst", "q", "connectivity"])
-        };
-        let iterate = ComputePipeline::new_specialized(
-            ctx,
-            &ComputePipelineDesc {
-                name: PASS_JACOBI,
-                shader: iterate,
-                bindings: &graph_bindings,
-                max_sets: sets,
-            },
-            &spec,
-        )?;
-        let residual = if precision == Precision::Mixed {
-            Some(ComputePipeline::new_specialized(
-                ctx,
-                &ComputePipelineDesc {
-                    name: "diffusion residual",
-                    shader: "diffusion/residual_fp32.comp",
-                    bindings: &with_weights(&["phi", "residual", "delta", "q", "connectivity"]),
-                    max_sets: sets,
-                },
-                &spec,
-            )?)
-        } else {
-            None
-        };
-        Ok(Variant { iterate, residual })
+    /// The per-level control records ([`LevelControl`]; indirect arguments of the iterations).
+    pub fn control_buffer(&self) -> &Buffer {
+        &self.control
     }
 
-    fn pipelines(ctx: &Context, precision: Precision, levels: u32) -> Result<Pipelines, Error> {
-        let sets = 2 * levels + 2;
-        let (init, warm, reduce, j_plus) = match precision {
-            Precision::Mixed | Precision::Fp32 => (
-                "shepard/init_phi_fp32.comp",
-                "shepard/warm_correct_fp32.comp",
-                if precision == Precision::Mixed {
-                    "reduce/convergence_mixed.comp"
-                } else {
-                    "reduce/convergence_fp32.comp"
-                },
-                "diffusion/j_plus_fp32.comp",
-            ),
-            Precision::Fp16 => (
-                "shepard/init_phi_fp16.comp",
-                "shepard/warm_correct_fp16.comp",
-                "reduce/convergence_fp16.comp",
-                "diffusion/j_plus_fp16.comp",
-            ),
-        };
-        let apply = if precision == Precision::Mixed {
-            Some(ComputePipeline::new(
-                ctx,
-                &ComputePipelineDesc {
-                    name: "diffusion apply correction",
-                    shader: "diffusion/apply_correction.comp",
-                    bindings: &["delta", "phi"],
-                    max_sets: sets,
-                },
-            )?)
-        } else {
-            None
-        };
-        Ok(Pipelines {
-            variants: [None, None],
-            apply,
-            derive: None,
-            edit: None,
-            init: ComputePipeline::new(
-                ctx,
-                &ComputePipelineDesc {
-                    name: PASS_INIT,
-                    shader: init,
-                    bindings: &[
-                        "coarse",
-                        "dst",
-                        "links_lo",
-                        "links_hi",
-                        "link_weights_lo",
-                        "link_weights_hi",
-                    ],
-                    max_sets: sets,
-                },
-            )?,
-            warm: ComputePipeline::new(
-                ctx,
-                &ComputePipelineDesc {
-                    name: PASS_WARM,
-                    shader: warm,
-                    bindings: &[
-                        "phi",
-                        "saved",
-                        "coarse_new",
-                        "coarse_prev",
-                        "links_lo",
-                        "links_hi",
-                        "link_weights_lo",
-                        "link_weights_hi",
-                    ],
-                    max_sets: sets,
-                },
-            )?,
-            reduce: ComputePipeline::new(
-                ctx,
-                &ComputePipelineDesc {
-                    name: PASS_CONVERGENCE,
-                    shader: reduce,
-                    bindings: &["latest", "previous", "phi", "connectivity", "control"],
-                    max_sets: sets,
-                },
-            )?,
-            j_plus: ComputePipeline::new(
-                ctx,
-                &ComputePipelineDesc {
-                    name: PASS_J_PLUS,
-                    shader: j_plus,
-                    bindings: &["phi", "q", "connectivity", "j_plus", "counts"],
-                    max_sets: 2,
-                },
-            )?,
-            vertex: ComputePipeline::new(
-                ctx,
-                &ComputePipelineDesc {
-                    name: PASS_VERTEX_J_PLUS,
-                    shader: "diffusion/vertex_j_plus.comp",
-                    bindings: &["j_plus", "vertex_links", "vertex_weights", "vertex_j_plus"],
-                    max_sets: 4,
-                },
-            )?,
-        })
+    /// The parameters the solve was built with.
+    pub fn params(&self) -> &GpuSolveParams {
+        &self.params
     }
 
-    fn upload_level(
-        ctx: &Context,
-        pipelines: &Pipelines,
-        precision: Precision,
-        t: LevelTexels,
-        coarser: Option<&GpuLevel>,
-        finest: bool,
-    ) -> Result<GpuLevel, Error> {
-        use vk::Format as F;
-        let p = &t.packing;
-        let state_format = match precision {
-            Precision::Fp32 => F::R32G32B32A32_SFLOAT,
-            Precision::Mixed | Precision::Fp16 => F::R16G16B16A16_SFLOAT,
-        };
-        let state = [
-            image(ctx, "diffusion ping", p, state_format)?,
-            image(ctx, "diffusion pong", p, state_format)?,
-        ];
-        let (phi, residual) = if precision == Precision::Mixed {
-            (
-                Some(image(ctx, "diffusion phi", p, F::R32G32B32A32_SFLOAT)?),
-                Some(image(ctx, "diffusion residual", p, F::R32G32B32A32_SFLOAT)?),
-            )
+    /// The display mesh [`Self::bind_mesh`] bound, if any.
+    pub fn bound_mesh(&self) -> Option<&Arc<GpuMesh>> {
+        self.mesh.as_ref().map(|(m, _)| m)
+    }
+
+    /// Whether phi holds a solution at the current exposure (a warm start can use it).
+    pub fn has_solution(&self) -> bool {
+        self.solved
+    }
+
+    /// The material variant the iteration shaders run: `homogeneous` reads kappa and mu from
+    /// push constants (no per-node material reads), `heterogeneous` reads weights per node.
+    pub fn material_variant(&self) -> &'static str {
+        if self.homogeneous {
+            "homogeneous"
         } else {
-            (None, None)
-        };
-        let q = image(ctx, "diffusion q", p, F::R16G16B16A16_SFLOAT)?;
-        let connectivity = image(ctx, "diffusion connectivity", p, F::R32G32B32A32_UINT)?;
-        let geo = image(ctx, "diffusion weight geo", p, F::R32G32B32A32_SFLOAT)?;
-        let links = [
-            image(ctx, "diffusion links lo", p, F::R32G32B32A32_UINT)?,
-            image(ctx, "diffusion links hi", p, F::R32G32B32A32_UINT)?,
-        ];
-        let link_weights = [
-            image(ctx, "diffusion link weights lo", p, F::R16G16B16A16_SFLOAT)?,
-            image(ctx, "diffusion link weights hi", p, F::R16G16B16A16_SFLOAT)?,
-        ];
-        // Only the surface rows: the gather writes nothing below them (saves 24 bytes per inner
-        // texel; the gather accepts images with at least `surface_rows` rows).
-        let surface = surface_packing(p);
-        let surface_texels = (surface.width * surface.height) as usize;
-        let surface_position = image(ctx, "surface position", &surface, F::R32G32B32A32_SFLOAT)?;
-        let surface_normal = image(ctx, "surface normal", &surface, F::R16G16B16A16_SFLOAT)?;
-        // The phi format: what a level's result is stored in (`GpuLevel::result`).
-        let phi_format = match precision {
-            Precision::Mixed | Precision::Fp32 => F::R32G32B32A32_SFLOAT,
-            Precision::Fp16 => F::R16G16B16A16_SFLOAT,
-        };
-        let saved = if finest {
-            None
-        } else {
-            Some(image(ctx, "diffusion saved phi", p, phi_format)?)
-        };
-        let n = t.texel_count();
-        let zeros16 = vec![0u8; n * 8];
-        let state_zero = vec![0u8; n * texel_bytes(state_format) as usize];
-        let mut items: Vec<(&Image, Vec<u8>)> = vec![
-            (&state[0], state_zero.clone()),
-            (&state[1], state_zero),
-            (&q, zeros16),
-            (&connectivity, bytes_of(&t.connectivity)),
-            (&geo, bytes_of(&t.geo)),
-            (&links[0], bytes_of(&t.links[0])),
-            (&links[1], bytes_of(&t.links[1])),
-            (&link_weights[0], bytes_of(&t.link_weights[0])),
-            (&link_weights[1], bytes_of(&t.link_weights[1])),
-            (
-                &surface_position,
-                bytes_of(&t.surface_position[..surface_texels.min(n)]),
-            ),
-            (
-                &surface_normal,
-                bytes_of(&t.surface_normal[..surface_texels.min(n)]),
-            ),
-        ];
-        for img in phi.iter().chain(&residual) {
-            items.push((img, vec![0u8; n * 16]));
+            "heterogeneous"
         }
-        if let Some(img) = &saved {
-            items.push((img, vec![0u8; n * texel_bytes(phi_format) as usize]));
-        }
-        upload_images(ctx, "diffusion level upload", &items)?;
-        drop(items);
-        let apply_set = match (&phi, &pipelines.apply) {
-            // k - 1 (odd) sweeps from state[0] leave the last correction in state[1].
-            (Some(phi), Some(ap)) => ap.allocate_set(
-                ctx,
-                &[
-                    DescriptorWrite::storage_image("delta", &state[1]),
-                    DescriptorWrite::storage_image("phi", phi),
-                ],
-            )?,
-            _ => vk::DescriptorSet::null(),
-        };
-        let dst = phi.as_ref().unwrap_or(&state[0]);
-        // The coarsest level never reads `coarse` (zero init); any image of the right format binds.
-        let coarse = match coarser {
-            Some(c) => c.result(),
-            None => residual.as_ref().unwrap_or(&state[1]),
-        };
-        // Bound but never touched (flags): the finest level saves nothing, the coarsest level
-        // corrects from nothing; any image of the phi format stands in.
-        let spare = residual.as_ref().unwrap_or(&state[1]);
-        let (coarse_new, coarse_prev) = match coarser {
-            Some(c) => (c.result(), c.saved.as_ref().unwrap_or(spare)),
-            None => (spare, spare),
-        };
-        let warm_set = pipelines.warm.allocate_set(
-            ctx,
-            &[
-                DescriptorWrite::storage_image("phi", dst),
-                DescriptorWrite::storage_image("saved", saved.as_ref().unwrap_or(spare)),
-                DescriptorWrite::storage_image("coarse_new", coarse_new),
-                DescriptorWrite::storage_image("coarse_prev", coarse_prev),
-                DescriptorWrite::storage_image("links_lo", &links[0]),
-                DescriptorWrite::storage_image("links_hi", &links[1]),
-                DescriptorWrite::storage_image("link_weights_lo", &link_weights[0]),
-                DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
-            ],
-        )?;
-        let init_set = pipelines.init.allocate_set(
-            ctx,
-            &[
-                DescriptorWrite::storage_image("coarse", coarse),
-                DescriptorWrite::storage_image("dst", dst),
-                DescriptorWrite::storage_image("links_lo", &links[0]),
-                DescriptorWrite::storage_image("links_hi", &links[1]),
-                DescriptorWrite::storage_image("link_weights_lo", &link_weights[0]),
-                DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
-            ],
-        )?;
-        Ok(GpuLevel {
-            packing: t.packing.clone(),
-            node_count: t.packing.texels.len(),
-            inner_count: t
-                .packing
-                .texels
-                .iter()
-                .filter(|&&[_, v]| v >= t.packing.surface_rows)
-                .count(),
-            state,
-            phi,
-            residual,
-            q,
-            connectivity,
-            geo,
-            frac: None,
-            material: None,
-            weights: None,
-            links,
-            link_weights,
-            surface_position,
-            surface_normal,
-            iterate_sets: [Vec::new(), Vec::new()],
-            apply_set,
-            init_set,
-            saved,
-            warm_set,
-            reduce_set: vk::DescriptorSet::null(),
-            derive_set: None,
-            rest: t,
-            deform: None,
-        })
     }
 
     pub fn level_count(&self) -> usize {
@@ -1318,349 +882,15 @@ impl GpuDiffusion {
         Ok(())
     }
 
-    /// Records the whole solve: control reset, then per level init, blocks of iterations with a
-    /// convergence reduction after each, then J+ and per-vertex J+. Blocks after convergence are
-    /// recorded but dispatch zero groups.
-    ///
-    /// # Safety
-    /// `cb` must be recording outside a rendering scope; `self` must outlive its execution; the
-    /// q images must have been written (gather or [`Self::upload_q`]) before, in this or an earlier
-    /// submission.
-    pub unsafe fn record(
-        &mut self,
-        ctx: &Context,
-        cb: vk::CommandBuffer,
-        mut profiler: Option<&mut GpuProfiler>,
-    ) {
-        use vk::AccessFlags2 as A;
-        use vk::PipelineStageFlags2 as S;
-        // Edits staged since the last record (none when GpuFrame::record already did them).
-        // SAFETY: the caller's contract.
-        unsafe { self.record_edits(ctx, cb, profiler.as_deref_mut()) };
-        let raw = ctx.raw();
-        let k = self.params.block;
-        let mut stats = RecordStats::default();
-        let n = self.levels.len();
-        let iterate: Vec<bool> = self.blocks.iter().map(|&b| b > 0).collect();
-        let prior = self.level_solve.clone();
-        // Warm only when every level that iterates holds a solution to start from.
-        let warm = self.params.warm_start
-            && self.solved
-            && (0..n).all(|h| !iterate[h] || prior[h].is_some());
-        // Per level, the warm start's flags: correct by the coarser level's change when both
-        // hold solutions of the same solve and the coarser one iterates now; save this level's
-        // phi when the finer level will correct from it.
-        let same = |a: usize, b: usize| prior[a].is_some() && prior[a] == prior[b];
-        let warm_flags: Vec<u32> = (0..n)
-            .map(|h| {
-                let correct = h > 0 && iterate[h - 1] && same(h - 1, h);
-                let save = h + 1 < n && iterate[h + 1] && same(h, h + 1);
-                (u32::from(correct) * WARM_CORRECT) | (u32::from(save) * WARM_SAVE)
-            })
-            .collect();
-        stats.warm = warm;
-        let initial: Vec<LevelControl> = self
-            .levels
-            .iter()
-            .map(|l| LevelControl {
-                groups: [l.packing.width.div_ceil(8), l.packing.height.div_ceil(8), 1],
-                ..Default::default()
-            })
-            .collect();
-        let mut scope = |cb, name: Option<&'static str>| {
-            if let Some(p) = profiler.as_deref_mut() {
-                // SAFETY: forwarded contract of `record`.
-                unsafe {
-                    match name {
-                        Some(n) => p.begin_scope(cb, n),
-                        None => p.end_scope(cb),
-                    }
-                }
-            }
-        };
-        // SAFETY: the caller's contract; every set's resources live in `self`.
-        unsafe {
-            ctx.begin_label(cb, "diffusion");
-            // why: the previous solve's compute and indirect reads of the control and count
-            // buffers must finish before they are reset (WAR).
-            barrier::record(
-                ctx,
-                cb,
-                &[raw_barrier(
-                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
-                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::INDIRECT_COMMAND_READ,
-                    S::COPY | S::CLEAR,
-                    A::TRANSFER_WRITE,
-                )],
-                &[],
-            );
-            raw.cmd_update_buffer(cb, self.control.raw, 0, bytemuck::cast_slice(&initial));
-            raw.cmd_fill_buffer(cb, self.clamp_counts.raw, 0, 16, 0);
-            // why: the loop reads the reset control (indirect args, RAW) and counts, and q written
-            // by the irradiance gather (compute) or an upload (transfer) (RAW).
-            barrier::record(
-                ctx,
-                cb,
-                &[raw_barrier(
-                    S::COPY | S::CLEAR | S::COMPUTE_SHADER,
-                    A::TRANSFER_WRITE | A::SHADER_STORAGE_WRITE,
-                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
-                    A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::INDIRECT_COMMAND_READ,
-                )],
-                &[],
-            );
-            for h in 0..self.levels.len() {
-                let level = &self.levels[h];
-                let push = LevelPush {
-                    kappa: self.kappa,
-                    mu_gain: self.mu_gain,
-                    ..level.push()
-                };
-                let v = usize::from(self.homogeneous);
-                let Some(variant) = &self.pipelines.variants[v] else {
-                    continue;
-                };
-                let sets = &level.iterate_sets[v];
-                let offset = (h * std::mem::size_of::<LevelControl>()) as u64;
-                // Shepard init and the warm correction both read the coarser level (none at 0).
-                let coarse_width = h.checked_sub(1).map_or(1, |c| self.levels[c].packing.width);
-                if !warm {
-                    scope(cb, Some(PASS_INIT));
-                    // why: init overwrites this level's phi, which the previous frame's J+ or
-                    // reduction read (WAR), and reads the coarser level's last iteration (RAW).
-                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    self.pipelines.init.dispatch(
-                        ctx,
-                        cb,
-                        level.init_set,
-                        &ShepardPush {
-                            size: push.size,
-                            coarse_width,
-                            zero: u32::from(h == 0),
-                        },
-                        level.extent(),
-                    );
-                    scope(cb, None);
-                } else if iterate[h] && warm_flags[h] != 0 {
-                    scope(cb, Some(PASS_WARM));
-                    // why: the correction reads the coarser level's last iteration (RAW) and its
-                    // saved phi (RAW), and rewrites this level's phi and saved copy, which the
-                    // previous solve's J+, reductions and finer correction read (WAR).
-                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    self.pipelines.warm.dispatch(
-                        ctx,
-                        cb,
-                        level.warm_set,
-                        &WarmPush {
-                            size: push.size,
-                            coarse_width,
-                            flags: warm_flags[h],
-                        },
-                        level.extent(),
-                    );
-                    if warm_flags[h] & WARM_CORRECT != 0 {
-                        stats.corrected_levels += 1;
-                    }
-                    scope(cb, None);
-                }
-                for _ in 0..self.blocks[h] {
-                    scope(cb, Some(PASS_JACOBI));
-                    match self.params.precision {
-                        Precision::Mixed => {
-                            let (Some(rp), Some(ap)) = (&variant.residual, &self.pipelines.apply)
-                            else {
-                                continue;
-                            };
-                            // why: the residual reads phi written by init or the last apply (RAW)
-                            // and overwrites delta the last reduction read (WAR).
-                            barrier::memory(
-                                ctx,
-                                cb,
-                                Access::ComputeWrite,
-                                Access::ComputeReadWrite,
-                            );
-                            rp.dispatch_indirect(ctx, cb, sets[2], &push, &self.control, offset);
-                            stats.iteration_barriers += 1;
-                            stats.iteration_dispatches += 1;
-                            for j in 1..k {
-                                // why: this sweep reads the previous iterate (RAW) and overwrites
-                                // the one before (WAR).
-                                barrier::memory(
-                                    ctx,
-                                    cb,
-                                    Access::ComputeWrite,
-                                    Access::ComputeReadWrite,
-                                );
-                                let set = sets[((j - 1) % 2) as usize];
-                                variant.iterate.dispatch_indirect(
-                                    ctx,
-                                    cb,
-                                    set,
-                                    &push,
-                                    &self.control,
-                                    offset,
-                                );
-                                stats.iteration_barriers += 1;
-                                stats.iteration_dispatches += 1;
-                            }
-                            // why: phi += the last correction (RAW on delta).
-                            barrier::memory(
-                                ctx,
-                                cb,
-                                Access::ComputeWrite,
-                                Access::ComputeReadWrite,
-                            );
-                            ap.dispatch_indirect(
-                                ctx,
-                                cb,
-                                level.apply_set,
-                                &push,
-                                &self.control,
-                                offset,
-                            );
-                            stats.iteration_barriers += 1;
-                            stats.iteration_dispatches += 1;
-                        }
-                        Precision::Fp32 | Precision::Fp16 => {
-                            for j in 0..k {
-                                // why: this iteration reads the previous one's output (RAW) and
-                                // overwrites what the one before read (WAR).
-                                barrier::memory(
-                                    ctx,
-                                    cb,
-                                    Access::ComputeWrite,
-                                    Access::ComputeReadWrite,
-                                );
-                                let set = sets[(j % 2) as usize];
-                                variant.iterate.dispatch_indirect(
-                                    ctx,
-                                    cb,
-                                    set,
-                                    &push,
-                                    &self.control,
-                                    offset,
-                                );
-                                stats.iteration_barriers += 1;
-                                stats.iteration_dispatches += 1;
-                            }
-                        }
-                    }
-                    scope(cb, None);
-                    stats.blocks += 1;
-                    stats.iterations_recorded += k;
-                    scope(cb, Some(PASS_CONVERGENCE));
-                    // why: the reduction reads the block's last two iterates (RAW).
-                    barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-                    self.pipelines.reduce.dispatch(
-                        ctx,
-                        cb,
-                        level.reduce_set,
-                        &ReducePush {
-                            size: push.size,
-                            level: h as u32,
-                            k,
-                            tolerance: self.params.tolerance,
-                        },
-                        [1, 1, 1],
-                    );
-                    // why: the next block's indirect dispatches read the arguments the reduction
-                    // wrote (RAW at DRAW_INDIRECT), and its next reduction updates them again.
-                    barrier::record(
-                        ctx,
-                        cb,
-                        &[raw_barrier(
-                            S::COMPUTE_SHADER,
-                            A::SHADER_STORAGE_WRITE,
-                            S::DRAW_INDIRECT | S::COMPUTE_SHADER,
-                            A::INDIRECT_COMMAND_READ
-                                | A::SHADER_STORAGE_READ
-                                | A::SHADER_STORAGE_WRITE,
-                        )],
-                        &[],
-                    );
-                    scope(cb, None);
-                }
-            }
-            let finest = &self.levels[self.levels.len() - 1];
-            scope(cb, Some(PASS_J_PLUS));
-            // why: J+ reads the finest level's final phi (RAW) and overwrites the J+ image the
-            // previous frame's vertex pass read (WAR).
-            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-            self.pipelines.j_plus.dispatch(
-                ctx,
-                cb,
-                self.j_plus_set,
-                &JPlusPush {
-                    size: finest.push().size,
-                    surface_rows: finest.packing.surface_rows,
-                    inv_q_scale: 1.0 / self.q_scale,
-                    phi_factor: ((1.0 + 1.0 / self.a) / 4.0) as f32,
-                    q_factor: (1.0 / (1.0 + self.f_dr)) as f32,
-                },
-                finest.extent(),
-            );
-            scope(cb, None);
-            scope(cb, Some(PASS_VERTEX_J_PLUS));
-            // why: the vertex pass reads the J+ image just written (RAW).
-            barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-            self.pipelines.vertex.dispatch(
-                ctx,
-                cb,
-                self.vertex_set,
-                &VertexPush {
-                    count: self.vertex_count,
-                    width: finest.packing.width,
-                    stride: 4,
-                    offset: 0,
-                },
-                [self.vertex_count.max(1), 1, 1],
-            );
-            if let Some(set) = self.mesh_set {
-                // why: the previous frame's draws fetched these vertices (WAR).
-                barrier::memory(ctx, cb, Access::VertexInput, Access::ComputeWrite);
-                let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
-                self.pipelines.vertex.dispatch(
-                    ctx,
-                    cb,
-                    set,
-                    &VertexPush {
-                        count: self.vertex_count,
-                        width: finest.packing.width,
-                        stride: floats(std::mem::size_of::<Vertex>()),
-                        offset: floats(std::mem::offset_of!(Vertex, exitance)),
-                    },
-                    [self.vertex_count.max(1), 1, 1],
-                );
-                // why: the mesh pass fetches the exitance just written as a vertex attribute
-                // (RAW across compute -> vertex input).
-                barrier::memory(ctx, cb, Access::ComputeWrite, Access::VertexInput);
-            }
-            scope(cb, None);
-            ctx.end_label(cb);
-        }
-        self.stats = stats;
-        self.solved = true;
-        self.records += 1;
-        for (solve, &iterated) in self.level_solve.iter_mut().zip(&iterate) {
-            if iterated {
-                *solve = Some(self.records);
-            } else if !warm {
-                // A cold start initialised this level without iterating it (one-level solve).
-                *solve = None;
-            }
-        }
-    }
-
-    /// What the last [`Self::record`] recorded.
+    /// What the last [`Self::plan`]ned solve records.
     pub fn record_stats(&self) -> RecordStats {
         self.stats
     }
 
-    /// Makes [`Self::record`] also write the per-vertex J+ into `mesh`'s vertex buffer (its
-    /// exitance field, in place), followed by a barrier to vertex input: the mesh pass then draws
-    /// the GPU solution with no CPU round trip. `mesh` must be the graph's display surface and
-    /// outlive every recorded solve.
-    pub fn bind_mesh(&mut self, ctx: &Context, mesh: &GpuMesh) -> Result<(), Error> {
+    /// Makes [`Self::record_exitance`] also write the per-vertex J+ into `mesh`'s vertex buffer
+    /// (its exitance field, in place): the shading pass then draws the GPU solution with no CPU
+    /// round trip. `mesh` must be the graph's display surface; the solve keeps it alive.
+    pub fn bind_mesh(&mut self, ctx: &Context, mesh: Arc<GpuMesh>) -> Result<(), Error> {
         if mesh.vertex_count() != self.vertex_count as usize {
             return Err(bad_param(
                 "mesh",
@@ -1671,7 +901,7 @@ impl GpuDiffusion {
                 ),
             ));
         }
-        self.mesh_set = Some(self.pipelines.vertex.allocate_set(
+        let set = self.pipelines.vertex.allocate_set(
             ctx,
             &[
                 DescriptorWrite::storage_image("j_plus", &self.j_plus),
@@ -1688,94 +918,8 @@ impl GpuDiffusion {
                     buffer: mesh.vertex_buffer(),
                 },
             ],
-        )?);
+        )?;
+        self.mesh = Some((mesh, set));
         Ok(())
-    }
-
-    /// Headless: makes the last solve's buffer writes host-visible (own submission, waited).
-    fn sync_host(&self, ctx: &Context) -> Result<(), Error> {
-        ctx.execute("diffusion host sync", |cb| {
-            // SAFETY: `cb` is recording.
-            unsafe {
-                // why: the CPU reads the control, count and vertex buffers the compute passes
-                // wrote (RAW across the host boundary).
-                barrier::memory(ctx, cb, Access::ComputeWrite, Access::HostRead);
-            }
-            Ok(())
-        })?;
-        Ok(())
-    }
-
-    /// Headless, after the solve's submission completed: the control record of every level.
-    pub fn control(&self, ctx: &Context) -> Result<Vec<LevelControl>, Error> {
-        self.sync_host(ctx)?;
-        let bytes = self.control.read_bytes()?;
-        Ok(bytes
-            .chunks_exact(std::mem::size_of::<LevelControl>())
-            .map(bytemuck::pod_read_unaligned)
-            .collect())
-    }
-
-    /// Headless: Jacobi iterations run per level (the GPU's counter).
-    pub fn iterations_run(&self, ctx: &Context) -> Result<Vec<u32>, Error> {
-        Ok(self.control(ctx)?.iter().map(|c| c.iterations).collect())
-    }
-
-    /// Headless: surface nodes clamped at J+ = 0 per channel in the last solve.
-    pub fn clamped(&self, ctx: &Context) -> Result<[u32; 3], Error> {
-        self.sync_host(ctx)?;
-        let b = self.clamp_counts.read_bytes()?;
-        let c: [u32; 4] = bytemuck::pod_read_unaligned(&b[..16]);
-        Ok([c[0], c[1], c[2]])
-    }
-
-    /// Headless: the per display-vertex J+ of the last solve.
-    pub fn read_vertex_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
-        self.sync_host(ctx)?;
-        let b = self.vertex_j_plus.read_bytes()?;
-        Ok(b.chunks_exact(16)
-            .take(self.vertex_count as usize)
-            .map(|c| {
-                let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
-                [v[0], v[1], v[2]]
-            })
-            .collect())
-    }
-
-    fn read_nodes(
-        &self,
-        ctx: &Context,
-        img: &Image,
-        level: &GpuLevel,
-        scale: f32,
-    ) -> Result<Vec<[f32; 3]>, Error> {
-        let linear = ImageReadback::capture(ctx, img, Access::ComputeReadWrite)?;
-        Ok(level
-            .packing
-            .texels
-            .iter()
-            .map(|&[u, v]| {
-                let p = linear.pixel(u, v);
-                [p[0] * scale, p[1] * scale, p[2] * scale]
-            })
-            .collect())
-    }
-
-    /// Headless: phi of `level` in node order (inner, then surface), unscaled.
-    pub fn read_phi(&self, ctx: &Context, level: usize) -> Result<Vec<[f32; 3]>, Error> {
-        let l = self.levels.get(level).ok_or_else(|| {
-            bad_param(
-                "level",
-                format!("{level} (only {} levels)", self.levels.len()),
-            )
-        })?;
-        self.read_nodes(ctx, l.result(), l, 1.0 / self.q_scale)
-    }
-
-    /// Headless: clamped J+ per surface node of the finest level (surface index order).
-    pub fn read_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
-        let l = &self.levels[self.levels.len() - 1];
-        let all = self.read_nodes(ctx, &self.j_plus, l, 1.0)?;
-        Ok(all[l.inner_count..].to_vec())
     }
 }

@@ -9,7 +9,7 @@
 //! / width`, `v = (y + 0.5) / height`: +Y (up) is the top row.
 //!
 //! ```
-//! use translucent::solver::Environment;
+//! use translucent::scene::Environment;
 //! // A uniform sky of radiance 2: the projection gives irradiance pi * 2 on every normal.
 //! let env = Environment::from_equirect(64, 32, &vec![[2.0; 3]; 64 * 32]).unwrap();
 //! let e = env.irradiance(glam::DVec3::X);
@@ -21,7 +21,7 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{Environment, SolverError};
+use super::{Environment, SceneError};
 
 /// The nine real SH basis functions in the order of [`Environment::SphericalHarmonics`].
 fn sh_basis(d: DVec3) -> [f64; 9] {
@@ -50,8 +50,8 @@ pub fn equirect_direction(x: usize, y: usize, width: usize, height: usize) -> DV
     )
 }
 
-fn bad(problem: String) -> SolverError {
-    SolverError::BadScene {
+fn bad(problem: String) -> SceneError {
+    SceneError::Invalid {
         what: "environment map".into(),
         problem,
     }
@@ -64,7 +64,7 @@ impl Environment {
         width: usize,
         height: usize,
         texels: &[[f32; 3]],
-    ) -> Result<Environment, SolverError> {
+    ) -> Result<Environment, SceneError> {
         if width < 2 || height < 1 || texels.len() != width * height {
             return Err(bad(format!(
                 "{} texels for a {width} x {height} map (need at least 2 x 1)",
@@ -104,7 +104,7 @@ impl Environment {
 
     /// Reads an equirectangular EXR (first RGBA layer, linear radiance) and projects it with
     /// [`Environment::from_equirect`]. Errors name the file.
-    pub fn load_exr(path: &Path) -> Result<Environment, SolverError> {
+    pub fn load_exr(path: &Path) -> Result<Environment, SceneError> {
         let image = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),

@@ -1,31 +1,21 @@
-//! Lights and environments, and the irradiance q they transmit into the object at its surface
-//! nodes (DESIGN section 2): q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility.
-//!
-//! Lights parse from the command-line syntax of DESIGN section 8:
+//! Lights, in the command-line syntax of DESIGN section 8.
 //!
 //! ```
-//! use translucent::solver::scene::{Environment, Light, Scene};
+//! use translucent::scene::{Environment, Light, Scene};
 //! let key: Light = "dir:0,-1,0:3,3,3".parse()?;          // irradiance 3 arriving straight down
 //! let fill: Light = "point:0,40,40:5000,5000,5000".parse()?; // intensity (W/sr-like units)
 //! let rim: Light = "spot:0,0,-50:0,0,1:2000,1800,1500:15,25".parse()?;
 //! let scene = Scene { lights: vec![key, fill, rim], environment: Environment::Constant([0.1; 3]) };
 //! scene.validate()?;
 //! assert!("dir:0,0,0:1,1,1".parse::<Light>().is_err()); // no direction
-//! # Ok::<(), translucent::solver::SolverError>(())
+//! # Ok::<(), translucent::scene::SceneError>(())
 //! ```
-//!
-//! Environments carry no visibility: exact for a convex object (nothing of itself hides the sky),
-//! an over-estimate in the concavities of a non-convex one (no ambient occlusion).
 
 use std::str::FromStr;
 
 use glam::DVec3;
-use rayon::prelude::*;
 
-use super::SolverError;
-use crate::material::fresnel;
-use crate::mesh::Solid;
-use crate::quadgraph::graph::GraphLevel;
+use super::SceneError;
 
 /// A light. Colours are linear RGB; positions and directions in mm in the object frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,28 +41,8 @@ pub enum Light {
     },
 }
 
-/// Light arriving from every direction.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub enum Environment {
-    #[default]
-    None,
-    /// Constant radiance L: q = pi L (1 - F_dr,ext).
-    Constant([f64; 3]),
-    /// Radiance as real spherical harmonics up to order 2, 9 coefficients per channel, ordered
-    /// (l, m) = (0,0), (1,-1), (1,0), (1,1), (2,-2), (2,-1), (2,0), (2,1), (2,2), in the basis of
-    /// Ramamoorthi and Hanrahan 2001 written in our object frame (Y_1-1 ~ y, Y_10 ~ z, Y_11 ~ x).
-    SphericalHarmonics([[f64; 3]; 9]),
-}
-
-/// Everything that lights the object.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Scene {
-    pub lights: Vec<Light>,
-    pub environment: Environment,
-}
-
-fn bad(what: &str, problem: impl Into<String>) -> SolverError {
-    SolverError::BadScene {
+pub(super) fn bad(what: &str, problem: impl Into<String>) -> SceneError {
+    SceneError::Invalid {
         what: what.to_string(),
         problem: problem.into(),
     }
@@ -84,7 +54,7 @@ fn bad(what: &str, problem: impl Into<String>) -> SolverError {
 /// f32 infinity and the command line wrote an image and a JSON report with NaN (`null`) in it.
 pub const MAX_LIGHT_COLOUR: f64 = 1e30;
 
-fn check_colour(what: &str, c: [f64; 3]) -> Result<(), SolverError> {
+pub(super) fn check_colour(what: &str, c: [f64; 3]) -> Result<(), SceneError> {
     if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
         if c.iter().any(|&v| v > MAX_LIGHT_COLOUR) {
             return Err(bad(
@@ -98,7 +68,7 @@ fn check_colour(what: &str, c: [f64; 3]) -> Result<(), SolverError> {
     }
 }
 
-fn check_direction(what: &str, d: DVec3) -> Result<(), SolverError> {
+fn check_direction(what: &str, d: DVec3) -> Result<(), SceneError> {
     if d.is_finite() && d.length() > 0.0 {
         Ok(())
     } else {
@@ -110,6 +80,14 @@ fn check_direction(what: &str, d: DVec3) -> Result<(), SolverError> {
 }
 
 impl Light {
+    /// The built-in scene's light: directional, from the upper left front, white irradiance 3.
+    pub fn default_light() -> Light {
+        Light::Directional {
+            direction: DVec3::new(1.0, -1.0, -1.0).normalize(),
+            irradiance: [3.0; 3],
+        }
+    }
+
     /// The light turned by `rotation` about the origin of the object frame (directions and
     /// positions; colours and cone angles unchanged): an orbiting light, frame after frame.
     pub fn rotated(&self, rotation: glam::DQuat) -> Light {
@@ -145,7 +123,7 @@ impl Light {
     }
 
     /// Checks finiteness, non-negative colours, non-zero directions and cone angles.
-    pub fn validate(&self) -> Result<(), SolverError> {
+    pub fn validate(&self) -> Result<(), SceneError> {
         match *self {
             Light::Directional {
                 direction,
@@ -243,12 +221,12 @@ fn towards(light: DVec3, p: DVec3) -> (DVec3, f64) {
     (v / r, r)
 }
 
-fn parse_vec(s: &str, what: &str) -> Result<DVec3, SolverError> {
+fn parse_vec(s: &str, what: &str) -> Result<DVec3, SceneError> {
     let v = parse_floats::<3>(s, what)?;
     Ok(DVec3::from_array(v))
 }
 
-fn parse_floats<const N: usize>(s: &str, what: &str) -> Result<[f64; N], SolverError> {
+fn parse_floats<const N: usize>(s: &str, what: &str) -> Result<[f64; N], SceneError> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != N {
         return Err(bad(
@@ -270,10 +248,10 @@ fn parse_floats<const N: usize>(s: &str, what: &str) -> Result<[f64; N], SolverE
 }
 
 impl FromStr for Light {
-    type Err = SolverError;
+    type Err = SceneError;
 
     /// `dir:X,Y,Z:R,G,B`, `point:X,Y,Z:R,G,B` or `spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER_DEG,OUTER_DEG`.
-    fn from_str(s: &str) -> Result<Self, SolverError> {
+    fn from_str(s: &str) -> Result<Self, SceneError> {
         let parts: Vec<&str> = s.split(':').collect();
         let light = match parts.as_slice() {
             ["dir", d, c] => Light::Directional {
@@ -306,120 +284,6 @@ impl FromStr for Light {
         };
         light.validate()?;
         Ok(light)
-    }
-}
-
-impl Environment {
-    pub fn validate(&self) -> Result<(), SolverError> {
-        match self {
-            Environment::None => Ok(()),
-            Environment::Constant(l) => check_colour("constant environment", *l),
-            Environment::SphericalHarmonics(c) => {
-                if c.iter()
-                    .flatten()
-                    .all(|v| v.is_finite() && v.abs() <= MAX_LIGHT_COLOUR)
-                {
-                    Ok(())
-                } else {
-                    Err(bad(
-                        "SH environment",
-                        format!("coefficients must be finite and within +-{MAX_LIGHT_COLOUR:e}"),
-                    ))
-                }
-            }
-        }
-    }
-
-    /// Irradiance E(n) arriving on a surface with outward normal `n`, before Fresnel transmission.
-    /// For SH: Ramamoorthi and Hanrahan 2001, Eq. 13 (clamped at 0: a truncated expansion can dip
-    /// below zero where the environment is dark).
-    pub fn irradiance(&self, n: DVec3) -> [f64; 3] {
-        match self {
-            Environment::None => [0.0; 3],
-            Environment::Constant(l) => l.map(|v| std::f64::consts::PI * v),
-            Environment::SphericalHarmonics(c) => {
-                const C1: f64 = 0.429043;
-                const C2: f64 = 0.511664;
-                const C3: f64 = 0.743125;
-                const C4: f64 = 0.886227;
-                const C5: f64 = 0.247708;
-                let (x, y, z) = (n.x, n.y, n.z);
-                std::array::from_fn(|ch| {
-                    let l = |i: usize| c[i][ch];
-                    let e = C1 * l(8) * (x * x - y * y) + C3 * l(6) * z * z + C4 * l(0) - C5 * l(6)
-                        + 2.0 * C1 * (l(4) * x * y + l(7) * x * z + l(5) * y * z)
-                        + 2.0 * C2 * (l(3) * x + l(1) * y + l(2) * z);
-                    e.max(0.0)
-                })
-            }
-        }
-    }
-}
-
-impl Scene {
-    pub fn validate(&self) -> Result<(), SolverError> {
-        self.lights.iter().try_for_each(Light::validate)?;
-        self.environment.validate()
-    }
-
-    /// Transmitted irradiance q at one surface point with outward unit normal `n`. Lights are shadowed
-    /// by `occluder` (a ray from `p + offset n` towards the light) when one is given.
-    pub fn irradiance_at(
-        &self,
-        p: DVec3,
-        n: DVec3,
-        eta: f64,
-        occluder: Option<&dyn Solid>,
-        offset: f64,
-    ) -> [f64; 3] {
-        let mut q = [0.0; 3];
-        for light in &self.lights {
-            let (e, l, dist) = light.arriving(p);
-            let cos = n.dot(l);
-            if cos <= 0.0 || e.iter().all(|&v| v == 0.0) {
-                continue;
-            }
-            if let Some(solid) = occluder {
-                let origin = p + n * offset;
-                if solid.ray_hit(origin, l, dist).is_some() {
-                    continue;
-                }
-            }
-            let t = cos * fresnel::transmittance(eta, cos);
-            for c in 0..3 {
-                q[c] += e[c] * t;
-            }
-        }
-        let env = self.environment.irradiance(n);
-        let t_env = 1.0 - fresnel::external_diffuse_reflectance(eta);
-        for c in 0..3 {
-            q[c] += env[c] * t_env;
-        }
-        q
-    }
-
-    /// q at every surface node of a level (indexed by surface index `s`).
-    pub fn surface_irradiance(
-        &self,
-        level: &GraphLevel,
-        eta: f64,
-        occluder: Option<&dyn Solid>,
-    ) -> Vec<[f64; 3]> {
-        let inner = level.inner_count();
-        // Far enough off the surface to miss it under f64 round-off, far below the lattice scale.
-        let offset = 1e-4 * level.spacing.max(1e-6);
-        (0..level.surface_count())
-            .into_par_iter()
-            .map(|s| {
-                self.irradiance_at(
-                    level.positions[inner + s],
-                    level.surface_normals[s],
-                    eta,
-                    occluder,
-                    offset,
-                )
-            })
-            .collect()
     }
 }
 
@@ -462,34 +326,6 @@ mod tests {
             irradiance: [4.0; 3],
         };
         assert_eq!(sun.rotated(glam::DQuat::IDENTITY), sun);
-    }
-
-    #[test]
-    fn sh_irradiance_is_exact_for_constant_and_linear_radiance() {
-        // L(w) = a + b w_y: E(n) = pi a + (2 pi / 3) b n_y.
-        let (a, b) = (0.7, 0.3);
-        let mut c = [[0.0; 3]; 9];
-        c[0] = [a * 2.0 * PI.sqrt(); 3];
-        c[1] = [b / 0.488603; 3];
-        let env = Environment::SphericalHarmonics(c);
-        for n in [
-            DVec3::Y,
-            -DVec3::Y,
-            DVec3::X,
-            DVec3::new(0.3, 0.5, -0.2).normalize(),
-        ] {
-            let e = env.irradiance(n)[1];
-            let exact = PI * a + 2.0 * PI / 3.0 * b * n.y;
-            assert!((e - exact).abs() < 1e-5 * exact, "{n}: {e} vs {exact}");
-        }
-        let constant = Environment::Constant([a; 3]).irradiance(DVec3::Z)[0];
-        let sh_const = Environment::SphericalHarmonics({
-            let mut c = [[0.0; 3]; 9];
-            c[0] = [a * 2.0 * PI.sqrt(); 3];
-            c
-        })
-        .irradiance(DVec3::Z)[0];
-        assert!((constant - sh_const).abs() < 1e-6);
     }
 
     #[test]

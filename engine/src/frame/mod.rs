@@ -1,0 +1,29 @@
+//! One frame of a translucent object, as a small render graph (kajiya / Granite style, ours).
+//!
+//! - [`graph`]: [`FrameGraph`]: passes declare the resources they use and how; the graph places
+//!   every barrier between passes, one debug label and one timestamp scope per pass, and says
+//!   what ran and what was skipped.
+//! - [`plan`]: [`FramePlan`]: what a frame runs, decided from what changed since the last one.
+//! - [`method`]: the [`Method`] seam: the passes that turn gathered light into surface
+//!   exitance ([`QuadGraphMethod`] today; [`FixedExitance`] for given values), between the
+//!   shared shadow maps and the shared shading.
+//! - [`report`]: [`FrameReport`] and [`SkipReason`].
+//!
+//! [`crate::TranslucentObject::record`] is the one composition: changes -> [`FramePlan`] ->
+//! the method's edit passes -> shadow maps -> the method's passes -> shading, into the host's
+//! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
+//! `translucent bench`, the example host and the viewer all record frames through it.
+
+pub mod exitance;
+pub mod graph;
+pub mod method;
+pub mod plan;
+pub mod quadgraph;
+pub mod report;
+
+pub use exitance::FixedExitance;
+pub use graph::{BarrierNote, FrameError, FrameGraph, GraphRun, PassCtx, ResourceId};
+pub use method::{Method, MethodFrame, MethodKind};
+pub use plan::{FramePlan, PASS_SHADING, PASS_SHADOW};
+pub use quadgraph::{solve_headless, QuadGraphMethod, QuadGraphReport, SINGLE_LEVEL_NODES};
+pub use report::{CompletedSolve, FrameReport, SkipReason};

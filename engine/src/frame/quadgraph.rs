@@ -1,0 +1,484 @@
+//! [`QuadGraphMethod`]: the QuadGraph frame of DESIGN section 5 behind the method seam. Per frame
+//! (as [`super::FramePlan`] decides): the staged edits ([`PASS_EDITS`]), then after the shared
+//! shadow maps the irradiance gather writing q at every level's surface nodes ([`PASS_GATHER`]),
+//! the multi-level solve ([`PASS_SOLVE`]: Shepard initialisation or warm start, Jacobi blocks,
+//! convergence on the GPU) and J+ into the display mesh ([`PASS_EXITANCE`]). The iterations a
+//! solve ran come back once the host reports its frame complete
+//! ([`QuadGraphMethod::completed`]).
+//!
+//! ```no_run
+//! # use std::sync::Arc;
+//! # use translucent::{TranslucentObject, ObjectParams, frame::QuadGraphMethod};
+//! # fn f(object: &TranslucentObject, ctx: &translucent::vk::Context,
+//! #      field: &translucent::material::MaterialField, scene: &translucent::scene::Scene)
+//! #      -> Result<(), translucent::Error> {
+//! // After a headless frame completed: residual and energy of the GPU solution, in f64.
+//! if let Some(q) = object.method().as_any().downcast_ref::<QuadGraphMethod>() {
+//!     let report = q.report(ctx, field, scene, None)?;
+//!     println!("residual {:?}, iterations {:?}", report.residual, report.iterations);
+//! }
+//! # Ok(()) }
+//! ```
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::DVec3;
+
+use super::graph::FrameGraph;
+use super::method::{Method, MethodFrame};
+use super::plan::{MethodWork, Update};
+use super::report::{CompletedSolve, SkipReason};
+use crate::material::MaterialField;
+use crate::mesh::GpuMesh;
+use crate::render::{q_scale_for, GatherLevel, GatherScene, IrradiancePass, ShadowMaps};
+use crate::scene::Scene;
+use crate::solver::cpu::Energy;
+use crate::solver::gpu::edit::StagedEdits;
+use crate::solver::gpu::{
+    Deformation, GpuDiffusion, GpuSolveParams, LevelControl, SolvePlan, PASS_EXITANCE, PASS_SOLVE,
+};
+use crate::solver::operator::LevelOperator;
+use crate::solver::SolverError;
+use crate::vk::barrier::Use;
+use crate::vk::{Access, Buffer, BufferDesc, Context, MemoryUse};
+use crate::{Error, QuadGraph};
+
+/// The staged edits' pass (uploads, deformation, mesh rewrite, weight derivation).
+pub const PASS_EDITS: &str = "edits";
+/// The irradiance gather at every level's surface nodes.
+pub const PASS_GATHER: &str = "gather_q";
+/// The Shepard initialisation, left out by a warm start (a part of [`PASS_SOLVE`]).
+pub const PART_INIT: &str = "diffusion init";
+/// The coarse levels, left out on a small graph (a part of [`PASS_SOLVE`]).
+pub const PART_COARSE: &str = "diffusion coarse levels";
+
+/// Below this many finest-level nodes a cold solve iterates the finest level only. Chosen by
+/// measurement (benches/RESULTS.md, "Host frames", part (c), lavapipe): a one-level cold solve of
+/// a sphere was faster at 4248 finest nodes (307 vs 363 ms), even at 11952 and 2x-5x slower from
+/// 26592 up, and it always runs more iterations (dispatches), which a GPU with per-dispatch cost
+/// pays for: the threshold stays below the smallest graph where it was measured to win.
+pub const SINGLE_LEVEL_NODES: usize = 4096;
+
+/// What [`QuadGraphMethod::report`] computes on the CPU from the GPU's finest-level phi.
+#[derive(Clone, Debug)]
+pub struct QuadGraphReport {
+    /// Relative residual per channel, ||S (b - A phi)|| / ||S b|| (b from the f64 reference q).
+    pub residual: [f64; 3],
+    pub energy: Energy,
+    /// Surface nodes clamped at J+ = 0 per channel (the GPU counter).
+    pub clamped: [u32; 3],
+    /// Iterations run per level (the GPU counter).
+    pub iterations: Vec<u32>,
+}
+
+/// One slot of the per-frame copies of the solve's control records.
+struct ControlCopy {
+    buffer: Buffer,
+    frame: Option<u64>,
+}
+
+/// This frame's work, decided by [`Method::prepare`].
+#[derive(Default)]
+struct Prepared {
+    edits: Option<StagedEdits>,
+    solve: Option<SolvePlan>,
+    /// The control-copy slot this frame's solve writes.
+    slot: usize,
+}
+
+/// The QuadGraph method (see the module doc).
+pub struct QuadGraphMethod {
+    graph: Arc<QuadGraph>,
+    solve: GpuDiffusion,
+    gather: IrradiancePass,
+    levels: Vec<GatherLevel>,
+    uniforms: GatherScene,
+    q_scale: f32,
+    eta: f32,
+    /// Per-frame copies of the solve's control records (one slot per frame in flight, plus one):
+    /// the iterations a host frame ran are read once the host reports it complete.
+    control_copies: Vec<ControlCopy>,
+    single_level_nodes: usize,
+    prepared: Prepared,
+}
+
+/// How a [`QuadGraphMethod`] solves.
+#[derive(Clone, Debug)]
+pub struct QuadGraphParams {
+    pub solve: GpuSolveParams,
+    /// Finest-level node count below which a cold solve iterates one level.
+    pub single_level_nodes: usize,
+}
+
+impl QuadGraphMethod {
+    /// Builds the solve (textures of every level) and the gather bound to the solve's q images
+    /// and the shared `shadows`; J+ will be written into `mesh` (the graph's display surface).
+    /// The exposure is `render::q_scale_for` of the finest level. A cold solve iterates only the
+    /// finest level below `single_level_nodes` finest nodes.
+    pub fn new(
+        ctx: &Context,
+        graph: Arc<QuadGraph>,
+        field: &MaterialField,
+        scene: &Scene,
+        params: &QuadGraphParams,
+        shadows: &ShadowMaps,
+        mesh: Arc<GpuMesh>,
+    ) -> Result<Self, Error> {
+        let single_level_nodes = params.single_level_nodes;
+        let mut solve = GpuDiffusion::new(ctx, &graph, field, &params.solve)?;
+        solve.bind_mesh(ctx, mesh)?;
+        let eta = field.eta();
+        let q_scale = q_scale_for(scene, graph.finest(), eta);
+        solve.set_q_scale(q_scale);
+        let gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
+        let mut levels = Vec::with_capacity(graph.levels.len());
+        for h in 0..graph.levels.len() {
+            let missing = || Error::Solver(SolverError::EmptyGraph);
+            levels.push(gather.bind_level(
+                ctx,
+                shadows,
+                solve.surface_position(h).ok_or_else(missing)?,
+                solve.surface_normal(h).ok_or_else(missing)?,
+                solve.q_image(h).ok_or_else(missing)?,
+                solve.surface_rows(h).ok_or_else(missing)?,
+            )?);
+        }
+        let uniforms = GatherScene::new(scene, shadows)?;
+        let control_copies = (0..=ctx.frames_in_flight())
+            .map(|_| {
+                Ok(ControlCopy {
+                    buffer: Buffer::new(
+                        ctx,
+                        &BufferDesc {
+                            name: "diffusion control copy",
+                            size: solve.control_buffer().size,
+                            usage: vk::BufferUsageFlags::TRANSFER_DST,
+                            memory: MemoryUse::Readback,
+                        },
+                    )?,
+                    frame: None,
+                })
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
+        Ok(QuadGraphMethod {
+            graph,
+            solve,
+            gather,
+            levels,
+            uniforms,
+            q_scale,
+            eta: eta as f32,
+            control_copies,
+            single_level_nodes,
+            prepared: Prepared::default(),
+        })
+    }
+
+    /// The GPU solve (textures, read-backs, record statistics).
+    pub fn solve(&self) -> &GpuDiffusion {
+        &self.solve
+    }
+
+    /// The baked graph.
+    pub fn graph(&self) -> &QuadGraph {
+        &self.graph
+    }
+
+    /// The exposure q and phi are stored at (see [`GpuDiffusion::q_scale`]).
+    pub fn q_scale(&self) -> f32 {
+        self.q_scale
+    }
+
+    /// Nodes of the finest level (the small-graph skip's measure).
+    pub fn finest_nodes(&self) -> usize {
+        self.solve.node_count(self.graph.levels.len() - 1)
+    }
+
+    /// Headless, after the frame completed: residual and energy of the finest level from the
+    /// GPU's phi, computed in f64 with the reference's q (`Scene::surface_irradiance` with
+    /// `occluder`), which the gathered q approximates (fp16, shadow maps instead of rays).
+    pub fn report(
+        &self,
+        ctx: &Context,
+        field: &MaterialField,
+        scene: &Scene,
+        occluder: Option<&dyn crate::mesh::Solid>,
+    ) -> Result<QuadGraphReport, Error> {
+        let level = self.graph.finest();
+        let op = LevelOperator::build(level, field, self.solve.params().scheme)?;
+        let q = scene.surface_irradiance(level, field.eta(), occluder);
+        let b = op.rhs(&q);
+        let phi: Vec<[f64; 3]> = self
+            .solve
+            .read_phi(ctx, self.graph.levels.len() - 1)?
+            .iter()
+            .map(|p| p.map(f64::from))
+            .collect();
+        let residual = op.residual(&phi, &b);
+        let inner = level.inner_count();
+        let mut energy = Energy::default();
+        for s in 0..level.surface_count() {
+            for c in 0..3 {
+                let j = (1.0 + 1.0 / op.a) * phi[inner + s][c] / 4.0 - q[s][c] / (1.0 + op.f_dr);
+                energy.transmitted_input[c] += q[s][c] * op.areas[s];
+                energy.exitance[c] += (1.0 - op.f_dr) * j * op.areas[s];
+            }
+        }
+        for ((mu, p), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
+            for c in 0..3 {
+                energy.absorbed[c] += mu[c] * p[c] * v;
+            }
+        }
+        Ok(QuadGraphReport {
+            residual,
+            energy,
+            clamped: self.solve.clamped(ctx)?,
+            iterations: self.solve.iterations_run(ctx)?,
+        })
+    }
+
+    /// The gather's uses of one frame: the shadow atlas, every level's surface geometry and q.
+    fn gather_uses<'a>(&'a self, shadows: &'a ShadowMaps) -> Vec<Use<'a>> {
+        let mut uses = vec![Use::image(&shadows.atlas, Access::DepthSampledShaders)];
+        for h in 0..self.levels.len() {
+            for img in [self.solve.surface_position(h), self.solve.surface_normal(h)]
+                .into_iter()
+                .flatten()
+            {
+                uses.push(Use::image(img, Access::ComputeRead));
+            }
+            if let Some(q) = self.solve.q_image(h) {
+                uses.push(Use::image(q, Access::ComputeWrite));
+            }
+        }
+        uses
+    }
+}
+
+impl Method for QuadGraphMethod {
+    fn name(&self) -> &'static str {
+        "quadgraph"
+    }
+
+    /// Rewrites the gather's scene. The exposure stays unless the new scene's brightest q leaves
+    /// the fp16-safe band around it (a factor of 4 either way), so a light moving a little keeps
+    /// the last solution usable as a warm start.
+    fn set_lights(&mut self, scene: &Scene, shadows: &ShadowMaps) -> Result<(), Error> {
+        self.uniforms = GatherScene::new(scene, shadows)?;
+        let wanted = q_scale_for(scene, self.graph.finest(), f64::from(self.eta));
+        let ratio = wanted / self.q_scale;
+        if !(0.25..=4.0).contains(&ratio) {
+            self.q_scale = wanted;
+            self.solve.set_q_scale(wanted);
+        }
+        Ok(())
+    }
+
+    fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
+        self.solve.set_material(ctx, &self.graph, field)?;
+        self.eta = field.eta() as f32;
+        Ok(())
+    }
+
+    fn deform(&mut self, ctx: &Context, deformation: &Deformation) -> Result<(DVec3, f64), Error> {
+        let mesh = self.solve.bound_mesh().cloned();
+        self.solve
+            .deform(ctx, &self.graph, deformation, mesh.as_slice())?;
+        let level = self.graph.finest();
+        let points: Vec<DVec3> = match deformation {
+            Deformation::TetPositions(_) => {
+                deformation.level_vertices(self.graph.levels.len() - 1, level)
+            }
+            _ => level
+                .positions
+                .iter()
+                .map(|&p| deformation.map_point(p).unwrap_or(p))
+                .collect(),
+        };
+        Ok(crate::mesh::bounding_sphere(&points))
+    }
+
+    fn has_solution(&self) -> bool {
+        self.solve.has_solution()
+    }
+
+    fn material_variant(&self) -> &'static str {
+        self.solve.material_variant()
+    }
+
+    fn prepare(&mut self, work: MethodWork, frame: u64) -> Result<MethodFrame, Error> {
+        let edits = self.solve.take_edits();
+        let mut out = MethodFrame {
+            moves_mesh: edits.as_ref().is_some_and(StagedEdits::moves_mesh),
+            ..MethodFrame::default()
+        };
+        if edits.is_none() {
+            out.skipped.push((PASS_EDITS, SkipReason::NoEdits));
+        }
+        if let MethodWork::Skip(why) = work {
+            for pass in [PASS_GATHER, PASS_SOLVE, PASS_EXITANCE] {
+                out.skipped.push((pass, why));
+            }
+        }
+        let levels = self.graph.levels.len();
+        let solve = work.update().map(|u| {
+            let small = self.finest_nodes() < self.single_level_nodes;
+            let plan = self.solve.plan(u == Update::Warm, small);
+            if plan.warm {
+                out.skipped.push((PART_INIT, SkipReason::WarmStart));
+            }
+            if (plan.levels_iterated() as usize) < levels {
+                out.skipped.push((PART_COARSE, SkipReason::SmallGraph));
+            }
+            out.warm_start = plan.warm;
+            out.levels_iterated = plan.levels_iterated();
+            plan
+        });
+        let slots = self.control_copies.len() as u64;
+        let slot = (frame % slots) as usize;
+        if solve.is_some() {
+            self.control_copies[slot].frame = Some(frame);
+        }
+        self.prepared = Prepared { edits, solve, slot };
+        Ok(out)
+    }
+
+    fn add_edit_passes<'g>(&'g self, graph: &mut FrameGraph<'g>) {
+        if let Some(edits) = &self.prepared.edits {
+            graph
+                .pass(PASS_EDITS)
+                .uses(self.solve.edit_uses(edits))
+                .record(move |p| {
+                    // SAFETY: inside the graph's pass declaring the edits' uses; `self` and the
+                    // staged edits outlive the frame (held until the next `prepare`, released
+                    // after the frame completes).
+                    unsafe { self.solve.record_edits(p.ctx, p.cb, edits, p.profiler()) };
+                    Ok(())
+                });
+        }
+    }
+
+    fn add_passes<'g>(
+        &'g self,
+        graph: &mut FrameGraph<'g>,
+        shadows: &'g ShadowMaps,
+    ) -> Result<(), Error> {
+        let Some(plan) = &self.prepared.solve else {
+            return Ok(());
+        };
+        graph
+            .pass(PASS_GATHER)
+            .uses(self.gather_uses(shadows))
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the gather's uses; everything lives
+                // in `self` and `shadows`, which outlive the frame.
+                unsafe {
+                    self.gather.record_scene(p.ctx, p.cb, &self.uniforms);
+                    for (h, level) in self.levels.iter().enumerate() {
+                        self.gather
+                            .record(p.ctx, p.cb, level, self.q_scale, self.eta)
+                            .map_err(|e| {
+                                Error::Solver(SolverError::Invalid(format!("level {h}: {e}")))
+                            })?;
+                    }
+                }
+                Ok(())
+            });
+        let slot = &self.control_copies[self.prepared.slot].buffer;
+        graph
+            .pass(PASS_SOLVE)
+            .uses(self.solve.solve_uses(Some(slot)))
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the solve's uses; `self` outlives
+                // the frame.
+                unsafe {
+                    self.solve
+                        .record_solve(p.ctx, p.cb, plan, Some(slot), p.profiler())
+                };
+                Ok(())
+            });
+        graph
+            .pass(PASS_EXITANCE)
+            .uses(self.solve.exitance_uses())
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the exitance's uses.
+                unsafe { self.solve.record_exitance(p.ctx, p.cb, p.profiler()) };
+                Ok(())
+            });
+        Ok(())
+    }
+
+    /// The control records of every recorded solve whose frame is `<= completed` and was not
+    /// returned before, oldest first. Reads host memory only: no wait, no submission.
+    fn completed(&mut self, completed: u64) -> Result<Vec<CompletedSolve>, Error> {
+        let mut out = Vec::new();
+        for slot in &mut self.control_copies {
+            let Some(frame) = slot.frame.filter(|&f| f <= completed) else {
+                continue;
+            };
+            slot.frame = None;
+            let bytes = slot.buffer.read_bytes()?;
+            out.push(CompletedSolve {
+                frame,
+                levels: bytes
+                    .chunks_exact(std::mem::size_of::<LevelControl>())
+                    .map(bytemuck::pod_read_unaligned)
+                    .collect(),
+            });
+        }
+        out.sort_by_key(|s| s.frame);
+        Ok(out)
+    }
+
+    fn gpu_bytes(&self) -> u64 {
+        self.solve.bytes().0
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+}
+
+/// Headless: one solve of `solve` (its q uploaded or gathered before) in its own submission,
+/// through a frame graph with the solve's and the exitance's passes: for tests and benchmarks
+/// of the solver alone (a frame of an object records them through [`QuadGraphMethod`]).
+/// `warm` asks for a warm start ([`GpuDiffusion::plan`] falls back to cold without a solution).
+pub fn solve_headless(
+    ctx: &Context,
+    solve: &mut GpuDiffusion,
+    warm: bool,
+) -> Result<SolvePlan, Error> {
+    let plan = solve.plan(warm, false);
+    let solve = &*solve;
+    let mut result = Ok(());
+    ctx.execute("diffusion solve", |cb| {
+        let mut graph = FrameGraph::new(ctx);
+        graph
+            .pass(PASS_SOLVE)
+            .uses(solve.solve_uses(None))
+            .record(|p| {
+                // SAFETY: inside the pass declaring the solve's uses; `solve` outlives the waited
+                // submission.
+                unsafe { solve.record_solve(p.ctx, p.cb, &plan, None, p.profiler()) };
+                Ok(())
+            });
+        graph
+            .pass(PASS_EXITANCE)
+            .uses(solve.exitance_uses())
+            .record(|p| {
+                // SAFETY: as above.
+                unsafe { solve.record_exitance(p.ctx, p.cb, p.profiler()) };
+                Ok(())
+            });
+        // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
+        result = unsafe { graph.execute(cb, None, false) }.map(|_| ());
+        Ok(())
+    })?;
+    result?;
+    Ok(plan)
+}

@@ -1,0 +1,163 @@
+//! A material edit: the new field's texels staged for the next frame's `edits` pass (and the
+//! heterogeneous textures created on the first heterogeneous material).
+
+use ash::vk;
+
+use crate::material::{fresnel, MaterialField};
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::solver::gpu::textures::{HomogeneousMaterial, MaterialTexels};
+use crate::solver::gpu::{bytes_of, image, GpuDiffusion, SolverError};
+use crate::vk::Context;
+use crate::{Error, QuadGraph};
+
+use super::*;
+
+impl GpuDiffusion {
+    /// Allocates the fv fraction texture of every level (seeded with the rest pose).
+    pub(super) fn ensure_frac(&mut self, ctx: &Context) -> Result<(), Error> {
+        for h in 0..self.levels.len() {
+            if self.levels[h].frac.is_some() {
+                continue;
+            }
+            let l = &mut self.levels[h];
+            l.frac = Some(image(
+                ctx,
+                "diffusion weight frac",
+                &l.packing,
+                vk::Format::R32G32B32A32_SFLOAT,
+            )?);
+            let bytes = bytes_of(&l.rest.frac);
+            self.stage(ctx, h, Target::Frac, &bytes, true)?;
+        }
+        Ok(())
+    }
+
+    /// Allocates what a heterogeneous material needs on every level (fractions, kappa, mu, the
+    /// three weight textures, the derivation's set) and its pipeline variant.
+    pub(crate) fn ensure_heterogeneous(&mut self, ctx: &Context) -> Result<(), Error> {
+        self.ensure_frac(ctx)?;
+        if self.pipelines.derive.is_none() {
+            self.pipelines.derive = Some(ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_DERIVE_WEIGHTS,
+                    shader: "edit/derive_weights.comp",
+                    bindings: &[
+                        "connectivity",
+                        "geo",
+                        "frac",
+                        "kappa",
+                        "mu",
+                        "weight_r",
+                        "weight_g",
+                        "weight_b",
+                    ],
+                    max_sets: self.levels.len() as u32,
+                },
+            )?);
+        }
+        for h in 0..self.levels.len() {
+            if self.levels[h].weights.is_some() {
+                continue;
+            }
+            let f32x4 = vk::Format::R32G32B32A32_SFLOAT;
+            let l = &mut self.levels[h];
+            let p = &l.packing;
+            l.material = Some([
+                image(ctx, "diffusion kappa", p, f32x4)?,
+                image(ctx, "diffusion mu", p, f32x4)?,
+            ]);
+            l.weights = Some([
+                image(ctx, "diffusion weight r", p, f32x4)?,
+                image(ctx, "diffusion weight g", p, f32x4)?,
+                image(ctx, "diffusion weight b", p, f32x4)?,
+            ]);
+            // Every new texture gets a first (fresh) upload, which also moves it out of
+            // UNDEFINED; set_material's kappa and mu replace these zeros before any record.
+            let zeros = vec![0u8; l.rest.texel_count() * 16];
+            for target in [
+                Target::Kappa,
+                Target::Mu,
+                Target::Weight(0),
+                Target::Weight(1),
+                Target::Weight(2),
+            ] {
+                self.stage(ctx, h, target, &zeros, true)?;
+            }
+            let l = &mut self.levels[h];
+            let (Some(derive), Some(frac), Some([kappa, mu]), Some([r, g, b])) =
+                (&self.pipelines.derive, &l.frac, &l.material, &l.weights)
+            else {
+                continue;
+            };
+            l.derive_set = Some(derive.allocate_set(
+                ctx,
+                &[
+                    DescriptorWrite::storage_image("connectivity", &l.connectivity),
+                    DescriptorWrite::storage_image("geo", &l.geo),
+                    DescriptorWrite::storage_image("frac", frac),
+                    DescriptorWrite::storage_image("kappa", kappa),
+                    DescriptorWrite::storage_image("mu", mu),
+                    DescriptorWrite::storage_image("weight_r", r),
+                    DescriptorWrite::storage_image("weight_g", g),
+                    DescriptorWrite::storage_image("weight_b", b),
+                ],
+            )?);
+        }
+        self.ensure_variant(ctx, false)
+    }
+
+    /// Stages a new material for every level (see the module doc). The graph must be the one the
+    /// solve was built from. A bad material is a typed error naming the node; nothing changes then.
+    pub fn set_material(
+        &mut self,
+        ctx: &Context,
+        graph: &QuadGraph,
+        field: &MaterialField,
+    ) -> Result<(), Error> {
+        self.check_graph(graph)?;
+        let eta = field.eta();
+        crate::material::check_eta(eta).map_err(SolverError::from)?;
+        let (f_dr, a) = (fresnel::diffuse_reflectance(eta), fresnel::boundary_a(eta));
+        let q_gain = 4.0 / (1.0 - f_dr);
+        let homogeneous = match field {
+            MaterialField::Homogeneous(m) => {
+                let c = m.coefficients();
+                crate::material::check_pair(c.sigma_s, c.sigma_a).map_err(SolverError::from)?;
+                Some(HomogeneousMaterial {
+                    kappa: c.kappa(),
+                    mu: c.mu(),
+                })
+            }
+            _ => None,
+        };
+        let materials = match homogeneous {
+            Some(_) => Vec::new(),
+            None => graph
+                .levels
+                .iter()
+                .zip(&self.levels)
+                .enumerate()
+                .map(|(h, (level, l))| {
+                    MaterialTexels::build(level, &l.packing, field).map_err(|e| e.at_level(h))
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+        };
+        match homogeneous {
+            Some(_) => self.ensure_variant(ctx, true)?,
+            None => {
+                self.ensure_heterogeneous(ctx)?;
+                for (h, m) in materials.iter().enumerate() {
+                    self.stage(ctx, h, Target::Kappa, &bytes_of(&m.kappa), false)?;
+                    self.stage(ctx, h, Target::Mu, &bytes_of(&m.mu), false)?;
+                }
+                self.edits.derive = true;
+            }
+        }
+        self.homogeneous = homogeneous.is_some();
+        self.f_dr = f_dr;
+        self.a = a;
+        self.set_constants(homogeneous, a, q_gain);
+        Ok(())
+    }
+}

@@ -1,0 +1,55 @@
+//! What a GPU solve is asked for: storage precision and [`GpuSolveParams`].
+
+use super::*;
+
+/// How phi is stored (DESIGN section 4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// phi RGBA32F, correction sweeps in RGBA16F against the fp32 residual (the default).
+    #[default]
+    Mixed,
+    /// phi RGBA16F ping-pong (the paper's state; stalls on fine levels).
+    Fp16,
+    /// phi RGBA32F ping-pong.
+    Fp32,
+}
+
+impl std::str::FromStr for Precision {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "mixed" => Ok(Self::Mixed),
+            "fp16" => Ok(Self::Fp16),
+            "fp32" => Ok(Self::Fp32),
+            _ => Err(SolverError::BadParameter {
+                name: "precision",
+                problem: format!("'{s}' (expected mixed, fp16 or fp32)"),
+            }),
+        }
+    }
+}
+
+/// Parameters of [`GpuDiffusion`].
+#[derive(Clone, Debug)]
+pub struct GpuSolveParams {
+    pub scheme: Scheme,
+    pub precision: Precision,
+    /// Iteration cap per level, coarsest first; the last entry repeats. Rounded up to whole blocks.
+    pub iterations: Vec<u32>,
+    /// Iterations per block (even, >= 2): the convergence test runs after each block.
+    pub block: u32,
+    /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
+    pub tolerance: f32,
+}
+
+impl Default for GpuSolveParams {
+    fn default() -> Self {
+        Self {
+            scheme: Scheme::Fv,
+            precision: Precision::Mixed,
+            iterations: vec![200],
+            block: 8,
+            tolerance: 1e-4,
+        }
+    }
+}

@@ -1,0 +1,92 @@
+//! Read-backs for tests, reports and the CLI (each waits on its own submission).
+
+use super::*;
+
+impl GpuDiffusion {
+    /// Headless: makes the last solve's buffer writes host-visible (own submission, waited).
+    fn sync_host(&self, ctx: &Context) -> Result<(), Error> {
+        ctx.execute("diffusion host sync", |cb| {
+            // SAFETY: `cb` is recording.
+            unsafe {
+                // why: the CPU reads the control, count and vertex buffers the compute passes
+                // wrote (RAW across the host boundary).
+                barrier::memory(ctx, cb, Access::ComputeWrite, Access::HostRead);
+            }
+            Ok(())
+        })?;
+        Ok(())
+    }
+
+    /// Headless, after the solve's submission completed: the control record of every level.
+    pub fn control(&self, ctx: &Context) -> Result<Vec<LevelControl>, Error> {
+        self.sync_host(ctx)?;
+        let bytes = self.control.read_bytes()?;
+        Ok(bytes
+            .chunks_exact(std::mem::size_of::<LevelControl>())
+            .map(bytemuck::pod_read_unaligned)
+            .collect())
+    }
+
+    /// Headless: Jacobi iterations run per level (the GPU's counter).
+    pub fn iterations_run(&self, ctx: &Context) -> Result<Vec<u32>, Error> {
+        Ok(self.control(ctx)?.iter().map(|c| c.iterations).collect())
+    }
+
+    /// Headless: surface nodes clamped at J+ = 0 per channel in the last solve.
+    pub fn clamped(&self, ctx: &Context) -> Result<[u32; 3], Error> {
+        self.sync_host(ctx)?;
+        let b = self.clamp_counts.read_bytes()?;
+        let c: [u32; 4] = bytemuck::pod_read_unaligned(&b[..16]);
+        Ok([c[0], c[1], c[2]])
+    }
+
+    /// Headless: the per display-vertex J+ of the last solve.
+    pub fn read_vertex_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
+        self.sync_host(ctx)?;
+        let b = self.vertex_j_plus.read_bytes()?;
+        Ok(b.chunks_exact(16)
+            .take(self.vertex_count as usize)
+            .map(|c| {
+                let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
+                [v[0], v[1], v[2]]
+            })
+            .collect())
+    }
+
+    fn read_nodes(
+        &self,
+        ctx: &Context,
+        img: &Image,
+        level: &GpuLevel,
+        scale: f32,
+    ) -> Result<Vec<[f32; 3]>, Error> {
+        let linear = ImageReadback::capture(ctx, img, Access::ComputeReadWrite)?;
+        Ok(level
+            .packing
+            .texels
+            .iter()
+            .map(|&[u, v]| {
+                let p = linear.pixel(u, v);
+                [p[0] * scale, p[1] * scale, p[2] * scale]
+            })
+            .collect())
+    }
+
+    /// Headless: phi of `level` in node order (inner, then surface), unscaled.
+    pub fn read_phi(&self, ctx: &Context, level: usize) -> Result<Vec<[f32; 3]>, Error> {
+        let l = self.levels.get(level).ok_or_else(|| {
+            bad_param(
+                "level",
+                format!("{level} (only {} levels)", self.levels.len()),
+            )
+        })?;
+        self.read_nodes(ctx, l.result(), l, 1.0 / self.q_scale)
+    }
+
+    /// Headless: clamped J+ per surface node of the finest level (surface index order).
+    pub fn read_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
+        let l = &self.levels[self.levels.len() - 1];
+        let all = self.read_nodes(ctx, &self.j_plus, l, 1.0)?;
+        Ok(all[l.inner_count..].to_vec())
+    }
+}
