@@ -48,7 +48,7 @@ layout(push_constant) uniform GatherPush {
     float q_scale;
     float eta;
     float normal_offset; // in shadow-map texels
-    float pad;
+    float env_transmittance; // 1 - F_dr,ext (flux-only query) or 1 - 2 C1(1/eta) (moments)
 } pc;
 
 // Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit.
@@ -165,7 +165,7 @@ void main() {
             e_env = sh_irradiance(c, n);
         }
         // Paper Eq. 3 over the sphere of directions with F_t averaged: E_env (1 - F_dr,ext).
-        sum += e_env * (1.0 - external_diffuse_reflectance(pc.eta));
+        sum += e_env * pc.env_transmittance;
     }
 
     vec3 scaled = sum * pc.q_scale;

@@ -78,6 +78,11 @@ pub struct RenderArgs {
     /// boundary flux.
     #[arg(long)]
     pub beam_source: bool,
+    /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
+    /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
+    /// the node's Robin row), or `flux`, DESIGN section 2's boundary-flux query (J+).
+    #[arg(long, value_name = "flux|moments", default_value = "flux", value_parser = ["flux", "moments"])]
+    pub exit_query: String,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -226,6 +231,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Scheme::Fv
     };
     // Solve on the CPU (f64 reference), or below on the GPU.
+    let exit_query: solver::transport::ExitQuery = args.exit_query.parse()?;
     let solve_params = CpuSolveParams {
         scheme,
         iterations: vec![args
@@ -236,7 +242,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         transport: if args.beam_source {
             solver::transport::Transport::collimated()
         } else {
-            solver::transport::Transport::default()
+            solver::transport::Transport {
+                exit: exit_query,
+                ..solver::transport::Transport::default()
+            }
         },
         ..CpuSolveParams::default()
     };
@@ -272,6 +281,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             u32::try_from(args.iterations.unwrap_or(2000)).context("--iterations: too large")?
         ],
         tolerance: args.tolerance as f32,
+        exit: exit_query,
         ..GpuSolveParams::default()
     };
     let graph = Arc::new(graph);

@@ -131,7 +131,9 @@ impl QuadGraphMethod {
         let eta = field.eta();
         let q_scale = q_scale_for(scene, graph.finest(), eta);
         solve.set_q_scale(q_scale);
-        let gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
+        let mut gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
+        // The environment's transmitted fraction of the solve's boundary model (DESIGN 2.6).
+        gather.env_transmittance = Some(solve.boundary().diffuse_transmittance() as f32);
         let mut levels = Vec::with_capacity(graph.levels.len());
         for h in 0..graph.levels.len() {
             let missing = || Error::Solver(SolverError::EmptyGraph);
@@ -206,8 +208,11 @@ impl QuadGraphMethod {
         occluder: Option<&dyn crate::mesh::Solid>,
     ) -> Result<QuadGraphReport, Error> {
         let level = self.graph.finest();
-        let op = LevelOperator::build(level, field, self.solve.params().scheme)?;
-        let q = scene.surface_irradiance(level, field.eta(), occluder);
+        let boundary = self.solve.boundary();
+        let op =
+            LevelOperator::build_with(level, field, self.solve.params().scheme, boundary.exit)?;
+        let t_env = boundary.diffuse_transmittance();
+        let q = scene.surface_irradiance_with(level, field.eta(), occluder, t_env);
         let b = op.rhs(&q);
         let phi: Vec<[f64; 3]> = self
             .solve
@@ -220,9 +225,9 @@ impl QuadGraphMethod {
         let mut energy = Energy::default();
         for s in 0..level.surface_count() {
             for c in 0..3 {
-                let j = (1.0 + 1.0 / op.a) * phi[inner + s][c] / 4.0 - q[s][c] / (1.0 + op.f_dr);
+                let m = boundary.flux_exitance(phi[inner + s][c], q[s][c]);
                 energy.transmitted_input[c] += q[s][c] * op.areas[s];
-                energy.exitance[c] += (1.0 - op.f_dr) * j * op.areas[s];
+                energy.exitance[c] += m * op.areas[s];
             }
         }
         for ((mu, p), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
@@ -278,6 +283,7 @@ impl Method for QuadGraphMethod {
     fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
         self.solve.set_material(ctx, &self.graph, field)?;
         self.eta = field.eta() as f32;
+        self.gather.env_transmittance = Some(self.solve.boundary().diffuse_transmittance() as f32);
         Ok(())
     }
 

@@ -85,7 +85,9 @@ pub struct GatherPush {
     pub eta: f32,
     /// Normal offset of the shadow lookup, in shadow-map texels.
     pub normal_offset: f32,
-    pub pad: f32,
+    /// Fraction of a diffuse environment irradiance transmitted into the object: 1 - F_dr,ext
+    /// (the flux-only query) or 1 - 2 C1(1/eta) (the moments query of DESIGN 2.6).
+    pub env_transmittance: f32,
 }
 
 /// One light as `gather_q.comp` reads it (std430, all vec4).
@@ -271,6 +273,9 @@ pub struct IrradiancePass {
     sampler: Sampler,
     /// Normal offset of shadow lookups in texels of the light's view (default 1.5).
     pub normal_offset: f32,
+    /// Transmitted fraction of a diffuse environment irradiance; `None`: 1 - F_dr,ext(eta)
+    /// (DESIGN section 2). The moments query (DESIGN 2.6) sets 1 - 2 C1(1/eta).
+    pub env_transmittance: Option<f32>,
 }
 
 impl IrradiancePass {
@@ -315,6 +320,7 @@ impl IrradiancePass {
             scene,
             sampler,
             normal_offset: 1.5,
+            env_transmittance: None,
         })
     }
 
@@ -446,7 +452,9 @@ impl IrradiancePass {
             q_scale,
             eta,
             normal_offset: self.normal_offset,
-            pad: 0.0,
+            env_transmittance: self
+                .env_transmittance
+                .unwrap_or((1.0 - fresnel::external_diffuse_reflectance(f64::from(eta))) as f32),
         };
         // SAFETY: the caller's contract.
         unsafe {

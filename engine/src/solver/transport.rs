@@ -45,6 +45,21 @@ pub enum ExitQuery {
     Moments,
 }
 
+impl std::str::FromStr for ExitQuery {
+    type Err = super::SolverError;
+    /// `flux` (alias `classic`): the boundary-flux query of DESIGN section 2; `moments`: DESIGN 2.6.
+    fn from_str(s: &str) -> Result<Self, super::SolverError> {
+        match s {
+            "flux" | "classic" => Ok(Self::Classic),
+            "moments" => Ok(Self::Moments),
+            _ => Err(super::SolverError::BadParameter {
+                name: "exit query",
+                problem: format!("'{s}' (expected flux or moments)"),
+            }),
+        }
+    }
+}
+
 /// Where the lights' transmitted light enters the diffusion equation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Source {
@@ -248,6 +263,31 @@ impl Boundary {
         }
     }
 
+    /// For a boundary-flux source (rhs = `flux_gain` q, no particular solution) the shading input
+    /// per surface node is linear in the node's phi and q: X = f_phi phi - f_q q. The inward
+    /// derivative comes from the node's Robin row, dphi/dz_in = (phi - rhs) / (2 A D), so D
+    /// cancels: M = (1 - 2 C1) phi / (2 (1 + 3 C2)) - (1 - 3 C2) q / (1 + 3 C2) (moments), and
+    /// J+ = (1 + 1/A) phi / 4 - q / (1 + F_dr) (classic). What the GPU's exitance pass computes
+    /// (`j_plus.glsl`), the same numbers as [`Self::exitance`] with that derivative.
+    pub fn flux_shading_factors(&self) -> (f64, f64) {
+        match self.exit {
+            ExitQuery::Classic => ((1.0 + 1.0 / self.a) / 4.0, 1.0 / (1.0 + self.f_dr)),
+            ExitQuery::Moments => {
+                let x = self.shading_input(1.0);
+                (
+                    x * (1.0 - 2.0 * self.c1) / (2.0 * (1.0 + 3.0 * self.c2)),
+                    x * (1.0 - 3.0 * self.c2) / (1.0 + 3.0 * self.c2),
+                )
+            }
+        }
+    }
+
+    /// Exitance M of a surface node with a boundary-flux source (see [`Self::flux_shading_factors`]).
+    pub fn flux_exitance(&self, phi: f64, q: f64) -> f64 {
+        let (f_phi, f_q) = self.flux_shading_factors();
+        (f_phi * phi - f_q * q) / self.shading_input(1.0)
+    }
+
     /// Radiance leaving toward `cos_o` (outside) for exitance `m`.
     pub fn radiance(&self, m: f64, cos_o: f64) -> f64 {
         fresnel::transmittance(self.eta, cos_o) * self.shading_input(m) / (PI * self.eta * self.eta)
@@ -449,6 +489,27 @@ mod tests {
                 residual.abs() < 1e-3 * q0.max(k.abs() * o.sigma_a),
                 "{residual}"
             );
+        }
+    }
+
+    #[test]
+    fn flux_factors_are_the_exit_query_with_the_robin_derivative() {
+        for exit in [ExitQuery::Classic, ExitQuery::Moments] {
+            for eta in [1.0, 1.3, 1.5] {
+                let b = Boundary::new(eta, exit);
+                let o = Optics {
+                    sigma_s: 2.0,
+                    sigma_a: 0.01,
+                };
+                let (phi, q) = (3.0, 0.4);
+                let rhs = b.flux_gain * q;
+                let dphi = (phi - rhs) / b.h(o);
+                let m = b.exitance(o.d(), phi, dphi, q);
+                assert!((b.flux_exitance(phi, q) - m).abs() < 1e-12 * m.abs().max(1.0));
+                let (f_phi, f_q) = b.flux_shading_factors();
+                let x = b.shading_input(m);
+                assert!((f_phi * phi - f_q * q - x).abs() < 1e-12 * x.abs().max(1.0));
+            }
         }
     }
 

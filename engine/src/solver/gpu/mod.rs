@@ -250,6 +250,8 @@ pub struct GpuDiffusion {
     q_scale: f32,
     pub(crate) f_dr: f64,
     pub(crate) a: f64,
+    /// The boundary model of [`GpuSolveParams::exit`] at the current material's eta.
+    pub(crate) boundary: super::transport::Boundary,
     /// Push-constant material of the homogeneous weight path: kappa rgb and 2A; mu rgb and q_gain.
     pub(crate) kappa: [f32; 4],
     pub(crate) mu_gain: [f32; 4],
@@ -410,8 +412,8 @@ impl GpuDiffusion {
         let (mut f_dr, mut a) = (0.0, 0.0);
         for (h, level) in graph.levels.iter().enumerate() {
             // The f64 operator validates geometry and material (typed errors naming the node).
-            let op =
-                LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
+            let op = LevelOperator::build_with(level, material, params.scheme, params.exit)
+                .map_err(|e| e.at_level(h))?;
             (f_dr, a) = (op.f_dr, op.a);
             drop(op);
             let coarse = levels.last().map(|l| &l.packing);
@@ -620,6 +622,7 @@ impl GpuDiffusion {
             q_scale: 1.0,
             f_dr,
             a,
+            boundary: super::transport::Boundary::new(eta, params.exit),
             kappa: [0.0; 4],
             mu_gain: [0.0; 4],
             homogeneous: homogeneous.is_some(),
@@ -630,6 +633,11 @@ impl GpuDiffusion {
         // GPU by the first record), so a fresh solve and an edited one are the same computation.
         out.set_material(ctx, graph, material)?;
         Ok(out)
+    }
+
+    /// The boundary model (A, flux gain, exit query) the solve and its J+ pass use.
+    pub fn boundary(&self) -> super::transport::Boundary {
+        self.boundary
     }
 
     /// Push constants of the homogeneous path (kappa, 2A, mu, q_gain), zero kappa otherwise.

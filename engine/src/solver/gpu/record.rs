@@ -461,6 +461,8 @@ impl GpuDiffusion {
         mut profiler: Option<&mut GpuProfiler>,
     ) {
         let finest = &self.levels[self.levels.len() - 1];
+        // The exit query (DESIGN 2.6 or the flux-only one): X = f_phi phi - f_q q per node.
+        let (phi_factor, q_factor) = self.boundary().flux_shading_factors();
         // SAFETY: the caller's contract; every set's resources live in `self`.
         unsafe {
             ctx.raw()
@@ -476,8 +478,8 @@ impl GpuDiffusion {
                     size: finest.push().size,
                     surface_rows: finest.packing.surface_rows,
                     inv_q_scale: 1.0 / self.q_scale,
-                    phi_factor: ((1.0 + 1.0 / self.a) / 4.0) as f32,
-                    q_factor: (1.0 / (1.0 + self.f_dr)) as f32,
+                    phi_factor: phi_factor as f32,
+                    q_factor: q_factor as f32,
                 },
                 finest.extent(),
             );
