@@ -55,7 +55,14 @@ fn inside_out_mesh_renders_like_its_outward_twin() {
     let gpu = GpuTest::new();
     let outward = Shape::Sphere { radius: 10.0 }.triangulate(24);
     let inside_out = inward(outward.clone());
-    assert!(MeshSolid::new(inside_out.clone()).unwrap().is_inverted());
+    let solid = MeshSolid::new(inside_out.clone()).unwrap();
+    assert!(solid.is_inverted());
+    // The display surface winds outward and its normals point out of the sphere.
+    let display = solid.mesh();
+    assert!(display.signed_volume() > 0.0, "{}", display.signed_volume());
+    for (p, n) in display.positions.iter().zip(&display.normals) {
+        assert!(n.dot(p.normalize()) > 0.9, "vertex {p}: normal {n}");
+    }
     let a = render(&gpu, outward);
     let b = render(&gpu, inside_out);
     let (mut d2, mut r2, mut sum) = (0.0, 0.0, 0.0);

@@ -24,7 +24,7 @@ use translucent::quadgraph::BakeParams;
 use translucent::scene::{self, Camera, RadianceMode};
 use translucent::scene::{Environment, Light};
 use translucent::solver::gpu::GpuSolveParams;
-use translucent::solver::transport::Transport;
+use translucent::solver::transport::{SingleScattering, Transport};
 use translucent::solver::{self, CpuSolveParams, SolverError};
 use translucent::vk::LinearImage;
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
@@ -294,6 +294,11 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
     gpu.finish();
 }
 
+/// Energy balance of the collimated source (DESIGN 2.7) on a sphere: its particular solution is
+/// the flat half-space's, so sum q dA = exitance + absorption holds to the curvature's error
+/// (measured 0.1-0.9% on the milk sphere at resolution 24), not to round-off.
+const COLLIMATED_BALANCE: f64 = 0.02;
+
 /// The opt-in beam source against `skimmilk-sphere-dir-eta1.exr` (the scene where the boundary
 /// flux is worst): the CPU f64 solution, shaded by the same pass.
 #[test]
@@ -312,7 +317,11 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
     for beam_source in [true, false] {
         let params = CpuSolveParams {
             transport: if beam_source {
-                Transport::collimated()
+                // Single scattering is view-dependent (added per pixel), left out here.
+                Transport {
+                    single_scattering: SingleScattering::Off,
+                    ..Transport::collimated()
+                }
             } else {
                 Transport::default()
             },
@@ -320,10 +329,16 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
         };
         let sol = solver::solve(&graph, &field, &scene, Some(&ball), &params).unwrap();
         let e = sol.energy;
+        // fv conserves energy exactly with the boundary flux; the collimated source's particular
+        // solution is the flat half-space's analytic one, not the discrete one.
+        let bound = if beam_source {
+            COLLIMATED_BALANCE
+        } else {
+            1e-6
+        };
         for c in 0..3 {
-            // fv conserves energy exactly, with the volume source too.
             let balance = e.transmitted_input[c] - e.exitance[c] - e.absorbed[c];
-            assert!(balance.abs() < 1e-6 * e.transmitted_input[c], "{e:?}");
+            assert!(balance.abs() < bound * e.transmitted_input[c], "{e:?}");
         }
         let (mesh, display) = display(
             &graph,
@@ -337,6 +352,7 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
             .image;
         errors.push(relative_rms(&image, &reference));
     }
+    println!("collimated, flux: {errors:?}");
     // Measured: beam 6.9, 5.1, 5.4 (5.8)%; boundary flux 15.9, 10.7, 8.6 (11.9)%; noise 1.6%.
     assert!(errors[0].1 < 0.072, "{errors:?}");
     assert!(errors[1].1 > errors[0].1 + 0.04, "{errors:?}");
