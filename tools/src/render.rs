@@ -73,9 +73,10 @@ pub struct RenderArgs {
     /// projected onto order-2 spherical harmonics.
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
-    /// CPU solver only: the lights' transmitted light as the collimated source of DESIGN 2.7
-    /// with the exit query of 2.6 (solver::transport::Transport::collimated) instead of a
-    /// boundary flux.
+    /// The lights' transmitted light as the collimated source of DESIGN 2.7 (GPU and CPU, the
+    /// same formulas: solver::transport::Transport::gpu_collimated), read by the moments exit
+    /// query (implied), instead of a boundary flux. Homogeneous materials on the GPU (a
+    /// heterogeneous one falls back to the boundary flux).
     #[arg(long)]
     pub beam_source: bool,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
@@ -164,8 +165,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     let on_gpu = args.solver == "gpu";
-    if args.beam_source && on_gpu {
-        bail!("--beam-source is a CPU solver experiment: add --solver cpu");
+    if args.beam_source
+        && args.exit_query == "flux"
+        && std::env::args().any(|a| a == "--exit-query")
+    {
+        bail!("--beam-source is read by the moments exit query (DESIGN 2.6-2.7): drop --exit-query flux");
     }
     if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");
@@ -240,7 +244,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         tolerance: args.tolerance,
         exact: args.iterations.is_none(),
         transport: if args.beam_source {
-            solver::transport::Transport::collimated()
+            solver::transport::Transport::gpu_collimated()
         } else {
             solver::transport::Transport {
                 exit: exit_query,
@@ -281,7 +285,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             u32::try_from(args.iterations.unwrap_or(2000)).context("--iterations: too large")?
         ],
         tolerance: args.tolerance as f32,
-        exit: exit_query,
+        exit: if args.beam_source {
+            solver::transport::ExitQuery::Moments
+        } else {
+            exit_query
+        },
+        collimated: args.beam_source,
         ..GpuSolveParams::default()
     };
     let graph = Arc::new(graph);

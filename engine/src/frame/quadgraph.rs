@@ -31,7 +31,9 @@ use super::plan::{MethodWork, Update};
 use super::report::{CompletedSolve, SkipReason};
 use crate::material::MaterialField;
 use crate::mesh::GpuMesh;
-use crate::render::{q_scale_for, GatherLevel, GatherScene, IrradiancePass, ShadowMaps};
+use crate::render::{
+    q_scale_for, BeamSource, GatherLevel, GatherScene, IrradiancePass, ShadowMaps,
+};
 use crate::scene::Scene;
 use crate::solver::cpu::Energy;
 use crate::solver::gpu::edit::StagedEdits;
@@ -103,6 +105,28 @@ pub struct QuadGraphMethod {
     prepared: Prepared,
 }
 
+/// The gather's collimated source (DESIGN 2.7) for the solve's boundary model: on when the solve
+/// asks for it and the material is homogeneous (the gather takes one set of coefficients);
+/// `None` (the boundary flux) otherwise: a heterogeneous field falls back to the boundary flux.
+fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource> {
+    let MaterialField::Homogeneous(m) = field else {
+        return None;
+    };
+    if !solve.params().collimated {
+        return None;
+    }
+    let b = solve.boundary();
+    let c = m.coefficients();
+    Some(BeamSource {
+        sigma_s: c.sigma_s.map(|v| v as f32),
+        sigma_a: c.sigma_a.map(|v| v as f32),
+        a: b.a as f32,
+        exit_phi: (0.25 * (1.0 - 2.0 * b.c1)) as f32,
+        exit_flux: (0.5 * (1.0 - 3.0 * b.c2)) as f32,
+        flux_gain: b.flux_gain as f32,
+    })
+}
+
 /// How a [`QuadGraphMethod`] solves.
 #[derive(Clone, Debug)]
 pub struct QuadGraphParams {
@@ -134,15 +158,17 @@ impl QuadGraphMethod {
         let mut gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
         // The environment's transmitted fraction of the solve's boundary model (DESIGN 2.6).
         gather.env_transmittance = Some(solve.boundary().diffuse_transmittance() as f32);
+        gather.beam = beam_source(&solve, field);
         let mut levels = Vec::with_capacity(graph.levels.len());
         for h in 0..graph.levels.len() {
             let missing = || Error::Solver(SolverError::EmptyGraph);
-            levels.push(gather.bind_level(
+            levels.push(gather.bind_level_with(
                 ctx,
                 shadows,
                 solve.surface_position(h).ok_or_else(missing)?,
                 solve.surface_normal(h).ok_or_else(missing)?,
                 solve.q_image(h).ok_or_else(missing)?,
+                solve.particular_image(h).ok_or_else(missing)?,
                 solve.surface_rows(h).ok_or_else(missing)?,
             )?);
         }
@@ -256,6 +282,9 @@ impl QuadGraphMethod {
             if let Some(q) = self.solve.q_image(h) {
                 uses.push(Use::image(q, Access::ComputeWrite));
             }
+            if let Some(p) = self.solve.particular_image(h) {
+                uses.push(Use::image(p, Access::ComputeWrite));
+            }
         }
         uses
     }
@@ -284,6 +313,7 @@ impl Method for QuadGraphMethod {
         self.solve.set_material(ctx, &self.graph, field)?;
         self.eta = field.eta() as f32;
         self.gather.env_transmittance = Some(self.solve.boundary().diffuse_transmittance() as f32);
+        self.gather.beam = beam_source(&self.solve, field);
         Ok(())
     }
 

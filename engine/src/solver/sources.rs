@@ -378,7 +378,10 @@ impl<'a> SourceModel<'a> {
         }
         let env = &self.scene.environment;
         if *env != Environment::None {
-            if self.beams() && self.boundary.exit == ExitQuery::Moments {
+            if self.beams()
+                && self.boundary.exit == ExitQuery::Moments
+                && self.transport.environment_beams
+            {
                 self.beams_into(&mut out, here, &environment_beams(env, n), false);
             } else {
                 let e = env.irradiance(n);

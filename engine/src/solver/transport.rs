@@ -115,6 +115,9 @@ pub struct Transport {
     /// One bounce of exitance between mutually visible surface points: cosine-weighted rays per
     /// finest surface node (0: off). Light that leaves and re-enters (concave objects).
     pub bounce_rays: u32,
+    /// With a beam source and the moments query, the environment enters as beams too (a
+    /// quadrature of directions); `false`: as a boundary flux (what the GPU gather does).
+    pub environment_beams: bool,
 }
 
 impl Default for Transport {
@@ -128,6 +131,7 @@ impl Default for Transport {
             single_scattering: SingleScattering::Off,
             surface: SurfaceReconstruction::Shepard,
             bounce_rays: 0,
+            environment_beams: true,
         }
     }
 }
@@ -140,6 +144,20 @@ impl Transport {
             source: Source::Collimated,
             single_scattering: SingleScattering::Difference,
             surface: SurfaceReconstruction::DepthSample,
+            ..Self::default()
+        }
+    }
+
+    /// What the GPU frame computes with `GpuSolveParams::collimated` (render `--beam-source`): the
+    /// moments query, the lights' collimated source at the lit nodes only (no continuation
+    /// through the body, no thin-wall fallback), the environment as a boundary flux, Shepard
+    /// shading weights, no single scattering.
+    pub fn gpu_collimated() -> Self {
+        Self {
+            exit: ExitQuery::Moments,
+            source: Source::Collimated,
+            continuation: false,
+            environment_beams: false,
             ..Self::default()
         }
     }

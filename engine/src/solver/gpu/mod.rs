@@ -126,6 +126,8 @@ pub struct GpuLevel {
     link_weights: [Image; 2],
     pub(crate) surface_position: Image,
     pub(crate) surface_normal: Image,
+    /// The collimated source's part of the exit query per surface node (surface rows only).
+    pub(crate) particular: Image,
     /// Per material variant (0 heterogeneous, 1 homogeneous), once created: the iteration sets
     /// (two ping-pong directions, then in Mixed the residual's).
     iterate_sets: [Vec<vk::DescriptorSet>; 2],
@@ -397,6 +399,13 @@ impl GpuDiffusion {
         }
         let eta = material.eta();
         crate::material::check_eta(eta).map_err(SolverError::from)?;
+        if params.collimated && params.exit != super::transport::ExitQuery::Moments {
+            return Err(SolverError::BadParameter {
+                name: "collimated",
+                problem: "the collimated source (DESIGN 2.7) is read by the moments exit query (2.6): set exit to Moments".into(),
+            }
+            .into());
+        }
         let homogeneous = match material {
             MaterialField::Homogeneous(m) => {
                 let c = m.coefficients();
@@ -528,6 +537,7 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("q", &finest.q),
                 DescriptorWrite::storage_image("connectivity", &finest.connectivity),
                 DescriptorWrite::storage_image("j_plus", &j_plus),
+                DescriptorWrite::storage_image("particular", &finest.particular),
                 DescriptorWrite::StorageBuffer {
                     name: "counts",
                     buffer: &clamp_counts,
@@ -782,6 +792,11 @@ impl GpuDiffusion {
     }
     pub fn q_image(&self, level: usize) -> Option<&Image> {
         self.levels.get(level).map(|l| &l.q)
+    }
+    /// A level's image of the collimated source's exit-query part (surface rows, rgba16f, times
+    /// the exposure), written by the gather when [`GpuSolveParams::collimated`] is on.
+    pub fn particular_image(&self, level: usize) -> Option<&Image> {
+        self.levels.get(level).map(|l| &l.particular)
     }
     /// The exposure every q (and therefore phi) is stored with.
     pub fn q_scale(&self) -> f32 {

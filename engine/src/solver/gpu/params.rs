@@ -45,6 +45,11 @@ pub struct GpuSolveParams {
     /// its exitance in the J+ pass; the same formulas as the f64 reference's
     /// [`crate::solver::transport::Transport::exit`].
     pub exit: ExitQuery,
+    /// The lights as the collimated source of DESIGN 2.7 (needs `exit: Moments`): the gather
+    /// writes each lit node's particular solution into its Robin row and the exit query's part
+    /// of it, which the J+ pass adds back. Homogeneous materials only: a heterogeneous field
+    /// falls back to the boundary flux (`frame::QuadGraphMethod`).
+    pub collimated: bool,
 }
 
 impl Default for GpuSolveParams {
@@ -56,6 +61,7 @@ impl Default for GpuSolveParams {
             block: 8,
             tolerance: 1e-4,
             exit: ExitQuery::default(),
+            collimated: false,
         }
     }
 }

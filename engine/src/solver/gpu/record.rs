@@ -435,6 +435,7 @@ impl GpuDiffusion {
             Use::image(finest.result(), Access::ComputeRead),
             Use::image(&finest.q, Access::ComputeRead),
             Use::image(&finest.connectivity, Access::ComputeRead),
+            Use::image(&finest.particular, Access::ComputeRead),
             Use::image(&self.j_plus, Access::ComputeReadWrite),
             Use::buffer_span(
                 &self.clamp_counts,
@@ -480,6 +481,12 @@ impl GpuDiffusion {
                     inv_q_scale: 1.0 / self.q_scale,
                     phi_factor: phi_factor as f32,
                     q_factor: q_factor as f32,
+                    particular_factor: if self.params.collimated {
+                        self.boundary().shading_input(1.0) as f32
+                    } else {
+                        0.0
+                    },
+                    pad: 0.0,
                 },
                 finest.extent(),
             );
