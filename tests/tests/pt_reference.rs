@@ -299,10 +299,15 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
 /// (measured 0.1-0.9% on the milk sphere at resolution 24), not to round-off.
 const COLLIMATED_BALANCE: f64 = 0.02;
 
+/// The collimated source's error on the milk sphere (measured 8.6%) and its gain over the
+/// boundary flux (measured 3.3 points): bounds with ~1 point of room for the bake's noise.
+const COLLIMATED_MILK: f64 = 0.095;
+const COLLIMATED_GAIN: f64 = 0.025;
+
 /// The opt-in beam source against `skimmilk-sphere-dir-eta1.exr` (the scene where the boundary
 /// flux is worst): the CPU f64 solution, shaded by the same pass.
 #[test]
-fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
+fn collimated_source_lowers_the_error_of_the_directionally_lit_milk_sphere() {
     let gpu = GpuTest::new();
     let (graph, ball) = sphere_graph();
     let milk = Material::preset("skimmilk").unwrap();
@@ -353,13 +358,18 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
         errors.push(relative_rms(&image, &reference));
     }
     println!("collimated, flux: {errors:?}");
-    // Measured: beam 6.9, 5.1, 5.4 (5.8)%; boundary flux 15.9, 10.7, 8.6 (11.9)%; noise 1.6%.
-    assert!(errors[0].1 < 0.072, "{errors:?}");
-    assert!(errors[1].1 > errors[0].1 + 0.04, "{errors:?}");
+    // Measured (the collimated source of DESIGN 2.7, CI bake): 11.8, 7.8, 5.5 (8.6)%; boundary
+    // flux 15.9, 10.7, 8.6 (11.9)%; noise 1.6%. (The earlier volume deposit along the beam gave
+    // 5.8% here but needed cells under a mean free path; this needs none.)
+    assert!(errors[0].1 < COLLIMATED_MILK, "{errors:?}");
+    assert!(errors[1].1 > errors[0].1 + COLLIMATED_GAIN, "{errors:?}");
 
-    // The entry points are ray-cast: without the solid it is a typed error.
+    // One bounce casts rays between surface points: without the solid it is a typed error.
     let params = CpuSolveParams {
-        transport: Transport::collimated(),
+        transport: Transport {
+            bounce_rays: 8,
+            ..Transport::collimated()
+        },
         ..CpuSolveParams::default()
     };
     assert!(matches!(
