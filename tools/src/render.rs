@@ -81,9 +81,10 @@ pub struct RenderArgs {
     pub beam_source: bool,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
-    /// the node's Robin row), or `flux`, DESIGN section 2's boundary-flux query (J+).
-    #[arg(long, value_name = "flux|moments", default_value = "flux", value_parser = ["flux", "moments"])]
-    pub exit_query: String,
+    /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).
+    /// `--beam-source` implies `moments`.
+    #[arg(long, value_name = "flux|moments", value_parser = ["flux", "moments"])]
+    pub exit_query: Option<String>,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -165,10 +166,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     let on_gpu = args.solver == "gpu";
-    if args.beam_source
-        && args.exit_query == "flux"
-        && std::env::args().any(|a| a == "--exit-query")
-    {
+    if args.beam_source && args.exit_query.as_deref() == Some("flux") {
         bail!("--beam-source is read by the moments exit query (DESIGN 2.6-2.7): drop --exit-query flux");
     }
     if args.precision.is_some() && !on_gpu {
@@ -235,7 +233,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Scheme::Fv
     };
     // Solve on the CPU (f64 reference), or below on the GPU.
-    let exit_query: solver::transport::ExitQuery = args.exit_query.parse()?;
+    let exit_query: solver::transport::ExitQuery =
+        args.exit_query.as_deref().unwrap_or("flux").parse()?;
     let solve_params = CpuSolveParams {
         scheme,
         iterations: vec![args

@@ -9,7 +9,7 @@
 //! ```no_run
 //! # use translucent::solver::{self, CpuSolveParams, transport::Transport};
 //! # fn demo(graph: &translucent::QuadGraph, field: &translucent::material::MaterialField,
-//! #         scene: &solver::Scene, solid: &dyn translucent::mesh::Solid) -> Result<(), solver::SolverError> {
+//! #         scene: &translucent::scene::Scene, solid: &dyn translucent::mesh::Solid) -> Result<(), solver::SolverError> {
 //! let transport = Transport { bounce_rays: 64, ..Transport::collimated() };
 //! let params = CpuSolveParams { transport, ..Default::default() };
 //! let with_bounce = solver::solve(graph, field, scene, Some(solid), &params)?;

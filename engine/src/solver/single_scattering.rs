@@ -14,7 +14,7 @@
 //! ```no_run
 //! # use translucent::solver::{self, single_scattering::vertex_single_scattering, transport::Transport};
 //! # fn demo(graph: &translucent::QuadGraph, field: &translucent::material::MaterialField,
-//! #         scene: &solver::Scene, solid: &dyn translucent::mesh::Solid) {
+//! #         scene: &translucent::scene::Scene, solid: &dyn translucent::mesh::Solid) {
 //! let eye = glam::DVec3::new(0.0, 20.0, 60.0);
 //! let ss = vertex_single_scattering(&graph.surface, field, scene, solid, &Transport::second_collision(), eye, 16);
 //! assert_eq!(ss.len(), graph.surface.positions.len());

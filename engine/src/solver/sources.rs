@@ -13,7 +13,7 @@
 //! use translucent::mesh::shapes::Shape;
 //! use translucent::solver::sources::SourceModel;
 //! use translucent::solver::transport::{Boundary, ExitQuery, Transport};
-//! use translucent::solver::Scene;
+//! use translucent::scene::Scene;
 //! let marble = MaterialField::Homogeneous(Material::preset("marble")?);
 //! let slab = Shape::Box { half_extents: DVec3::new(50.0, 1.0, 50.0) };
 //! let scene = Scene { lights: vec!["dir:0,-1,0:1,1,1".parse()?], ..Default::default() };
