@@ -300,7 +300,10 @@ fn material(spec: &SceneSpec) -> Result<MaterialField> {
 }
 
 /// A reference image: (rgb, alpha) per pixel, row 0 at the top, and its width.
-fn reference(name: &str) -> Result<(usize, Vec<([f32; 3], f32)>)> {
+/// Per pixel: linear RGB and coverage (alpha).
+type Pixels = Vec<([f32; 3], f32)>;
+
+fn reference(name: &str) -> Result<(usize, Pixels)> {
     let path = repo().join("tests/reference/pt").join(name);
     let image = exr::prelude::read_first_rgba_layer_from_file(
         &path,

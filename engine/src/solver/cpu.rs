@@ -256,6 +256,8 @@ fn level_sources(
 }
 
 /// Solves the diffusion problem on `graph` lit by `scene` (shadows cast by `occluder` when given).
+// why: the energy sums index several [f64; 3] arrays per channel at once.
+#[allow(clippy::needless_range_loop)]
 pub fn solve(
     graph: &QuadGraph,
     material: &MaterialField,

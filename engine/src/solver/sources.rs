@@ -25,6 +25,9 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+// why: the per-channel loops index several [f64; 3] arrays (sources, coefficients, h) at once.
+#![allow(clippy::needless_range_loop)]
+
 use std::f64::consts::PI;
 
 use glam::DVec3;

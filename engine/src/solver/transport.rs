@@ -383,8 +383,8 @@ pub fn beam_particular(o: Optics, r: Refraction, irr: f64, gain: f64) -> (f64, f
 /// on). Q2 = sigma_s' times the uncollided fluence of once-scattered light, with one Fresnel
 /// reflection (seen from inside) of that light at the boundary. In units of the transport mean
 /// free path (s~ = s / sigma_t', b = 1 / mu_t):
-/// I2 / I1 = albedo (b + s~) J, J = (1/2) int_0^1 [1 / ((s~ + b)(1 + b mu)) + 1 / ((s~ + b)(1 + s~ mu))
-/// + R(mu) mu / ((1 + s~ mu)(1 + b mu))] dmu.
+/// I2 / I1 = albedo (b + s~) J, J = (1/2) int_0^1 [1 / ((s~ + b)(1 + b mu)) + 1 / ((s~ + b)(1 + s~ mu)) +
+/// R(mu) mu / ((1 + s~ mu)(1 + b mu))] dmu.
 /// A source Q0 r exp(-beta z) then has the second-collision source's half-space exitance exactly.
 pub fn second_collision_ratio(o: Optics, mu_t: f64, eta: f64) -> f64 {
     let b = 1.0 / mu_t.max(MIN_MU_T);
