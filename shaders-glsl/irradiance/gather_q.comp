@@ -5,6 +5,12 @@
 //   q = sum over lights of E max(0, n.l) F_t(eta, theta_l) visibility + E_env(n) (1 - F_dr,ext),
 // written pre-scaled by q_scale (fp16 overflows at 65504). Visibility: 3x3 PCF in the light's
 // shadow view (a tile of the depth atlas), with a normal offset of about a texel.
+// With the collimated source of DESIGN 2.7 (beam.sigma_s.w = 1, homogeneous material), a light's
+// transmitted beam enters as the particular solution K exp(-beta z) of the flat half-space:
+// K = Q0 / (sigma_a - D beta^2), Q0 = sigma_s' E T_i mu_i / mu_t, beta = sigma_t' / mu_t. Its
+// Robin right-hand side -K (1 + 2 A D beta) is written into q divided by the flux gain (so the
+// solve is unchanged), and the exit query's part of it, a_phi K - a_d D beta K, into `particular`
+// (added back by the J+ pass: DESIGN 2.6 with phi = phi_h + K, dphi/dz_in = phi_h' - beta K).
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -35,6 +41,7 @@ struct ShadowView {
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D surface_position;
 layout(set = 0, binding = 1, rgba16f) uniform readonly image2D surface_normal;
 layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D q;
+layout(set = 0, binding = 5, rgba16f) uniform writeonly image2D particular;
 layout(set = 0, binding = 3) uniform sampler2D shadow_atlas;
 layout(std430, set = 0, binding = 4) readonly buffer GatherScene {
     uvec4 counts;   // x: lights, y: environment kind
@@ -48,8 +55,17 @@ layout(push_constant) uniform GatherPush {
     float q_scale;
     float eta;
     float normal_offset; // in shadow-map texels
-    float pad;
+    float env_transmittance; // 1 - F_dr,ext (flux-only query) or 1 - 2 C1(1/eta) (moments)
+    vec2 pad;
+    vec4 beam_sigma_s; // rgb: sigma_s'; w: 1 = collimated source (DESIGN 2.7), 0 = boundary flux
+                       // (`particular` zeroed), -1 = boundary flux, no `particular` of its own
+    vec4 beam_sigma_a; // rgb: sigma_a; w: the boundary constant A
+    vec4 beam_exit;    // x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain 4 / (1 - 2 C1)
 } pc;
+
+// Relative distance kept from the resonance sigma_a mu_t^2 = sigma_t' / 3 (K infinite, phi_h
+// cancelling it): coarser than the f64 reference's 1e-4, f32 keeps ~3 digits of the difference.
+const float BEAM_RESONANCE_GUARD = 1e-3;
 
 // Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit.
 float visibility(uint index, vec3 p, vec3 n, float cos_l) {
@@ -110,6 +126,8 @@ void main() {
     n = length(n) > 0.0 ? normalize(n) : vec3(0.0);
 
     vec3 sum = vec3(0.0);
+    vec3 part = vec3(0.0);
+    bool beams = pc.beam_sigma_s.w > 0.5;
     for (uint i = 0; i < min(scene.counts.x, MAX_LIGHTS); ++i) {
         GatherLight light = scene.lights[i];
         uint kind = uint(light.position.w);
@@ -148,8 +166,30 @@ void main() {
         } else if (light.views.y == 6u) {
             vis = visibility(light.views.x + cube_face(-l), p, n, cos_l);
         }
-        // Paper Eq. 3 for a delta light: E (n . w_i) F_t(w_i), shadowed.
-        sum += e * (cos_l * fresnel_transmittance(pc.eta, cos_l) * vis);
+        vec3 transmitted = e * (cos_l * fresnel_transmittance(pc.eta, cos_l) * vis);
+        if (beams) {
+            // DESIGN 2.7 with Q0 = sigma_s' q_l / mu_t (q_l = E mu_i T_i, shadowed); written
+            // as K = sigma_s' q_l mu_t / (sigma_a mu_t^2 - sigma_t' / 3) and beta K =
+            // sigma_s' q_l sigma_t' / (same), finite as mu_t -> 0 (grazing beams at eta = 1).
+            float mu_t = sqrt(max(1.0 - (1.0 - cos_l * cos_l) / (pc.eta * pc.eta), 0.0));
+            vec3 sigma_a = pc.beam_sigma_a.rgb;
+            vec3 sigma_t = pc.beam_sigma_s.rgb + sigma_a;
+            vec3 a = sigma_a * (mu_t * mu_t);
+            vec3 b = sigma_t / 3.0;
+            vec3 denom = a - b;
+            vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
+            denom = mix(denom, -guard, lessThan(abs(denom), guard));
+            vec3 source = pc.beam_sigma_s.rgb * transmitted;
+            vec3 k = source * mu_t / denom;
+            vec3 beta_k = source * sigma_t / denom;
+            vec3 d = 1.0 / (3.0 * sigma_t);
+            // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
+            sum += -(k + 2.0 * pc.beam_sigma_a.w * d * beta_k) / pc.beam_exit.z;
+            part += pc.beam_exit.x * k - pc.beam_exit.y * d * beta_k;
+        } else {
+            // Paper Eq. 3 for a delta light: E (n . w_i) F_t(w_i), shadowed.
+            sum += transmitted;
+        }
     }
 
     uint env = scene.counts.y;
@@ -165,11 +205,16 @@ void main() {
             e_env = sh_irradiance(c, n);
         }
         // Paper Eq. 3 over the sphere of directions with F_t averaged: E_env (1 - F_dr,ext).
-        sum += e_env * (1.0 - external_diffuse_reflectance(pc.eta));
+        sum += e_env * pc.env_transmittance;
     }
 
     vec3 scaled = sum * pc.q_scale;
     // Never NaN or Inf into the solver: fp16 saturates rather than overflowing to Inf.
     scaled = clamp(mix(scaled, vec3(0.0), isnan(scaled)), vec3(0.0), vec3(FP16_MAX));
     imageStore(q, texel, vec4(scaled, 1.0));
+    if (pc.beam_sigma_s.w >= 0.0) {
+        vec3 p_scaled = part * pc.q_scale;
+        p_scaled = clamp(mix(p_scaled, vec3(0.0), isnan(p_scaled)), vec3(-FP16_MAX), vec3(FP16_MAX));
+        imageStore(particular, texel, vec4(p_scaled, 1.0));
+    }
 }

@@ -24,6 +24,7 @@ use translucent::quadgraph::BakeParams;
 use translucent::scene::{self, Camera, RadianceMode};
 use translucent::scene::{Environment, Light};
 use translucent::solver::gpu::GpuSolveParams;
+use translucent::solver::transport::{SingleScattering, Transport};
 use translucent::solver::{self, CpuSolveParams, SolverError};
 use translucent::vk::LinearImage;
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
@@ -293,10 +294,20 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
     gpu.finish();
 }
 
+/// Energy balance of the collimated source (DESIGN 2.7) on a sphere: its particular solution is
+/// the flat half-space's, so sum q dA = exitance + absorption holds to the curvature's error
+/// (measured 0.1-0.9% on the milk sphere at resolution 24), not to round-off.
+const COLLIMATED_BALANCE: f64 = 0.02;
+
+/// The collimated source's error on the milk sphere (measured 8.6%) and its gain over the
+/// boundary flux (measured 3.3 points): bounds with ~1 point of room for the bake's noise.
+const COLLIMATED_MILK: f64 = 0.095;
+const COLLIMATED_GAIN: f64 = 0.025;
+
 /// The opt-in beam source against `skimmilk-sphere-dir-eta1.exr` (the scene where the boundary
 /// flux is worst): the CPU f64 solution, shaded by the same pass.
 #[test]
-fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
+fn collimated_source_lowers_the_error_of_the_directionally_lit_milk_sphere() {
     let gpu = GpuTest::new();
     let (graph, ball) = sphere_graph();
     let milk = Material::preset("skimmilk").unwrap();
@@ -310,15 +321,29 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
     let mut errors = Vec::new();
     for beam_source in [true, false] {
         let params = CpuSolveParams {
-            beam_source,
+            transport: if beam_source {
+                // Single scattering is view-dependent (added per pixel), left out here.
+                Transport {
+                    single_scattering: SingleScattering::Off,
+                    ..Transport::collimated()
+                }
+            } else {
+                Transport::default()
+            },
             ..CpuSolveParams::default()
         };
         let sol = solver::solve(&graph, &field, &scene, Some(&ball), &params).unwrap();
         let e = sol.energy;
+        // fv conserves energy exactly with the boundary flux; the collimated source's particular
+        // solution is the flat half-space's analytic one, not the discrete one.
+        let bound = if beam_source {
+            COLLIMATED_BALANCE
+        } else {
+            1e-6
+        };
         for c in 0..3 {
-            // fv conserves energy exactly, with the volume source too.
             let balance = e.transmitted_input[c] - e.exitance[c] - e.absorbed[c];
-            assert!(balance.abs() < 1e-6 * e.transmitted_input[c], "{e:?}");
+            assert!(balance.abs() < bound * e.transmitted_input[c], "{e:?}");
         }
         let (mesh, display) = display(
             &graph,
@@ -332,13 +357,19 @@ fn beam_source_halves_the_error_of_the_directionally_lit_milk_sphere() {
             .image;
         errors.push(relative_rms(&image, &reference));
     }
-    // Measured: beam 6.9, 5.1, 5.4 (5.8)%; boundary flux 15.9, 10.7, 8.6 (11.9)%; noise 1.6%.
-    assert!(errors[0].1 < 0.072, "{errors:?}");
-    assert!(errors[1].1 > errors[0].1 + 0.04, "{errors:?}");
+    println!("collimated, flux: {errors:?}");
+    // Measured (the collimated source of DESIGN 2.7, CI bake): 11.8, 7.8, 5.5 (8.6)%; boundary
+    // flux 15.9, 10.7, 8.6 (11.9)%; noise 1.6%. (The earlier volume deposit along the beam gave
+    // 5.8% here but needed cells under a mean free path; this needs none.)
+    assert!(errors[0].1 < COLLIMATED_MILK, "{errors:?}");
+    assert!(errors[1].1 > errors[0].1 + COLLIMATED_GAIN, "{errors:?}");
 
-    // The entry points are ray-cast: without the solid it is a typed error.
+    // One bounce casts rays between surface points: without the solid it is a typed error.
     let params = CpuSolveParams {
-        beam_source: true,
+        transport: Transport {
+            bounce_rays: 8,
+            ..Transport::collimated()
+        },
         ..CpuSolveParams::default()
     };
     assert!(matches!(

@@ -104,10 +104,18 @@ pub struct RenderArgs {
     /// projected onto order-2 spherical harmonics.
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
-    /// Experiment (CPU solver only): the lights' transmitted light as a volume source along the
-    /// unscattered beam (solver::cpu::beam_source) instead of a boundary flux.
+    /// The lights' transmitted light as the collimated source of DESIGN 2.7 (GPU and CPU, the
+    /// same formulas: solver::transport::Transport::gpu_collimated), read by the moments exit
+    /// query (implied), instead of a boundary flux. Homogeneous materials on the GPU (a
+    /// heterogeneous one falls back to the boundary flux).
     #[arg(long)]
     pub beam_source: bool,
+    /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
+    /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
+    /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).
+    /// `--beam-source` implies `moments`.
+    #[arg(long, value_name = "flux|moments", value_parser = ["flux", "moments"])]
+    pub exit_query: Option<String>,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -205,8 +213,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         other => bail!("--method {other}: unknown (quadgraph, voxel, dipole)"),
     }
     let on_gpu = args.solver == "gpu";
-    if args.beam_source && on_gpu {
-        bail!("--beam-source is a CPU solver experiment: add --solver cpu");
+    if args.beam_source && args.exit_query.as_deref() == Some("flux") {
+        bail!("--beam-source is read by the moments exit query (DESIGN 2.6-2.7): drop --exit-query flux");
     }
     if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");
@@ -283,6 +291,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Scheme::Fv
     };
     // Solve on the CPU (f64 reference), or below on the GPU.
+    let exit_query: solver::transport::ExitQuery =
+        args.exit_query.as_deref().unwrap_or("flux").parse()?;
     let solve_params = CpuSolveParams {
         scheme,
         iterations: vec![args
@@ -290,7 +300,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or(CpuSolveParams::default().iterations[0])],
         tolerance: args.tolerance,
         exact: args.iterations.is_none() && !multigrid,
-        beam_source: args.beam_source,
+        transport: if args.beam_source {
+            solver::transport::Transport::gpu_collimated()
+        } else {
+            solver::transport::Transport {
+                exit: exit_query,
+                ..solver::transport::Transport::default()
+            }
+        },
         schedule: if multigrid {
             Schedule::Multigrid(MultigridParams {
                 tolerance: args.tolerance,
@@ -337,6 +354,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             u32::try_from(args.iterations.unwrap_or(2000)).context("--iterations: too large")?
         ],
         tolerance: args.tolerance as f32,
+        exit: if args.beam_source {
+            solver::transport::ExitQuery::Moments
+        } else {
+            exit_query
+        },
+        collimated: args.beam_source,
         ..GpuSolveParams::default()
     };
     let graph = Arc::new(graph);

@@ -31,7 +31,9 @@ use super::plan::{MethodWork, Update};
 use super::report::{CompletedSolve, SkipReason};
 use crate::material::MaterialField;
 use crate::mesh::GpuMesh;
-use crate::render::{q_scale_for, GatherLevel, GatherScene, IrradiancePass, ShadowMaps};
+use crate::render::{
+    q_scale_for, BeamSource, GatherLevel, GatherScene, IrradiancePass, ShadowMaps,
+};
 use crate::scene::Scene;
 use crate::solver::cpu::Energy;
 use crate::solver::gpu::edit::StagedEdits;
@@ -103,6 +105,28 @@ pub struct QuadGraphMethod {
     prepared: Prepared,
 }
 
+/// The gather's collimated source (DESIGN 2.7) for the solve's boundary model: on when the solve
+/// asks for it and the material is homogeneous (the gather takes one set of coefficients);
+/// `None` (the boundary flux) otherwise: a heterogeneous field falls back to the boundary flux.
+fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource> {
+    let MaterialField::Homogeneous(m) = field else {
+        return None;
+    };
+    if !solve.params().collimated {
+        return None;
+    }
+    let b = solve.boundary();
+    let c = m.coefficients();
+    Some(BeamSource {
+        sigma_s: c.sigma_s.map(|v| v as f32),
+        sigma_a: c.sigma_a.map(|v| v as f32),
+        a: b.a as f32,
+        exit_phi: (0.25 * (1.0 - 2.0 * b.c1)) as f32,
+        exit_flux: (0.5 * (1.0 - 3.0 * b.c2)) as f32,
+        flux_gain: b.flux_gain as f32,
+    })
+}
+
 /// How a [`QuadGraphMethod`] solves.
 #[derive(Clone, Debug)]
 pub struct QuadGraphParams {
@@ -131,16 +155,20 @@ impl QuadGraphMethod {
         let eta = field.eta();
         let q_scale = q_scale_for(scene, graph.finest(), eta);
         solve.set_q_scale(q_scale);
-        let gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
+        let mut gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
+        // The environment's transmitted fraction of the solve's boundary model (DESIGN 2.6).
+        gather.env_transmittance = Some(solve.boundary().diffuse_transmittance() as f32);
+        gather.beam = beam_source(&solve, field);
         let mut levels = Vec::with_capacity(graph.levels.len());
         for h in 0..graph.levels.len() {
             let missing = || Error::Solver(SolverError::EmptyGraph);
-            levels.push(gather.bind_level(
+            levels.push(gather.bind_level_with(
                 ctx,
                 shadows,
                 solve.surface_position(h).ok_or_else(missing)?,
                 solve.surface_normal(h).ok_or_else(missing)?,
                 solve.q_image(h).ok_or_else(missing)?,
+                solve.particular_image(h).ok_or_else(missing)?,
                 solve.surface_rows(h).ok_or_else(missing)?,
             )?);
         }
@@ -206,8 +234,11 @@ impl QuadGraphMethod {
         occluder: Option<&dyn crate::mesh::Solid>,
     ) -> Result<QuadGraphReport, Error> {
         let level = self.graph.finest();
-        let op = LevelOperator::build(level, field, self.solve.params().scheme)?;
-        let q = scene.surface_irradiance(level, field.eta(), occluder);
+        let boundary = self.solve.boundary();
+        let op =
+            LevelOperator::build_with(level, field, self.solve.params().scheme, boundary.exit)?;
+        let t_env = boundary.diffuse_transmittance();
+        let q = scene.surface_irradiance_with(level, field.eta(), occluder, t_env);
         let b = op.rhs(&q);
         let phi: Vec<[f64; 3]> = self
             .solve
@@ -220,9 +251,9 @@ impl QuadGraphMethod {
         let mut energy = Energy::default();
         for s in 0..level.surface_count() {
             for c in 0..3 {
-                let j = (1.0 + 1.0 / op.a) * phi[inner + s][c] / 4.0 - q[s][c] / (1.0 + op.f_dr);
+                let m = boundary.flux_exitance(phi[inner + s][c], q[s][c]);
                 energy.transmitted_input[c] += q[s][c] * op.areas[s];
-                energy.exitance[c] += (1.0 - op.f_dr) * j * op.areas[s];
+                energy.exitance[c] += m * op.areas[s];
             }
         }
         for ((mu, p), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
@@ -251,6 +282,9 @@ impl QuadGraphMethod {
             if let Some(q) = self.solve.q_image(h) {
                 uses.push(Use::image(q, Access::ComputeWrite));
             }
+            if let Some(p) = self.solve.particular_image(h) {
+                uses.push(Use::image(p, Access::ComputeWrite));
+            }
         }
         uses
     }
@@ -278,6 +312,8 @@ impl Method for QuadGraphMethod {
     fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
         self.solve.set_material(ctx, &self.graph, field)?;
         self.eta = field.eta() as f32;
+        self.gather.env_transmittance = Some(self.solve.boundary().diffuse_transmittance() as f32);
+        self.gather.beam = beam_source(&self.solve, field);
         Ok(())
     }
 

@@ -62,6 +62,32 @@ pub struct ClosestPoint {
     pub face: u32,
 }
 
+/// Turns the faces of the parts that wind inward (`flips`, per face) and points the vertex
+/// normals out of the solid: the file's normals where they agree with the outward faces, negated
+/// where they do not (an inside-out file may or may not flip its normals), recomputed from the
+/// faces where the file had none. Why: the display mesh shades with these normals, and an inward
+/// normal sees no light and shows nothing (issue 12: inside-out meshes rendered black).
+fn orient_outward(mesh: &mut TriMesh, flips: &[bool]) {
+    if !flips.iter().any(|&f| f) {
+        return;
+    }
+    for (tri, &flip) in mesh.indices.iter_mut().zip(flips) {
+        if flip {
+            tri.swap(1, 2);
+        }
+    }
+    let file_normals = std::mem::take(&mut mesh.normals);
+    mesh.compute_normals();
+    if file_normals.len() == mesh.normals.len() {
+        for (n, file) in mesh.normals.iter_mut().zip(file_normals) {
+            let file = file.normalize_or_zero();
+            if file != DVec3::ZERO && *n != DVec3::ZERO {
+                *n = if file.dot(*n) < 0.0 { -file } else { file };
+            }
+        }
+    }
+}
+
 impl MeshSolid {
     /// Builds the hierarchy over `mesh` (normalize first, see [`TriMesh::normalized`]). Faces wound
     /// against their neighbours are turned to agree with them (two corners swapped; they would
@@ -95,8 +121,10 @@ impl MeshSolid {
         let flips = super::orient::outward_flips(&mesh, &bvh, &parts);
         let bounds = mesh.bounds();
         let epsilon = 1e-9 * (0.5 * (bounds.1 - bounds.0).length()).max(f64::MIN_POSITIVE);
+        let inverted = mesh.signed_volume() < 0.0;
+        orient_outward(&mut mesh, &flips);
         Ok(MeshSolid {
-            inverted: mesh.signed_volume() < 0.0,
+            inverted,
             flips,
             mesh,
             bvh,
@@ -129,13 +157,14 @@ impl MeshSolid {
     }
 
     /// The mesh this solid was built from, with faces wound against their neighbours turned (see
-    /// [`MeshSolid::new`]): the surface to display with it.
+    /// [`MeshSolid::new`]) and every part wound outward, its vertex normals pointing out of the
+    /// solid (an inside-out file displays like its outward twin): the surface to display with it.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
     }
 
-    /// Whether the faces wind inward (negative signed volume). Ray normals point outward either way
-    /// (see [`RayHit::normal`]).
+    /// Whether the input's faces wound inward (negative signed volume; [`Self::mesh`] is turned
+    /// outward). Ray normals point outward either way (see [`RayHit::normal`]).
     pub fn is_inverted(&self) -> bool {
         self.inverted
     }

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::graph::{split_multi_boundary, GraphLevel, QuadGraph, NO_NODE};
-use super::{packing, shepard, BakeError};
+use super::{packing, shepard, surface_samples, BakeError};
 use crate::limits::{Limit, Limits};
 use crate::mesh::{Solid, TriMesh};
 use crate::tet::stuffing::{angle_range, StuffParams};
@@ -316,6 +316,9 @@ impl QuadGraph {
         let shading = shepard::shading_weights(surface, finest);
         timings.push(("shading".into(), start.elapsed().as_secs_f64()));
         let start = Instant::now();
+        let samples = surface_samples::surface_samples(surface, finest, solid);
+        timings.push(("samples".into(), start.elapsed().as_secs_f64()));
+        let start = Instant::now();
         for (l, level) in levels.iter_mut().enumerate() {
             progress(BakeProgress {
                 stage: "packing",
@@ -329,6 +332,7 @@ impl QuadGraph {
             levels,
             surface: surface.clone(),
             shading,
+            samples,
         };
         let mut summary = graph.stats();
         for (s, from_stats) in summary.levels.iter_mut().zip(stats) {

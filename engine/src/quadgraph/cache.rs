@@ -25,13 +25,14 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use super::graph::{GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks};
+use super::surface_samples::SurfaceSamples;
 use super::{BakeError, BakeParams, BakeProgress, BakeStats};
 use crate::limits::{Limit, Limits};
 use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -380,6 +381,10 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
     w.u32s(&g.surface.indices);
     w.u32s(&g.shading.links);
     w.f64s(&g.shading.weights);
+    w.f64s(&g.samples.depth.iter().map(|&d| [d]).collect::<Vec<_>>());
+    w.u32s(&g.samples.nodes);
+    w.f64s(&g.samples.weights);
+    w.u32s(&g.samples.cell.iter().map(|&c| [c]).collect::<Vec<_>>());
     w.len(g.levels.len());
     for l in &g.levels {
         w.f64(l.spacing);
@@ -419,6 +424,16 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     let shading = ShadingWeights {
         links: r.u32s()?,
         weights: r.f64s()?,
+    };
+    let depth: Vec<[f64; 1]> = r.f64s()?;
+    let nodes = r.u32s()?;
+    let weights = r.f64s()?;
+    let cell: Vec<[u32; 1]> = r.u32s()?;
+    let samples = SurfaceSamples {
+        depth: depth.into_iter().map(|[d]| d).collect(),
+        nodes,
+        weights,
+        cell: cell.into_iter().map(|[c]| c).collect(),
     };
     let n = r.len(1)?;
     let mut levels = Vec::with_capacity(n);
@@ -470,6 +485,7 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
         levels,
         surface,
         shading,
+        samples,
     })
 }
 
@@ -554,6 +570,28 @@ fn check(g: &QuadGraph) -> Result<(), String> {
     }
     if g.shading.links.len() != nv || g.shading.weights.len() != nv {
         return Err("shading weights do not match the surface's vertices".into());
+    }
+    let samples = &g.samples;
+    let sampled = samples.depth.len();
+    if sampled != 0
+        && (sampled != nv
+            || samples.nodes.len() != nv
+            || samples.weights.len() != nv
+            || samples.cell.len() != nv)
+    {
+        return Err("surface samples do not match the surface's vertices".into());
+    }
+    let finest_inner = g.finest().inner_count();
+    for (nodes, &cell) in samples.nodes.iter().zip(&samples.cell) {
+        nodes
+            .iter()
+            .chain(std::iter::once(&cell))
+            .try_for_each(|&i| in_range("surface sample node", i, finest_inner))?;
+    }
+    if samples.depth.iter().any(|d| !(d.is_finite() && *d >= 0.0))
+        || samples.weights.iter().flatten().any(|w| !w.is_finite())
+    {
+        return Err("surface sample depths or weights are not finite".into());
     }
     let finest_surface = g.finest().surface_count();
     for l in &g.shading.links {

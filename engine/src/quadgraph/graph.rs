@@ -111,6 +111,9 @@ pub struct QuadGraph {
     pub surface: crate::mesh::TriMesh,
     /// Shading weights of `surface`'s vertices into the finest level.
     pub shading: ShadingWeights,
+    /// Interior sample points of `surface`'s vertices in the finest level (the exit query's
+    /// depth-sampled reconstruction; empty for graphs built without a bake).
+    pub samples: super::surface_samples::SurfaceSamples,
 }
 
 impl QuadGraph {

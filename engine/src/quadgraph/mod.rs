@@ -24,6 +24,7 @@ pub mod export;
 pub mod graph;
 pub mod packing;
 pub mod shepard;
+pub mod surface_samples;
 
 use std::path::PathBuf;
 

@@ -85,7 +85,34 @@ pub struct GatherPush {
     pub eta: f32,
     /// Normal offset of the shadow lookup, in shadow-map texels.
     pub normal_offset: f32,
-    pub pad: f32,
+    /// Fraction of a diffuse environment irradiance transmitted into the object: 1 - F_dr,ext
+    /// (the flux-only query) or 1 - 2 C1(1/eta) (the moments query of DESIGN 2.6).
+    pub env_transmittance: f32,
+    pub pad: [f32; 2],
+    /// rgb: sigma_s'; w: 1 for the collimated source (DESIGN 2.7), 0 for the boundary flux.
+    pub beam_sigma_s: [f32; 4],
+    /// rgb: sigma_a; w: the boundary constant A.
+    pub beam_sigma_a: [f32; 4],
+    /// x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain, w: 0.
+    pub beam_exit: [f32; 4],
+}
+
+/// The collimated source of DESIGN 2.7 for a homogeneous material (what the gather needs of the
+/// solver's boundary model, DESIGN 2.6): the lights' beams enter as analytic particular
+/// solutions instead of a boundary flux (see `gather_q.comp`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeamSource {
+    /// Reduced scattering sigma_s' and absorption sigma_a per channel (1/mm).
+    pub sigma_s: [f32; 3],
+    pub sigma_a: [f32; 3],
+    /// The boundary constant A = (1 + 3 C2) / (1 - 2 C1).
+    pub a: f32,
+    /// The exit query's weights of phi and of D dphi/dz_in: (1 - 2 C1) / 4 and (1 - 3 C2) / 2.
+    pub exit_phi: f32,
+    pub exit_flux: f32,
+    /// The Robin rows' flux gain 4 / (1 - 2 C1): the beam's right-hand side is written into q
+    /// divided by it.
+    pub flux_gain: f32,
 }
 
 /// One light as `gather_q.comp` reads it (std430, all vec4).
@@ -262,6 +289,8 @@ pub fn q_scale_for(scene: &Scene, level: &GraphLevel, eta: f64) -> f32 {
 pub struct GatherLevel {
     set: vk::DescriptorSet,
     extent: [u32; 2],
+    /// A `particular` image of its own is bound (zeroed when the lights are a boundary flux).
+    particular: bool,
 }
 
 /// The gather pipeline, its scene buffer and the shadow atlas sampler.
@@ -271,6 +300,12 @@ pub struct IrradiancePass {
     sampler: Sampler,
     /// Normal offset of shadow lookups in texels of the light's view (default 1.5).
     pub normal_offset: f32,
+    /// Transmitted fraction of a diffuse environment irradiance; `None`: 1 - F_dr,ext(eta)
+    /// (DESIGN section 2). The moments query (DESIGN 2.6) sets 1 - 2 C1(1/eta).
+    pub env_transmittance: Option<f32>,
+    /// The lights as the collimated source of DESIGN 2.7 (`None`: a boundary flux). Needs the
+    /// levels bound with a `particular` image ([`Self::bind_level_with`]).
+    pub beam: Option<BeamSource>,
 }
 
 impl IrradiancePass {
@@ -287,6 +322,7 @@ impl IrradiancePass {
                     "q",
                     "shadow_atlas",
                     "scene",
+                    "particular",
                 ],
                 max_sets: max_levels.max(1),
             },
@@ -315,6 +351,8 @@ impl IrradiancePass {
             scene,
             sampler,
             normal_offset: 1.5,
+            env_transmittance: None,
+            beam: None,
         })
     }
 
@@ -329,10 +367,28 @@ impl IrradiancePass {
         q: &Image,
         surface_rows: u32,
     ) -> Result<GatherLevel, RenderError> {
+        // No collimated source: `particular` is never written, q stands in for the binding.
+        self.bind_level_with(ctx, shadows, position, normal, q, q, surface_rows)
+    }
+
+    /// [`Self::bind_level`] with the image the collimated source ([`Self::beam`]) writes its
+    /// exit-query part into (rgba16f, pre-scaled like q, the same texels).
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind_level_with(
+        &self,
+        ctx: &Context,
+        shadows: &ShadowMaps,
+        position: &Image,
+        normal: &Image,
+        q: &Image,
+        particular: &Image,
+        surface_rows: u32,
+    ) -> Result<GatherLevel, RenderError> {
         for (image, format, role) in [
             (position, SURFACE_POSITION_FORMAT, "surface_position"),
             (normal, SURFACE_NORMAL_FORMAT, "surface_normal"),
             (q, Q_FORMAT, "q"),
+            (particular, Q_FORMAT, "particular"),
         ] {
             if image.format != format {
                 return Err(invalid(
@@ -365,6 +421,7 @@ impl IrradiancePass {
                 DescriptorWrite::storage_image("surface_position", position),
                 DescriptorWrite::storage_image("surface_normal", normal),
                 DescriptorWrite::storage_image("q", q),
+                DescriptorWrite::storage_image("particular", particular),
                 DescriptorWrite::SampledImage {
                     name: "shadow_atlas",
                     image: &shadows.atlas,
@@ -380,6 +437,7 @@ impl IrradiancePass {
         Ok(GatherLevel {
             set,
             extent: [q.width, surface_rows],
+            particular: particular.raw != q.raw,
         })
     }
 
@@ -446,7 +504,23 @@ impl IrradiancePass {
             q_scale,
             eta,
             normal_offset: self.normal_offset,
-            pad: 0.0,
+            env_transmittance: self
+                .env_transmittance
+                .unwrap_or((1.0 - fresnel::external_diffuse_reflectance(f64::from(eta))) as f32),
+            pad: [0.0; 2],
+            // w: 1 beams, 0 a boundary flux (the level's particular image zeroed), -1 a boundary
+            // flux with no particular image of its own (q stands in: never written).
+            beam_sigma_s: match (self.beam, level.particular) {
+                (Some(b), true) => [b.sigma_s[0], b.sigma_s[1], b.sigma_s[2], 1.0],
+                (_, true) => [0.0; 4],
+                (_, false) => [0.0, 0.0, 0.0, -1.0],
+            },
+            beam_sigma_a: self.beam.map_or([0.0; 4], |b| {
+                [b.sigma_a[0], b.sigma_a[1], b.sigma_a[2], b.a]
+            }),
+            beam_exit: self
+                .beam
+                .map_or([0.0; 4], |b| [b.exit_phi, b.exit_flux, b.flux_gain, 0.0]),
         };
         // SAFETY: the caller's contract.
         unsafe {

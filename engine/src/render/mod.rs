@@ -22,8 +22,9 @@ mod shadow_maps;
 mod target;
 
 pub use irradiance::{
-    q_scale_for, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView, IrradiancePass,
-    SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT, SURFACE_POSITION_FORMAT,
+    q_scale_for, BeamSource, GatherLevel, GatherLight, GatherPush, GatherScene, GatherView,
+    IrradiancePass, SurfaceImages, FP16_MAX, Q_FORMAT, SURFACE_NORMAL_FORMAT,
+    SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{environment_sh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms};

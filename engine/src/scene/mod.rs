@@ -99,6 +99,21 @@ impl Scene {
         occluder: Option<&dyn Solid>,
         offset: f64,
     ) -> [f64; 3] {
+        let t_env = 1.0 - fresnel::external_diffuse_reflectance(eta);
+        self.irradiance_at_with(p, n, eta, occluder, offset, t_env)
+    }
+
+    /// [`Self::irradiance_at`] with the environment's transmitted fraction `t_env` given (the
+    /// moments query of DESIGN 2.6 uses 1 - 2 C1(1/eta) instead of 1 - F_dr,ext).
+    pub fn irradiance_at_with(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        eta: f64,
+        occluder: Option<&dyn Solid>,
+        offset: f64,
+        t_env: f64,
+    ) -> [f64; 3] {
         let mut q = [0.0; 3];
         for light in &self.lights {
             let (e, l, dist) = light.arriving(p);
@@ -118,7 +133,6 @@ impl Scene {
             }
         }
         let env = self.environment.irradiance(n);
-        let t_env = 1.0 - fresnel::external_diffuse_reflectance(eta);
         for c in 0..3 {
             q[c] += env[c] * t_env;
         }
@@ -132,18 +146,31 @@ impl Scene {
         eta: f64,
         occluder: Option<&dyn Solid>,
     ) -> Vec<[f64; 3]> {
+        let t_env = 1.0 - fresnel::external_diffuse_reflectance(eta);
+        self.surface_irradiance_with(level, eta, occluder, t_env)
+    }
+
+    /// [`Self::surface_irradiance`] with the environment's transmitted fraction `t_env` given.
+    pub fn surface_irradiance_with(
+        &self,
+        level: &GraphLevel,
+        eta: f64,
+        occluder: Option<&dyn Solid>,
+        t_env: f64,
+    ) -> Vec<[f64; 3]> {
         let inner = level.inner_count();
         // Far enough off the surface to miss it under f64 round-off, far below the lattice scale.
         let offset = 1e-4 * level.spacing.max(1e-6);
         (0..level.surface_count())
             .into_par_iter()
             .map(|s| {
-                self.irradiance_at(
+                self.irradiance_at_with(
                     level.positions[inner + s],
                     level.surface_normals[s],
                     eta,
                     occluder,
                     offset,
+                    t_env,
                 )
             })
             .collect()

@@ -29,9 +29,13 @@
 
 use rayon::prelude::*;
 
+use glam::DVec3;
+
 use super::krylov::{self, KrylovReport};
 use super::multigrid::{Hierarchy, MultigridParams, MultigridReport, Start};
 use super::operator::{check_level, LevelOperator, Scheme};
+use super::sources::{LocalSource, SourceModel};
+use super::transport::{profile_from_sample, Boundary, Optics, SurfaceReconstruction, Transport};
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};
 use crate::mesh::Solid;
@@ -66,10 +70,10 @@ pub struct CpuSolveParams {
     /// Initial phi on the coarsest level (node order of that level); zero when `None`. With
     /// [`Schedule::Multigrid`]: the finest level's previous solution (a warm start).
     pub initial: Option<Vec<[f64; 3]>>,
-    /// Opt-in experiment (issue 6): deposit the lights' transmitted light as a volume source along
-    /// the unscattered beam instead of as the boundary flux q (see [`beam_source`]). The
-    /// environment stays a boundary flux. Needs the `occluder` (entry points are ray-cast).
-    pub beam_source: bool,
+    /// The transport terms (issue 12): exit query, source, continuation through thin walls, the
+    /// surface reconstruction, one bounce. The default is the model of DESIGN section 2 (what
+    /// the GPU frame computes). Single scattering is view-dependent: [`super::single_scattering`].
+    pub transport: Transport,
     /// How the levels are used: the paper's one-way cascade (default here) or multigrid cycles.
     pub schedule: Schedule,
 }
@@ -98,7 +102,7 @@ impl Default for CpuSolveParams {
             exact_tolerance: 1e-10,
             exact_max_iterations: 100_000,
             initial: None,
-            beam_source: false,
+            transport: Transport::default(),
             schedule: Schedule::Cascade,
         }
     }
@@ -130,13 +134,17 @@ pub struct LevelReport {
 pub struct CpuSolution {
     /// phi at every node of the finest level (inner, then surface).
     pub phi: Vec<[f64; 3]>,
-    /// Transmitted irradiance q per surface node.
+    /// The diffuse boundary flux q per surface node (all of the transmitted light with the
+    /// boundary-flux source; the environment's only, or nothing, with beams).
     pub q: Vec<[f64; 3]>,
-    /// J+ per surface node as the model gives it (may be negative for strong absorbers).
+    /// Per surface node the value the mesh pass shades, F_t X / (pi eta^2): J+ for the classic
+    /// exit query, M eta^2 / (1 - 2 C1(1/eta)) for the moments query (may be negative for strong
+    /// absorbers).
     pub j_plus: Vec<[f64; 3]>,
-    /// J+ clamped at zero: what is displayed.
+    /// The same clamped at zero: what is displayed.
     pub j_plus_clamped: Vec<[f64; 3]>,
-    /// Clamped J+ interpolated to `QuadGraph::surface`'s vertices with the shading weights.
+    /// The displayed value per vertex of `QuadGraph::surface`: the clamped node values through the
+    /// shading weights, or the depth-sampled exit query (`Transport::surface`), clamped at zero.
     pub vertex_j_plus: Vec<[f32; 3]>,
     /// Surface nodes clamped per channel.
     pub clamped: [usize; 3],
@@ -151,6 +159,15 @@ pub struct CpuSolution {
     pub operator: LevelOperator,
     /// What the multigrid cycles did ([`Schedule::Multigrid`] only).
     pub multigrid: Option<MultigridReport>,
+    /// Exitance leaving the object per finest surface node (DESIGN 2.6's M, or (1 - F_dr) J+).
+    pub exitance: Vec<[f64; 3]>,
+    /// Exitance per display vertex (unclamped).
+    pub vertex_exitance: Vec<[f64; 3]>,
+    /// Display vertices whose shading value was clamped at zero, per channel.
+    pub vertex_clamped: [usize; 3],
+    /// The finest level's sources per surface node (bounce included).
+    pub sources: Vec<LocalSource>,
+    pub boundary: Boundary,
 }
 
 /// Jacobi on one level from `x`; returns the iterations run and the error estimate (see
@@ -235,7 +252,33 @@ fn check_links(
     Ok(())
 }
 
+/// One level's surface sources and the extrapolation length h = 2 A kappa of each surface row.
+fn level_sources(
+    level: &GraphLevel,
+    material: &MaterialField,
+    model: &SourceModel,
+    op: &LevelOperator,
+) -> (Vec<LocalSource>, Vec<[f64; 3]>) {
+    let inner = level.inner_count();
+    (0..level.surface_count())
+        .into_par_iter()
+        .map(|s| {
+            let x = level.positions[inner + s];
+            let here = material.sample(x);
+            // The row's kappa: the cell's for fv, the surface node's own for the paper scheme.
+            let row = match op.scheme {
+                Scheme::Fv => material.sample(level.positions[level.surface_faces[s].0 as usize]),
+                Scheme::Paper => here,
+            };
+            let h: [f64; 3] = std::array::from_fn(|c| 2.0 * op.a * row.kappa()[c]);
+            (model.at_with(x, level.surface_normals[s], &here, h), h)
+        })
+        .unzip()
+}
+
 /// Solves the diffusion problem on `graph` lit by `scene` (shadows cast by `occluder` when given).
+// why: the energy sums index several [f64; 3] arrays per channel at once.
+#[allow(clippy::needless_range_loop)]
 pub fn solve(
     graph: &QuadGraph,
     material: &MaterialField,
@@ -259,90 +302,153 @@ pub fn solve(
             problem: format!("{} must be finite and > 0", params.exact_tolerance),
         });
     }
+    let transport = params.transport;
+    if transport.bounce_rays > 0 && occluder.is_none() {
+        return Err(SolverError::BadParameter {
+            name: "bounce_rays",
+            problem: "one bounce between surface points needs the solid (occluder) to cast rays"
+                .into(),
+        });
+    }
+    if !(transport.thin_wall_mfp.is_finite() && transport.thin_wall_mfp >= 0.0) {
+        return Err(SolverError::BadParameter {
+            name: "thin_wall_mfp",
+            problem: format!("{} must be finite and >= 0", transport.thin_wall_mfp),
+        });
+    }
+    let vertices = graph.surface.positions.len();
+    if transport.surface == SurfaceReconstruction::DepthSample
+        && vertices > 0
+        && graph.samples.depth.len() != vertices
+    {
+        return Err(SolverError::BadParameter {
+            name: "surface",
+            problem: format!(
+                "the depth-sampled exit query needs the bake's surface samples ({} for {vertices} vertices: bake again)",
+                graph.samples.depth.len()
+            ),
+        });
+    }
     let eta = material.eta();
     crate::material::check_eta(eta)?;
     let finest = graph.levels.len() - 1;
-    let (op, q, b, beam_power, phi, reports, exact, multigrid) = match &params.schedule {
-        Schedule::Cascade => {
-            let (phi, reports, (op, q, b, beam_power)) =
-                cascade(graph, material, scene, occluder, params)?;
-            let mut phi = phi;
-            let exact = params.exact.then(|| {
-                krylov::solve(
-                    &op,
-                    &b,
-                    &mut phi,
-                    params.exact_tolerance,
-                    params.exact_max_iterations,
-                )
-            });
-            (op, q, b, beam_power, phi, reports, exact, None)
-        }
-        Schedule::Multigrid(mg) => {
-            let mg = MultigridParams {
-                tolerance: if params.exact {
-                    params.exact_tolerance
-                } else {
-                    mg.tolerance
-                },
-                ..mg.clone()
-            };
-            for (h, level) in graph.levels.iter().enumerate() {
-                check_level(level).map_err(|e| e.at_level(h))?;
+    let level = &graph.levels[finest];
+    let inner = level.inner_count();
+    // The finest level's system, sources and phi, by the schedule. Both use the transport's source
+    // model and its boundary constants (exit query) on every level.
+    let mut hierarchy_mg: Option<(Hierarchy, MultigridParams)> = None;
+    let (op, mut sources, row_h, mut b, boundary, cap, mut phi, reports, mut exact, mut multigrid) =
+        match &params.schedule {
+            Schedule::Cascade => {
+                let (phi, reports, (op, sources, row_h, b, boundary, cap)) =
+                    cascade(graph, material, scene, occluder, params)?;
+                (op, sources, row_h, b, boundary, cap, phi, reports, None, None)
             }
-            let hierarchy = Hierarchy::build(graph, material, params.scheme, &mg)?;
-            let (q, b, beam_power) = level_source(
-                &graph.levels[finest],
-                &hierarchy.finest,
-                material,
-                scene,
-                occluder,
-                params.beam_source,
-            )?;
-            let start = match &params.initial {
-                Some(previous) if previous.len() == graph.levels[finest].node_count() => {
-                    Start::Warm(previous)
+            Schedule::Multigrid(mg) => {
+                let mg = MultigridParams {
+                    tolerance: if params.exact {
+                        params.exact_tolerance
+                    } else {
+                        mg.tolerance
+                    },
+                    ..mg.clone()
+                };
+                for (h, level) in graph.levels.iter().enumerate() {
+                    check_level(level).map_err(|e| e.at_level(h))?;
                 }
-                Some(previous) => {
-                    return Err(SolverError::BadParameter {
-                        name: "initial",
-                        problem: format!(
-                            "{} values for the finest level's {} nodes",
-                            previous.len(),
-                            graph.levels[finest].node_count()
-                        ),
+                let hierarchy =
+                    Hierarchy::build_with(graph, material, params.scheme, transport.exit, &mg)?;
+                let model =
+                    SourceModel::new(scene, material, occluder, transport, ray_offset(level));
+                let (sources, row_h) = level_sources(level, material, &model, &hierarchy.finest);
+                let mut b = vec![[0.0; 3]; level.node_count()];
+                for (s, src) in sources.iter().enumerate() {
+                    b[inner + s] = src.rhs;
+                }
+                let start = match &params.initial {
+                    Some(previous) if previous.len() == level.node_count() => {
+                        Start::Warm(previous)
+                    }
+                    Some(previous) => {
+                        return Err(SolverError::BadParameter {
+                            name: "initial",
+                            problem: format!(
+                                "{} values for the finest level's {} nodes",
+                                previous.len(),
+                                level.node_count()
+                            ),
+                        })
+                    }
+                    None => Start::Cold,
+                };
+                let (phi, report) = multigrid_solve(&hierarchy, &b, start, &mg)?;
+                let reports = graph
+                    .levels
+                    .iter()
+                    .zip(&report.sweeps)
+                    .map(|(level, &sweeps)| LevelReport {
+                        surface_nodes: level.surface_count(),
+                        inner_nodes: level.inner_count(),
+                        jacobi_iterations: sweeps as usize,
+                        jacobi_error_estimate: None,
                     })
-                }
-                None => Start::Cold,
-            };
-            let f = hierarchy.scale(&b);
-            let (phi, report) = hierarchy.solve(&f, start, &mg, &mut |_, _| {});
-            if report.residual.is_nan() || report.residual >= super::multigrid::DIVERGED {
-                return Err(SolverError::Diverged {
-                    residual: report.residual,
-                    cycles: report.cycles.len(),
-                    hint: "use the Galerkin coarse operator on strong material contrasts",
-                });
+                    .collect();
+                let op = hierarchy.finest.clone();
+                hierarchy_mg = Some((hierarchy, mg));
+                let boundary = model.boundary;
+                (op, sources, row_h, b, boundary, 0, phi, reports, None, Some(report))
             }
-            let reports = graph
-                .levels
-                .iter()
-                .zip(&report.sweeps)
-                .map(|(level, &sweeps)| LevelReport {
-                    surface_nodes: level.surface_count(),
-                    inner_nodes: level.inner_count(),
-                    jacobi_iterations: sweeps as usize,
-                    jacobi_error_estimate: None,
-                })
-                .collect();
-            let Hierarchy { finest: op, .. } = hierarchy;
-            (op, q, b, beam_power, phi, reports, None, Some(report))
+        };
+    // The exact solve (cascade) or the multigrid cycles again (warm) after the bounce.
+    let exact_solve = |phi: &mut Vec<[f64; 3]>, b: &[[f64; 3]]| {
+        if params.exact {
+            Some(krylov::solve(
+                &op,
+                b,
+                phi,
+                params.exact_tolerance,
+                params.exact_max_iterations,
+            ))
+        } else {
+            None
         }
     };
-    if phi.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(SolverError::NonFinite {
-            what: "phi (the solve diverged: the paper scheme is not guaranteed to converge under Jacobi)".into(),
-        });
+    if hierarchy_mg.is_none() {
+        exact = exact_solve(&mut phi, &b);
+    }
+    check_finite(&phi)?;
+
+    // One bounce: the exitance of the first solve lights the surface points it can see.
+    let mut bounce_sources = Vec::new();
+    if let (Some(solid), true) = (occluder, transport.bounce_rays > 0) {
+        let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
+        let exitance = node_exitance(&op, &boundary, &sources, &row_h, &phi, material, level);
+        bounce_sources = super::bounce::bounce_sources(
+            level,
+            &exitance,
+            &model,
+            solid,
+            &row_h,
+            transport.bounce_rays,
+        );
+        for (s, extra) in bounce_sources.iter().enumerate() {
+            sources[s].add(extra);
+            b[inner + s] = sources[s].rhs;
+        }
+        match &hierarchy_mg {
+            Some((hierarchy, mg)) => {
+                let (again, report) = multigrid_solve(hierarchy, &b, Start::Warm(&phi), mg)?;
+                phi = again;
+                multigrid = Some(report);
+            }
+            None => {
+                exact = exact_solve(&mut phi, &b);
+                if !params.exact {
+                    jacobi(&op, &b, &mut phi, cap, params.tolerance);
+                }
+            }
+        }
+        check_finite(&phi)?;
     }
     let residual = op.residual(&phi, &b);
     if residual.iter().any(|r| !r.is_finite()) {
@@ -351,17 +457,100 @@ pub fn solve(
         });
     }
 
-    let level = &graph.levels[finest];
-    let inner = level.inner_count();
-    let j_plus: Vec<[f64; 3]> = (0..level.surface_count())
-        .map(|s| {
-            std::array::from_fn(|c| {
-                (1.0 + 1.0 / op.a) * phi[inner + s][c] / 4.0 - q[s][c] / (1.0 + op.f_dr)
-            })
-        })
+    let exitance = node_exitance(&op, &boundary, &sources, &row_h, &phi, material, level);
+    let j_plus: Vec<[f64; 3]> = exitance
+        .iter()
+        .map(|m| m.map(|v| boundary.shading_input(v)))
         .collect();
+    let (j_plus_clamped, clamped) = clamp_negative(&j_plus);
+    let mut energy = Energy::default();
+    for (s, src) in sources.iter().enumerate() {
+        for c in 0..3 {
+            energy.transmitted_input[c] += src.transmitted[c] * op.areas[s];
+            energy.exitance[c] += exitance[s][c] * op.areas[s];
+            energy.absorbed[c] += src.absorbed[c] * op.areas[s];
+        }
+    }
+    for ((mu, phi_i), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
+        for c in 0..3 {
+            energy.absorbed[c] += mu[c] * phi_i[c] * v;
+        }
+    }
+    let (vertex_j_plus, vertex_exitance, vertex_clamped) = match transport.surface {
+        SurfaceReconstruction::Shepard => {
+            let v = shade_vertices(graph, &j_plus_clamped)?;
+            let m = shade_vertices(graph, &exitance)?;
+            (v, m.iter().map(|m| m.map(f64::from)).collect(), clamped)
+        }
+        SurfaceReconstruction::DepthSample => {
+            let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
+            let bounce_at_vertices = if bounce_sources.is_empty() {
+                None
+            } else {
+                Some(shade_sources(graph, &bounce_sources)?)
+            };
+            let m = reconstruct_vertices(graph, &model, &phi, bounce_at_vertices.as_deref());
+            let x: Vec<[f64; 3]> = m
+                .iter()
+                .map(|m| m.map(|v| boundary.shading_input(v)))
+                .collect();
+            let (x, vertex_clamped) = clamp_negative(&x);
+            (
+                x.iter().map(|x| x.map(|v| v as f32)).collect(),
+                m,
+                vertex_clamped,
+            )
+        }
+    };
+    // Finite phi can still give a non-finite exitance (huge finite shading weights, or an f32
+    // overflow at the vertices): found by the cache fuzz target on a crafted cache (issue 17).
+    if j_plus.iter().flatten().any(|v| !v.is_finite())
+        || vertex_j_plus.iter().flatten().any(|v| !v.is_finite())
+    {
+        return Err(SolverError::NonFinite {
+            what: "the exitance J+ (at the surface nodes or the shaded vertices)".into(),
+        });
+    }
+    Ok(CpuSolution {
+        phi,
+        q: sources.iter().map(|s| s.q_flux).collect(),
+        j_plus,
+        j_plus_clamped,
+        vertex_j_plus,
+        clamped,
+        levels: reports,
+        exact,
+        residual,
+        energy,
+        operator: op,
+        exitance,
+        vertex_exitance,
+        vertex_clamped,
+        sources,
+        boundary,
+        multigrid,
+    })
+}
+
+/// Ray origins are lifted this far off a level's surface: enough to miss it under f64 round-off,
+/// far below the lattice scale.
+fn ray_offset(level: &GraphLevel) -> f64 {
+    1e-4 * level.spacing.max(1e-6)
+}
+
+fn check_finite(phi: &[[f64; 3]]) -> Result<(), SolverError> {
+    if phi.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(SolverError::NonFinite {
+            what: "phi (the solve diverged: the paper scheme is not guaranteed to converge under Jacobi)".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Values clamped at zero, and how many were clamped per channel.
+fn clamp_negative(values: &[[f64; 3]]) -> (Vec<[f64; 3]>, [usize; 3]) {
     let mut clamped = [0usize; 3];
-    let j_plus_clamped: Vec<[f64; 3]> = j_plus
+    let out = values
         .iter()
         .map(|j| {
             std::array::from_fn(|c| {
@@ -374,58 +563,145 @@ pub fn solve(
             })
         })
         .collect();
-    // The beam source's scattered power enters through the volume (zero without it).
-    let mut energy = Energy {
-        transmitted_input: beam_power,
-        ..Energy::default()
-    };
-    for s in 0..level.surface_count() {
-        for c in 0..3 {
-            energy.transmitted_input[c] += q[s][c] * op.areas[s];
-            energy.exitance[c] += (1.0 - op.f_dr) * j_plus[s][c] * op.areas[s];
-        }
-    }
-    for ((mu, phi_i), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
-        for c in 0..3 {
-            energy.absorbed[c] += mu[c] * phi_i[c] * v;
-        }
-    }
-    let vertex_j_plus = shade_vertices(graph, &j_plus_clamped)?;
-    // Finite phi can still give a non-finite exitance (huge finite shading weights, or an f32
-    // overflow at the vertices): found by the cache fuzz target on a crafted cache (issue 17).
-    if j_plus.iter().flatten().any(|v| !v.is_finite())
-        || vertex_j_plus.iter().flatten().any(|v| !v.is_finite())
-    {
-        return Err(SolverError::NonFinite {
-            what: "the exitance J+ (at the surface nodes or the shaded vertices)".into(),
-        });
-    }
-    Ok(CpuSolution {
-        phi,
-        q,
-        j_plus,
-        j_plus_clamped,
-        vertex_j_plus,
-        clamped,
-        levels: reports,
-        exact,
-        residual,
-        energy,
-        operator: op,
-        multigrid,
-    })
+    (out, clamped)
 }
 
-/// Irradiance q per surface node, the right-hand side b and the beam source's power.
-type Source = (Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]);
-/// The finest level's system, irradiance and source, as [`solve`] assembles it.
-type Assembled = (LevelOperator, Vec<[f64; 3]>, Vec<[f64; 3]>, [f64; 3]);
+/// Exitance per surface node of the finest level from the solved remainder phi_h: the total
+/// phi = phi_h + phi_p and its inward derivative (phi_h - rhs) / h + dphi_p, read by the exit
+/// query (the Robin row says (phi_k - phi_s) / d_sk = (phi_s - rhs) / h).
+fn node_exitance(
+    op: &LevelOperator,
+    boundary: &Boundary,
+    sources: &[LocalSource],
+    row_h: &[[f64; 3]],
+    phi: &[[f64; 3]],
+    material: &MaterialField,
+    level: &GraphLevel,
+) -> Vec<[f64; 3]> {
+    let inner = op.inner_count;
+    (0..sources.len())
+        .into_par_iter()
+        .map(|s| {
+            let src = &sources[s];
+            let d = material
+                .sample(level.positions[level.surface_faces[s].0 as usize])
+                .kappa();
+            std::array::from_fn(|c| {
+                let phi_h = phi[inner + s][c];
+                let dphi_h = (phi_h - src.rhs[c]) / row_h[s][c];
+                boundary.exitance(
+                    d[c],
+                    phi_h + src.phi_p[c],
+                    dphi_h + src.dphi_p[c],
+                    src.q_flux[c],
+                )
+            })
+        })
+        .collect()
+}
+
+/// Per display vertex, the exit query on the local 1D profile through the vertex's interior sample
+/// (issue 12 item 4): the vertex's own sources (lights ray-cast from the vertex, the environment;
+/// the bounce's interpolated from the surface nodes), phi_h at the sample point, the remainder
+/// extended to the surface by [`profile_from_sample`], the particular solutions added back.
+/// Returns the exitance M per vertex (unclamped).
+pub fn reconstruct_vertices(
+    graph: &QuadGraph,
+    model: &SourceModel,
+    phi_h: &[[f64; 3]],
+    bounce: Option<&[LocalSource]>,
+) -> Vec<[f64; 3]> {
+    let surface = &graph.surface;
+    let samples = &graph.samples;
+    let level = graph.finest();
+    let boundary = model.boundary;
+    (0..surface.positions.len())
+        .into_par_iter()
+        .map(|v| {
+            let x = surface.positions[v];
+            let n = surface
+                .normals
+                .get(v)
+                .copied()
+                .unwrap_or(DVec3::Y)
+                .normalize_or(DVec3::Y);
+            // The local coefficients: those of the tetrahedron holding the sample point.
+            let cell = samples.cell[v] as usize;
+            let here = model
+                .material
+                .sample(level.positions[cell.min(level.inner_count() - 1)]);
+            let optics: [Optics; 3] = std::array::from_fn(|c| Optics::channel(&here, c));
+            let h: [f64; 3] = std::array::from_fn(|c| boundary.h(optics[c]));
+            let mut src = model.at_with(x, n, &here, h);
+            if let Some(extra) = bounce {
+                let mut e = extra[v];
+                e.rhs = std::array::from_fn(|c| {
+                    boundary.flux_gain * e.q_flux[c] - (e.phi_p[c] - h[c] * e.dphi_p[c])
+                });
+                src.add(&e);
+            }
+            let p = samples.interpolate(v, phi_h);
+            std::array::from_fn(|c| {
+                let o = optics[c];
+                let (phi0, dphi0) =
+                    profile_from_sample(o.s(), h[c], samples.depth[v], p[c], src.rhs[c]);
+                boundary.exitance(
+                    o.d(),
+                    phi0 + src.phi_p[c],
+                    dphi0 + src.dphi_p[c],
+                    src.q_flux[c],
+                )
+            })
+        })
+        .collect()
+}
+
+/// Per display vertex, the Shepard interpolation (shading weights) of per-node sources; the
+/// right-hand sides are left for the caller to recompute with the vertex's own h.
+fn shade_sources(
+    graph: &QuadGraph,
+    per_node: &[LocalSource],
+) -> Result<Vec<LocalSource>, SolverError> {
+    let fields: [fn(&LocalSource) -> [f64; 3]; 5] = [
+        |s| s.phi_p,
+        |s| s.dphi_p,
+        |s| s.q_flux,
+        |s| s.transmitted,
+        |s| s.absorbed,
+    ];
+    let shaded: Vec<Vec<[f32; 3]>> = fields
+        .iter()
+        .map(|f| shade_vertices(graph, &per_node.iter().map(f).collect::<Vec<_>>()))
+        .collect::<Result<_, _>>()?;
+    let d = |v: [f32; 3]| v.map(f64::from);
+    Ok((0..graph.surface.positions.len())
+        .map(|v| LocalSource {
+            rhs: [0.0; 3],
+            phi_p: d(shaded[0][v]),
+            dphi_p: d(shaded[1][v]),
+            q_flux: d(shaded[2][v]),
+            transmitted: d(shaded[3][v]),
+            absorbed: d(shaded[4][v]),
+        })
+        .collect())
+}
+
+/// The finest level of the cascade: its system, sources, extrapolation lengths h, right-hand side,
+/// boundary and the Jacobi cap.
+type Assembled = (
+    LevelOperator,
+    Vec<LocalSource>,
+    Vec<[f64; 3]>,
+    Vec<[f64; 3]>,
+    Boundary,
+    usize,
+);
 /// The cascade's finest phi, its per-level reports and the finest level's system.
 type Cascaded = (Vec<[f64; 3]>, Vec<LevelReport>, Assembled);
 
 /// The paper's cascade (section 4.3): Jacobi per level, coarsest first, each finer level started
-/// from the Shepard resampling of the coarser one. Returns the finest phi, the per-level reports
-/// and the finest level's system.
+/// from the Shepard resampling of the coarser one; each level's operator has the transport's
+/// boundary constants and its sources come from the transport's [`SourceModel`].
 fn cascade(
     graph: &QuadGraph,
     material: &MaterialField,
@@ -433,15 +709,22 @@ fn cascade(
     occluder: Option<&dyn Solid>,
     params: &CpuSolveParams,
 ) -> Result<Cascaded, SolverError> {
+    let transport = params.transport;
     let finest = graph.levels.len() - 1;
     let mut reports = Vec::with_capacity(graph.levels.len());
     let mut phi: Vec<[f64; 3]> = Vec::new();
     let mut last = None;
     for (h, level) in graph.levels.iter().enumerate() {
         check_level(level).map_err(|e| e.at_level(h))?;
-        let op = LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
-        let (q, b, beam_power) =
-            level_source(level, &op, material, scene, occluder, params.beam_source)?;
+        let op = LevelOperator::build_with(level, material, params.scheme, transport.exit)
+            .map_err(|e| e.at_level(h))?;
+        // Far enough off the surface to miss it under f64 round-off, far below the lattice scale.
+        let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
+        let (sources, row_h) = level_sources(level, material, &model, &op);
+        let mut b = vec![[0.0; 3]; level.node_count()];
+        for (s, src) in sources.iter().enumerate() {
+            b[level.inner_count() + s] = src.rhs;
+        }
         phi = if h == 0 {
             match &params.initial {
                 Some(guess) if guess.len() == level.node_count() => guess.clone(),
@@ -475,48 +758,30 @@ fn cascade(
             jacobi_error_estimate: estimate,
         });
         if h == finest {
-            last = Some((op, q, b, beam_power));
+            last = Some((op, sources, row_h, b, model.boundary, cap));
         }
     }
     let last = last.ok_or(SolverError::EmptyGraph)?;
     Ok((phi, reports, last))
 }
 
-/// Irradiance q at the surface nodes of `level`, the right-hand side b and the power the beam
-/// source deposits (zero without it).
-fn level_source(
-    level: &GraphLevel,
-    op: &LevelOperator,
-    material: &MaterialField,
-    scene: &Scene,
-    occluder: Option<&dyn Solid>,
-    with_beam: bool,
-) -> Result<Source, SolverError> {
-    let eta = material.eta();
-    if !with_beam {
-        let q = scene.surface_irradiance(level, eta, occluder);
-        let b = op.rhs(&q);
-        return Ok((q, b, [0.0; 3]));
+/// Multigrid cycles on the finest level's right-hand side `b` (unscaled); a diverged run is an error.
+fn multigrid_solve(
+    hierarchy: &Hierarchy,
+    b: &[[f64; 3]],
+    start: Start<'_>,
+    mg: &MultigridParams,
+) -> Result<(Vec<[f64; 3]>, MultigridReport), SolverError> {
+    let f = hierarchy.scale(b);
+    let (phi, report) = hierarchy.solve(&f, start, mg, &mut |_, _| {});
+    if report.residual.is_nan() || report.residual >= super::multigrid::DIVERGED {
+        return Err(SolverError::Diverged {
+            residual: report.residual,
+            cycles: report.cycles.len(),
+            hint: "use the Galerkin coarse operator on strong material contrasts",
+        });
     }
-    let occluder = occluder.ok_or_else(|| SolverError::BadParameter {
-        name: "beam_source",
-        problem: "needs the solid (occluder) to find where each beam enters".into(),
-    })?;
-    let environment = Scene {
-        lights: Vec::new(),
-        environment: scene.environment,
-    };
-    let q = environment.surface_irradiance(level, eta, Some(occluder));
-    let mut b = op.rhs(&q);
-    let source = beam_source(level, material, &scene.lights, op, occluder, eta);
-    let mut power = [0.0; 3];
-    for ((bi, si), v) in b.iter_mut().zip(&source).zip(&op.volumes) {
-        *bi = *si;
-        for c in 0..3 {
-            power[c] += si[c] * v;
-        }
-    }
-    Ok((q, b, power))
+    Ok((phi, report))
 }
 
 /// Interpolates per-surface-node values to the display mesh's vertices with `graph.shading`.
@@ -561,83 +826,4 @@ pub fn shade_vertices(
             Ok(acc.map(|x| x as f32))
         })
         .collect()
-}
-
-/// The opt-in beam source (issue 6, [`CpuSolveParams::beam_source`]): per inner node, the power
-/// per unit volume that the lights' unscattered beams scatter there, sigma_s'(x) E F_t exp(-tau),
-/// tau the optical depth from where the beam enters (the first boundary crossing towards the
-/// light; nothing if the light is occluded beyond it). The diffusion approximation's classic
-/// extended source: the boundary flux q puts all transmitted light on the surface as if it were
-/// already diffuse, while a collimated beam scatters first at about one transport mean free path
-/// below it. The beam is not refracted (exact for eta = 1, where the path-traced references
-/// with delta lights are). Per channel the deposit is scaled so that the extinguished power,
-/// sum sigma_t' E F_t exp(-tau) V_i, equals the power the boundary flux would bring in, sum q A,
-/// which removes the cell-centred quadrature error of the exponential (the object is assumed
-/// optically thick along every beam).
-pub fn beam_source(
-    level: &GraphLevel,
-    material: &MaterialField,
-    lights: &[crate::scene::Light],
-    op: &LevelOperator,
-    occluder: &dyn Solid,
-    eta: f64,
-) -> Vec<[f64; 3]> {
-    let inner = level.inner_count();
-    let offset = 1e-4 * level.spacing.max(1e-6);
-    let mut total = vec![[0.0; 3]; inner];
-    for light in lights {
-        let single = Scene {
-            lights: vec![*light],
-            environment: crate::scene::Environment::None,
-        };
-        let q = single.surface_irradiance(level, eta, Some(occluder));
-        // (extinction density, scattering density) per node.
-        let deposit: Vec<([f64; 3], [f64; 3])> = (0..inner)
-            .into_par_iter()
-            .map(|i| {
-                let x = level.positions[i];
-                let (e, l, dist) = light.arriving(x);
-                let Some((t, normal)) = occluder.ray_hit(x, l, dist) else {
-                    return ([0.0; 3], [0.0; 3]);
-                };
-                let entry = x + l * (t + offset);
-                if occluder.occluded(entry, l, dist - t - offset) {
-                    return ([0.0; 3], [0.0; 3]);
-                }
-                let f_t = fresnel::transmittance(eta, normal.dot(l));
-                // Optical depth by the midpoint rule (exact for homogeneous materials).
-                let steps = ((t / (0.5 * level.spacing.max(1e-6))).ceil() as usize).clamp(1, 16);
-                let mut tau = [0.0; 3];
-                for k in 0..steps {
-                    let c = material.sample(x + l * (t * (k as f64 + 0.5) / steps as f64));
-                    for (ch, tau) in tau.iter_mut().enumerate() {
-                        *tau += (c.sigma_s[ch] + c.sigma_a[ch]) * t / steps as f64;
-                    }
-                }
-                let here = material.sample(x);
-                let beam: [f64; 3] = std::array::from_fn(|c| e[c] * f_t * (-tau[c]).exp());
-                (
-                    std::array::from_fn(|c| (here.sigma_s[c] + here.sigma_a[c]) * beam[c]),
-                    std::array::from_fn(|c| here.sigma_s[c] * beam[c]),
-                )
-            })
-            .collect();
-        for c in 0..3 {
-            let incoming: f64 = q.iter().zip(&op.areas).map(|(q, a)| q[c] * a).sum();
-            let extinguished: f64 = deposit
-                .iter()
-                .zip(&op.volumes)
-                .map(|(d, v)| d.0[c] * v)
-                .sum();
-            let scale = if extinguished > 0.0 {
-                incoming / extinguished
-            } else {
-                0.0
-            };
-            for (t, d) in total.iter_mut().zip(&deposit) {
-                t[c] += scale * d.1[c];
-            }
-        }
-    }
-    total
 }

@@ -7,16 +7,23 @@
 //!   prototype of the GPU schedule.
 //! - [`cpu`]: the entry point: multi-level Jacobi (paper section 4.3) and/or an exact solve,
 //!   outgoing current J+, radiance, energy balance.
+//! - [`transport`], [`sources`], [`single_scattering`], [`bounce`]: the terms beyond the
+//!   boundary-flux model (DESIGN sections 2.5-2.8, issue 12): the exit query from the Fresnel
+//!   moments, the collimated and second-collision sources, single scattering, one bounce.
 //! - [`dipole`]: the third method, hierarchical boundary elements with the dipole BSSRDF
 //!   (Mertens et al. 2003).
 
 pub mod analytic;
+pub mod bounce;
 pub mod cpu;
 pub mod dipole;
 pub mod gpu;
 pub mod krylov;
 pub mod multigrid;
 pub mod operator;
+pub mod single_scattering;
+pub mod sources;
+pub mod transport;
 pub mod voxel;
 
 pub use cpu::{solve, CpuSolution, CpuSolveParams, Energy, Schedule};

@@ -55,6 +55,7 @@ use glam::{DMat4, DVec3, DVec4};
 use rayon::prelude::*;
 
 use super::operator::{LevelOperator, Scheme};
+use super::transport::ExitQuery;
 use super::SolverError;
 use crate::material::MaterialField;
 use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
@@ -729,12 +730,24 @@ impl Hierarchy {
         scheme: Scheme,
         params: &MultigridParams,
     ) -> Result<Self, SolverError> {
+        Self::build_with(graph, material, scheme, ExitQuery::Classic, params)
+    }
+
+    /// [`Self::build`] with the boundary constants of `exit` on every level
+    /// ([`LevelOperator::build_with`]).
+    pub fn build_with(
+        graph: &QuadGraph,
+        material: &MaterialField,
+        scheme: Scheme,
+        exit: ExitQuery,
+        params: &MultigridParams,
+    ) -> Result<Self, SolverError> {
         params.validate()?;
         if graph.levels.is_empty() {
             return Err(SolverError::EmptyGraph);
         }
         let finest_index = graph.levels.len() - 1;
-        let finest = LevelOperator::build(&graph.levels[finest_index], material, scheme)
+        let finest = LevelOperator::build_with(&graph.levels[finest_index], material, scheme, exit)
             .map_err(|e| e.at_level(finest_index))?;
         let mut prolongations: Vec<Option<Prolongation>> = Vec::with_capacity(graph.levels.len());
         for (h, level) in graph.levels.iter().enumerate() {
@@ -765,7 +778,8 @@ impl Hierarchy {
             CoarseOperator::Rediscretized => {
                 for (h, level) in graph.levels.iter().enumerate().take(finest_index) {
                     let op =
-                        LevelOperator::build(level, material, scheme).map_err(|e| e.at_level(h))?;
+                        LevelOperator::build_with(level, material, scheme, exit)
+                            .map_err(|e| e.at_level(h))?;
                     operators.push(SparseOperator::from_level(&op));
                 }
                 operators.push(SparseOperator::from_level(&finest));

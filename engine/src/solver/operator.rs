@@ -22,6 +22,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::transport::{Boundary, ExitQuery};
 use super::SolverError;
 use crate::material::{check_pair, fresnel, Coefficients, MaterialField};
 use crate::quadgraph::graph::{GraphLevel, NO_NODE};
@@ -99,11 +100,23 @@ impl LevelOperator {
         material: &MaterialField,
         scheme: Scheme,
     ) -> Result<Self, SolverError> {
+        Self::build_with(level, material, scheme, ExitQuery::Classic)
+    }
+
+    /// [`Self::build`] with the boundary constant A and the flux gain of `exit`'s boundary model
+    /// (DESIGN 2.6: A = (1 + 3 C2) / (1 - 2 C1), b_s = 4 q / (1 - 2 C1) for a diffuse flux q).
+    pub fn build_with(
+        level: &GraphLevel,
+        material: &MaterialField,
+        scheme: Scheme,
+        exit: ExitQuery,
+    ) -> Result<Self, SolverError> {
         let inner = level.inner_count();
         let nodes = level.node_count();
         check_level(level)?;
         let eta = material.eta();
-        let (f_dr, a) = (fresnel::diffuse_reflectance(eta), fresnel::boundary_a(eta));
+        let boundary = Boundary::new(eta, exit);
+        let (f_dr, a) = (fresnel::diffuse_reflectance(eta), boundary.a);
         let coeffs: Vec<Coefficients> = level
             .positions
             .par_iter()
@@ -243,7 +256,7 @@ impl LevelOperator {
             diag,
             off,
             row_scale,
-            q_gain: 4.0 / (1.0 - f_dr),
+            q_gain: boundary.flux_gain,
             volumes,
             areas,
             mu,

@@ -204,6 +204,7 @@ pub(super) fn run_gpu(
             iterations: vec![config.cap],
             block: BLOCK,
             tolerance: config.tolerance,
+            ..GpuSolveParams::default()
         },
         specular: frame_desc.specular,
         roughness: frame_desc.roughness,

@@ -126,6 +126,8 @@ pub struct GpuLevel {
     link_weights: [Image; 2],
     pub(crate) surface_position: Image,
     pub(crate) surface_normal: Image,
+    /// The collimated source's part of the exit query per surface node (surface rows only).
+    pub(crate) particular: Image,
     /// Per material variant (0 heterogeneous, 1 homogeneous), once created: the iteration sets
     /// (two ping-pong directions, then in Mixed the residual's).
     iterate_sets: [Vec<vk::DescriptorSet>; 2],
@@ -250,6 +252,8 @@ pub struct GpuDiffusion {
     q_scale: f32,
     pub(crate) f_dr: f64,
     pub(crate) a: f64,
+    /// The boundary model of [`GpuSolveParams::exit`] at the current material's eta.
+    pub(crate) boundary: super::transport::Boundary,
     /// Push-constant material of the homogeneous weight path: kappa rgb and 2A; mu rgb and q_gain.
     pub(crate) kappa: [f32; 4],
     pub(crate) mu_gain: [f32; 4],
@@ -395,6 +399,13 @@ impl GpuDiffusion {
         }
         let eta = material.eta();
         crate::material::check_eta(eta).map_err(SolverError::from)?;
+        if params.collimated && params.exit != super::transport::ExitQuery::Moments {
+            return Err(SolverError::BadParameter {
+                name: "collimated",
+                problem: "the collimated source (DESIGN 2.7) is read by the moments exit query (2.6): set exit to Moments".into(),
+            }
+            .into());
+        }
         let homogeneous = match material {
             MaterialField::Homogeneous(m) => {
                 let c = m.coefficients();
@@ -410,8 +421,8 @@ impl GpuDiffusion {
         let (mut f_dr, mut a) = (0.0, 0.0);
         for (h, level) in graph.levels.iter().enumerate() {
             // The f64 operator validates geometry and material (typed errors naming the node).
-            let op =
-                LevelOperator::build(level, material, params.scheme).map_err(|e| e.at_level(h))?;
+            let op = LevelOperator::build_with(level, material, params.scheme, params.exit)
+                .map_err(|e| e.at_level(h))?;
             (f_dr, a) = (op.f_dr, op.a);
             drop(op);
             let coarse = levels.last().map(|l| &l.packing);
@@ -526,6 +537,7 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("q", &finest.q),
                 DescriptorWrite::storage_image("connectivity", &finest.connectivity),
                 DescriptorWrite::storage_image("j_plus", &j_plus),
+                DescriptorWrite::storage_image("particular", &finest.particular),
                 DescriptorWrite::StorageBuffer {
                     name: "counts",
                     buffer: &clamp_counts,
@@ -620,6 +632,7 @@ impl GpuDiffusion {
             q_scale: 1.0,
             f_dr,
             a,
+            boundary: super::transport::Boundary::new(eta, params.exit),
             kappa: [0.0; 4],
             mu_gain: [0.0; 4],
             homogeneous: homogeneous.is_some(),
@@ -630,6 +643,11 @@ impl GpuDiffusion {
         // GPU by the first record), so a fresh solve and an edited one are the same computation.
         out.set_material(ctx, graph, material)?;
         Ok(out)
+    }
+
+    /// The boundary model (A, flux gain, exit query) the solve and its J+ pass use.
+    pub fn boundary(&self) -> super::transport::Boundary {
+        self.boundary
     }
 
     /// Push constants of the homogeneous path (kappa, 2A, mu, q_gain), zero kappa otherwise.
@@ -774,6 +792,11 @@ impl GpuDiffusion {
     }
     pub fn q_image(&self, level: usize) -> Option<&Image> {
         self.levels.get(level).map(|l| &l.q)
+    }
+    /// A level's image of the collimated source's exit-query part (surface rows, rgba16f, times
+    /// the exposure), written by the gather when [`GpuSolveParams::collimated`] is on.
+    pub fn particular_image(&self, level: usize) -> Option<&Image> {
+        self.levels.get(level).map(|l| &l.particular)
     }
     /// The exposure every q (and therefore phi) is stored with.
     pub fn q_scale(&self) -> f32 {

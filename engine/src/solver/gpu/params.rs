@@ -1,6 +1,7 @@
 //! What a GPU solve is asked for: storage precision and [`GpuSolveParams`].
 
 use super::*;
+pub use crate::solver::transport::ExitQuery;
 
 /// How phi is stored (DESIGN section 4).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -40,6 +41,15 @@ pub struct GpuSolveParams {
     pub block: u32,
     /// Stop a level once (max|dphi| / max|phi|) / (1 - rho) is below this (0: never early).
     pub tolerance: f32,
+    /// The boundary model and exit query (DESIGN 2.6): its A and flux gain in the Robin rows,
+    /// its exitance in the J+ pass; the same formulas as the f64 reference's
+    /// [`crate::solver::transport::Transport::exit`].
+    pub exit: ExitQuery,
+    /// The lights as the collimated source of DESIGN 2.7 (needs `exit: Moments`): the gather
+    /// writes each lit node's particular solution into its Robin row and the exit query's part
+    /// of it, which the J+ pass adds back. Homogeneous materials only: a heterogeneous field
+    /// falls back to the boundary flux (`frame::QuadGraphMethod`).
+    pub collimated: bool,
 }
 
 impl Default for GpuSolveParams {
@@ -50,6 +60,8 @@ impl Default for GpuSolveParams {
             iterations: vec![200],
             block: 8,
             tolerance: 1e-4,
+            exit: ExitQuery::default(),
+            collimated: false,
         }
     }
 }

@@ -142,7 +142,7 @@ impl GpuDiffusion {
                 &ComputePipelineDesc {
                     name: PASS_J_PLUS,
                     shader: j_plus,
-                    bindings: &["phi", "q", "connectivity", "j_plus", "counts"],
+                    bindings: &["phi", "q", "connectivity", "j_plus", "counts", "particular"],
                     max_sets: 2,
                 },
             )?,

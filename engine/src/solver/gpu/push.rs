@@ -59,6 +59,10 @@ pub struct JPlusPush {
     pub inv_q_scale: f32,
     pub phi_factor: f32,
     pub q_factor: f32,
+    /// The collimated source (DESIGN 2.7): the shading input per unit exitance, times the
+    /// `particular` image's value, is added to J+; 0: not read.
+    pub particular_factor: f32,
+    pub pad: f32,
 }
 
 /// Push constants of `diffusion/vertex_j_plus.comp`.

@@ -435,6 +435,7 @@ impl GpuDiffusion {
             Use::image(finest.result(), Access::ComputeRead),
             Use::image(&finest.q, Access::ComputeRead),
             Use::image(&finest.connectivity, Access::ComputeRead),
+            Use::image(&finest.particular, Access::ComputeRead),
             Use::image(&self.j_plus, Access::ComputeReadWrite),
             Use::buffer_span(
                 &self.clamp_counts,
@@ -461,6 +462,8 @@ impl GpuDiffusion {
         mut profiler: Option<&mut GpuProfiler>,
     ) {
         let finest = &self.levels[self.levels.len() - 1];
+        // The exit query (DESIGN 2.6 or the flux-only one): X = f_phi phi - f_q q per node.
+        let (phi_factor, q_factor) = self.boundary().flux_shading_factors();
         // SAFETY: the caller's contract; every set's resources live in `self`.
         unsafe {
             ctx.raw()
@@ -476,8 +479,14 @@ impl GpuDiffusion {
                     size: finest.push().size,
                     surface_rows: finest.packing.surface_rows,
                     inv_q_scale: 1.0 / self.q_scale,
-                    phi_factor: ((1.0 + 1.0 / self.a) / 4.0) as f32,
-                    q_factor: (1.0 / (1.0 + self.f_dr)) as f32,
+                    phi_factor: phi_factor as f32,
+                    q_factor: q_factor as f32,
+                    particular_factor: if self.params.collimated {
+                        self.boundary().shading_input(1.0) as f32
+                    } else {
+                        0.0
+                    },
+                    pad: 0.0,
                 },
                 finest.extent(),
             );

@@ -46,6 +46,14 @@ impl GpuDiffusion {
         let surface_texels = (surface.width * surface.height) as usize;
         let surface_position = image(ctx, "surface position", &surface, F::R32G32B32A32_SFLOAT)?;
         let surface_normal = image(ctx, "surface normal", &surface, F::R16G16B16A16_SFLOAT)?;
+        // The collimated source's exit-query part (DESIGN 2.7), written by the gather.
+        let particular = image(
+            ctx,
+            "diffusion particular",
+            &surface,
+            F::R16G16B16A16_SFLOAT,
+        )?;
+        let particular_zero = vec![0u8; surface_texels * 8];
         // The phi format: what a level's result is stored in (`GpuLevel::result`).
         let phi_format = match precision {
             Precision::Mixed | Precision::Fp32 => F::R32G32B32A32_SFLOAT,
@@ -78,6 +86,7 @@ impl GpuDiffusion {
                 bytes_of(&t.surface_normal[..surface_texels.min(n)]),
             ),
         ];
+        items.push((&particular, particular_zero));
         for img in phi.iter().chain(&residual) {
             items.push((img, vec![0u8; n * 16]));
         }
@@ -159,6 +168,7 @@ impl GpuDiffusion {
             link_weights,
             surface_position,
             surface_normal,
+            particular,
             iterate_sets: [Vec::new(), Vec::new()],
             apply_set,
             init_set,

@@ -7,6 +7,7 @@ use crate::material::{fresnel, MaterialField};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::solver::gpu::textures::{HomogeneousMaterial, MaterialTexels};
 use crate::solver::gpu::{bytes_of, image, GpuDiffusion, SolverError};
+use crate::solver::transport::Boundary;
 use crate::vk::Context;
 use crate::{Error, QuadGraph};
 
@@ -118,8 +119,10 @@ impl GpuDiffusion {
         self.check_graph(graph)?;
         let eta = field.eta();
         crate::material::check_eta(eta).map_err(SolverError::from)?;
-        let (f_dr, a) = (fresnel::diffuse_reflectance(eta), fresnel::boundary_a(eta));
-        let q_gain = 4.0 / (1.0 - f_dr);
+        // The boundary model of the exit query (DESIGN 2.6 for moments): A and the flux gain.
+        let boundary = Boundary::new(eta, self.params.exit);
+        let (f_dr, a) = (fresnel::diffuse_reflectance(eta), boundary.a);
+        let q_gain = boundary.flux_gain;
         let homogeneous = match field {
             MaterialField::Homogeneous(m) => {
                 let c = m.coefficients();
@@ -157,6 +160,7 @@ impl GpuDiffusion {
         self.homogeneous = homogeneous.is_some();
         self.f_dr = f_dr;
         self.a = a;
+        self.boundary = boundary;
         self.set_constants(homogeneous, a, q_gain);
         Ok(())
     }

@@ -1,0 +1,567 @@
+//! Light transport beyond the boundary-flux model (DESIGN sections 2.5-2.8), in f64: the exit query
+//! from the Fresnel moments (2.6), the collimated source moved into the Robin condition (2.7) and
+//! the quantities single scattering (2.8) needs. These are the local, one-dimensional pieces; the
+//! solver ([`super::cpu`]) applies them per surface node and per display vertex.
+//!
+//! Conventions: `z` is the depth into the medium along the inward normal, `dphi` the derivative
+//! d phi / d z_in, D = kappa = 1 / (3 sigma_t'), s = sqrt(sigma_a / D), C1 and C2 the Fresnel
+//! moments seen from inside ([`fresnel::moment`]).
+//!
+//! A collimated beam of surface irradiance `irr` (E mu_i, power per unit surface area arriving) is
+//! transmitted with T_i, refracted to cosine mu_t and first scattered with density
+//! Q0 exp(-beta z), Q0 = gain sigma_s' irr T_i / mu_t, beta = sigma_t' / mu_t (gain 1: the first
+//! collision, DESIGN 2.7; gain r < 1: the second-collision source, see
+//! [`second_collision_ratio`]). Its particular solution K exp(-beta z),
+//! K = Q0 / (sigma_a - D beta^2), leaves the remainder phi_h = phi - K exp(-beta z) with no volume
+//! source and the Robin condition phi_h - 2 A D dphi_h = rhs - K (1 + 2 A D beta).
+//!
+//! ```
+//! use translucent::solver::transport::{Boundary, ExitQuery, Optics, Refraction, beam_particular};
+//! let b = Boundary::new(1.5, ExitQuery::Moments);
+//! assert!((b.a - (1.0 + 3.0 * b.c2) / (1.0 - 2.0 * b.c1)).abs() < 1e-12);
+//! // A lit flat half-space of albedo 0.999, light at 30 degrees: the exitance of DESIGN 2.6.
+//! let o = Optics { sigma_s: 0.999, sigma_a: 0.001 };
+//! let r = Refraction::new(1.5, 30f64.to_radians().cos());
+//! let (k, beta) = beam_particular(o, r, 1.0, 1.0);
+//! let m = b.half_space_exitance(o, 0.0, k, -beta * k, -(k + b.h(o) * beta * k));
+//! assert!(m > 0.5 && m < 1.0);
+//! ```
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+use crate::material::{fresnel, Coefficients};
+
+/// How exitance is read from phi at the surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExitQuery {
+    /// DESIGN section 2's original model: A = (1 + F_dr) / (1 - F_dr) with the F_dr polynomial,
+    /// J+ = (1 + 1/A) phi / 4 - q / (1 + F_dr), L_o = F_t J+ / (pi eta^2).
+    #[default]
+    Classic,
+    /// DESIGN 2.6: A = (1 + 3 C2) / (1 - 2 C1), M = (1 - 2 C1) phi / 4 + (1 - 3 C2) D dphi / 2,
+    /// L_o = M (1 - F_r(eta, theta_o)) / (pi (1 - 2 C1(1/eta))).
+    Moments,
+}
+
+impl std::str::FromStr for ExitQuery {
+    type Err = super::SolverError;
+    /// `flux` (alias `classic`): the boundary-flux query of DESIGN section 2; `moments`: DESIGN 2.6.
+    fn from_str(s: &str) -> Result<Self, super::SolverError> {
+        match s {
+            "flux" | "classic" => Ok(Self::Classic),
+            "moments" => Ok(Self::Moments),
+            _ => Err(super::SolverError::BadParameter {
+                name: "exit query",
+                problem: format!("'{s}' (expected flux or moments)"),
+            }),
+        }
+    }
+}
+
+/// Where the lights' transmitted light enters the diffusion equation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Source {
+    /// q on the boundary as if already diffuse (DESIGN section 2).
+    #[default]
+    BoundaryFlux,
+    /// DESIGN 2.7: the first-collision density of the refracted beam, as a particular solution
+    /// moved into the Robin condition. Carries the once-scattered light in diffusion form.
+    Collimated,
+    /// DESIGN 2.8's second option: the same with the second-collision density (the part of the
+    /// once-scattered light that collides again), single scattering added whole.
+    SecondCollision,
+}
+
+/// Single scattering (DESIGN 2.8), added per display vertex for a given eye.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SingleScattering {
+    #[default]
+    Off,
+    /// The march minus the flat-surface closed form (zero on flat lit regions): pairs with
+    /// [`Source::Collimated`], which already carries the flat once-scattered light.
+    Difference,
+    /// The march whole: pairs with [`Source::SecondCollision`].
+    Full,
+}
+
+/// How exitance reaches the display mesh's vertices.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SurfaceReconstruction {
+    /// Shepard weights of 4 surface nodes' values (DESIGN section 3 step 9).
+    #[default]
+    Shepard,
+    /// phi at a point a fixed depth inside, interpolated from the finest level's inner nodes
+    /// (`QuadGraph::samples`), extended to the surface by the local 1D profile with the vertex's
+    /// own source terms (issue 12 item 4).
+    DepthSample,
+}
+
+/// The transport terms of the CPU reference, each on or off (issue 12).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transport {
+    pub exit: ExitQuery,
+    pub source: Source,
+    /// A surface node the light reaches only through the object (the far face of a thin wall)
+    /// gets the particular solution of the beam that entered on the near face, attenuated along
+    /// the path: exact for a slab. Off: only directly lit nodes carry a particular solution.
+    pub continuation: bool,
+    /// Walls thinner than this many transport mean free paths along the refracted beam fall back
+    /// to the boundary flux (0: never).
+    pub thin_wall_mfp: f64,
+    pub single_scattering: SingleScattering,
+    pub surface: SurfaceReconstruction,
+    /// One bounce of exitance between mutually visible surface points: cosine-weighted rays per
+    /// finest surface node (0: off). Light that leaves and re-enters (concave objects).
+    pub bounce_rays: u32,
+    /// With a beam source and the moments query, the environment enters as beams too (a
+    /// quadrature of directions); `false`: as a boundary flux (what the GPU gather does).
+    pub environment_beams: bool,
+}
+
+impl Default for Transport {
+    /// The original model of DESIGN section 2 (what the GPU frame computes today).
+    fn default() -> Self {
+        Self {
+            exit: ExitQuery::Classic,
+            source: Source::BoundaryFlux,
+            continuation: true,
+            thin_wall_mfp: 0.0,
+            single_scattering: SingleScattering::Off,
+            surface: SurfaceReconstruction::Shepard,
+            bounce_rays: 0,
+            environment_beams: true,
+        }
+    }
+}
+
+impl Transport {
+    /// DESIGN 2.6 + 2.7 + 2.8 with the difference to the flat closed form, depth-sampled surface.
+    pub fn collimated() -> Self {
+        Self {
+            exit: ExitQuery::Moments,
+            source: Source::Collimated,
+            single_scattering: SingleScattering::Difference,
+            surface: SurfaceReconstruction::DepthSample,
+            ..Self::default()
+        }
+    }
+
+    /// What the GPU frame computes with `GpuSolveParams::collimated` (render `--beam-source`): the
+    /// moments query, the lights' collimated source at the lit nodes only (no continuation
+    /// through the body, no thin-wall fallback), the environment as a boundary flux, Shepard
+    /// shading weights, no single scattering.
+    pub fn gpu_collimated() -> Self {
+        Self {
+            exit: ExitQuery::Moments,
+            source: Source::Collimated,
+            continuation: false,
+            environment_beams: false,
+            ..Self::default()
+        }
+    }
+
+    /// DESIGN 2.6 + second-collision source + single scattering whole, depth-sampled surface.
+    pub fn second_collision() -> Self {
+        Self {
+            exit: ExitQuery::Moments,
+            source: Source::SecondCollision,
+            single_scattering: SingleScattering::Full,
+            surface: SurfaceReconstruction::DepthSample,
+            ..Self::default()
+        }
+    }
+}
+
+/// One colour channel's coefficients at a point (1/mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Optics {
+    /// Reduced scattering sigma_s'.
+    pub sigma_s: f64,
+    pub sigma_a: f64,
+}
+
+impl Optics {
+    pub fn channel(c: &Coefficients, ch: usize) -> Self {
+        Self {
+            sigma_s: c.sigma_s[ch],
+            sigma_a: c.sigma_a[ch],
+        }
+    }
+    pub fn sigma_t(&self) -> f64 {
+        self.sigma_s + self.sigma_a
+    }
+    pub fn albedo(&self) -> f64 {
+        self.sigma_s / self.sigma_t()
+    }
+    /// D = kappa = 1 / (3 sigma_t').
+    pub fn d(&self) -> f64 {
+        1.0 / (3.0 * self.sigma_t())
+    }
+    /// s = sqrt(sigma_a / D).
+    pub fn s(&self) -> f64 {
+        (self.sigma_a / self.d()).sqrt()
+    }
+}
+
+/// The boundary: constants of the Robin condition and of the exit query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Boundary {
+    pub exit: ExitQuery,
+    pub eta: f64,
+    /// A of phi - 2 A D dphi = rhs.
+    pub a: f64,
+    /// rhs = flux_gain q for a diffuse boundary flux q: 4 / (1 - F_dr), or 4 / (1 - 2 C1).
+    pub flux_gain: f64,
+    /// The F_dr polynomial (the classic query).
+    pub f_dr: f64,
+    pub c1: f64,
+    pub c2: f64,
+    /// 1 - 2 C1(1/eta): the exit lobe's normalization, and the fraction of a constant
+    /// environment's irradiance that is transmitted.
+    pub exit_norm: f64,
+}
+
+impl Boundary {
+    pub fn new(eta: f64, exit: ExitQuery) -> Self {
+        let f_dr = fresnel::diffuse_reflectance(eta);
+        let (c1, c2) = (fresnel::moment1(eta), fresnel::moment2(eta));
+        let (a, flux_gain) = match exit {
+            ExitQuery::Classic => ((1.0 + f_dr) / (1.0 - f_dr), 4.0 / (1.0 - f_dr)),
+            ExitQuery::Moments => ((1.0 + 3.0 * c2) / (1.0 - 2.0 * c1), 4.0 / (1.0 - 2.0 * c1)),
+        };
+        Self {
+            exit,
+            eta,
+            a,
+            flux_gain,
+            f_dr,
+            c1,
+            c2,
+            exit_norm: 1.0 - 2.0 * fresnel::moment1(1.0 / eta),
+        }
+    }
+
+    /// The extrapolation length h = 2 A D.
+    pub fn h(&self, o: Optics) -> f64 {
+        2.0 * self.a * o.d()
+    }
+
+    /// Fraction of a diffuse irradiance that is transmitted: 1 - F_dr,ext (classic, from the
+    /// polynomial by reciprocity) or 1 - 2 C1(1/eta) (moments, exact).
+    pub fn diffuse_transmittance(&self) -> f64 {
+        match self.exit {
+            ExitQuery::Classic => 1.0 - fresnel::external_diffuse_reflectance(self.eta),
+            ExitQuery::Moments => self.exit_norm,
+        }
+    }
+
+    /// Exitance leaving the object from phi(0) and dphi/dz_in(0) (total fields); `q_flux` is the
+    /// diffuse boundary flux the classic query subtracts (zero for collimated sources).
+    /// Classic: (1 - F_dr) J+; moments: DESIGN 2.6's M.
+    pub fn exitance(&self, d: f64, phi0: f64, dphi0: f64, q_flux: f64) -> f64 {
+        match self.exit {
+            ExitQuery::Classic => {
+                (1.0 - self.f_dr) * ((1.0 + 1.0 / self.a) * phi0 / 4.0 - q_flux / (1.0 + self.f_dr))
+            }
+            ExitQuery::Moments => {
+                0.25 * (1.0 - 2.0 * self.c1) * phi0 + 0.5 * (1.0 - 3.0 * self.c2) * d * dphi0
+            }
+        }
+    }
+
+    /// The value X the mesh pass takes per vertex, whose shading F_t(eta, theta_o) X / (pi eta^2)
+    /// is the radiance of exitance `m`: J+ = M / (1 - F_dr) (classic) or M eta^2 / (1 - 2 C1(1/eta))
+    /// (moments: the lobe (1 - F_r) / (pi (1 - 2 C1(1/eta))) of DESIGN 2.6).
+    pub fn shading_input(&self, m: f64) -> f64 {
+        match self.exit {
+            ExitQuery::Classic => m / (1.0 - self.f_dr),
+            ExitQuery::Moments => m * self.eta * self.eta / self.exit_norm,
+        }
+    }
+
+    /// For a boundary-flux source (rhs = `flux_gain` q, no particular solution) the shading input
+    /// per surface node is linear in the node's phi and q: X = f_phi phi - f_q q. The inward
+    /// derivative comes from the node's Robin row, dphi/dz_in = (phi - rhs) / (2 A D), so D
+    /// cancels: M = (1 - 2 C1) phi / (2 (1 + 3 C2)) - (1 - 3 C2) q / (1 + 3 C2) (moments), and
+    /// J+ = (1 + 1/A) phi / 4 - q / (1 + F_dr) (classic). What the GPU's exitance pass computes
+    /// (`j_plus.glsl`), the same numbers as [`Self::exitance`] with that derivative.
+    pub fn flux_shading_factors(&self) -> (f64, f64) {
+        match self.exit {
+            ExitQuery::Classic => ((1.0 + 1.0 / self.a) / 4.0, 1.0 / (1.0 + self.f_dr)),
+            ExitQuery::Moments => {
+                let x = self.shading_input(1.0);
+                (
+                    x * (1.0 - 2.0 * self.c1) / (2.0 * (1.0 + 3.0 * self.c2)),
+                    x * (1.0 - 3.0 * self.c2) / (1.0 + 3.0 * self.c2),
+                )
+            }
+        }
+    }
+
+    /// Exitance M of a surface node with a boundary-flux source (see [`Self::flux_shading_factors`]).
+    pub fn flux_exitance(&self, phi: f64, q: f64) -> f64 {
+        let (f_phi, f_q) = self.flux_shading_factors();
+        (f_phi * phi - f_q * q) / self.shading_input(1.0)
+    }
+
+    /// Radiance leaving toward `cos_o` (outside) for exitance `m`.
+    pub fn radiance(&self, m: f64, cos_o: f64) -> f64 {
+        fresnel::transmittance(self.eta, cos_o) * self.shading_input(m) / (PI * self.eta * self.eta)
+    }
+
+    /// Exitance of a homogeneous half-space whose remainder phi_h = C exp(-s z) meets
+    /// phi_h - h dphi_h = `rhs` (the full Robin right-hand side, particular part included), with
+    /// the particular solution's surface value `phi_p` and derivative `dphi_p` added back.
+    pub fn half_space_exitance(
+        &self,
+        o: Optics,
+        q_flux: f64,
+        phi_p: f64,
+        dphi_p: f64,
+        rhs: f64,
+    ) -> f64 {
+        let s = o.s();
+        let phi_h = rhs / (1.0 + self.h(o) * s);
+        self.exitance(o.d(), phi_h + phi_p, -s * phi_h + dphi_p, q_flux)
+    }
+}
+
+/// Refraction of a beam arriving at cosine `mu_i` (outside): transmittance and inside cosine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refraction {
+    pub mu_i: f64,
+    pub t_i: f64,
+    pub mu_t: f64,
+}
+
+impl Refraction {
+    pub fn new(eta: f64, mu_i: f64) -> Self {
+        let mu_i = mu_i.clamp(0.0, 1.0);
+        Self {
+            mu_i,
+            t_i: fresnel::transmittance(eta, mu_i),
+            mu_t: refracted_cosine(eta, mu_i),
+        }
+    }
+}
+
+/// Cosine to the normal inside of a ray arriving at `cos_outside`: sqrt(1 - (1 - mu^2) / eta^2).
+pub fn refracted_cosine(eta: f64, cos_outside: f64) -> f64 {
+    (1.0 - (1.0 - cos_outside * cos_outside) / (eta * eta))
+        .max(0.0)
+        .sqrt()
+}
+
+/// The smallest cosine inside a refracted beam keeps: a grazing beam at eta = 1 has mu_t -> 0,
+/// beta -> infinity; K stays finite (it goes to 0), this keeps the arithmetic finite.
+const MIN_MU_T: f64 = 1e-6;
+
+/// Relative distance kept from the resonance sigma_a = D beta^2 of the particular solution (where
+/// K is infinite and phi_h cancels it): the sum phi_h + K exp(-beta z) is continuous there, so
+/// shifting beta by this much changes it by as little, while f64 keeps 12 of its 16 digits.
+const RESONANCE_GUARD: f64 = 1e-4;
+
+/// K and beta of the particular solution K exp(-beta z) of D phi'' - sigma_a phi = -Q0 exp(-beta z)
+/// for a beam of surface irradiance `irr` (E mu_i) refracted as `r`, Q0 = gain sigma_s' irr T_i /
+/// mu_t (DESIGN 2.7).
+pub fn beam_particular(o: Optics, r: Refraction, irr: f64, gain: f64) -> (f64, f64) {
+    let mu_t = r.mu_t.max(MIN_MU_T);
+    let q0 = gain * o.sigma_s * irr * r.t_i / mu_t;
+    let d = o.d();
+    let mut beta = o.sigma_t() / mu_t;
+    let scale = o.sigma_a + d * beta * beta;
+    if (o.sigma_a - d * beta * beta).abs() < RESONANCE_GUARD * scale {
+        beta *= 1.0 + 2.0 * RESONANCE_GUARD;
+    }
+    (q0 / (o.sigma_a - d * beta * beta), beta)
+}
+
+/// The second-collision source relative to the first-collision one, r = I2 / I1 with
+/// I = int Q(z) exp(-s z) dz (the only moment of a source the exitance of a half-space depends
+/// on). Q2 = sigma_s' times the uncollided fluence of once-scattered light, with one Fresnel
+/// reflection (seen from inside) of that light at the boundary. In units of the transport mean
+/// free path (s~ = s / sigma_t', b = 1 / mu_t):
+/// I2 / I1 = albedo (b + s~) J, J = (1/2) int_0^1 [1 / ((s~ + b)(1 + b mu)) + 1 / ((s~ + b)(1 + s~ mu)) +
+/// R(mu) mu / ((1 + s~ mu)(1 + b mu))] dmu.
+/// A source Q0 r exp(-beta z) then has the second-collision source's half-space exitance exactly.
+pub fn second_collision_ratio(o: Optics, mu_t: f64, eta: f64) -> f64 {
+    let b = 1.0 / mu_t.max(MIN_MU_T);
+    let s = o.s() / o.sigma_t();
+    const N: usize = 64;
+    let mut j = 0.0;
+    for i in 0..N {
+        let mu = (i as f64 + 0.5) / N as f64;
+        let r = fresnel::reflectance(1.0 / eta, mu);
+        j += (1.0 / ((s + b) * (1.0 + b * mu))
+            + 1.0 / ((s + b) * (1.0 + s * mu))
+            + r * mu / ((1.0 + s * mu) * (1.0 + b * mu)))
+            / N as f64;
+    }
+    o.albedo() * (b + s) * 0.5 * j
+}
+
+/// Single-scattered radiance of a flat homogeneous half-space (DESIGN 2.8's closed form) per unit
+/// surface irradiance `irr`, *without* the exit factor T_o / eta^2:
+/// albedo p T_i / (mu_t + mu_o') with p = 1 / (4 pi), mu_o' the view ray's cosine inside.
+pub fn flat_single_scattering(albedo: f64, r: Refraction, mu_o_inside: f64, irr: f64) -> f64 {
+    albedo / (4.0 * PI) * irr * r.t_i / (r.mu_t + mu_o_inside).max(MIN_MU_T)
+}
+
+/// Gauss-Legendre nodes and weights on [0, 1] (8 points): the quadrature of incident cosines for
+/// diffuse light (nodes in u = mu_i^2, cosine-weighted, weights summing to 1).
+pub const DIFFUSE_NODES: usize = 8;
+
+pub fn diffuse_quadrature() -> [(f64, f64); DIFFUSE_NODES] {
+    // Nodes and weights of 8-point Gauss-Legendre on [-1, 1].
+    const X: [f64; 4] = [
+        0.183_434_642_495_649_8,
+        0.525_532_409_916_329,
+        0.796_666_477_413_626_7,
+        0.960_289_856_497_536_3,
+    ];
+    const W: [f64; 4] = [
+        0.362_683_783_378_362,
+        0.313_706_645_877_887_3,
+        0.222_381_034_453_374_5,
+        0.101_228_536_290_376_3,
+    ];
+    let mut out = [(0.0, 0.0); DIFFUSE_NODES];
+    for k in 0..4 {
+        for (slot, sign) in [(3 - k, -1.0), (4 + k, 1.0)] {
+            let u = 0.5 * (1.0 + sign * X[k]);
+            out[slot] = (u.sqrt(), 0.5 * W[k]);
+        }
+    }
+    out
+}
+
+/// An orthonormal frame (t, b) around unit `n`.
+pub fn tangent_frame(n: DVec3) -> (DVec3, DVec3) {
+    let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let t = helper.cross(n).normalize();
+    (t, n.cross(t))
+}
+
+/// Refracts unit `d` (travelling towards the surface from outside, d . n < 0) through the
+/// boundary with outward normal `n` and relative index `eta` (inside / outside).
+pub fn refract_inward(d: DVec3, n: DVec3, eta: f64) -> DVec3 {
+    let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
+    let cos_t = refracted_cosine(eta, cos_i);
+    let tangential = (d + n * cos_i) / eta;
+    (tangential - n * cos_t).normalize_or(-n)
+}
+
+/// The phi(0) and dphi/dz_in(0) of the homogeneous remainder on the local 1D profile: phi_h'' =
+/// s^2 phi_h, phi_h - h dphi_h = `rhs_h` at z = 0 and phi_h(`depth`) = `p` (the interior
+/// sample). Returns (phi_h(0), dphi_h(0)).
+pub fn profile_from_sample(s: f64, h: f64, depth: f64, p: f64, rhs_h: f64) -> (f64, f64) {
+    let x = s * depth;
+    let cosh = x.cosh();
+    // sinh(s depth) / s, with its s -> 0 limit.
+    let sinh_over_s = if x < 1e-6 { depth } else { x.sinh() / s };
+    let phi0 = (p + rhs_h * sinh_over_s / h) / (cosh + sinh_over_s / h);
+    (phi0, (phi0 - rhs_h) / h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The second-collision ratio's limits: albedo 1, eta 1, normal incidence: r = 1 - (1 - ln 2)/2
+    /// is the share of once-scattered light that collides again (1/2 E2 escapes on average).
+    #[test]
+    fn second_collision_ratio_limits() {
+        let o = Optics {
+            sigma_s: 1.0,
+            sigma_a: 0.0,
+        };
+        let r = second_collision_ratio(o, 1.0, 1.0);
+        let exact = 0.5 * (1.0 + std::f64::consts::LN_2);
+        assert!((r - exact).abs() < 1e-4, "{r} vs {exact}");
+        // Internal reflection keeps light in: more collides again.
+        assert!(second_collision_ratio(o, 1.0, 1.5) > r);
+        // Grazing beams scatter near the surface: less collides again.
+        assert!(second_collision_ratio(o, 0.2, 1.0) < r);
+    }
+
+    #[test]
+    fn particular_solution_solves_the_ode_and_avoids_the_resonance() {
+        let o = Optics {
+            sigma_s: 0.03,
+            sigma_a: 1.45,
+        };
+        for mu_t in [1.0, 0.6, 0.577_350_269_189_625_8, 0.3] {
+            let r = Refraction {
+                mu_i: mu_t,
+                t_i: 1.0,
+                mu_t,
+            };
+            let (k, beta) = beam_particular(o, r, 1.0, 1.0);
+            assert!(k.is_finite() && beta.is_finite());
+            // D K beta^2 - sigma_a K = -Q0 (up to the guard's shift).
+            let q0 = o.sigma_s / mu_t;
+            let residual = o.d() * k * beta * beta - o.sigma_a * k + q0;
+            assert!(
+                residual.abs() < 1e-3 * q0.max(k.abs() * o.sigma_a),
+                "{residual}"
+            );
+        }
+    }
+
+    #[test]
+    fn flux_factors_are_the_exit_query_with_the_robin_derivative() {
+        for exit in [ExitQuery::Classic, ExitQuery::Moments] {
+            for eta in [1.0, 1.3, 1.5] {
+                let b = Boundary::new(eta, exit);
+                let o = Optics {
+                    sigma_s: 2.0,
+                    sigma_a: 0.01,
+                };
+                let (phi, q) = (3.0, 0.4);
+                let rhs = b.flux_gain * q;
+                let dphi = (phi - rhs) / b.h(o);
+                let m = b.exitance(o.d(), phi, dphi, q);
+                assert!((b.flux_exitance(phi, q) - m).abs() < 1e-12 * m.abs().max(1.0));
+                let (f_phi, f_q) = b.flux_shading_factors();
+                let x = b.shading_input(m);
+                assert!((f_phi * phi - f_q * q - x).abs() < 1e-12 * x.abs().max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn profile_reproduces_the_exact_1d_solution() {
+        // phi_h = a cosh(s z) + b sinh(s z) / s with the Robin condition: recover a, b from p.
+        let (s, h, depth): (f64, f64, f64) = (0.8, 0.5, 1.3);
+        let (a, b) = (2.0, -0.7);
+        let p = a * (s * depth).cosh() + b * (s * depth).sinh() / s;
+        let rhs = a - h * b;
+        let (phi0, dphi0) = profile_from_sample(s, h, depth, p, rhs);
+        assert!((phi0 - a).abs() < 1e-12 && (dphi0 - b).abs() < 1e-12);
+        let (phi0, _) = profile_from_sample(0.0, h, depth, a + b * depth, a - h * b);
+        assert!((phi0 - a).abs() < 1e-12);
+    }
+
+    #[test]
+    fn diffuse_quadrature_integrates_the_cosine_weight() {
+        let q = diffuse_quadrature();
+        let total: f64 = q.iter().map(|(_, w)| w).sum();
+        assert!((total - 1.0).abs() < 1e-12);
+        // E[mu^2] under the cosine weight 2 mu dmu is 1/2; E[mu^4] = 1/3.
+        let m2: f64 = q.iter().map(|(mu, w)| w * mu * mu).sum();
+        let m4: f64 = q.iter().map(|(mu, w)| w * mu.powi(4)).sum();
+        assert!((m2 - 0.5).abs() < 1e-12 && (m4 - 1.0 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn refraction_is_snell() {
+        let n = DVec3::Y;
+        let d = DVec3::new(0.6, -0.8, 0.0);
+        let t = refract_inward(d, n, 1.5);
+        let sin_i = 0.6;
+        let sin_t = (t - n * t.dot(n)).length();
+        assert!((sin_t - sin_i / 1.5).abs() < 1e-12 && t.dot(n) < 0.0);
+    }
+}

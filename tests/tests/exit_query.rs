@@ -1,0 +1,242 @@
+//! The exit query of DESIGN 2.6 on the GPU frame against the f64 CPU reference (issue 12): the
+//! same boundary constant A = (1 + 3 C2) / (1 - 2 C1), flux gain 4 / (1 - 2 C1) and exitance
+//! M = (1 - 2 C1) phi / 4 + (1 - 3 C2) D dphi/dz_in / 2 (the derivative from the node's Robin
+//! row), shaded as M eta^2 / (1 - 2 C1(1/eta)) per vertex. Both queries (`flux`, `moments`) on
+//! the same graph: the GPU's node and vertex J+ within SAME_QUERY of the CPU's exact solve, and
+//! the two queries measurably different (so the test would see the GPU ignoring the option).
+//! Through the object (the gather pass, its environment transmittance 1 - 2 C1(1/eta)): a
+//! constant environment on a sphere, GPU against the CPU.
+
+use translucent::material::{Material, MaterialField};
+use translucent::mesh::shapes::Shape;
+use translucent::quadgraph::BakeParams;
+use translucent::scene::{Environment, Scene};
+use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
+use translucent::solver::rel_rms;
+use translucent::solver::transport::{Boundary, ExitQuery, Transport};
+use translucent::solver::{self, CpuSolveParams};
+use translucent::QuadGraph;
+use translucent_tests::{multilevel_object, render_once, solve_once, tol, GpuTest};
+
+/// GPU (converged to 1e-6, f32) against the CPU's exact solve of the same query: measured
+/// 0.5-0.9e-4; tighter than GPU_VS_EXACT so that it separates the two queries.
+const SAME_QUERY: f64 = 5e-4;
+
+/// With a boundary-flux source the two queries differ only through the boundary constants (at
+/// eta = 1 not at all): on marble at eta 1.5 by 2.9e-3 (measured), above this bound, which is
+/// four times [`SAME_QUERY`]: a GPU that ignored the option would fail.
+const QUERIES_DIFFER: f64 = 2e-3;
+
+fn bake(shape: &Shape, resolution: u32, levels: u32) -> QuadGraph {
+    let params = BakeParams {
+        resolution,
+        levels,
+        ..Default::default()
+    };
+    QuadGraph::bake(&shape.triangulate(32), shape, &params, &mut |_| {})
+        .expect("bake")
+        .0
+}
+
+fn scene() -> Scene {
+    Scene {
+        lights: vec!["dir:-0.3,-1,0.2:1,1,1".parse().unwrap()],
+        environment: Environment::Constant([0.05; 3]),
+    }
+}
+
+fn cpu(
+    graph: &QuadGraph,
+    field: &MaterialField,
+    scene: &Scene,
+    exit: ExitQuery,
+) -> solver::CpuSolution {
+    let params = CpuSolveParams {
+        transport: Transport {
+            exit,
+            ..Transport::default()
+        },
+        ..CpuSolveParams::default()
+    };
+    solver::solve(graph, field, scene, None, &params).expect("cpu solve")
+}
+
+#[test]
+fn gpu_exit_queries_match_the_cpu_reference() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 16, 2);
+    let marble = Material::preset("marble").unwrap();
+    let field =
+        MaterialField::Homogeneous(Material::new(marble.sigma_s, marble.sigma_a, 1.5).unwrap());
+    let scene = scene();
+    let mut vertex = Vec::new();
+    for exit in [ExitQuery::Classic, ExitQuery::Moments] {
+        let reference = cpu(&graph, &field, &scene, exit);
+        let t_env = Boundary::new(field.eta(), exit).diffuse_transmittance();
+        let q: Vec<Vec<[f32; 3]>> = graph
+            .levels
+            .iter()
+            .map(|l| {
+                scene
+                    .surface_irradiance_with(l, field.eta(), None, t_env)
+                    .iter()
+                    .map(|q| q.map(|v| v as f32))
+                    .collect()
+            })
+            .collect();
+        let params = GpuSolveParams {
+            iterations: vec![4000],
+            tolerance: 1e-6,
+            exit,
+            ..Default::default()
+        };
+        let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params).expect("GpuDiffusion::new");
+        assert_eq!(solve.boundary().exit, exit);
+        solve.set_q_scale(GpuDiffusion::exposure_for(q.iter().flatten()));
+        for (h, q) in q.iter().enumerate() {
+            solve.upload_q(ctx, h, q).expect("upload q");
+        }
+        solve_once(ctx, &mut solve, false);
+        let j = solve.read_j_plus(ctx).expect("read J+");
+        let err = rel_rms(&j, &reference.j_plus_clamped);
+        let v = solve.read_vertex_j_plus(ctx).expect("vertex J+");
+        let vc: Vec<[f64; 3]> = reference
+            .vertex_j_plus
+            .iter()
+            .map(|x| x.map(f64::from))
+            .collect();
+        let verr = rel_rms(&v, &vc);
+        println!("{exit:?}: node J+ rel RMS {err:.2e}, vertex {verr:.2e}");
+        assert!(err <= SAME_QUERY, "{exit:?}: node J+ relative RMS {err}");
+        assert!(
+            verr <= SAME_QUERY,
+            "{exit:?}: vertex J+ relative RMS {verr}"
+        );
+        vertex.push(vc);
+        drop(solve);
+        gpu.assert_no_messages();
+    }
+    let between = rel_rms(&vertex[0], &vertex[1]);
+    println!("flux vs moments: rel RMS {between:.3}");
+    assert!(
+        between > QUERIES_DIFFER,
+        "the two queries agree to {between}"
+    );
+    gpu.finish();
+}
+
+/// Through the object's gather (q from the scene, the environment transmitted with the query's
+/// fraction): a constant environment, no shadows involved.
+#[test]
+fn object_moments_query_matches_the_cpu_under_an_environment() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 16, 2);
+    let field = MaterialField::Homogeneous(Material::preset("skin1").unwrap());
+    let scene = Scene {
+        lights: Vec::new(),
+        environment: Environment::Constant([0.5, 0.4, 0.3]),
+    };
+    let reference = cpu(&graph, &field, &scene, ExitQuery::Moments);
+    let params = GpuSolveParams {
+        iterations: vec![4000],
+        tolerance: 1e-6,
+        exit: ExitQuery::Moments,
+        ..Default::default()
+    };
+    let mut object = multilevel_object(ctx, &graph, &field, &scene, params);
+    render_once(ctx, &mut object, 32, 32);
+    let v = object
+        .quadgraph()
+        .expect("a QuadGraph object")
+        .solve()
+        .read_vertex_j_plus(ctx)
+        .expect("vertex J+");
+    let vc: Vec<[f64; 3]> = reference
+        .vertex_j_plus
+        .iter()
+        .map(|x| x.map(f64::from))
+        .collect();
+    let err = rel_rms(&v, &vc);
+    println!("object, environment, moments: vertex J+ rel RMS {err:.2e}");
+    assert!(err <= tol::GPU_VS_EXACT, "relative RMS {err}");
+    drop(object);
+    gpu.finish();
+}
+
+/// GPU collimated source (DESIGN 2.7, `GpuSolveParams::collimated`) against the CPU's
+/// `Transport::gpu_collimated`: per display vertex, the same formulas; the shadow maps' PCF at
+/// the terminator against the CPU's exact n.l > 0 and f32 are the differences (measured 3.7e-4
+/// at eta 1).
+const COLLIMATED_GPU_VS_CPU: f64 = 2e-3;
+
+/// The collimated source moves the vertex J+ of the front-lit marble sphere by more than this
+/// (measured 2.2% at eta 1 and 1.0% at 1.3, over every vertex, the dark side included), three
+/// times the bound above: a GPU ignoring the option fails.
+const COLLIMATED_DIFFERS: f64 = 0.006;
+
+#[test]
+fn gpu_collimated_source_matches_the_cpu_reference() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 16, 2);
+    let marble = Material::preset("marble").unwrap();
+    for eta in [1.0, 1.3] {
+        let field =
+            MaterialField::Homogeneous(Material::new(marble.sigma_s, marble.sigma_a, eta).unwrap());
+        let scene = Scene {
+            lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
+            environment: Environment::None,
+        };
+        let cpu_params = CpuSolveParams {
+            transport: Transport::gpu_collimated(),
+            ..CpuSolveParams::default()
+        };
+        let reference = solver::solve(&graph, &field, &scene, None, &cpu_params).unwrap();
+        let flux = cpu(&graph, &field, &scene, ExitQuery::Moments);
+        let params = GpuSolveParams {
+            iterations: vec![4000],
+            tolerance: 1e-6,
+            exit: ExitQuery::Moments,
+            collimated: true,
+            ..Default::default()
+        };
+        let mut object = multilevel_object(ctx, &graph, &field, &scene, params);
+        render_once(ctx, &mut object, 32, 32);
+        let v = object
+            .quadgraph()
+            .expect("a QuadGraph object")
+            .solve()
+            .read_vertex_j_plus(ctx)
+            .expect("vertex J+");
+        let want: Vec<[f64; 3]> = reference
+            .vertex_j_plus
+            .iter()
+            .map(|x| x.map(f64::from))
+            .collect();
+        let flux: Vec<[f64; 3]> = flux
+            .vertex_j_plus
+            .iter()
+            .map(|x| x.map(f64::from))
+            .collect();
+        let err = rel_rms(&v, &want);
+        let apart = rel_rms(&v, &flux);
+        println!("eta {eta}: collimated GPU vs CPU {err:.2e}, vs the boundary flux {apart:.3}");
+        assert!(
+            err <= COLLIMATED_GPU_VS_CPU,
+            "eta {eta}: relative RMS {err}"
+        );
+        assert!(apart > COLLIMATED_DIFFERS, "eta {eta}: {apart}");
+        drop(object);
+        gpu.assert_no_messages();
+    }
+    // The collimated source needs the moments query: a typed error otherwise.
+    let field = MaterialField::Homogeneous(marble);
+    let params = GpuSolveParams {
+        collimated: true,
+        ..Default::default()
+    };
+    assert!(GpuDiffusion::new(ctx, &graph, &field, &params).is_err());
+    gpu.finish();
+}
