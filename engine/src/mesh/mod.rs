@@ -166,7 +166,7 @@ pub enum MeshError {
         problem: &'static str,
     },
     #[error(
-        "object size (longest side) must be a finite number of millimetres within {min} to {max}, got {0}",
+        "object size (longest side) must be a finite number of millimetres within {min} to {max}, got {0:e}",
         min = SIZE_RANGE_MM.start(),
         max = SIZE_RANGE_MM.end()
     )]
