@@ -43,10 +43,7 @@ use super::plan::MethodWork;
 use super::report::CompletedSolve;
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh, Vertex};
-use crate::render::{
-    GatherLevel, GatherScene, IrradiancePass, ShadowMaps, Q_FORMAT, SURFACE_NORMAL_FORMAT,
-    SURFACE_POSITION_FORMAT,
-};
+use crate::render::{GatherLevel, GatherScene, IrradiancePass, ShadowMaps, SurfaceImages};
 use crate::scene::Scene;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::solver::dipole::{
@@ -56,7 +53,7 @@ use crate::solver::dipole::{
 use crate::solver::gpu::Deformation;
 use crate::solver::SolverError;
 use crate::vk::barrier::Use;
-use crate::vk::{barrier, Access, Buffer, Context, Image, ImageDesc, VkError};
+use crate::vk::{barrier, Access, Context, Image, VkError};
 use crate::Error;
 
 /// The irradiance gather at the triangles' centroids.
@@ -101,102 +98,39 @@ pub struct LeafPush {
     pub pad: u32,
 }
 
-/// The gather's images over the triangles: texel `(i % width, i / width)` is triangle `i`.
-struct LeafImages {
-    position: Image,
-    normal: Image,
-    q: Image,
-    rows: u32,
-}
-
-impl LeafImages {
-    /// Creates and fills position (a = 1 on a triangle with area) and normal; `q` undefined.
-    fn upload(ctx: &Context, tree: &FaceClusterHierarchy) -> Result<LeafImages, Error> {
-        let t = tree.leaf_count();
-        let width = LEAF_IMAGE_WIDTH;
-        let rows = (t as u32).div_ceil(width).max(1);
-        let texels = (width * rows) as usize;
-        let mut positions = vec![[0.0f32; 4]; texels];
-        let mut normals = vec![0u16; texels * 4];
-        for (i, g) in tree.geometry[..t].iter().enumerate() {
-            if !(g.area > 0.0 && g.area.is_finite()) {
-                continue; // degenerate: no irradiance (as the CPU's leaf_irradiance)
-            }
-            let (p, n) = (g.centroid, g.normal);
-            positions[i] = [p.x as f32, p.y as f32, p.z as f32, 1.0];
-            for (k, x) in [n.x, n.y, n.z].into_iter().enumerate() {
-                normals[4 * i + k] = half::f16::from_f64(x).to_bits();
-            }
+/// The gather's images over the triangles (texel `(i % width, i / width)` is triangle `i`):
+/// position (a = 1 on a triangle with area) and normal filled, `q` undefined.
+fn upload_leaf_images(ctx: &Context, tree: &FaceClusterHierarchy) -> Result<SurfaceImages, Error> {
+    let t = tree.leaf_count();
+    let width = LEAF_IMAGE_WIDTH;
+    let rows = (t as u32).div_ceil(width).max(1);
+    let texels = (width * rows) as usize;
+    let mut positions = vec![[0.0f32; 4]; texels];
+    let mut normals = vec![[half::f16::ZERO; 4]; texels];
+    for (i, g) in tree.geometry[..t].iter().enumerate() {
+        if !(g.area > 0.0 && g.area.is_finite()) {
+            continue; // degenerate: no irradiance (as the CPU's leaf_irradiance)
         }
-        let image = |name: &'static str, format, usage| {
-            Image::new(
-                ctx,
-                &ImageDesc {
-                    name,
-                    width,
-                    height: rows,
-                    format,
-                    usage,
-                },
-            )
-        };
-        let input = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
-        let position = image("dipole leaf position", SURFACE_POSITION_FORMAT, input)?;
-        let normal = image("dipole leaf normal", SURFACE_NORMAL_FORMAT, input)?;
-        let q = image(
-            "dipole leaf q",
-            Q_FORMAT,
-            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
-        )?;
-        let staged_positions = Buffer::with_data(
-            ctx,
-            "dipole leaf position upload",
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            &positions,
-        )?;
-        let staged_normals = Buffer::with_data(
-            ctx,
-            "dipole leaf normal upload",
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            &normals,
-        )?;
-        ctx.execute("upload dipole leaf images", |cb| {
-            // SAFETY: `cb` is recording; images and staging buffers outlive the waited submission.
-            unsafe {
-                barrier::record(
-                    ctx,
-                    cb,
-                    &[],
-                    &[
-                        // why: first use; the copies need TRANSFER_DST layout.
-                        barrier::image_barrier(&position, Access::Undefined, Access::TransferDst),
-                        barrier::image_barrier(&normal, Access::Undefined, Access::TransferDst),
-                    ],
-                );
-                for (buffer, image) in [(&staged_positions, &position), (&staged_normals, &normal)]
-                {
-                    image.record_upload_from(ctx, cb, buffer);
-                }
-                barrier::record(
-                    ctx,
-                    cb,
-                    &[],
-                    &[
-                        // why: the gather reads the uploaded texels (RAW), in GENERAL.
-                        barrier::image_barrier(&position, Access::TransferDst, Access::ComputeRead),
-                        barrier::image_barrier(&normal, Access::TransferDst, Access::ComputeRead),
-                    ],
-                );
-            }
-            Ok(())
-        })?;
-        Ok(LeafImages {
-            position,
-            normal,
-            q,
-            rows,
-        })
+        let (p, n) = (g.centroid, g.normal);
+        positions[i] = [p.x as f32, p.y as f32, p.z as f32, 1.0];
+        normals[i] = [
+            half::f16::from_f64(n.x),
+            half::f16::from_f64(n.y),
+            half::f16::from_f64(n.z),
+            half::f16::ZERO,
+        ];
     }
+    Ok(SurfaceImages::from_texels(
+        ctx,
+        [
+            "dipole leaf position",
+            "dipole leaf normal",
+            "dipole leaf q",
+        ],
+        (width, rows),
+        &positions,
+        &normals,
+    )?)
 }
 
 /// A relink waiting until no frame in flight reads the links it replaces.
@@ -218,7 +152,7 @@ pub struct DipoleMethod {
     link_stats: LinkStats,
     gather: DipoleGatherPass,
     irradiance: IrradiancePass,
-    images: LeafImages,
+    images: SurfaceImages,
     level: GatherLevel,
     leaves: ComputePipeline<LeafPush>,
     leaves_set: vk::DescriptorSet,
@@ -300,7 +234,7 @@ impl DipoleMethod {
                 (1.0 / (1.0 - material.base.f_dr())) as f32,
             )
             .map_err(dipole_error)?;
-        let images = LeafImages::upload(ctx, &tree)?;
+        let images = upload_leaf_images(ctx, &tree)?;
         let irradiance = IrradiancePass::new(ctx, 1)?;
         let level = irradiance.bind_level(
             ctx,
@@ -308,7 +242,7 @@ impl DipoleMethod {
             &images.position,
             &images.normal,
             &images.q,
-            images.rows,
+            images.surface_rows,
         )?;
         let leaves = ComputePipeline::new(
             ctx,

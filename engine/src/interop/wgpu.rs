@@ -64,9 +64,9 @@ use wg::hal::api::Vulkan;
 
 use crate::frame::FrameReport;
 use crate::object::{RecordCtx, TargetImage, Targets, TranslucentObject};
+use crate::vk::validation::{on_validation_message, MessageSink};
 use crate::vk::{
-    Context, GpuProfiler, HostOptions, ImageState, Severity, ValidationMessage, VkError,
-    REQUIRED_FEATURES,
+    Context, GpuProfiler, HostOptions, ImageState, ValidationMessage, VkError, REQUIRED_FEATURES,
 };
 
 /// The state wgpu-hal 27 keeps a colour texture in while wgpu-core tracks it as
@@ -150,17 +150,6 @@ impl ValidationMessages {
     }
 }
 
-struct MessageSink {
-    messages: Arc<Mutex<Vec<ValidationMessage>>>,
-    echo: bool,
-}
-
-impl MessageSink {
-    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<ValidationMessage>> {
-        self.messages.lock().unwrap_or_else(|e| e.into_inner())
-    }
-}
-
 /// Instances made by [`create_instance`] (their messages) and devices opened by [`open_device`]
 /// (they have our features), by raw handle. A device handle stays listed after the device is
 /// destroyed; a later device given the same handle value would pass the check.
@@ -177,42 +166,6 @@ static REGISTRY: Mutex<Registry> = Mutex::new(Registry {
 
 fn registry() -> std::sync::MutexGuard<'static, Registry> {
     REGISTRY.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-unsafe extern "system" fn on_validation_message(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _types: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user: *mut c_void,
-) -> vk::Bool32 {
-    // SAFETY: `user` is the `MessageSink` of `create_instance`, kept alive (in the instance's drop
-    // callback) until the messenger is destroyed; `data` is valid during the callback (spec).
-    let (sink, data) = unsafe { (&*(user as *const MessageSink), &*data) };
-    let text = |s: Option<&CStr>| {
-        s.map(|c| c.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
-    // SAFETY: the strings are null or NUL-terminated during the callback.
-    let (id, body) = unsafe {
-        (
-            text(data.message_id_name_as_c_str()),
-            text(data.message_as_c_str()),
-        )
-    };
-    let message = ValidationMessage {
-        severity: if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
-            Severity::Error
-        } else {
-            Severity::Warning
-        },
-        id,
-        text: body,
-    };
-    if sink.echo {
-        eprintln!("validation: {message}");
-    }
-    sink.lock().push(message);
-    vk::FALSE
 }
 
 /// How [`create_device`] makes the wgpu instance and device.

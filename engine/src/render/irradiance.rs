@@ -586,6 +586,37 @@ impl SurfaceImages {
                 half::f16::ZERO,
             ];
         }
+        Self::from_texels(
+            ctx,
+            ["surface_position", "surface_normal", "q"],
+            (width, rows),
+            &positions,
+            &normals,
+        )
+    }
+
+    /// Creates the images from texels already packed (`width * rows` of each, row-major) and
+    /// fills `position` and `normal` (left in [`Access::ComputeRead`]); `q` is created undefined
+    /// (usage STORAGE | TRANSFER_SRC). `names`: position, normal, q. Headless contexts only (it
+    /// submits). The dipole method packs its triangles' centroids this way.
+    pub fn from_texels(
+        ctx: &Context,
+        names: [&'static str; 3],
+        (width, rows): (u32, u32),
+        positions: &[[f32; 4]],
+        normals: &[[half::f16; 4]],
+    ) -> Result<SurfaceImages, RenderError> {
+        let texels = (width * rows) as usize;
+        if positions.len() != texels || normals.len() != texels {
+            return Err(invalid(
+                "surface texels",
+                format!(
+                    "{} positions and {} normals for {width}x{rows} texels",
+                    positions.len(),
+                    normals.len()
+                ),
+            ));
+        }
         let image = |name: &'static str, format, usage| {
             Image::new(
                 ctx,
@@ -599,10 +630,10 @@ impl SurfaceImages {
             )
         };
         let input = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
-        let position = image("surface_position", SURFACE_POSITION_FORMAT, input)?;
-        let normal = image("surface_normal", SURFACE_NORMAL_FORMAT, input)?;
+        let position = image(names[0], SURFACE_POSITION_FORMAT, input)?;
+        let normal = image(names[1], SURFACE_NORMAL_FORMAT, input)?;
         let q = image(
-            "q",
+            names[2],
             Q_FORMAT,
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
         )?;
@@ -610,7 +641,7 @@ impl SurfaceImages {
             ctx,
             "surface_position upload",
             vk::BufferUsageFlags::TRANSFER_SRC,
-            &positions,
+            positions,
         )?;
         let normal_bits: Vec<u16> = normals.iter().flatten().map(|h| h.to_bits()).collect();
         let staged_normals = Buffer::with_data(

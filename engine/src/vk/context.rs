@@ -7,6 +7,8 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::device::{Device, Handles, OwnedVulkan};
+use super::validation::{on_validation_message, MessageSink};
+pub use super::validation::{Severity, ValidationLog, ValidationMessage};
 use super::{VkError, REQUIRED_FEATURES};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -36,44 +38,6 @@ impl Default for ContextDesc {
                 .filter(|s| !s.is_empty()),
             frames_in_flight: 2,
         }
-    }
-}
-
-/// Severity of a collected validation message (INFO and VERBOSE are not collected).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Severity {
-    Warning,
-    Error,
-}
-
-/// One message of the validation layer (or the loader) at warning or error severity.
-#[derive(Clone, Debug)]
-pub struct ValidationMessage {
-    pub severity: Severity,
-    pub id: String,
-    pub text: String,
-}
-
-impl std::fmt::Display for ValidationMessage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "[{:?}] {}: {}", self.severity, self.id, self.text)
-    }
-}
-
-/// Shared access to the collected validation messages.
-#[derive(Clone)]
-pub struct ValidationLog(Arc<Mutex<Vec<ValidationMessage>>>, std::sync::Weak<Device>);
-
-impl ValidationLog {
-    /// Whether the device still exists: after the context is dropped, `true` means some
-    /// resource (which holds the device) outlived it, i.e. a leak.
-    pub fn device_alive(&self) -> bool {
-        self.1.strong_count() > 0
-    }
-
-    /// Takes the messages collected so far.
-    pub fn take(&self) -> Vec<ValidationMessage> {
-        std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()))
     }
 }
 
@@ -130,50 +94,6 @@ pub struct Context {
     /// A host context whose host lent its queue for setup work ([`Context::lend_queue_for_setup`]):
     /// those submissions leave the host's frame counters alone.
     lent_queue: bool,
-}
-
-struct Messages(Arc<Mutex<Vec<ValidationMessage>>>, bool);
-
-unsafe extern "system" fn on_validation_message(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _types: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user: *mut c_void,
-) -> vk::Bool32 {
-    // SAFETY: `user` is the `Messages` boxed in `Context::headless`, alive until the instance is
-    // destroyed; `data` is valid for the duration of the callback (Vulkan spec).
-    let (messages, data) = unsafe { (&*(user as *const Messages), &*data) };
-    // SAFETY: the strings are null or NUL-terminated for the duration of the callback.
-    let text = |s: Option<&CStr>| {
-        s.map(|c| c.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
-    // SAFETY: as above.
-    let (id, body) = unsafe {
-        (
-            text(data.message_id_name_as_c_str()),
-            text(data.message_as_c_str()),
-        )
-    };
-    let severity = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
-        Severity::Error
-    } else {
-        Severity::Warning
-    };
-    let message = ValidationMessage {
-        severity,
-        id,
-        text: body,
-    };
-    if messages.1 {
-        eprintln!("validation: {message}");
-    }
-    messages
-        .0
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .push(message);
-    vk::FALSE
 }
 
 fn version_string(v: u32) -> String {
@@ -254,7 +174,10 @@ impl Context {
         let entry = unsafe { ash::Entry::load() }.map_err(|e| VkError::Loader(e.to_string()))?;
         let messages = Arc::new(Mutex::new(Vec::new()));
         // Boxed so the callback's pointer stays valid; leaked into the device below (freed there).
-        let user = Box::new(Messages(messages.clone(), desc.echo_validation));
+        let user = Box::new(MessageSink {
+            messages: messages.clone(),
+            echo: desc.echo_validation,
+        });
 
         // SAFETY: plain queries on a loaded entry.
         let layers = unsafe { entry.enumerate_instance_layer_properties() }
@@ -301,7 +224,7 @@ impl Context {
                     | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
             )
             .pfn_user_callback(Some(on_validation_message))
-            .user_data(&*user as *const Messages as *mut c_void);
+            .user_data(&*user as *const MessageSink as *mut c_void);
         let mut instance_info = vk::InstanceCreateInfo::default()
             .application_info(&app)
             .enabled_layer_names(&layer_names)

@@ -43,6 +43,7 @@ mod context;
 pub(crate) mod device;
 mod memory;
 mod profiler;
+pub(crate) mod validation;
 
 pub use barrier::{Access, ImageState, Tracked};
 pub use capture::{ImageReadback, LinearImage};
