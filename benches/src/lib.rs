@@ -362,8 +362,9 @@ pub mod plot {
                     let (px, py) = chart.backend_coord(&c);
                     draw_text8(&root, label, (px + 8, py - 10), false, s.colour)?;
                 }
-                // Legend: top right, one line per series.
-                let (lx, ly) = (right - 150, top + 10 + 16 * k as i32);
+                // Legend: bottom right, one line per series.
+                let lines = panel.series.len() as i32;
+                let (lx, ly) = (right - 150, bottom - 10 - 16 * (lines - k as i32));
                 root.draw(&Rectangle::new(
                     [(lx - 6, ly - 2), (right - 4, ly + 12)],
                     WHITE.filled(),

@@ -250,7 +250,9 @@ fn voxel_soak(args: &[String]) -> Result<()> {
                 "allocator at frame {} (the end's schedule phase): {then:?}",
                 f + 1
             );
-            if end != then {
+            // The voxel method's staging buffers of a material upload are sized by what was
+            // staged, so the same phase may hold a few bytes less: only growth is a leak.
+            if end.0 > then.0 || end.1 > then.1 {
                 return Err(
                     format!("allocator grew: {then:?} at frame {} -> {end:?}", f + 1).into(),
                 );
