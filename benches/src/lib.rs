@@ -249,7 +249,11 @@ pub mod plot {
     ) -> Result<()> {
         use font8x8::legacy::BASIC_LEGACY;
         for (i, c) in text.chars().enumerate() {
-            let code = if c.is_ascii() { c as usize } else { b'?' as usize };
+            let code = if c.is_ascii() {
+                c as usize
+            } else {
+                b'?' as usize
+            };
             let glyph = BASIC_LEGACY[code];
             for (row, bits) in glyph.iter().enumerate() {
                 for col in 0..8 {
@@ -374,9 +378,10 @@ pub mod plot {
                 match s.marker {
                     Marker::Circle => root.draw(&Circle::new(at, 5, style))?,
                     Marker::Triangle => root.draw(&TriangleMarker::new(at, 7, style))?,
-                    Marker::Square => {
-                        root.draw(&Rectangle::new([(at.0 - 5, at.1 - 5), (at.0 + 5, at.1 + 5)], style))?
-                    }
+                    Marker::Square => root.draw(&Rectangle::new(
+                        [(at.0 - 5, at.1 - 5), (at.0 + 5, at.1 + 5)],
+                        style,
+                    ))?,
                     Marker::Cross => root.draw(&Cross::new(at, 6, stroke))?,
                 }
             }

@@ -191,9 +191,7 @@ pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
     if args.solver != "gpu" {
         bail!("--method auto picks a GPU method: --solver cpu is the QuadGraph's f64 reference (use --method quadgraph)");
     }
-    let field = args
-        .material
-        .field(args.object.size_mm, DEFAULT_MATERIAL)?;
+    let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
     let traits = SceneTraits {
         heterogeneous: !field.is_homogeneous(),
         environment: args.env_constant.is_some() || args.env.is_some(),
@@ -201,11 +199,7 @@ pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
     };
     let choice = choose_method(&traits);
     if !args.json {
-        eprintln!(
-            "--method auto: {} ({})",
-            choice.kind.name(),
-            choice.reason
-        );
+        eprintln!("--method auto: {} ({})", choice.kind.name(), choice.reason);
     }
     Ok(RenderArgs {
         method: choice.kind.name().to_string(),

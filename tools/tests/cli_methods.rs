@@ -21,9 +21,24 @@ fn render_method_auto_picks_by_the_scene_and_reports_why() {
     let png = dir.join("split.png");
     let v = json_of(&translucent(
         &[
-            "render", "--method", "auto", "--shape", "sphere", "--size-mm", "20", "--volume",
-            &volume, "--voxels", "12", "--width", "48", "--height", "48", "--out",
-            png.to_str().expect("utf-8 path"), "--json",
+            "render",
+            "--method",
+            "auto",
+            "--shape",
+            "sphere",
+            "--size-mm",
+            "20",
+            "--volume",
+            &volume,
+            "--voxels",
+            "12",
+            "--width",
+            "48",
+            "--height",
+            "48",
+            "--out",
+            png.to_str().expect("utf-8 path"),
+            "--json",
         ],
         &dir,
     ));
@@ -37,10 +52,30 @@ fn render_method_auto_picks_by_the_scene_and_reports_why() {
     let png = dir.join("env.png");
     let v = json_of(&translucent(
         &[
-            "render", "--method", "auto", "--shape", "sphere", "--size-mm", "20", "--material",
-            "marble", "--env-constant", "1,1,1", "--light", "dir:0,-1,0:0,0,0", "--resolution",
-            "12", "--levels", "2", "--width", "48", "--height", "48", "--out",
-            png.to_str().expect("utf-8 path"), "--json",
+            "render",
+            "--method",
+            "auto",
+            "--shape",
+            "sphere",
+            "--size-mm",
+            "20",
+            "--material",
+            "marble",
+            "--env-constant",
+            "1,1,1",
+            "--light",
+            "dir:0,-1,0:0,0,0",
+            "--resolution",
+            "12",
+            "--levels",
+            "2",
+            "--width",
+            "48",
+            "--height",
+            "48",
+            "--out",
+            png.to_str().expect("utf-8 path"),
+            "--json",
         ],
         &dir,
     ));
@@ -52,9 +87,22 @@ fn render_method_auto_picks_by_the_scene_and_reports_why() {
     // A method given by name reports no choice.
     let v = json_of(&translucent(
         &[
-            "render", "--method", "voxel", "--shape", "sphere", "--size-mm", "20", "--voxels",
-            "8", "--width", "32", "--height", "32", "--out",
-            png.to_str().expect("utf-8 path"), "--json",
+            "render",
+            "--method",
+            "voxel",
+            "--shape",
+            "sphere",
+            "--size-mm",
+            "20",
+            "--voxels",
+            "8",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--out",
+            png.to_str().expect("utf-8 path"),
+            "--json",
         ],
         &dir,
     ));
@@ -70,7 +118,9 @@ fn bad_method_input_is_refused_with_a_message() {
     let bench_s = bench_out.to_str().expect("utf-8 path");
     for (args, needle) in [
         (
-            vec!["render", "--method", "auto", "--solver", "cpu", "--out", out_s],
+            vec![
+                "render", "--method", "auto", "--solver", "cpu", "--out", out_s,
+            ],
             "--method auto",
         ),
         (
@@ -78,11 +128,15 @@ fn bad_method_input_is_refused_with_a_message() {
             "photon",
         ),
         (
-            vec!["bench", "--method", "voxel", "--scenes", "teapot", "--out", bench_s],
+            vec![
+                "bench", "--method", "voxel", "--scenes", "teapot", "--out", bench_s,
+            ],
             "teapot",
         ),
         (
-            vec!["bench", "--method", "voxel", "--shape", "sphere", "--out", bench_s],
+            vec![
+                "bench", "--method", "voxel", "--shape", "sphere", "--out", bench_s,
+            ],
             "--shape",
         ),
     ] {

@@ -38,9 +38,9 @@ use translucent::headless::HeadlessHost;
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::TriMesh;
 use translucent::object::MethodDesc;
-use translucent::solver::voxel::{VoxelParams, VoxelResolution};
 use translucent::quadgraph::BakeParams;
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
+use translucent::solver::voxel::{VoxelParams, VoxelResolution};
 use translucent::vk::{Context, ContextDesc};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
 use translucent_benches::soak::{deformation_at, material_at, scene_at, SCHEDULE_PERIOD};
@@ -258,7 +258,10 @@ fn voxel_soak(args: &[String]) -> Result<()> {
                 );
             }
         }
-        _ => println!("allocator growth not checked: needs more than {} frames", 10 + period),
+        _ => println!(
+            "allocator growth not checked: needs more than {} frames",
+            10 + period
+        ),
     }
     if messages > 0 {
         return Err(format!("{messages} validation messages").into());

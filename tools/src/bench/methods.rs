@@ -75,9 +75,10 @@ pub(super) enum MethodItem {
 pub(super) fn parse_methods(text: &str) -> Result<Vec<MethodItem>, BenchError> {
     list("--method", text, |s| match s {
         "auto" => Ok(MethodItem::Auto),
-        _ => s.parse::<MethodKind>().map(MethodItem::Named).map_err(|_| {
-            "is not a method (quadgraph, voxel, dipole, auto)".to_string()
-        }),
+        _ => s
+            .parse::<MethodKind>()
+            .map(MethodItem::Named)
+            .map_err(|_| "is not a method (quadgraph, voxel, dipole, auto)".to_string()),
     })
 }
 
@@ -117,7 +118,8 @@ const CSV_HEADER: &str = "scene,name,method,auto,setup_s,first_frame_s,frame_wal
 
 impl MethodRow {
     fn csv(&self) -> String {
-        let num = |v: Option<f64>, digits: usize| v.map_or(String::new(), |v| format!("{v:.digits$}"));
+        let num =
+            |v: Option<f64>, digits: usize| v.map_or(String::new(), |v| format!("{v:.digits$}"));
         let errs = self.image.unwrap_or([None; 4]).map(|e| num(e, 5)).join(",");
         format!(
             "{},{},{},{},{},{},{},{},{errs},{},{}",
@@ -165,7 +167,15 @@ fn scene_args(index: usize, repeats: u32) -> anyhow::Result<BenchArgs> {
     argv.extend(options.iter().map(|o| o.replace("@MESHES", &meshes)));
     argv.extend(
         [
-            "--size-mm", "20", "--camera", PT_CAMERA, "--width", "96", "--height", "96", "--out",
+            "--size-mm",
+            "20",
+            "--camera",
+            PT_CAMERA,
+            "--width",
+            "96",
+            "--height",
+            "96",
+            "--out",
             "unused",
         ]
         .map(String::from),
@@ -245,7 +255,9 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
             relax: false,
             force: false,
         };
-        let object = object_args.load(None).with_context(|| format!("scene {name}"))?;
+        let object = object_args
+            .load(None)
+            .with_context(|| format!("scene {name}"))?;
         let auto = choose_method(&SceneTraits::of(&field, &lit)).kind;
         let mut kinds: Vec<MethodKind> = Vec::new();
         for item in &items {
@@ -267,12 +279,9 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
             let start = Instant::now();
             let desc = match kind {
                 MethodKind::QuadGraph => {
-                    let (graph, _, _, _) = crate::cache::bake(
-                        &object,
-                        &object_args.bake_params(),
-                        Some(&cache_dir),
-                    )
-                    .with_context(|| format!("scene {name}: bake"))?;
+                    let (graph, _, _, _) =
+                        crate::cache::bake(&object, &object_args.bake_params(), Some(&cache_dir))
+                            .with_context(|| format!("scene {name}: bake"))?;
                     MethodDesc::QuadGraph(Arc::new(graph))
                 }
                 MethodKind::Voxel => MethodDesc::Voxel {
@@ -315,10 +324,9 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
                             row.first_frame_s = Some(seconds);
                         } else {
                             wall.push(1e3 * seconds);
-                            let timings = captured
-                                .timings
-                                .as_ref()
-                                .context("no GPU timestamps on this device: bench measures GPU time")?;
+                            let timings = captured.timings.as_ref().context(
+                                "no GPU timestamps on this device: bench measures GPU time",
+                            )?;
                             gpu.push(
                                 timings
                                     .scopes
@@ -389,7 +397,10 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        println!("{}", serde_json::json!({ "rows": out, "csv": csv_path, "png": png_path }));
+        println!(
+            "{}",
+            serde_json::json!({ "rows": out, "csv": csv_path, "png": png_path })
+        );
     } else {
         println!("wrote {} and {}", csv_path.display(), png_path.display());
     }
@@ -424,11 +435,9 @@ pub(super) fn plot_methods(
             "frame GPU time (ms, lavapipe)",
             |r| r.frame_gpu_ms,
         ),
-        (
-            "to the first image",
-            "setup + first frame (s, wall)",
-            |r| Some(r.setup_s? + r.first_frame_s?),
-        ),
+        ("to the first image", "setup + first frame (s, wall)", |r| {
+            Some(r.setup_s? + r.first_frame_s?)
+        }),
     ];
     let panels: Vec<LabelledPanel> = panels
         .iter()
@@ -479,10 +488,7 @@ mod tests {
             "{e}"
         );
         assert_eq!(parse_scenes(None).expect("all").len(), REFERENCES.len());
-        assert_eq!(
-            parse_scenes(Some("split-sphere-dir")).expect("one"),
-            [4]
-        );
+        assert_eq!(parse_scenes(Some("split-sphere-dir")).expect("one"), [4]);
         let e = parse_scenes(Some("marble")).expect_err("unknown scene");
         assert!(e.to_string().contains("marble-sphere-dir"), "{e}");
     }
