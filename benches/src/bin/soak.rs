@@ -17,7 +17,8 @@
 //! every `--split-every` frames changes the topology with `set_mesh`: the sphere is replaced by
 //! two separate half-size spheres (two pieces, 4 mm apart), and back. The deformation of the
 //! frame applies to whichever mesh is current. Allocator growth is checked against the first frame
-//! from 10 on in the same phase of both schedules (the mesh's and the material's). `--csv FILE`
+//! in the same phase of both schedules (the mesh's and the material's) after the first full period
+//! (the allocator must then hold exactly the same bytes at the end). `--csv FILE`
 //! writes one line per frame: frame, wall ms of `render`, GPU ms of the frame's passes,
 //! allocations, allocated bytes, block bytes, pieces.
 //!
@@ -147,8 +148,11 @@ fn voxel_soak(args: &[String]) -> Result<()> {
     );
     // What the object holds depends on the material's phase (SCHEDULE_PERIOD) and the mesh's
     // (2 split_every): growth is the end against the first frame from 10 on in the same phase.
+    // The first period is left out: in it the same phase held a few tens of bytes more or less
+    // (measured -56..+24 B, allocation count equal: content-sized staging), from the second on
+    // exactly the same bytes.
     let period = lcm(SCHEDULE_PERIOD, 2 * split_every);
-    let phase_frame = (10..frames).find(|i| i % period == (frames - 1) % period);
+    let phase_frame = (period + 10..frames).find(|i| i % period == (frames - 1) % period);
     let mut at_phase = None;
     let at_start = ctx.allocator_usage();
     let mut lines = vec![
@@ -250,9 +254,7 @@ fn voxel_soak(args: &[String]) -> Result<()> {
                 "allocator at frame {} (the end's schedule phase): {then:?}",
                 f + 1
             );
-            // The voxel method's staging buffers of a material upload are sized by what was
-            // staged, so the same phase may hold a few bytes less: only growth is a leak.
-            if end.0 > then.0 || end.1 > then.1 {
+            if end != then {
                 return Err(
                     format!("allocator grew: {then:?} at frame {} -> {end:?}", f + 1).into(),
                 );
