@@ -366,13 +366,10 @@ pub mod plot {
                     let (px, py) = chart.backend_coord(&c);
                     draw_text8(&root, label, (px + 8, py - 10), false, s.colour)?;
                 }
-                // Legend: bottom right, one line per series.
-                let lines = panel.series.len() as i32;
-                let (lx, ly) = (right - 150, bottom - 10 - 16 * (lines - k as i32));
-                root.draw(&Rectangle::new(
-                    [(lx - 6, ly - 2), (right - 4, ly + 12)],
-                    WHITE.filled(),
-                ))?;
+                // Legend: above the plot at the right, one entry per series (outside the
+                // data, so it hides no point).
+                let entries = panel.series.len() as i32;
+                let (lx, ly) = (right - 120 * (entries - k as i32), top - 28);
                 draw_text8(&root, &s.name, (lx + 14, ly + 2), false, s.colour)?;
                 let at = (lx + 4, ly + 6);
                 match s.marker {

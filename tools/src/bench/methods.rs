@@ -191,7 +191,6 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
         (args.mesh.is_some(), "--mesh"),
         (args.shape.is_some(), "--shape"),
         (args.reference.is_some(), "--reference"),
-        (args.replot, "--replot"),
     ] {
         if given {
             return Err(BenchError::BadOption {
@@ -204,6 +203,9 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
         }
     }
     let items = parse_methods(methods_text)?;
+    if args.replot {
+        return replot_methods(&args.out);
+    }
     let scenes = parse_scenes(args.scenes.as_deref())?;
     if args.repeats == 0 {
         return Err(BenchError::BadOption {
@@ -407,6 +409,58 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--replot`: redraws `dir/methods.png` from `dir/methods.csv` (nothing runs).
+fn replot_methods(dir: &std::path::Path) -> anyhow::Result<()> {
+    let csv_path = dir.join("methods.csv");
+    let text = std::fs::read_to_string(&csv_path)
+        .with_context(|| format!("--replot: reading {}", csv_path.display()))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(CSV_HEADER) {
+        anyhow::bail!("{}: not a methods.csv (header differs)", csv_path.display());
+    }
+    let mut rows = Vec::new();
+    for (n, line) in lines.enumerate() {
+        let bad = || anyhow::anyhow!("{} line {}: malformed", csv_path.display(), n + 2);
+        let cells: Vec<&str> = line.split(',').collect();
+        if cells.len() != CSV_HEADER.split(',').count() {
+            return Err(bad());
+        }
+        let number = |i: usize| -> anyhow::Result<Option<f64>> {
+            match cells[i] {
+                "" => Ok(None),
+                v => v.parse::<f64>().map(Some).map_err(|_| bad()),
+            }
+        };
+        let scene = cells[0]
+            .parse::<usize>()
+            .ok()
+            .filter(|s| (1..=REFERENCES.len()).contains(s))
+            .ok_or_else(bad)?
+            - 1;
+        let method = ["quadgraph", "voxel", "dipole"]
+            .into_iter()
+            .find(|m| *m == cells[2])
+            .ok_or_else(bad)?;
+        rows.push(MethodRow {
+            scene,
+            method,
+            setup_s: number(4)?,
+            first_frame_s: number(5)?,
+            frame_wall_ms: number(6)?,
+            frame_gpu_ms: number(7)?,
+            image: number(11)?.map(|e| [None, None, None, Some(e)]),
+            ..MethodRow::default()
+        });
+    }
+    let png_path = dir.join("methods.png");
+    write_atomically(&png_path, |tmp| {
+        plot_methods(tmp, &rows).map_err(|e| e.to_string())
+    })
+    .with_context(|| format!("writing {}", png_path.display()))?;
+    println!("wrote {}", png_path.display());
+    Ok(())
+}
+
 /// The colour and marker of a method on the chart.
 fn style(method: &str) -> (RGBColor, Marker) {
     match method {
@@ -431,7 +485,7 @@ pub(super) fn plot_methods(
     type TimeOf = fn(&MethodRow) -> Option<f64>;
     let panels: [(&str, &str, TimeOf); 2] = [
         (
-            "per frame (everything recomputed)",
+            "per frame, all recomputed",
             "frame GPU time (ms, lavapipe)",
             |r| r.frame_gpu_ms,
         ),
