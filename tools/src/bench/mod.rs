@@ -182,8 +182,9 @@ pub struct BenchArgs {
     /// (tests/reference/pt) and writes methods.csv and methods.png (time against image error).
     #[arg(long, value_name = "M,..")]
     pub method: Option<String>,
-    /// With --method: the reference scenes to run (default: all eight; names in
-    /// `translucent bench --method quadgraph --scenes help`'s error).
+    /// With --method: the reference scenes to run (default: all eight): skimmilk-sphere-dir,
+    /// marble-sphere-dir, marble-sphere-backlit, marble-torus-backlit, split-sphere-dir,
+    /// marble-sphere-env, bunny-marble-dir, bunny-marble-side.
     #[arg(long, value_name = "NAME,..", requires = "method")]
     pub scenes: Option<String>,
     /// Where baked QuadGraphs are cached (as for `render`).
