@@ -23,6 +23,7 @@ pub mod plot {
 
     use plotters::coord::Shift;
     use plotters::prelude::*;
+    pub use plotters::style::RGBColor;
 
     type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
@@ -205,6 +206,182 @@ pub mod plot {
                     .iter()
                     .map(|&p| Circle::new(p, 8, BLACK.stroke_width(2))),
             )?;
+        }
+        root.present()?;
+        Ok(())
+    }
+
+    /// A point's marker on [`methods_chart`]: with the colour, what tells the methods apart
+    /// (in grey print too).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Marker {
+        Circle,
+        Triangle,
+        Square,
+        Cross,
+    }
+
+    /// One method on [`methods_chart`]: its points (x, y, a short label written beside the
+    /// point, e.g. the scene's number), not joined.
+    pub struct Labelled {
+        pub name: String,
+        pub colour: RGBColor,
+        pub marker: Marker,
+        pub points: Vec<(f64, f64, String)>,
+    }
+
+    /// One panel of [`methods_chart`]: axis titles (units included) and the methods.
+    pub struct LabelledPanel {
+        pub title: String,
+        pub x_title: String,
+        pub y_title: String,
+        pub series: Vec<Labelled>,
+    }
+
+    /// Draws `text` in `font8x8`'s 8x8 glyphs (printable ASCII), top-left at `at`; `vertical`
+    /// turns it 90 degrees counter-clockwise (reading bottom to top, `at` its bottom-left).
+    fn draw_text8(
+        area: &DrawingArea<BitMapBackend, Shift>,
+        text: &str,
+        at: (i32, i32),
+        vertical: bool,
+        colour: RGBColor,
+    ) -> Result<()> {
+        use font8x8::legacy::BASIC_LEGACY;
+        for (i, c) in text.chars().enumerate() {
+            let code = if c.is_ascii() {
+                c as usize
+            } else {
+                b'?' as usize
+            };
+            let glyph = BASIC_LEGACY[code];
+            for (row, bits) in glyph.iter().enumerate() {
+                for col in 0..8 {
+                    if bits & (1 << col) == 0 {
+                        continue;
+                    }
+                    let (x, y) = (i as i32 * 8 + col, row as i32);
+                    let p = if vertical {
+                        (at.0 + y, at.1 - x)
+                    } else {
+                        (at.0 + x, at.1 + y)
+                    };
+                    area.draw_pixel(p, &colour)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes a PNG of labelled scatter panels side by side (720 x 600 each): log-log, decade
+    /// grid with labels, a title, axis titles, each series with its colour and marker, each point
+    /// with its label, and a legend of the series.
+    pub fn methods_chart(path: &Path, panels: &[LabelledPanel]) -> Result<()> {
+        let count = panels.len().max(1);
+        let root = BitMapBackend::new(path, (720 * count as u32, 600)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let areas = root.split_evenly((1, count));
+        for (panel, area) in panels.iter().zip(&areas) {
+            let (ox, _) = area.get_base_pixel();
+            let (mut x0, mut x1, mut y0, mut y1) =
+                (f64::MAX, f64::MIN_POSITIVE, f64::MAX, LOG_FLOOR);
+            for (x, y, _) in panel.series.iter().flat_map(|s| s.points.iter()) {
+                (x0, x1) = (x0.min(x.max(1e-3)), x1.max(*x));
+                (y0, y1) = (y0.min(y.max(LOG_FLOOR)), y1.max(*y));
+            }
+            if x0 > x1 {
+                (x0, x1, y0, y1) = (1.0, 10.0, 0.01, 1.0);
+            }
+            // At least one decade on each axis, so the grid has a label.
+            let (x0, x1) = (x0.min(x1 / 10.0) * 0.7, x1 * 1.5);
+            let (y0, y1) = (y0.min(y1 / 10.0) * 0.7, y1 * 1.5);
+            let mut chart = ChartBuilder::on(area)
+                .margin(16)
+                .margin_top(40)
+                .margin_left(80)
+                .margin_bottom(56)
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+            chart.draw_series(std::iter::once(PathElement::new(
+                vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)],
+                BLACK.stroke_width(1),
+            )))?;
+            let grey = RGBColor(225, 225, 225);
+            let decades =
+                |lo: f64, hi: f64| (lo.log10().ceil() as i32)..=(hi.log10().floor() as i32);
+            for d in decades(x0, x1) {
+                let x = 10f64.powi(d);
+                chart.draw_series(LineSeries::new([(x, y0), (x, y1)], grey.stroke_width(1)))?;
+                let (px, py) = chart.backend_coord(&(x, y0));
+                let label = decade_label(d);
+                draw_text(&root, &label, (px - text_width(&label) / 2, py + 6))?;
+            }
+            for d in decades(y0, y1) {
+                let y = 10f64.powi(d);
+                chart.draw_series(LineSeries::new([(x0, y), (x1, y)], grey.stroke_width(1)))?;
+                let (px, py) = chart.backend_coord(&(x0, y));
+                let label = decade_label(d);
+                draw_text(&root, &label, (px - text_width(&label) - 6, py - 5))?;
+            }
+            let (left, bottom) = chart.backend_coord(&(x0, y0));
+            let (right, top) = chart.backend_coord(&(x1, y1));
+            draw_text8(&root, &panel.title, (left, top - 28), false, BLACK)?;
+            let x_width = 8 * panel.x_title.chars().count() as i32;
+            draw_text8(
+                &root,
+                &panel.x_title,
+                ((left + right - x_width) / 2, bottom + 24),
+                false,
+                BLACK,
+            )?;
+            let y_width = 8 * panel.y_title.chars().count() as i32;
+            draw_text8(
+                &root,
+                &panel.y_title,
+                (ox + 12, (top + bottom + y_width) / 2),
+                true,
+                BLACK,
+            )?;
+            for (k, s) in panel.series.iter().enumerate() {
+                let style = s.colour.filled();
+                let stroke = s.colour.stroke_width(2);
+                for (x, y, label) in &s.points {
+                    let c = (*x, y.max(LOG_FLOOR));
+                    let one = std::iter::once(c);
+                    match s.marker {
+                        Marker::Circle => {
+                            chart.draw_series(one.map(|c| Circle::new(c, 5, style)))?;
+                        }
+                        Marker::Triangle => {
+                            chart.draw_series(one.map(|c| TriangleMarker::new(c, 7, style)))?;
+                        }
+                        Marker::Square => {
+                            chart.draw_series(one.map(|c| {
+                                EmptyElement::at(c) + Rectangle::new([(-5, -5), (5, 5)], style)
+                            }))?;
+                        }
+                        Marker::Cross => {
+                            chart.draw_series(one.map(|c| Cross::new(c, 6, stroke)))?;
+                        }
+                    }
+                    let (px, py) = chart.backend_coord(&c);
+                    draw_text8(&root, label, (px + 8, py - 10), false, s.colour)?;
+                }
+                // Legend: above the plot at the right, one entry per series (outside the
+                // data, so it hides no point).
+                let entries = panel.series.len() as i32;
+                let (lx, ly) = (right - 120 * (entries - k as i32), top - 28);
+                draw_text8(&root, &s.name, (lx + 14, ly + 2), false, s.colour)?;
+                let at = (lx + 4, ly + 6);
+                match s.marker {
+                    Marker::Circle => root.draw(&Circle::new(at, 5, style))?,
+                    Marker::Triangle => root.draw(&TriangleMarker::new(at, 7, style))?,
+                    Marker::Square => root.draw(&Rectangle::new(
+                        [(at.0 - 5, at.1 - 5), (at.0 + 5, at.1 + 5)],
+                        style,
+                    ))?,
+                    Marker::Cross => root.draw(&Cross::new(at, 6, stroke))?,
+                }
+            }
         }
         root.present()?;
         Ok(())

@@ -233,6 +233,8 @@ pub struct TranslucentObject {
     changes: Changes,
     own_depth: Option<Image>,
     last_frame: Option<u64>,
+    /// `--method auto`'s choice, repeated in every [`FrameReport`].
+    method_choice: Option<crate::frame::MethodChoice>,
 }
 
 fn invalid(what: &str, problem: String) -> Error {
@@ -371,6 +373,7 @@ impl TranslucentObject {
             },
             own_depth: None,
             last_frame: None,
+            method_choice: None,
         })
     }
 
@@ -431,6 +434,24 @@ impl TranslucentObject {
         self.mesh = display;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
+        Ok(())
+    }
+
+    /// Records that the method was picked by [`crate::frame::choose_method`] (`--method auto`):
+    /// every later [`FrameReport::method_choice`] carries it. A choice naming another method
+    /// than the object's is a typed error.
+    pub fn set_method_choice(&mut self, choice: crate::frame::MethodChoice) -> Result<(), Error> {
+        if choice.kind.name() != self.method.name() {
+            return Err(invalid(
+                "method choice",
+                format!(
+                    "{} was chosen but the object runs the {} method",
+                    choice.kind.name(),
+                    self.method.name()
+                ),
+            ));
+        }
+        self.method_choice = Some(choice);
         Ok(())
     }
 
@@ -774,6 +795,7 @@ impl TranslucentObject {
         Ok(FrameReport {
             frame: rc.frame,
             method: self.method.name(),
+            method_choice: self.method_choice,
             passes: run.passes,
             skipped: run.skipped.into_iter().collect(),
             warm_start: method.warm_start,

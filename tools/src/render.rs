@@ -22,6 +22,7 @@ use translucent::quadgraph::cache::CacheOutcome;
 use translucent::scene;
 
 use glam::{DQuat, DVec3};
+use translucent::frame::{choose_method, MethodChoice, SceneTraits};
 use translucent::headless::{ExitanceMesh, HeadlessHost, HeadlessRenderer};
 use translucent::scene::Camera;
 use translucent::scene::Environment;
@@ -37,7 +38,7 @@ use crate::material_args::MaterialArgs;
 use crate::object_args::ObjectArgs;
 use crate::scene_args::SceneArgs;
 
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
     #[command(flatten)]
     pub object: ObjectArgs,
@@ -48,9 +49,13 @@ pub struct RenderArgs {
     /// The method: quadgraph (diffusion on the QuadGraph, Wang et al. 2010), voxel (shortest
     /// optical paths on a voxel grid built every frame, Ozawa et al.; no bake) or dipole
     /// (hierarchical boundary elements with the dipole BSSRDF, Mertens et al. 2003; homogeneous
-    /// materials).
-    #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
+    /// materials), or auto (picked from the scene by `frame::choose_method`'s documented rule;
+    /// the choice and its reason are printed, and in --json as `method_choice`).
+    #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole", "auto"])]
     pub method: String,
+    /// `--method auto`'s choice, once made (not an option).
+    #[arg(skip)]
+    pub method_choice: Option<MethodChoice>,
     /// Voxel method: voxels along the object's longest side (4..=256), or auto (from the
     /// material's mean free path).
     #[arg(long, value_name = "N|auto")]
@@ -180,6 +185,38 @@ fn rgb(option: &str, text: &str) -> anyhow::Result<[f64; 3]> {
         .map_err(|_| anyhow::anyhow!("{option} {text:?}: expected 3 numbers"))
 }
 
+/// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
+/// scene (a rigid object: `render` neither deforms nor re-meshes).
+pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
+    if args.solver != "gpu" {
+        bail!("--method auto picks a GPU method: --solver cpu is the QuadGraph's f64 reference (use --method quadgraph)");
+    }
+    let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
+    let traits = SceneTraits {
+        heterogeneous: !field.is_homogeneous(),
+        environment: args.env_constant.is_some() || args.env.is_some(),
+        ..SceneTraits::default()
+    };
+    let choice = choose_method(&traits);
+    if !args.json {
+        eprintln!("--method auto: {} ({})", choice.kind.name(), choice.reason);
+    }
+    Ok(RenderArgs {
+        method: choice.kind.name().to_string(),
+        method_choice: Some(choice),
+        ..args.clone()
+    })
+}
+
+/// `method_choice` of the render JSON: what `--method auto` picked and why (from the last
+/// frame's `FrameReport`), or null for a method given by name.
+pub fn choice_json(choice: Option<MethodChoice>) -> serde_json::Value {
+    match choice {
+        Some(c) => serde_json::json!({ "method": c.kind.name(), "reason": c.reason }),
+        None => serde_json::Value::Null,
+    }
+}
+
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     match args
         .out
@@ -195,6 +232,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
+    }
+    if args.method == "auto" {
+        return run(&resolve_auto(args)?);
     }
     if args.method != "voxel"
         && (args.voxels.is_some() || args.voxel_model.is_some() || args.voxel_soft.is_some())
@@ -370,6 +410,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut gpu_report = None;
     let mut gpu_bytes = None;
     let mut report_scene = solver_scene.clone();
+    let mut method_choice = None;
     if on_gpu {
         let object_params = ObjectParams {
             solve: gpu_params.clone(),
@@ -387,6 +428,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .camera
             .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
         translucent.set_camera(frame_desc.camera)?;
+        if let Some(choice) = args.method_choice {
+            translucent.set_method_choice(choice)?;
+        }
         let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
         let bar = crate::progress::spinner();
         for i in 0..args.frames {
@@ -412,6 +456,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 }
             }
             let (captured, report) = host.render(&ctx, &mut translucent)?;
+            method_choice = report.method_choice;
             // The host waited: this frame's own solve (if any) has completed.
             let solves = translucent.completed_solves(ctx.frames().1)?;
             let solve = solves.iter().find(|s| s.frame == captured.frame);
@@ -567,6 +612,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "width": frame_desc.width,
             "height": frame_desc.height,
             "method": args.method,
+            "method_choice": choice_json(method_choice),
             "solver": args.solver,
             "scheme": args.scheme,
             "levels": levels,

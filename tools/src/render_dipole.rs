@@ -113,6 +113,10 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         .camera
         .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
     object.set_camera(r.frame_desc.camera)?;
+    if let Some(choice) = args.method_choice {
+        object.set_method_choice(choice)?;
+    }
+    let mut method_choice = None;
     let mut host = HeadlessHost::new(&ctx, r.frame_desc.width, r.frame_desc.height)?;
     let mut frames = Vec::new();
     let mut timings = Vec::new();
@@ -135,6 +139,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
             }
         }
         let (captured, report) = host.render(&ctx, &mut object)?;
+        method_choice = report.method_choice;
         let skipped: serde_json::Map<String, serde_json::Value> = report
             .skipped
             .iter()
@@ -205,6 +210,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
             "width": r.frame_desc.width,
             "height": r.frame_desc.height,
             "method": "dipole",
+            "method_choice": crate::render::choice_json(method_choice),
             "solver": "gpu",
             "hierarchy": {
                 "triangles": hierarchy_stats.triangles,

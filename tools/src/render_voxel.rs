@@ -128,6 +128,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .camera
         .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
     translucent.set_camera(frame_desc.camera)?;
+    if let Some(choice) = args.method_choice {
+        translucent.set_method_choice(choice)?;
+    }
+    let mut method_choice = None;
     let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
     let mut frames = Vec::new();
     let mut timings = Vec::new();
@@ -150,6 +154,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             }
         }
         let (captured, report) = host.render(&ctx, &mut translucent)?;
+        method_choice = report.method_choice;
         let solves = translucent.completed_solves(ctx.frames().1)?;
         let solve = solves.iter().find(|s| s.frame == captured.frame);
         let iterations = solve.map_or(0, |s| s.iterations()[0]);
@@ -221,6 +226,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "width": frame_desc.width,
             "height": frame_desc.height,
             "method": "voxel",
+            "method_choice": crate::render::choice_json(method_choice),
             "voxel_model": format!("{:?}", params.model).to_lowercase(),
             "voxels": grid.voxels,
             "dims": grid.dims,

@@ -8,12 +8,14 @@
 //!   exitance ([`QuadGraphMethod`], [`DipoleMethod`]; [`FixedExitance`] for given values), between the
 //!   shared shadow maps and the shared shading.
 //! - [`report`]: [`FrameReport`] and [`SkipReason`].
+//! - [`choice`]: `--method auto`'s rule ([`choose_method`]).
 //!
 //! [`crate::TranslucentObject::record`] is the one composition: changes -> [`FramePlan`] ->
 //! the method's edit passes -> shadow maps -> the method's passes -> shading, into the host's
 //! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
 //! `translucent bench`, the example host and the viewer all record frames through it.
 
+pub mod choice;
 pub mod dipole;
 pub mod exitance;
 pub mod graph;
@@ -23,6 +25,7 @@ pub mod quadgraph;
 pub mod report;
 pub mod voxel;
 
+pub use choice::{choose_method, MethodChoice, SceneTraits};
 pub use dipole::{DipoleMethod, DipoleParams};
 pub use exitance::FixedExitance;
 pub use graph::{BarrierNote, FrameError, FrameGraph, GraphRun, PassCtx, ResourceId};

@@ -72,6 +72,9 @@ pub struct FrameReport {
     pub frame: u64,
     /// The method that produced the surface exitance (`quadgraph`, ...).
     pub method: &'static str,
+    /// When the method was chosen by `--method auto` ([`super::choose_method`]): the choice and
+    /// its reason ([`crate::TranslucentObject::set_method_choice`]).
+    pub method_choice: Option<super::MethodChoice>,
     /// Passes recorded, in order: the frame graph's pass names, which are also the debug labels
     /// and the profiler's top-level scopes.
     pub passes: Vec<&'static str>,

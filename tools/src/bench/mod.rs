@@ -35,10 +35,14 @@
 //! with `--json`), then the real-time and quality picks: the configurations with the fewest node
 //! updates whose solver error (a') is within 1% and 0.1%.
 //!
+//! `--method quadgraph,voxel,dipole` (any subset, or `auto`) compares the methods instead, on the
+//! path-traced references ([`methods`]: `methods.csv`, `methods.png`).
+//!
 //! ```text
 //! translucent bench --shape sphere --material marble --resolution 16,24 --levels 1,3 \
 //!     --iterations 16,64,256 --tolerance 0 --start cold,warm --out bench-out
 //! translucent bench --suite heterogeneous --out benches/results/bench-heterogeneous
+//! translucent bench --method quadgraph,voxel,dipole --scenes marble-sphere-dir --out m
 //! ```
 
 use std::path::PathBuf;
@@ -60,6 +64,7 @@ use crate::scene_args::SceneArgs;
 
 mod csv;
 mod gpu;
+mod methods;
 mod metrics;
 mod plot;
 mod suites;
@@ -172,6 +177,16 @@ pub struct BenchArgs {
     /// Only redraw `--out DIR`/bench.png from the bench.csv already there (nothing runs).
     #[arg(long)]
     pub replot: bool,
+    /// Methods to compare (quadgraph, voxel, dipole, auto; any subset): instead of the QuadGraph
+    /// sweep, runs each method at its `render` defaults on the path-traced references
+    /// (tests/reference/pt) and writes methods.csv and methods.png (time against image error).
+    #[arg(long, value_name = "M,..")]
+    pub method: Option<String>,
+    /// With --method: the reference scenes to run (default: all eight): skimmilk-sphere-dir,
+    /// marble-sphere-dir, marble-sphere-backlit, marble-torus-backlit, split-sphere-dir,
+    /// marble-sphere-env, bunny-marble-dir, bunny-marble-side.
+    #[arg(long, value_name = "NAME,..", requires = "method")]
+    pub scenes: Option<String>,
     /// Where baked QuadGraphs are cached (as for `render`).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
@@ -199,6 +214,9 @@ pub enum BenchError {
 }
 
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    if let Some(methods) = &args.method {
+        return methods::run(args, methods);
+    }
     let Some(name) = &args.suite else {
         return run_sweep(args);
     };
