@@ -316,3 +316,45 @@ impl ObjectArgs {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn up_turns_the_named_axis_to_plus_y_and_keeps_lengths() {
+        let mut mesh = TriMesh {
+            positions: vec![DVec3::new(1.0, 2.0, 3.0), DVec3::Z],
+            normals: vec![DVec3::Z, DVec3::X],
+            indices: Vec::new(),
+        };
+        turn_up(&mut mesh, "z");
+        // A rotation, exact to rounding: +Z goes to +Y, lengths are kept.
+        assert!((mesh.positions[1] - DVec3::Y).length() < 1e-12);
+        assert!((mesh.normals[0] - DVec3::Y).length() < 1e-12);
+        assert!((mesh.positions[0].length() - 14f64.sqrt()).abs() < 1e-12);
+        for axis in ["x", "-x", "-y", "-z"] {
+            let mut m = TriMesh {
+                positions: vec![up_axis(axis)],
+                normals: Vec::new(),
+                indices: Vec::new(),
+            };
+            turn_up(&mut m, axis);
+            assert!((m.positions[0] - DVec3::Y).length() < 1e-12, "{axis}");
+        }
+        let mut same = mesh.clone();
+        turn_up(&mut same, "y");
+        assert_eq!(same.positions, mesh.positions);
+    }
+
+    #[test]
+    fn resolution_parses_auto_and_numbers_only() {
+        assert_eq!("auto".parse(), Ok(ResolutionArg::Auto));
+        assert_eq!("AUTO".parse(), Ok(ResolutionArg::Auto));
+        assert_eq!("32".parse(), Ok(ResolutionArg::Cells(32)));
+        for bad in ["", "-3", "fine", "3.5"] {
+            assert!(bad.parse::<ResolutionArg>().is_err(), "{bad}");
+        }
+        assert_eq!(ResolutionArg::Cells(7).to_string(), "7");
+    }
+}
