@@ -16,8 +16,10 @@
 
 pub mod plot {
     //! Log-log plots without a font backend (this `plotters` build has none): decade tick labels
-    //! are drawn with a built-in 3x5 pixel font holding only digits, `.`, `-` and `e`; axis names
-    //! and series colours are written down where the plot is shown (benches/RESULTS.md).
+    //! are drawn with a built-in 3x5 pixel font holding only digits, `.`, `-` and `e`; the axis
+    //! titles ([`X_TITLE`], [`Y_TITLE`]) with the 8x8 bitmap font of the `font8x8` crate (the y
+    //! title turned a quarter); series colours are written down where the plot is shown
+    //! (benches/RESULTS.md).
 
     use std::path::Path;
 
@@ -79,6 +81,41 @@ pub mod plot {
     }
 
     const SCALE: i32 = 2;
+
+    /// The axis titles every panel gets.
+    pub const X_TITLE: &str = "solve GPU time (ms)";
+    pub const Y_TITLE: &str = "relative RMS error";
+
+    /// Draws `text` in the 8x8 font (ASCII), top-left at `at`; `vertical` turns it a quarter
+    /// counter-clockwise (reading bottom to top, `at` is then the bottom-left).
+    fn draw_title(
+        area: &DrawingArea<BitMapBackend, Shift>,
+        text: &str,
+        at: (i32, i32),
+        vertical: bool,
+    ) -> Result<()> {
+        for (i, c) in text.chars().enumerate() {
+            let Some(rows) = font8x8::legacy::BASIC_LEGACY.get(c as usize) else {
+                continue;
+            };
+            let advance = i as i32 * 8;
+            for (y, bits) in rows.iter().enumerate() {
+                for x in 0..8 {
+                    // font8x8: bit 0 is the leftmost pixel.
+                    if bits & (1 << x) != 0 {
+                        let (gx, gy) = (advance + x, y as i32);
+                        let p = if vertical {
+                            (at.0 + gy, at.1 - gx)
+                        } else {
+                            (at.0 + gx, at.1 + gy)
+                        };
+                        area.draw_pixel(p, &BLACK)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
 
     /// Width in pixels of `text` in the pixel font.
     fn text_width(text: &str) -> i32 {
@@ -149,8 +186,8 @@ pub mod plot {
             // panics without a font. The margins leave room for the pixel-font labels.
             let mut chart = ChartBuilder::on(area)
                 .margin(16)
-                .margin_left(64)
-                .margin_bottom(32)
+                .margin_left(80)
+                .margin_bottom(48)
                 .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
             chart.draw_series(std::iter::once(PathElement::new(
                 vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)],
@@ -166,6 +203,13 @@ pub mod plot {
                 let label = decade_label(p);
                 draw_text(&root, &label, (px - text_width(&label) / 2, py + 6))?;
             }
+            // Axis titles: centred under the x axis, along the y axis at the left edge.
+            let (left, bottom) = chart.backend_coord(&(x0, y0));
+            let (right, top) = chart.backend_coord(&(x1, y1));
+            let title_x = (left + right) / 2 - 4 * X_TITLE.len() as i32;
+            draw_title(&root, X_TITLE, (title_x, bottom + 24), false)?;
+            let title_y = (top + bottom) / 2 + 4 * Y_TITLE.len() as i32;
+            draw_title(&root, Y_TITLE, (left - 76, title_y), true)?;
             for p in decades(y0, y1) {
                 let y = 10f64.powi(p);
                 chart.draw_series(LineSeries::new([(x0, y), (x1, y)], grey.stroke_width(1)))?;

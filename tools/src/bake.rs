@@ -36,8 +36,13 @@ pub struct BakeArgs {
 }
 
 pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
-    let params = args.object.bake_params();
     let object = args.object.load(None)?;
+    // A bake has no material or image of its own: `auto` uses render's default material.
+    let field = translucent::material::MaterialField::Homogeneous(
+        translucent::material::Material::preset(crate::render::DEFAULT_MATERIAL)?,
+    );
+    let resolution = args.object.resolution(&object, &field, None);
+    let params = args.object.bake_params(&resolution);
     let Object {
         name,
         surface,
@@ -90,6 +95,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             "cache": out,
             "cache_outcome": match &outcome { CacheOutcome::Loaded => "loaded".to_string(), CacheOutcome::Baked => "baked".to_string(), CacheOutcome::Rebuilt(e) => format!("rebuilt: {e}") },
             "validation": validation,
+            "resolution": resolution.json(stats.levels.last().map(|l| l.surface_nodes + l.inner_nodes)),
             "params": { "resolution": params.resolution, "K": params.k, "levels": params.levels, "relax": params.relax, "block": params.block },
             "surface_vertices": surface.positions.len(),
             "surface_triangles": surface.indices.len(),
@@ -105,6 +111,15 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             serde_json::to_string_pretty(&value)?
         );
     } else {
+        eprintln!(
+            "{}",
+            resolution.line(
+                stats
+                    .levels
+                    .last()
+                    .map_or(0, |l| l.surface_nodes + l.inner_nodes)
+            )
+        );
         print_report(
             name,
             &out,

@@ -374,7 +374,14 @@ pub fn render_argv(data: &[u8]) -> Result<(), String> {
     // runs exactly those checks.
     let params = BakeParams {
         limits: limits(),
-        ..args.object.bake_params()
+        ..args.object.bake_params(&crate::object_args::Resolution {
+            cells: match args.object.resolution {
+                crate::object_args::ResolutionArg::Cells(n) => n,
+                crate::object_args::ResolutionArg::Auto => BakeParams::default().resolution,
+            },
+            spacing_mm: 0.0,
+            auto: None,
+        })
     };
     match QuadGraph::bake(&TriMesh::default(), &NoSolid, &params, &mut |_| {}) {
         Err(translucent::quadgraph::BakeError::Parameter { .. }) => {

@@ -14,6 +14,7 @@
 
 use clap::{Parser, Subcommand};
 
+pub mod backdrop;
 pub mod bake;
 pub mod bench;
 pub mod cache;

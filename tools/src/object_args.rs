@@ -6,9 +6,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use glam::DVec3;
+use translucent::material::MaterialField;
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, Solid, TriMesh, ValidateOptions};
+use translucent::quadgraph::resolution::{self, ResolutionChoice};
 use translucent::quadgraph::BakeParams;
+use translucent::scene::Camera;
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct ObjectArgs {
@@ -27,16 +30,93 @@ pub struct ObjectArgs {
     /// Number of levels (coarsest first; each finer level has about 4x the surface nodes).
     #[arg(long, default_value_t = BakeParams::default().levels)]
     pub levels: u32,
-    /// Lattice cells across the longest side at the finest level.
-    #[arg(long, default_value_t = BakeParams::default().resolution)]
-    pub resolution: u32,
+    /// Lattice cells across the longest side at the finest level, or `auto` (the default): the
+    /// coarser of what the material needs (its diffusion length and transport mean free path)
+    /// and, for a single render, what the image shows (two pixels of the object per node),
+    /// within 24..=128 (DESIGN 5.1). The choice is printed and in `--json`.
+    #[arg(long, value_name = "N|auto", default_value = "auto")]
+    pub resolution: ResolutionArg,
     /// Relax inner node positions (for the `paper` scheme only).
     #[arg(long)]
     pub relax: bool,
+    /// The mesh's up axis (x, y, z, -x, -y, -z): the mesh is turned so that this axis points
+    /// along +Y, the renderer's up (scans are often z-up). Procedural shapes are built +Y up.
+    #[arg(long, value_name = "AXIS", default_value = "y", value_parser = ["x", "y", "z", "-x", "-y", "-z"], allow_hyphen_values = true)]
+    pub up: String,
     /// Accept meshes that fail validation (open sheets, non-manifold edges) as the solid their
     /// generalized winding number describes.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `--resolution N|auto`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResolutionArg {
+    Auto,
+    Cells(u32),
+}
+
+impl std::str::FromStr for ResolutionArg {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        if text.eq_ignore_ascii_case("auto") {
+            return Ok(Self::Auto);
+        }
+        text.parse::<u32>()
+            .map(Self::Cells)
+            .map_err(|_| format!("{text:?}: expected a number of cells or auto"))
+    }
+}
+
+impl std::fmt::Display for ResolutionArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Auto => f.write_str("auto"),
+            Self::Cells(n) => write!(f, "{n}"),
+        }
+    }
+}
+
+/// The finest lattice resolution a command bakes: given with `--resolution N`, or chosen by
+/// `auto` (with what decided it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Resolution {
+    pub cells: u32,
+    /// The finest lattice spacing, mm (longest side / cells).
+    pub spacing_mm: f64,
+    pub auto: Option<ResolutionChoice>,
+}
+
+impl Resolution {
+    /// The `--json` entry: `{"resolution", "spacing_mm", "auto": {bound, material_spacing_mm,
+    /// image_spacing_mm} | null}` (node counts are added by the caller after the bake).
+    pub fn json(&self, finest_nodes: Option<usize>) -> serde_json::Value {
+        serde_json::json!({
+            "resolution": self.cells,
+            "spacing_mm": self.spacing_mm,
+            "finest_nodes": finest_nodes,
+            "auto": self.auto.map(|c| serde_json::json!({
+                "bound": c.bound,
+                "material_spacing_mm": c.material_spacing_mm.is_finite().then_some(c.material_spacing_mm),
+                "image_spacing_mm": c.image_spacing_mm,
+            })),
+        })
+    }
+
+    /// One line for stderr: `resolution auto: 31 cells (1.6 mm spacing, by the material), N
+    /// finest nodes`.
+    pub fn line(&self, finest_nodes: usize) -> String {
+        match &self.auto {
+            Some(c) => format!(
+                "resolution auto: {} cells across ({:.3} mm spacing, set by {}), {finest_nodes} nodes on the finest level",
+                self.cells, self.spacing_mm, c.bound
+            ),
+            None => format!(
+                "resolution {}: {:.3} mm spacing, {finest_nodes} nodes on the finest level",
+                self.cells, self.spacing_mm
+            ),
+        }
+    }
 }
 
 /// A loaded, validated and normalized object.
@@ -54,6 +134,14 @@ pub struct Object {
 }
 
 impl Object {
+    /// The display surface's bounding box (mm).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.surface.positions.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        )
+    }
+
     /// A bake error with advice that fits this object: a lattice level with no tetrahedra in an
     /// open surface (a sheet, a single triangle accepted with `--force`) is not cured by a finer
     /// lattice, the surface encloses no volume.
@@ -68,6 +156,32 @@ impl Object {
             }
             e => e.into(),
         }
+    }
+}
+
+/// The unit vector of an `--up` axis name.
+fn up_axis(name: &str) -> DVec3 {
+    let (sign, axis) = match name.strip_prefix('-') {
+        Some(a) => (-1.0, a),
+        None => (1.0, name),
+    };
+    sign * match axis {
+        "x" => DVec3::X,
+        "z" => DVec3::Z,
+        _ => DVec3::Y,
+    }
+}
+
+/// Turns `mesh` so that the axis `up` points along +Y (a rotation: windings and handedness kept).
+pub fn turn_up(mesh: &mut TriMesh, up: &str) {
+    let axis = up_axis(up);
+    if axis == DVec3::Y {
+        return;
+    }
+    // from_rotation_arc picks a rotation axis orthogonal to both for -y (a half turn).
+    let q = glam::DQuat::from_rotation_arc(axis, DVec3::Y);
+    for p in mesh.positions.iter_mut().chain(mesh.normals.iter_mut()) {
+        *p = q * *p;
     }
 }
 
@@ -93,13 +207,46 @@ pub fn shape_by_name(name: &str, size_mm: f64) -> anyhow::Result<Shape> {
 }
 
 impl ObjectArgs {
-    pub fn bake_params(&self) -> BakeParams {
+    /// The bake parameters at `resolution` (see [`ObjectArgs::resolution`]).
+    pub fn bake_params(&self, resolution: &Resolution) -> BakeParams {
         BakeParams {
-            resolution: self.resolution,
+            resolution: resolution.cells,
             k: self.k,
             levels: self.levels,
             relax: self.relax,
             ..Default::default()
+        }
+    }
+
+    /// `--resolution` for `object`: the given cells, or `auto` from the material `field` and,
+    /// for a single render, the `image` it is drawn at (camera, height in pixels; `None` for a
+    /// host that zooms, or a bake).
+    pub fn resolution(
+        &self,
+        object: &Object,
+        field: &MaterialField,
+        image: Option<(&Camera, u32)>,
+    ) -> Resolution {
+        let (lo, hi) = object.bounds();
+        let longest = (hi - lo).max_element();
+        match self.resolution {
+            ResolutionArg::Cells(cells) => Resolution {
+                cells,
+                spacing_mm: longest / f64::from(cells.max(1)),
+                auto: None,
+            },
+            ResolutionArg::Auto => {
+                let material = resolution::material_spacing_mm(field, lo, hi);
+                let image = image.map(|(camera, height)| {
+                    resolution::image_spacing_mm(camera, height, 0.5 * (lo + hi))
+                });
+                let choice = resolution::choose(longest, material, image);
+                Resolution {
+                    cells: choice.resolution,
+                    spacing_mm: choice.spacing_mm,
+                    auto: Some(choice),
+                }
+            }
         }
     }
 
@@ -117,6 +264,12 @@ impl ObjectArgs {
         match (&self.mesh, self.shape.as_deref().or(default_shape)) {
             (Some(path), _) => self.load_mesh(path),
             (None, Some(shape)) => {
+                if self.up != "y" {
+                    anyhow::bail!(
+                        "--up {}: applies to --mesh (procedural shapes are built +Y up)",
+                        self.up
+                    );
+                }
                 let s = shape_by_name(shape, self.size_mm)?;
                 Ok(Object {
                     name: format!("shape-{shape}"),
@@ -132,6 +285,7 @@ impl ObjectArgs {
 
     fn load_mesh(&self, path: &Path) -> anyhow::Result<Object> {
         let mut mesh = TriMesh::load_obj(path)?;
+        turn_up(&mut mesh, &self.up);
         let options = if self.force {
             ValidateOptions::forced()
         } else {
@@ -160,5 +314,47 @@ impl ObjectArgs {
             validation: Some(report.summary()),
             boundary_edges: report.boundary_edges,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn up_turns_the_named_axis_to_plus_y_and_keeps_lengths() {
+        let mut mesh = TriMesh {
+            positions: vec![DVec3::new(1.0, 2.0, 3.0), DVec3::Z],
+            normals: vec![DVec3::Z, DVec3::X],
+            indices: Vec::new(),
+        };
+        turn_up(&mut mesh, "z");
+        // A rotation, exact to rounding: +Z goes to +Y, lengths are kept.
+        assert!((mesh.positions[1] - DVec3::Y).length() < 1e-12);
+        assert!((mesh.normals[0] - DVec3::Y).length() < 1e-12);
+        assert!((mesh.positions[0].length() - 14f64.sqrt()).abs() < 1e-12);
+        for axis in ["x", "-x", "-y", "-z"] {
+            let mut m = TriMesh {
+                positions: vec![up_axis(axis)],
+                normals: Vec::new(),
+                indices: Vec::new(),
+            };
+            turn_up(&mut m, axis);
+            assert!((m.positions[0] - DVec3::Y).length() < 1e-12, "{axis}");
+        }
+        let mut same = mesh.clone();
+        turn_up(&mut same, "y");
+        assert_eq!(same.positions, mesh.positions);
+    }
+
+    #[test]
+    fn resolution_parses_auto_and_numbers_only() {
+        assert_eq!("auto".parse(), Ok(ResolutionArg::Auto));
+        assert_eq!("AUTO".parse(), Ok(ResolutionArg::Auto));
+        assert_eq!("32".parse(), Ok(ResolutionArg::Cells(32)));
+        for bad in ["", "-3", "fine", "3.5"] {
+            assert!(bad.parse::<ResolutionArg>().is_err(), "{bad}");
+        }
+        assert_eq!(ResolutionArg::Cells(7).to_string(), "7");
     }
 }

@@ -142,6 +142,11 @@ pub struct RenderArgs {
     /// usually a light or the camera inside the object, or a light pointing away).
     #[arg(long)]
     pub allow_black: bool,
+    /// PNG only: a studio backdrop (a grey gradient, lighter towards the floor) behind the
+    /// object instead of black; composited by the object's coverage after the render, so the
+    /// object's pixels are unchanged. EXR stays linear radiance on black (DESIGN 8).
+    #[arg(long)]
+    pub backdrop: bool,
     /// Print the per-pass GPU milliseconds of the last frame.
     #[arg(long)]
     pub profile: bool,
@@ -160,7 +165,7 @@ pub struct RenderArgs {
 /// The default scene: a torus of skim milk, back lit (see `scene_args::default_lights`), so the
 /// light passing through its tube shows.
 const DEFAULT_SHAPE: &str = "torus";
-const DEFAULT_MATERIAL: &str = "skimmilk";
+pub(crate) const DEFAULT_MATERIAL: &str = "skimmilk";
 
 /// Where baked QuadGraphs are cached without `--cache-dir` (shared by `render` and `bench`).
 pub(crate) fn default_cache_dir() -> PathBuf {
@@ -229,6 +234,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         _ => bail!("--out {}: must end in .png or .exr", args.out.display()),
     }
     check_writable(&args.out)?;
+    if args.backdrop
+        && !args
+            .out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!(
+            "--backdrop: PNG output only (an EXR is linear radiance on a black background, for comparisons)"
+        );
+    }
     let started = Instant::now();
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
@@ -291,7 +306,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.iterations == Some(0) {
         bail!("--iterations 0: give at least one iteration per level");
     }
-    let frame_desc = args.scene.frame_desc()?;
+    let mut frame_desc = args.scene.frame_desc()?;
     let lights = args.scene.lights()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
@@ -302,7 +317,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     // Bake, or load the cached bake of the same surface and parameters.
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
-    let params = args.object.bake_params();
+    // Without --camera: the three-quarter view of the object's bounding sphere.
+    if frame_desc.camera.is_none() {
+        let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
+        let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
+        frame_desc.camera = Some(crate::scene_args::default_camera(centre, radius, aspect));
+    }
     if args.method == "dipole" {
         let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
         std::fs::create_dir_all(&cache_dir)
@@ -319,11 +339,27 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             cache_dir,
         });
     }
+    // `--resolution auto`: from the material and the pixel footprint of the object for the
+    // camera this render uses (the automatic framing when none is given).
+    let footprint_camera = frame_desc.camera.context("the camera is set above")?;
+    let resolution = args.object.resolution(
+        &object,
+        &field,
+        Some((&footprint_camera, frame_desc.height)),
+    );
+    let params = args.object.bake_params(&resolution);
     let start = Instant::now();
     // The bake cache with its size limit (least recently used bakes are evicted).
     let (graph, stats, outcome, cache_file) =
         crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
     let bake_s = start.elapsed().as_secs_f64();
+    let finest_nodes = stats
+        .levels
+        .last()
+        .map_or(0, |l| l.surface_nodes + l.inner_nodes);
+    if !args.json {
+        eprintln!("{}", resolution.line(finest_nodes));
+    }
 
     let scheme = if args.scheme == "paper" {
         Scheme::Paper
@@ -539,7 +575,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             if png { ", or is --exposure too low" } else { "" }
         );
     }
-    last.image
+    let mut image = last.image.clone();
+    if args.backdrop {
+        crate::backdrop::composite(&mut image, args.scene.exposure);
+    }
+    image
         .write(&args.out, args.scene.exposure)
         .with_context(|| format!("--out {}", args.out.display()))?;
     eprintln!(
@@ -616,6 +656,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "solver": args.solver,
             "scheme": args.scheme,
             "levels": levels,
+            "resolution": resolution.json(Some(finest_nodes)),
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "schedule": args.schedule,

@@ -126,8 +126,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
     let base_camera = frame_desc
         .camera
-        .unwrap_or_else(|| Camera::framing(centre, radius, aspect));
-    translucent.set_camera(frame_desc.camera)?;
+        .unwrap_or_else(|| crate::scene_args::default_camera(centre, radius, aspect));
+    translucent.set_camera(Some(base_camera))?;
     if let Some(choice) = args.method_choice {
         translucent.set_method_choice(choice)?;
     }

@@ -69,6 +69,29 @@ pub fn default_lights() -> Vec<Light> {
     ]
 }
 
+/// The azimuth (from +Z towards +X) and elevation of the default camera: a three-quarter view
+/// from the front right and above, so the object's depth reads (a view straight from the front
+/// shows one side of it).
+pub const DEFAULT_VIEW_AZIMUTH_DEG: f64 = 35.0;
+pub const DEFAULT_VIEW_ELEVATION_DEG: f64 = 25.0;
+
+/// The commands' camera without `--camera`: the library's framing distance and field of view
+/// (`Camera::framing`: the bounding sphere inside the view with a margin), seen in three-quarter
+/// view.
+pub fn default_camera(centre: DVec3, radius: f64, aspect: f64) -> Camera {
+    let framed = Camera::framing(centre, radius, aspect);
+    let distance = (framed.eye - framed.target).length();
+    let (az, el) = (
+        DEFAULT_VIEW_AZIMUTH_DEG.to_radians(),
+        DEFAULT_VIEW_ELEVATION_DEG.to_radians(),
+    );
+    let direction = DVec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos());
+    Camera {
+        eye: centre + direction * distance,
+        ..framed
+    }
+}
+
 /// Parses one `--light` value (the syntax is the library's `Light::from_str`).
 pub fn parse_light(text: &str) -> anyhow::Result<Light> {
     text.parse::<Light>()
@@ -133,6 +156,20 @@ impl SceneArgs {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_default_camera_is_a_three_quarter_view_at_the_framing_distance() {
+        let centre = DVec3::new(1.0, 2.0, 3.0);
+        let framed = Camera::framing(centre, 10.0, 1.0);
+        let camera = default_camera(centre, 10.0, 1.0);
+        camera.validate().expect("valid");
+        let d = camera.eye - centre;
+        // Same distance and field of view: the object fits as it does in Camera::framing.
+        assert!((d.length() - (framed.eye - centre).length()).abs() < 1e-9);
+        assert_eq!(camera.fovy_deg, framed.fovy_deg);
+        // From the front right and above, neither axis-aligned nor from behind.
+        assert!(d.x > 0.3 * d.length() && d.y > 0.3 * d.length() && d.z > 0.5 * d.length());
+    }
 
     #[test]
     fn lights_and_cameras_parse_and_bad_values_name_the_option() {

@@ -309,7 +309,7 @@ fn bad_view_options_fail_before_the_window_opens() {
             "bad.script:2: unknown command \"fly\"",
         ),
         (vec!["--script", "missing.script"], "missing.script"),
-        (vec!["--method", "voxel"], "not built yet"),
+        (vec!["--resolution", "fine"], "--resolution"),
         (vec!["--tolerance", "nan"], "--tolerance"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_translucent"))
@@ -330,5 +330,82 @@ fn bad_view_options_fail_before_the_window_opens() {
             "one error line: {stderr}"
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The method key builds the voxel method in the window (issue 16: "method (quadgraph/voxel/dipole
+/// as they land)"): the screenshot after `method voxel` matches `translucent render --method
+/// voxel` of the same scene, validation silent.
+#[test]
+fn the_method_key_switches_to_voxel_and_matches_render() {
+    let Some(xvfb) = start_xvfb() else { return };
+    let dir = scratch("view-voxel");
+    std::fs::write(dir.join("voxel.script"), "method voxel\nwait 3\n").expect("script");
+    let out = view(
+        &xvfb.display,
+        &dir,
+        &[
+            "--shape",
+            "sphere",
+            "--size-mm",
+            "20",
+            "--resolution",
+            "16",
+            "--levels",
+            "2",
+            "--width",
+            "96",
+            "--height",
+            "72",
+            "--frames",
+            "4",
+            "--script",
+            "voxel.script",
+            "--screenshot",
+            "shot.png",
+            "--report",
+            "report.json",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}\n{stderr}", out.status);
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
+            .expect("report is JSON");
+    assert_eq!(report["validation_messages"], 0);
+    let render_args: Vec<String> = report["final"]["render_args"]
+        .as_array()
+        .expect("render_args")
+        .iter()
+        .map(|a| a.as_str().expect("text").to_string())
+        .collect();
+    assert!(
+        render_args.iter().any(|a| a == "--method=voxel"),
+        "{render_args:?}"
+    );
+    let reference = dir.join("render.exr");
+    let mut args: Vec<&str> = vec!["render"];
+    args.extend(render_args.iter().map(String::as_str));
+    let out_arg = format!("--out={}", reference.display());
+    args.push(&out_arg);
+    let rendered = translucent(&args, &dir);
+    assert!(
+        rendered.status.success(),
+        "render {args:?}: {}",
+        String::from_utf8_lossy(&rendered.stderr)
+    );
+    let (_, _, ours) = read_exr(&dir.join("shot.exr"));
+    let (_, _, theirs) = read_exr(&reference);
+    let (mut diff, mut norm) = (0.0f64, 0.0f64);
+    for (a, b) in ours.iter().zip(&theirs) {
+        for c in 0..3 {
+            diff += f64::from(a[c] - b[c]).powi(2);
+            norm += f64::from(b[c]).powi(2);
+        }
+    }
+    assert!(norm > 0.0, "the voxel render is black");
+    let rms = (diff / norm).sqrt();
+    eprintln!("voxel screenshot against render: relative RMS {rms:.2e}");
+    assert!(rms <= SCREENSHOT_RELATIVE_RMS, "relative RMS {rms}");
     let _ = std::fs::remove_dir_all(&dir);
 }

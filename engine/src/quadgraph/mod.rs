@@ -23,6 +23,7 @@ pub mod cache;
 pub mod export;
 pub mod graph;
 pub mod packing;
+pub mod resolution;
 pub mod shepard;
 pub mod surface_samples;
 

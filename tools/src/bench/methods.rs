@@ -247,13 +247,17 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
         };
         lit.validate()?;
         let frame_desc = scene_options.scene.frame_desc()?;
+        // why: a fixed lattice (the bake's default, 48 cells, not `--resolution auto`) keeps this
+        // table comparable with the earlier ones in RESULTS.md.
+        let fixed_cells = translucent::quadgraph::BakeParams::default().resolution;
         let object_args = crate::object_args::ObjectArgs {
             mesh: scene_options.mesh.clone(),
             shape: scene_options.shape.clone(),
             size_mm: 20.0,
             k: translucent::quadgraph::BakeParams::default().k,
             levels: translucent::quadgraph::BakeParams::default().levels,
-            resolution: translucent::quadgraph::BakeParams::default().resolution,
+            resolution: crate::object_args::ResolutionArg::Cells(fixed_cells),
+            up: "y".into(),
             relax: false,
             force: false,
         };
@@ -281,9 +285,16 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
             let start = Instant::now();
             let desc = match kind {
                 MethodKind::QuadGraph => {
-                    let (graph, _, _, _) =
-                        crate::cache::bake(&object, &object_args.bake_params(), Some(&cache_dir))
-                            .with_context(|| format!("scene {name}: bake"))?;
+                    let (graph, _, _, _) = crate::cache::bake(
+                        &object,
+                        &object_args.bake_params(&crate::object_args::Resolution {
+                            cells: fixed_cells,
+                            spacing_mm: 0.0,
+                            auto: None,
+                        }),
+                        Some(&cache_dir),
+                    )
+                    .with_context(|| format!("scene {name}: bake"))?;
                     MethodDesc::QuadGraph(Arc::new(graph))
                 }
                 MethodKind::Voxel => MethodDesc::Voxel {

@@ -277,8 +277,9 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         size_mm: args.size_mm,
         k: sweep.k[0],
         levels: sweep.levels[0],
-        resolution: sweep.resolution[0],
+        resolution: crate::object_args::ResolutionArg::Cells(sweep.resolution[0]),
         relax: args.relax,
+        up: "y".into(),
         force: args.force,
     };
     let object = object_args.load(Some("torus"))?;
@@ -351,10 +352,13 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
                 let params = ObjectArgs {
                     k,
                     levels,
-                    resolution,
                     ..object_args.clone()
                 }
-                .bake_params();
+                .bake_params(&crate::object_args::Resolution {
+                    cells: resolution,
+                    spacing_mm: 0.0,
+                    auto: None,
+                });
                 let key = cache::cache_key(&object.surface, &params);
                 let cache_file = cache_dir.join(format!("{}-{key:016x}.qgraph", object.name));
                 let (graph, _, outcome) = cache::bake_cached(

@@ -43,9 +43,9 @@ use anyhow::{bail, Context as _};
 use ash::vk;
 use translucent::headless::FrameDesc;
 use translucent::material::MaterialField;
-use translucent::object::{RecordCtx, TargetImage, Targets};
+use translucent::object::{MethodDesc, RecordCtx, TargetImage, Targets};
 use translucent::render::{COLOR_FORMAT, DEPTH_FORMAT};
-use translucent::scene::{Camera, Environment, Scene};
+use translucent::scene::{Environment, Scene};
 use translucent::solver::gpu::{GpuSolveParams, Precision};
 use translucent::solver::Scheme;
 use translucent::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc, ImageReadback};
@@ -85,7 +85,9 @@ pub struct ViewArgs {
     /// `--width/--height` are the window's starting size.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// The method to start with (the `k` key walks the list; voxel and dipole are not built yet).
+    /// The method to start with (the `k` key walks quadgraph, voxel, dipole). voxel: `--voxels
+    /// auto` and render's default model; dipole: a heterogeneous material as a texture
+    /// (`render --texture-only`).
     #[arg(long, default_value = "quadgraph", value_parser = ["quadgraph", "voxel", "dipole"])]
     pub method: String,
     /// Discretization: fv (finite volumes, default) or paper (Eqs. 5/6).
@@ -138,6 +140,10 @@ struct Setup {
     environment: Environment,
     frame: FrameDesc,
     script: Script,
+    /// The finest lattice's cells across (`--resolution`, or what `auto` chose).
+    resolution: u32,
+    /// The dipole method's face-cluster hierarchy of the display mesh, built on first use.
+    dipole_hierarchy: std::sync::OnceLock<Arc<translucent::solver::dipole::FaceClusterHierarchy>>,
 }
 
 fn rgb(option: &str, text: &str) -> anyhow::Result<[f64; 3]> {
@@ -215,10 +221,21 @@ impl Setup {
         .validate()?;
         let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
         let object = args.object.load(Some(DEFAULT_SHAPE))?;
-        let params = args.object.bake_params();
+        // `auto`: the material's bound only (the viewer zooms, so no pixel footprint binds).
+        let resolution = args.object.resolution(&object, &field, None);
+        let params = args.object.bake_params(&resolution);
         let start = Instant::now();
-        let (graph, _stats, outcome, file) =
+        let (graph, stats, outcome, file) =
             crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+        eprintln!(
+            "{}",
+            resolution.line(
+                stats
+                    .levels
+                    .last()
+                    .map_or(0, |l| l.surface_nodes + l.inner_nodes)
+            )
+        );
         eprintln!(
             "{} {} in {:.1} s ({})",
             match outcome {
@@ -237,6 +254,8 @@ impl Setup {
             environment,
             frame,
             script,
+            resolution: resolution.cells,
+            dipole_hierarchy: std::sync::OnceLock::new(),
         })
     }
 
@@ -294,8 +313,43 @@ impl Setup {
 
     /// Builds the object for `state` (a new method, precision or skip setting).
     fn object(&self, ctx: &Context, state: &ViewState) -> anyhow::Result<TranslucentObject> {
-        // One method is built; voxel and dipole become arms here when they land.
         match state.method_name() {
+            "voxel" => Ok(TranslucentObject::with_method(
+                ctx,
+                MethodDesc::Voxel {
+                    mesh: self.graph.surface.clone(),
+                    params: crate::render_voxel::voxel_params(None, None, None)?,
+                },
+                &self.field(state)?,
+                &self.scene(state),
+                &self.object_params(state),
+            )?),
+            "dipole" => {
+                let hierarchy = match self.dipole_hierarchy.get() {
+                    Some(h) => h.clone(),
+                    None => {
+                        let (tree, _) = translucent::solver::dipole::FaceClusterHierarchy::build(
+                            &self.graph.surface,
+                        )?;
+                        self.dipole_hierarchy.get_or_init(|| Arc::new(tree)).clone()
+                    }
+                };
+                Ok(TranslucentObject::with_method(
+                    ctx,
+                    MethodDesc::Dipole {
+                        mesh: self.graph.surface.clone(),
+                        hierarchy,
+                        params: translucent::frame::DipoleParams {
+                            heterogeneous:
+                                translucent::solver::dipole::HeterogeneousPolicy::TextureOnly,
+                            ..Default::default()
+                        },
+                    },
+                    &self.field(state)?,
+                    &self.scene(state),
+                    &self.object_params(state),
+                )?)
+            }
             "quadgraph" => Ok(TranslucentObject::new(
                 ctx,
                 self.graph.clone(),
@@ -320,7 +374,10 @@ impl Setup {
         push("--size-mm", a.object.size_mm.to_string());
         push("-K", a.object.k.to_string());
         push("--levels", a.object.levels.to_string());
-        push("--resolution", a.object.resolution.to_string());
+        push("--resolution", self.resolution.to_string());
+        if state.method_name() != "quadgraph" {
+            push("--method", state.method_name().to_string());
+        }
         match &state.material {
             Some(name) => push("--material", name.clone()),
             None => {
@@ -354,14 +411,20 @@ impl Setup {
         push("--radiance", a.scene.radiance.clone());
         push("--exposure", a.scene.exposure.to_string());
         push("--scheme", a.scheme.clone());
-        push("--precision", precision_name(state.precision).into());
-        push("--iterations", a.iterations.to_string());
-        push("--tolerance", a.tolerance.to_string());
+        // The QuadGraph's solver options; render refuses them for the other methods.
+        if state.method_name() == "quadgraph" {
+            push("--precision", precision_name(state.precision).into());
+            push("--iterations", a.iterations.to_string());
+            push("--tolerance", a.tolerance.to_string());
+        }
         if a.scene.no_specular {
             out.push("--no-specular".into());
         }
         if !state.skip {
             out.push("--no-skip".into());
+        }
+        if state.method_name() == "dipole" && !self.field(state).is_ok_and(|f| f.is_homogeneous()) {
+            out.push("--texture-only".into());
         }
         out
     }
@@ -1363,7 +1426,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
     let camera = setup
         .frame
         .camera
-        .unwrap_or_else(|| Camera::framing(bounds.0, bounds.1, aspect));
+        .unwrap_or_else(|| crate::scene_args::default_camera(bounds.0, bounds.1, aspect));
     let mut state = ViewState::new(camera, bounds, args.scene.lights()?);
     state.material = match (&args.material.volume, &args.material.sigma_a) {
         (None, None) => Some(

@@ -25,11 +25,11 @@ pub const METHODS: [MethodEntry; 3] = [
     },
     MethodEntry {
         name: "voxel",
-        built: false,
+        built: true,
     },
     MethodEntry {
         name: "dipole",
-        built: false,
+        built: true,
     },
 ];
 
@@ -443,11 +443,18 @@ mod tests {
         assert!(s.note.as_deref().is_some_and(|n| n.contains("jade")));
         s.apply(&Action::CycleMaterial(-1));
         assert_eq!(s.material.as_deref(), Some("ketchup"));
-        // Only quadgraph is built: the method key names what is missing and changes nothing.
-        let e = s.apply(&Action::CycleMethod);
-        assert!(!e.rebuild && s.method_name() == "quadgraph");
-        assert!(s.note.as_deref().is_some_and(|n| n.contains("voxel")));
-        assert!(!s.apply(&Action::Method("dipole".into())).rebuild);
+        // The method key walks quadgraph -> voxel -> dipole -> quadgraph, each a new object.
+        for name in ["voxel", "dipole", "quadgraph"] {
+            assert!(s.apply(&Action::CycleMethod).rebuild);
+            assert_eq!(s.method_name(), name);
+        }
+        assert!(s.apply(&Action::Method("dipole".into())).rebuild);
+        assert!(
+            !s.apply(&Action::Method("dipole".into())).rebuild,
+            "already"
+        );
+        assert!(!s.apply(&Action::Method("photon".into())).rebuild);
+        assert!(s.note.as_deref().is_some_and(|n| n.contains("photon")));
         assert!(s.apply(&Action::Quit).quit);
         s.apply(&Action::Orbit {
             yaw_deg: 10.0,
