@@ -76,7 +76,7 @@ fn params() -> GpuSolveParams {
 }
 
 /// Uploads the finest level's q of `scene` and solves (cold or warm); J+ per surface node.
-fn solve(
+fn run_solve(
     ctx: &Context,
     gpu: &mut GpuDiffusion,
     graph: &QuadGraph,
@@ -140,7 +140,7 @@ fn gpu_multigrid_reaches_the_exact_solve_homogeneous() {
     let graph = bake(&torus());
     let field = MaterialField::Homogeneous(Material::preset("skimmilk").unwrap());
     let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
-    let (j, report) = solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
+    let (j, report) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
     assert!(!report.warm);
     check(
         "skim milk, cold",
@@ -166,7 +166,7 @@ fn gpu_multigrid_reaches_the_exact_solve_on_a_1e4_contrast() {
         ..params()
     };
     let mut solve = GpuDiffusion::new(ctx, &graph, &field, &p).expect("GpuDiffusion");
-    let (j, report) = solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
+    let (j, report) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
     check(
         "1e4 contrast, cold",
         &j,
@@ -184,15 +184,15 @@ fn gpu_multigrid_warm_start_needs_fewer_cycles_than_cold() {
     let graph = bake(&torus());
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
     let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
-    let (_, first) = solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
+    let (_, first) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
     assert_eq!(first.state, CycleState::Converged, "{first:?}");
     let turned = scene(3.0);
-    let (j_warm, warm) = solve(ctx, &mut solve, &graph, &field, &turned, true);
+    let (j_warm, warm) = run_solve(ctx, &mut solve, &graph, &field, &turned, true);
     let exact_turned = exact(&graph, &field, &turned);
     check("marble, warm after 3 degrees", &j_warm, &exact_turned, &warm);
     // The same frame cold, on a fresh solver.
     let mut fresh = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
-    let (j_cold, cold) = solve(ctx, &mut fresh, &graph, &field, &turned, false);
+    let (j_cold, cold) = run_solve(ctx, &mut fresh, &graph, &field, &turned, false);
     check("marble, cold at 3 degrees", &j_cold, &exact_turned, &cold);
     println!(
         "warm {} cycles / {:.1} work units, cold {} cycles / {:.1} work units",
