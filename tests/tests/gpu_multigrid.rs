@@ -202,6 +202,12 @@ fn gpu_multigrid_warm_start_needs_fewer_cycles_than_cold() {
         cold.work_units
     );
     assert!(
+        warm.cycles.len() < cold.cycles.len(),
+        "warm start {} cycles, cold {}",
+        warm.cycles.len(),
+        cold.cycles.len()
+    );
+    assert!(
         warm.work_units < cold.work_units,
         "warm start {:.1} work units, cold {:.1}",
         warm.work_units,
