@@ -137,6 +137,10 @@ pub struct BenchArgs {
     /// solution, with the lights turned by --warm-degrees about +Y since that frame).
     #[arg(long, value_name = "cold,warm", default_value = "cold")]
     pub start: String,
+    /// Schedules to sweep (DESIGN 5.1): cascade (the paper's Jacobi per level, --iterations
+    /// caps it), multigrid (full multigrid / V-cycles to the relative residual --tolerance).
+    #[arg(long, value_name = "S,..", default_value = "cascade")]
+    pub schedule: String,
     /// Jacobi iteration caps per level to sweep.
     #[arg(
         long,
