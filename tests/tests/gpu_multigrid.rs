@@ -121,7 +121,10 @@ fn check(what: &str, j: &[[f32; 3]], exact: &[[f64; 3]], report: &GpuMultigridRe
         report.mean_factor,
         report.coarse_steps
     );
-    assert!(j.iter().flatten().all(|v| v.is_finite()), "{what}: NaN in J+");
+    assert!(
+        j.iter().flatten().all(|v| v.is_finite()),
+        "{what}: NaN in J+"
+    );
     assert_eq!(report.state, CycleState::Converged, "{what}: {report:?}");
     assert!(report.residual < f64::from(TOLERANCE));
     assert!(
@@ -189,7 +192,12 @@ fn gpu_multigrid_warm_start_needs_fewer_cycles_than_cold() {
     let turned = scene(3.0);
     let (j_warm, warm) = run_solve(ctx, &mut solve, &graph, &field, &turned, true);
     let exact_turned = exact(&graph, &field, &turned);
-    check("marble, warm after 3 degrees", &j_warm, &exact_turned, &warm);
+    check(
+        "marble, warm after 3 degrees",
+        &j_warm,
+        &exact_turned,
+        &warm,
+    );
     // The same frame cold, on a fresh solver.
     let mut fresh = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
     let (j_cold, cold) = run_solve(ctx, &mut fresh, &graph, &field, &turned, false);

@@ -755,7 +755,9 @@ pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
 }
 
 /// `--json`'s "multigrid" of a GPU multigrid solve (the CPU one's fields where they exist).
-fn gpu_multigrid_json(m: &translucent::solver::gpu::multigrid::GpuMultigridReport) -> serde_json::Value {
+fn gpu_multigrid_json(
+    m: &translucent::solver::gpu::multigrid::GpuMultigridReport,
+) -> serde_json::Value {
     serde_json::json!({
         "solver": "gpu",
         "warm": m.warm,

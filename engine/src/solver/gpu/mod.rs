@@ -776,7 +776,10 @@ impl GpuDiffusion {
     /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
     pub fn bytes(&self) -> (u64, f64) {
         let total: u64 = self.levels.iter().map(GpuLevel::bytes).sum::<u64>()
-            + self.multigrid.as_ref().map_or(0, multigrid::GpuMultigrid::bytes);
+            + self
+                .multigrid
+                .as_ref()
+                .map_or(0, multigrid::GpuMultigrid::bytes);
         let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
         (total, total as f64 / nodes.max(1) as f64)
     }

@@ -305,7 +305,13 @@ impl GpuMultigrid {
                 (Some(p), Some(coarse)) => {
                     let coarse_off = offsets[coarse] as u32;
                     for (lk, w) in p.links.iter().zip(&p.weights) {
-                        let global = lk.map(|c| if c == NO_NODE { NO_NODE } else { c + coarse_off });
+                        let global = lk.map(|c| {
+                            if c == NO_NODE {
+                                NO_NODE
+                            } else {
+                                c + coarse_off
+                            }
+                        });
                         links.push([global[0], global[1], global[2], global[3]]);
                         links.push([global[4], global[5], global[6], global[7]]);
                         link_weights.push([w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32]);
@@ -326,7 +332,10 @@ impl GpuMultigrid {
         let mut t_fine: Vec<u32> = Vec::new();
         let mut t_weight: Vec<f32> = Vec::new();
         for (l, level) in hierarchy.levels.iter().enumerate() {
-            let finer = hierarchy.levels.get(l + 1).and_then(|f| f.prolongation.as_ref());
+            let finer = hierarchy
+                .levels
+                .get(l + 1)
+                .and_then(|f| f.prolongation.as_ref());
             let base = t_fine.len();
             match finer {
                 Some(p) => {
@@ -668,7 +677,11 @@ impl GpuMultigrid {
         for k in 1..log.len() {
             cycles.push(CycleReport {
                 residual: log[k],
-                factor: if log[k - 1] > 0.0 { log[k] / log[k - 1] } else { 0.0 },
+                factor: if log[k - 1] > 0.0 {
+                    log[k] / log[k - 1]
+                } else {
+                    0.0
+                },
                 work_units: per(v_updates),
             });
         }
@@ -735,7 +748,12 @@ impl Recorder<'_> {
         unsafe {
             // why: every kernel reads what the one before wrote (RAW) and overwrites what
             // earlier ones read (WAR).
-            barrier::memory(self.ctx, self.cb, Access::ComputeWrite, Access::ComputeReadWrite);
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
             pipeline.dispatch(self.ctx, self.cb, *set, &push, [invocations, 1, 1]);
         }
     }
@@ -760,7 +778,12 @@ impl Recorder<'_> {
         unsafe {
             // why: every kernel reads what the one before wrote (RAW) and overwrites what
             // earlier ones read (WAR).
-            barrier::memory(self.ctx, self.cb, Access::ComputeWrite, Access::ComputeReadWrite);
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
             pipeline.dispatch_indirect(self.ctx, self.cb, *set, &push, &self.mg.control, offset);
         }
     }
@@ -844,7 +867,12 @@ impl Recorder<'_> {
         // SAFETY: the caller's contract.
         unsafe {
             // why: the check sums the partials the norm kernel just wrote (RAW).
-            barrier::memory(self.ctx, self.cb, Access::ComputeWrite, Access::ComputeReadWrite);
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
             pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
             // why: the next cycle's indirect dispatches read the arguments the check may have
             // zeroed (RAW at DRAW_INDIRECT).
