@@ -2,14 +2,14 @@
 #extension GL_GOOGLE_include_directive : require
 // The finest level's right-hand side from the gather's q image: f = S b = rhs_coef * q (row scale
 // times q_gain on surface rows, 0 on inner rows), times the exposure like q. Mode 1 (cold start):
-// x = 0 too.
+// x = 0 too; mode 0 (warm start): a non-finite x (a diverged last solve) restarts from 0.
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D q;
 layout(set = 0, binding = 1, std430) writeonly buffer Fs { vec4 v[]; } f;
-layout(set = 0, binding = 2, std430) writeonly buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 2, std430) buffer Xs { vec4 v[]; } x;
 layout(set = 0, binding = 3, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
 layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { vec4 v[]; } rhs_coef;
 
@@ -28,5 +28,10 @@ void main() {
     f.v[i] = vec4(value, 0.0);
     if (pc.mode == 1u) {
         x.v[i] = vec4(0.0);
+    } else {
+        vec3 xi = x.v[i].rgb;
+        if (any(isnan(xi)) || any(isinf(xi))) {
+            x.v[i] = vec4(0.0);
+        }
     }
 }

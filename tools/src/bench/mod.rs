@@ -75,7 +75,7 @@ use sweep::*;
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
     /// A fixed, documented sweep (heterogeneous, thin, scan, scan-reference, sphere-env,
-    /// multilevel): it sets the scene and the lists; options given beside it override the suite's.
+    /// multilevel, schedules): it sets the scene and the lists; options given beside it override the suite's.
     #[arg(long, value_name = "NAME")]
     pub suite: Option<String>,
     /// OBJ file (validated, then normalized to --size-mm).

@@ -51,7 +51,9 @@ pub struct GpuSolveParams {
     /// falls back to the boundary flux (`frame::QuadGraphMethod`).
     pub collimated: bool,
     /// `Some`: multigrid cycles (`--schedule multigrid`, [`super::multigrid`]) with these
-    /// parameters (its tolerance is this struct's `tolerance`); `None`: the paper's cascade.
+    /// parameters (its tolerance is this struct's `tolerance`; `krylov` is not built on the GPU
+    /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
+    /// paper's cascade.
     pub multigrid: Option<crate::solver::multigrid::MultigridParams>,
 }
 
