@@ -459,9 +459,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "converged": converged,
                 "skipped": skipped,
                 "warm_start": report.warm_start,
-                "multigrid": mg_report.as_ref().map(gpu_multigrid_json),
                 "material_variant": report.material_variant,
             }));
+            // Only multigrid frames carry the key (a `null` in frames reads as NaN to the checks).
+            if let (Some(m), Some(frame)) = (&mg_report, frames.last_mut()) {
+                frame["multigrid"] = gpu_multigrid_json(m);
+            }
             if mg_report.is_some() {
                 last_gpu_multigrid = mg_report;
             }
