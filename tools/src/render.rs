@@ -95,8 +95,8 @@ pub struct RenderArgs {
     pub tolerance: f64,
     /// How the levels are used (DESIGN 5.1): cascade (the paper's: Jacobi per level, coarsest
     /// first; then, for the CPU solver, PCG on the finest level unless --iterations) or
-    /// multigrid (full multigrid + V-cycles to the relative residual --tolerance; CPU solver
-    /// only: the GPU cycle is not built yet).
+    /// multigrid (full multigrid + V-cycles to the relative residual --tolerance, on either
+    /// solver; warm frames start from the last solution).
     #[arg(long, default_value = "cascade", value_parser = ["cascade", "multigrid"])]
     pub schedule: String,
     /// GPU state precision (mixed, fp16, fp32); applies to the GPU solver only.
@@ -297,8 +297,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--no-skip applies to the GPU solver (--solver gpu)");
     }
     let multigrid = args.schedule == "multigrid";
-    if multigrid && on_gpu {
-        bail!("--schedule multigrid: the GPU multigrid cycle is not built yet; add --solver cpu (or use --schedule cascade)");
+    if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
+        bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
     }
     if multigrid && args.iterations.is_some() {
         bail!("--iterations sets the cascade's Jacobi iterations per level; --schedule multigrid stops at --tolerance");
@@ -436,6 +436,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             exit_query
         },
         collimated: args.beam_source,
+        multigrid: multigrid.then(|| MultigridParams {
+            tolerance: args.tolerance,
+            ..MultigridParams::default()
+        }),
         ..GpuSolveParams::default()
     };
     let graph = Arc::new(graph);
@@ -445,6 +449,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut last = None;
     let mut gpu_report = None;
     let mut gpu_bytes = None;
+    let mut last_gpu_multigrid = None;
     let mut report_scene = solver_scene.clone();
     let mut method_choice = None;
     if on_gpu {
@@ -499,8 +504,26 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             let iterations = solve.map_or_else(|| vec![0; level_count], |s| s.iterations());
             // A level that ran to its cap did not reach --tolerance (optically thin objects need
             // many more Jacobi iterations than the default cap): say so rather than stay silent.
-            let converged = solve.map(|s| s.converged());
-            if converged == Some(false) && !args.json {
+            let mg_report = match (multigrid, solve) {
+                (true, Some(_)) => translucent
+                    .quadgraph()
+                    .context("the QuadGraph method reports the solve")?
+                    .solve()
+                    .multigrid_report(&ctx)?,
+                _ => None,
+            };
+            let converged = match &mg_report {
+                Some(m) => Some(m.converged),
+                None => solve.map(|s| s.converged()),
+            };
+            if let (Some(m), false) = (&mg_report, args.json) {
+                if !m.converged {
+                    eprintln!(
+                        "warning: frame {i}: the multigrid cycles stopped at relative residual {:.1e} ({:?})",
+                        m.residual, m.state
+                    );
+                }
+            } else if converged == Some(false) && !args.json {
                 eprintln!(
                     "warning: frame {i}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations"
                 );
@@ -519,6 +542,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "warm_start": report.warm_start,
                 "material_variant": report.material_variant,
             }));
+            // Only multigrid frames carry the key (a `null` in frames reads as NaN to the checks).
+            if let (Some(m), Some(frame)) = (&mg_report, frames.last_mut()) {
+                frame["multigrid"] = gpu_multigrid_json(m);
+            }
+            if mg_report.is_some() {
+                last_gpu_multigrid = mg_report;
+            }
             timings.extend(captured.timings.clone());
             last = Some(captured);
         }
@@ -600,7 +630,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 _ => "baked",
             },
             match &gpu_report {
-                Some(r) => format!("GPU solve, iterations per level {:?}", r.iterations),
+                Some(r) => match &last_gpu_multigrid {
+                    Some(m) => format!(
+                        "GPU multigrid solve ({}): {} cycles, {:.1} work units, residual {:.1e}",
+                        if m.warm { "warm" } else { "cold" },
+                        m.cycles.len(),
+                        m.work_units,
+                        m.residual
+                    ),
+                    None => format!("GPU solve, iterations per level {:?}", r.iterations),
+                },
                 None => match solution.as_ref().and_then(|s| s.multigrid.as_ref()) {
                     Some(m) => format!(
                         "CPU multigrid solve {solve_s:.3} s: {} cycles, {:.1} work units, residual {:.1e}",
@@ -660,7 +699,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "schedule": args.schedule,
-            "multigrid": solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
+            "multigrid": match &last_gpu_multigrid {
+                Some(m) => Some(gpu_multigrid_json(m)),
+                None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
                 "cycles": m.cycles.len(),
                 "work_units": m.work_units,
                 "matvec_units": m.matvec_units,
@@ -672,6 +713,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "coarse_iterations": m.coarse_iterations,
                 "sweeps_per_level": m.sweeps,
             })),
+            },
             "precision": on_gpu.then(|| format!("{:?}", gpu_params.precision).to_lowercase()),
             "gpu_bytes": gpu_bytes,
             "residual": residual,
@@ -800,4 +842,24 @@ pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
         std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
     })
     .with_context(|| format!("--trace {}", path.display()))
+}
+
+/// `--json`'s "multigrid" of a GPU multigrid solve (the CPU one's fields where they exist).
+fn gpu_multigrid_json(
+    m: &translucent::solver::gpu::multigrid::GpuMultigridReport,
+) -> serde_json::Value {
+    serde_json::json!({
+        "solver": "gpu",
+        "warm": m.warm,
+        "cycles": m.cycles.len(),
+        "work_units": m.work_units,
+        "converged": m.converged,
+        "state": m.state,
+        "start_residual": m.start_residual,
+        "residual": m.residual,
+        "mean_factor": m.mean_factor,
+        "factor_per_cycle": m.cycles.iter().map(|c| c.factor).collect::<Vec<_>>(),
+        "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
+        "coarse_steps": m.coarse_steps,
+    })
 }

@@ -32,7 +32,7 @@ const SCENE: &[&str] = &[
 ];
 
 const COLUMNS: &str =
-    "solver,family,family_name,colour,k,levels,resolution,scheme,precision,start,\
+    "solver,family,family_name,colour,k,levels,resolution,scheme,precision,start,schedule,\
 iterations_cap,tolerance,iterations_per_level,node_updates,finest_nodes,finest_surface_nodes,solve_gpu_ms,\
 frame_gpu_ms,cpu_s,gpu_bytes,bytes_per_node,discrete_r,discrete_g,discrete_b,discrete_all,\
 solver_r,solver_g,solver_b,solver_all,\

@@ -432,7 +432,14 @@ fn cpu_multigrid_schedule_reports_its_cycles() {
         );
     }
     for bad in [
-        &["--solver", "gpu", "--schedule", "multigrid"][..],
+        &[
+            "--solver",
+            "gpu",
+            "--schedule",
+            "multigrid",
+            "--precision",
+            "fp16",
+        ][..],
         &[
             "--solver",
             "cpu",
@@ -446,5 +453,60 @@ fn cpu_multigrid_schedule_reports_its_cycles() {
         assert!(!out.status.success(), "{bad:?} must be refused");
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(stderr.contains("--schedule multigrid"), "{bad:?}: {stderr}");
+    }
+}
+
+#[test]
+fn gpu_multigrid_schedule_reports_its_cycles_and_matches_the_cascade() {
+    /// Both stop at relative residual / estimated error 1e-5; the exitance totals agree far
+    /// closer than the fp16 q both read.
+    const ENERGY_AGREEMENT: f64 = 1e-3;
+    let dir = scratch("gpu-multigrid");
+    let mg = json_of(&render(
+        &dir,
+        &[
+            "--schedule",
+            "multigrid",
+            "--tolerance",
+            "1e-5",
+            "--frames",
+            "2",
+            "--orbit-light",
+            "3",
+        ],
+    ));
+    let cascade = json_of(&render(
+        &dir,
+        &["--tolerance", "1e-5", "--frames", "2", "--orbit-light", "3"],
+    ));
+    assert_eq!(mg["schedule"], "multigrid");
+    let report = &mg["multigrid"];
+    assert_eq!(report["solver"], "gpu", "{report}");
+    assert_eq!(report["converged"], true, "{report}");
+    let cycles = report["cycles"].as_u64().expect("cycles");
+    let factors = report["factor_per_cycle"].as_array().expect("factors");
+    assert!(cycles >= 1 && factors.len() as u64 == cycles, "{report}");
+    assert!(
+        factors.iter().all(|f| f.as_f64().is_some_and(|f| f < 1.0)),
+        "{report}"
+    );
+    assert!(report["residual"].as_f64().expect("residual") < 1e-5);
+    let wu = report["work_units"].as_f64().expect("work units");
+    assert!(wu > 0.0 && wu.is_finite(), "{report}");
+    // Frame 0 is cold, frame 1 (the light turned 3 degrees) warm.
+    let frames = mg["frames"].as_array().expect("frames");
+    assert_eq!(frames[0]["multigrid"]["warm"], false, "{frames:?}");
+    assert_eq!(frames[1]["multigrid"]["warm"], true, "{frames:?}");
+    let (a, b) = (
+        rgb(&mg["energy"]["exitance"]),
+        rgb(&cascade["energy"]["exitance"]),
+    );
+    for ch in 0..3 {
+        // Both last frames have the light turned by 3 degrees.
+        let (ra, rb) = (a[ch], b[ch]);
+        assert!(
+            (ra - rb).abs() <= ENERGY_AGREEMENT * rb.abs(),
+            "exitance {ra} against the cascade's {rb}"
+        );
     }
 }

@@ -1273,6 +1273,13 @@ fn chebyshev_sweep(
 /// estimate is deterministic). Lanczos converges to the extreme eigenvalues much faster than power
 /// iteration; it approaches from below, so callers add a margin.
 pub fn largest_eigenvalue(k: &SparseOperator, iterations: u32) -> [f64; 3] {
+    eigenvalue_bounds(k, iterations).map(|(_, hi)| hi)
+}
+
+/// Smallest and largest Ritz values of `B^-1 K` per channel (the Lanczos tridiagonal of
+/// [`largest_eigenvalue`]): the smallest approaches lambda_min from above, the largest lambda_max
+/// from below. The GPU's coarsest level runs a Chebyshev polynomial on this interval.
+pub fn eigenvalue_bounds(k: &SparseOperator, iterations: u32) -> [(f64, f64); 3] {
     let n = k.node_count();
     let mut r: Field = (0..n)
         .map(|i| {
@@ -1328,8 +1335,18 @@ pub fn largest_eigenvalue(k: &SparseOperator, iterations: u32) -> [f64; 3] {
                 off[j - 1] = bp[c].sqrt() / ap[c];
             }
         }
-        largest_tridiagonal_eigenvalue(&diag, &off)
+        (
+            smallest_tridiagonal_eigenvalue(&diag, &off),
+            largest_tridiagonal_eigenvalue(&diag, &off),
+        )
     })
+}
+
+/// Smallest eigenvalue of the symmetric tridiagonal matrix (diag, off): the largest of its
+/// negation.
+fn smallest_tridiagonal_eigenvalue(diag: &[f64], off: &[f64]) -> f64 {
+    let d: Vec<f64> = diag.iter().map(|v| -v).collect();
+    -largest_tridiagonal_eigenvalue(&d, off)
 }
 
 /// Largest eigenvalue of the symmetric tridiagonal matrix (diag, off) by Sturm-sequence

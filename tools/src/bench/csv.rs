@@ -16,6 +16,8 @@ pub(super) struct Row {
     pub(super) scheme: &'static str,
     pub(super) precision: Option<&'static str>,
     pub(super) start: Option<&'static str>,
+    /// GPU rows: `cascade` or `multigrid` (`--schedule`).
+    pub(super) schedule: Option<&'static str>,
     pub(super) iterations_cap: Option<u32>,
     pub(super) tolerance: Option<f32>,
     pub(super) iterations: Vec<u32>,
@@ -40,7 +42,7 @@ pub(super) struct Row {
 }
 
 pub(super) const CSV_HEADER: &str =
-    "solver,family,family_name,colour,k,levels,resolution,scheme,precision,start,\
+    "solver,family,family_name,colour,k,levels,resolution,scheme,precision,start,schedule,\
 iterations_cap,tolerance,iterations_per_level,node_updates,finest_nodes,finest_surface_nodes,solve_gpu_ms,\
 frame_gpu_ms,cpu_s,gpu_bytes,bytes_per_node,discrete_r,discrete_g,discrete_b,discrete_all,\
 solver_r,solver_g,solver_b,solver_all,\
@@ -74,6 +76,7 @@ impl Row {
             scheme: "fv",
             precision: None,
             start: None,
+            schedule: None,
             iterations_cap: None,
             tolerance: None,
             iterations: Vec::new(),
@@ -107,6 +110,7 @@ impl Row {
             self.scheme.to_string(),
             opt(self.precision),
             opt(self.start),
+            opt(self.schedule),
             opt(self.iterations_cap),
             opt(self.tolerance),
             iterations.join(";"),

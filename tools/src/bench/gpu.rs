@@ -103,9 +103,10 @@ pub(super) fn bench_bake(
     for config in configs {
         let scheme = scheme_name(config.scheme);
         let family_name = format!(
-            "{bake_name} {scheme} {} {}",
+            "{bake_name} {scheme} {} {}{}",
             precision_name(config.precision),
-            if config.warm { "warm" } else { "cold" }
+            if config.warm { "warm" } else { "cold" },
+            if config.multigrid { " multigrid" } else { "" }
         );
         progress.set_message(format!(
             "{family_name} cap {} tol {}",
@@ -142,15 +143,23 @@ pub(super) fn bench_bake(
         row.scheme = scheme;
         row.precision = Some(precision_name(config.precision));
         row.start = Some(if config.warm { "warm" } else { "cold" });
+        row.schedule = Some(if config.multigrid {
+            "multigrid"
+        } else {
+            "cascade"
+        });
         row.iterations_cap = Some(config.cap);
         row.tolerance = Some(config.tolerance);
-        row.node_updates = Some(
-            run.iterations
+        row.node_updates = Some(match &run.multigrid {
+            // Work units are node updates / finest nodes.
+            Some(m) => (m.work_units * graph.finest().node_count() as f64).round() as u64,
+            None => run
+                .iterations
                 .iter()
                 .zip(&graph.levels)
                 .map(|(&i, l)| u64::from(i) * l.node_count() as u64)
                 .sum(),
-        );
+        });
         row.iterations = run.iterations;
         row.solve_gpu_ms = Some(run.solve_ms);
         row.frame_gpu_ms = Some(run.frame_ms);
@@ -174,6 +183,8 @@ pub(super) struct GpuRun {
     /// q per finest surface node as the frame gathered it (unscaled).
     pub(super) q: Vec<[f64; 3]>,
     pub(super) iterations: Vec<u32>,
+    /// The multigrid schedule's last solve.
+    pub(super) multigrid: Option<translucent::solver::gpu::multigrid::GpuMultigridReport>,
     pub(super) solve_ms: f64,
     pub(super) frame_ms: f64,
     pub(super) bytes: (u64, f64),
@@ -204,6 +215,9 @@ pub(super) fn run_gpu(
             iterations: vec![config.cap],
             block: BLOCK,
             tolerance: config.tolerance,
+            multigrid: config
+                .multigrid
+                .then(translucent::solver::multigrid::MultigridParams::default),
             ..GpuSolveParams::default()
         },
         specular: frame_desc.specular,
@@ -275,6 +289,7 @@ pub(super) fn run_gpu(
     Ok(GpuRun {
         q,
         iterations: method.solve().iterations_run(ctx)?,
+        multigrid: method.solve().multigrid_report(ctx)?,
         solve_ms: median(solve),
         frame_ms: median(whole),
         bytes: method.solve().bytes(),

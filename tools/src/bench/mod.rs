@@ -80,7 +80,7 @@ use sweep::*;
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
     /// A fixed, documented sweep (heterogeneous, thin, scan, scan-reference, sphere-env,
-    /// multilevel): it sets the scene and the lists; options given beside it override the suite's.
+    /// multilevel, schedules): it sets the scene and the lists; options given beside it override the suite's.
     #[arg(long, value_name = "NAME")]
     pub suite: Option<String>,
     /// OBJ file (validated, then normalized to --size-mm).
@@ -142,6 +142,10 @@ pub struct BenchArgs {
     /// solution, with the lights turned by --warm-degrees about +Y since that frame).
     #[arg(long, value_name = "cold,warm", default_value = "cold")]
     pub start: String,
+    /// Schedules to sweep (DESIGN 5.1): cascade (the paper's Jacobi per level, --iterations
+    /// caps it), multigrid (full multigrid / V-cycles to the relative residual --tolerance).
+    #[arg(long, value_name = "S,..", default_value = "cascade")]
+    pub schedule: String,
     /// Jacobi iteration caps per level to sweep.
     #[arg(
         long,

@@ -16,7 +16,7 @@ pub(super) const PT_CAMERA: &str = "0,20,60:0,0,0:30";
 /// The suites: name, what it shows, its options. Paths are relative to the repository root;
 /// meshes come from `$TRANSLUCENT_MESH_DIR` (default `../shared/meshes`).
 #[rustfmt::skip]
-pub(super) const SUITES: [(&str, &str, &[&str]); 6] = [
+pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
     (
         "heterogeneous",
         "skim milk / skin1 split sphere (.vol), directional light, against its path-traced reference",
@@ -86,6 +86,17 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 6] = [
             "--height", "96", "--no-specular", "--resolution", "24", "--levels", "1,3", "-K", "1",
             "--iterations", "2000", "--tolerance", "3e-2,1e-2,3e-3,1e-3,3e-4,1e-4",
             "--repeats", "2",
+        ],
+    ),
+    (
+        "schedules",
+        "the default scene (torus 50 mm, skim milk, back and fill light): cascade against multigrid, cold and warm",
+        &[
+            "--shape", "torus", "--size-mm", "50", "--material", "skimmilk", "--width", "256",
+            "--height", "256", "--resolution", "48", "--levels", "3", "-K", "1",
+            "--iterations", "2000", "--tolerance", "1e-2,1e-3,1e-4",
+            "--schedule", "cascade,multigrid", "--start", "cold,warm", "--warm-degrees", "3",
+            "--repeats", "1",
         ],
     ),
 ];

@@ -13,6 +13,7 @@ pub(super) struct Config {
     pub(super) scheme: Scheme,
     pub(super) precision: Precision,
     pub(super) warm: bool,
+    pub(super) multigrid: bool,
     pub(super) cap: u32,
     pub(super) tolerance: f32,
 }
@@ -25,6 +26,8 @@ pub(super) struct Sweep {
     pub(super) schemes: Vec<Scheme>,
     pub(super) precisions: Vec<Precision>,
     pub(super) starts: Vec<bool>,
+    /// `true`: multigrid.
+    pub(super) schedules: Vec<bool>,
     pub(super) iterations: Vec<u32>,
     pub(super) tolerances: Vec<f32>,
 }
@@ -91,6 +94,11 @@ impl Sweep {
                 "warm" => Ok(true),
                 _ => Err("is not a start (cold, warm)".into()),
             })?,
+            schedules: list("--schedule", &args.schedule, |s| match s {
+                "cascade" => Ok(false),
+                "multigrid" => Ok(true),
+                _ => Err("is not a schedule (cascade, multigrid)".into()),
+            })?,
             iterations: list("--iterations", &args.iterations, uint(1, 1_000_000))?,
             tolerances: list("--tolerance", &args.tolerance, |s| {
                 non_negative(s).map(|v| v as f32)
@@ -134,15 +142,24 @@ impl Sweep {
         for &scheme in &self.schemes {
             for &precision in &self.precisions {
                 for &warm in &self.starts {
-                    for &tolerance in &self.tolerances {
-                        for &cap in &self.iterations {
-                            out.push(Config {
-                                scheme,
-                                precision,
-                                warm,
-                                cap,
-                                tolerance,
-                            });
+                    for &multigrid in &self.schedules {
+                        for &tolerance in &self.tolerances {
+                            // The multigrid schedule has no iteration cap: one row per tolerance.
+                            let caps = if multigrid {
+                                &self.iterations[..1]
+                            } else {
+                                &self.iterations[..]
+                            };
+                            for &cap in caps {
+                                out.push(Config {
+                                    scheme,
+                                    precision,
+                                    warm,
+                                    multigrid,
+                                    cap,
+                                    tolerance,
+                                });
+                            }
                         }
                     }
                 }

@@ -54,6 +54,7 @@
 //! ```
 
 pub mod edit;
+pub mod multigrid;
 mod params;
 mod ping_pong;
 mod pipelines;
@@ -264,6 +265,9 @@ pub struct GpuDiffusion {
     poison: Image,
     /// Edits waiting to be recorded in front of the next solve (`edit.rs`).
     pub(crate) edits: edit::EditState,
+    /// The multigrid schedule's hierarchy on the GPU ([`GpuSolveParams::multigrid`]), rebuilt
+    /// by every material change.
+    pub(crate) multigrid: Option<multigrid::GpuMultigrid>,
 }
 
 pub(crate) fn bad_param(name: &'static str, problem: String) -> Error {
@@ -638,6 +642,7 @@ impl GpuDiffusion {
             homogeneous: homogeneous.is_some(),
             poison,
             edits: edit::EditState::default(),
+            multigrid: None,
         };
         // The material goes in exactly as a later edit does (heterogeneous weights derived on the
         // GPU by the first record), so a fresh solve and an edited one are the same computation.
@@ -770,7 +775,11 @@ impl GpuDiffusion {
 
     /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
     pub fn bytes(&self) -> (u64, f64) {
-        let total: u64 = self.levels.iter().map(GpuLevel::bytes).sum();
+        let total: u64 = self.levels.iter().map(GpuLevel::bytes).sum::<u64>()
+            + self
+                .multigrid
+                .as_ref()
+                .map_or(0, multigrid::GpuMultigrid::bytes);
         let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
         (total, total as f64 / nodes.max(1) as f64)
     }

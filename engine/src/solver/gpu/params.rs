@@ -50,6 +50,11 @@ pub struct GpuSolveParams {
     /// of it, which the J+ pass adds back. Homogeneous materials only: a heterogeneous field
     /// falls back to the boundary flux (`frame::QuadGraphMethod`).
     pub collimated: bool,
+    /// `Some`: multigrid cycles (`--schedule multigrid`, [`super::multigrid`]) with these
+    /// parameters (its tolerance is this struct's `tolerance`; `krylov` is not built on the GPU
+    /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
+    /// paper's cascade.
+    pub multigrid: Option<crate::solver::multigrid::MultigridParams>,
 }
 
 impl Default for GpuSolveParams {
@@ -62,6 +67,7 @@ impl Default for GpuSolveParams {
             tolerance: 1e-4,
             exit: ExitQuery::default(),
             collimated: false,
+            multigrid: None,
         }
     }
 }

@@ -27,6 +27,19 @@ impl GpuDiffusion {
             .collect())
     }
 
+    /// Headless, after the solve's submission completed: what the multigrid schedule's last
+    /// solve did (`None` with the cascade).
+    pub fn multigrid_report(
+        &self,
+        ctx: &Context,
+    ) -> Result<Option<multigrid::GpuMultigridReport>, Error> {
+        let Some(mg) = &self.multigrid else {
+            return Ok(None);
+        };
+        self.sync_host(ctx)?;
+        Ok(Some(mg.report()?))
+    }
+
     /// Headless: Jacobi iterations run per level (the GPU's counter).
     pub fn iterations_run(&self, ctx: &Context) -> Result<Vec<u32>, Error> {
         Ok(self.control(ctx)?.iter().map(|c| c.iterations).collect())

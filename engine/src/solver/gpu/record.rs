@@ -60,7 +60,7 @@ impl SolvePlan {
 ///
 /// # Safety
 /// `cb` is recording.
-unsafe fn scope(
+pub(super) unsafe fn scope(
     profiler: &mut Option<&mut GpuProfiler>,
     ctx: &Context,
     cb: vk::CommandBuffer,
@@ -191,6 +191,9 @@ impl GpuDiffusion {
             }
         }
         uses.push(Use::image(&self.poison, Access::ComputeRead));
+        if let Some(mg) = &self.multigrid {
+            uses.extend(mg.uses());
+        }
         uses
     }
 
@@ -241,7 +244,16 @@ impl GpuDiffusion {
                 )],
                 &[],
             );
-            for (h, level) in self.levels.iter().enumerate() {
+            if let Some(mg) = &self.multigrid {
+                // The multigrid schedule replaces the cascade's levels (`multigrid.rs`).
+                mg.record(ctx, cb, plan.warm, self.params.tolerance, &mut profiler);
+            }
+            for (h, level) in self
+                .levels
+                .iter()
+                .enumerate()
+                .filter(|_| self.multigrid.is_none())
+            {
                 let push = LevelPush {
                     kappa: self.kappa,
                     mu_gain: self.mu_gain,

@@ -411,6 +411,16 @@ impl GpuDiffusion {
     ) -> Result<(), Error> {
         self.check_graph(graph)?;
         deformation.validate(graph)?;
+        if self.multigrid.is_some() && !matches!(deformation, Deformation::Identity) {
+            // The multigrid schedule's Galerkin levels are built on the CPU from the rest
+            // pose; re-deriving them per deformation is not built.
+            return Err(bad_param(
+                "deformation",
+                "the multigrid schedule solves the rest pose only: use the cascade schedule to \
+                 deform"
+                    .into(),
+            ));
+        }
         for m in meshes {
             if m.vertex_count() != graph.surface.positions.len() {
                 return Err(bad_param(

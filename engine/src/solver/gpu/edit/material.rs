@@ -162,6 +162,39 @@ impl GpuDiffusion {
         self.a = a;
         self.boundary = boundary;
         self.set_constants(homogeneous, a, q_gain);
+        self.build_multigrid(ctx, graph, field)?;
+        Ok(())
+    }
+
+    /// The multigrid schedule's hierarchy for `field` (Galerkin levels on the CPU, uploaded),
+    /// when the parameters ask for it; the next solve starts cold.
+    fn build_multigrid(
+        &mut self,
+        ctx: &Context,
+        graph: &QuadGraph,
+        field: &MaterialField,
+    ) -> Result<(), Error> {
+        let Some(mg) = self.params.multigrid.clone() else {
+            return Ok(());
+        };
+        self.multigrid = None;
+        let hierarchy = crate::solver::multigrid::Hierarchy::build_with(
+            graph,
+            field,
+            self.params.scheme,
+            self.params.exit,
+            &mg,
+        )?;
+        let finest = self.levels.last().ok_or(SolverError::EmptyGraph)?;
+        self.multigrid = Some(crate::solver::gpu::multigrid::GpuMultigrid::new(
+            ctx,
+            &hierarchy,
+            &mg,
+            &finest.packing,
+            &finest.q,
+            finest.result(),
+        )?);
+        self.solved = false;
         Ok(())
     }
 }

@@ -1,0 +1,892 @@
+//! Multigrid cycles on the GPU (DESIGN section 5.1): the schedule `--schedule multigrid` of the
+//! GPU solve, operation for operation the f64 [`Hierarchy`] of `solver::multigrid` in f32.
+//!
+//! Built on the CPU at creation and on every material change ([`GpuDiffusion::set_material`]):
+//! the [`Hierarchy`] (Galerkin coarse operators `P^T K P`, Lanczos bounds of `B^-1 K`), uploaded
+//! as storage buffers, every level's vectors concatenated (level `l` at node offset `offset_l`):
+//! - the operators in compressed rows (`row_start`, `cols`, `values` RGB f32, `diag`), with the
+//!   2x2 surface-node/cell blocks of the smoother (`partner`, `partner_value`);
+//! - the prolongation as the Shepard links (8 coarse nodes and weights per fine node) and its
+//!   transpose by coarse rows for the restriction (`t_start`, `t_fine`, `t_weight`): both gathers;
+//! - x, f, r and the Chebyshev direction d per node; the finest node -> texel map and the
+//!   right-hand side coefficients `S b / q` (row scale times q_gain on surface rows).
+//!
+//! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
+//! a sweep): `rhs` (f from the gather's q image), then cold: full multigrid (f restricted to every
+//! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval, then per level
+//! going up: prolongation and one V-cycle) or warm: the last solution. Then V-cycles (smoother:
+//! Chebyshev-accelerated block Jacobi, nu1/nu2 steps of `residual` + `smooth`; `restrict`,
+//! `prolong`) until the true relative residual of the finest level, `max_c ||f - K x|| / ||f||`,
+//! is below the tolerance: after every cycle `norm` sums squares per workgroup and `check` (one
+//! workgroup) logs the residual and, converged, diverged or at the cap, zeroes the indirect
+//! dispatch arguments of every level, so the V-cycles recorded after it dispatch nothing. The CPU
+//! reads nothing inside the frame; [`GpuMultigrid::report`] reads the log afterwards. `output`
+//! writes x into the finest level's phi image, which the exitance pass reads as it reads the
+//! cascade's.
+//!
+//! Synchronization: one global memory barrier (compute write -> compute read|write) before every
+//! dispatch (each reads what the one before wrote); after each `check` one barrier to the indirect
+//! argument reads of the next cycle.
+//!
+//! ```no_run
+//! # use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
+//! # use translucent::solver::multigrid::MultigridParams;
+//! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph,
+//! #      field: &translucent::material::MaterialField, q: &[[f32; 3]]) -> Result<(), translucent::Error> {
+//! let params = GpuSolveParams { multigrid: Some(MultigridParams::default()), ..Default::default() };
+//! let mut solve = GpuDiffusion::new(ctx, graph, field, &params)?;
+//! solve.set_q_scale(GpuDiffusion::exposure_for(q.iter()));
+//! solve.upload_q(ctx, graph.levels.len() - 1, q)?; // the finest level's q is the right-hand side
+//! translucent::frame::quadgraph::solve_headless(ctx, &mut solve, false)?;
+//! let report = solve.multigrid_report(ctx)?.expect("multigrid schedule");
+//! println!("{} cycles, {:.1} work units, residual {:.1e}", report.cycles.len(), report.work_units, report.residual);
+//! # Ok(()) }
+//! ```
+
+use std::cell::Cell;
+
+use ash::vk;
+
+use super::record::scope;
+use crate::quadgraph::graph::{Packing, NO_NODE};
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::solver::multigrid::{
+    chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, MultigridParams, Smoother,
+};
+use crate::solver::SolverError;
+use crate::vk::barrier::{self, Use};
+use crate::vk::{Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryUse};
+use crate::Error;
+
+/// Profiler scopes and debug labels of the cycle.
+pub const PASS_MG_START: &str = "multigrid start";
+pub const PASS_MG_CYCLES: &str = "multigrid v-cycles";
+pub const PASS_MG_OUTPUT: &str = "multigrid output";
+
+/// Levels the control record has indirect arguments for (`MAX_LEVELS` in `common.glsl`).
+pub const MAX_LEVELS: usize = 8;
+/// Residuals the control record logs (`MAX_LOG` in `common.glsl`).
+pub const MAX_LOG: usize = 64;
+/// V-cycles recorded per frame at most (after the start): the indirect arguments stop them early.
+pub const MAX_RECORDED_CYCLES: u32 = 40;
+/// Invocations per workgroup of every multigrid kernel (`local_size_x`).
+const GROUP: u32 = 64;
+/// Chebyshev steps of the coarsest level's solve at most (its interval's condition decides).
+const MAX_COARSE_STEPS: u32 = 512;
+/// Lanczos steps for the coarsest level's interval: its smallest Ritz value needs more than the
+/// largest.
+const COARSE_LANCZOS: u32 = 60;
+
+/// Push constants of every `multigrid/*.comp` kernel (`MultigridPush` in `common.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MultigridPush {
+    pub count: u32,
+    pub offset: u32,
+    pub mode: u32,
+    pub width: u32,
+    pub alpha: [f32; 4],
+    pub beta: [f32; 4],
+    pub tolerance: f32,
+    pub max_log: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// The control record the GPU writes (`MultigridControl` in `common.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MultigridControl {
+    pub args: [[u32; 4]; MAX_LEVELS],
+    pub reference: [f32; 4],
+    pub logged: u32,
+    pub state: u32,
+    pub pad: [u32; 2],
+    pub residual: [f32; MAX_LOG],
+}
+
+/// How a GPU multigrid solve ended ([`MultigridControl::state`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum CycleState {
+    Running,
+    Converged,
+    Diverged,
+    CycleCap,
+}
+
+/// What the last GPU multigrid solve did, read after its frame.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct GpuMultigridReport {
+    /// Started from the last solution (V-cycles only).
+    pub warm: bool,
+    /// Cold: the full multigrid pass first, then the V-cycles; warm: the V-cycles (factor against
+    /// the starting residual).
+    pub cycles: Vec<CycleReport>,
+    /// Relative residual at the start (warm) or after the full multigrid pass (cold).
+    pub start_residual: f64,
+    pub residual: f64,
+    pub converged: bool,
+    pub state: CycleState,
+    /// Node updates / finest nodes (as the CPU [`Hierarchy::solve`] counts them).
+    pub work_units: f64,
+    /// Geometric mean of the V-cycles' factors; `None` before two.
+    pub mean_factor: Option<f64>,
+    /// Chebyshev steps of every coarsest-level solve.
+    pub coarse_steps: u32,
+}
+
+struct Level {
+    offset: u32,
+    count: u32,
+    /// Chebyshev interval of `B^-1 K` per channel.
+    bounds: [(f64, f64); 3],
+}
+
+/// The GPU multigrid of one graph and material (see the module doc).
+pub struct GpuMultigrid {
+    params: MultigridParams,
+    levels: Vec<Level>,
+    coarse_steps: u32,
+    width: u32,
+    partials: u32,
+    buffers: Vec<Buffer>,
+    control: Buffer,
+    pipelines: Vec<(ComputePipeline<MultigridPush>, vk::DescriptorSet)>,
+    warm: Cell<bool>,
+    bytes: u64,
+}
+
+/// Pipeline indices into [`GpuMultigrid::pipelines`].
+const RHS: usize = 0;
+const RESIDUAL: usize = 1;
+const SMOOTH: usize = 2;
+const RESTRICT: usize = 3;
+const PROLONG: usize = 4;
+const NORM: usize = 5;
+const CHECK: usize = 6;
+const OUTPUT: usize = 7;
+
+/// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
+const KERNELS: [(&str, &str, &[&str]); 8] = [
+    (
+        "multigrid rhs",
+        "multigrid/rhs.comp",
+        &["q", "f", "x", "node_texel", "rhs_coef"],
+    ),
+    (
+        "multigrid residual",
+        "multigrid/residual.comp",
+        &["x", "f", "r", "row_start", "cols", "values", "diag"],
+    ),
+    (
+        "multigrid smooth",
+        "multigrid/smooth.comp",
+        &["x", "d", "r", "diag", "partner", "partner_value"],
+    ),
+    (
+        "multigrid restrict",
+        "multigrid/restrict.comp",
+        &["x", "f", "r", "t_start", "t_fine", "t_weight"],
+    ),
+    (
+        "multigrid prolong",
+        "multigrid/prolong.comp",
+        &["x", "links", "link_weights"],
+    ),
+    (
+        "multigrid norm",
+        "multigrid/norm.comp",
+        &["f", "r", "partials"],
+    ),
+    (
+        "multigrid check",
+        "multigrid/check.comp",
+        &["partials", "control"],
+    ),
+    (
+        "multigrid output",
+        "multigrid/output.comp",
+        &["phi", "x", "node_texel"],
+    ),
+];
+
+/// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
+const BUFFER_NAMES: [&str; 18] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "row_start",
+    "cols",
+    "values",
+    "diag",
+    "partner",
+    "partner_value",
+    "links",
+    "link_weights",
+    "t_start",
+    "t_fine",
+    "t_weight",
+    "node_texel",
+    "rhs_coef",
+    "partials",
+];
+
+fn rgb(v: [f64; 3]) -> [f32; 4] {
+    [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
+}
+
+fn too_big(what: &str) -> Error {
+    Error::Solver(SolverError::BadParameter {
+        name: "multigrid",
+        problem: format!("{what} exceeds 32-bit indices"),
+    })
+}
+
+impl GpuMultigrid {
+    /// Uploads `hierarchy` (built with `params`); `q` and `phi` are the finest level's q image
+    /// (RGBA16F) and phi image (RGBA32F) laid out by `packing`.
+    pub fn new(
+        ctx: &Context,
+        hierarchy: &Hierarchy,
+        params: &MultigridParams,
+        packing: &Packing,
+        q: &Image,
+        phi: &Image,
+    ) -> Result<Self, Error> {
+        let n_levels = hierarchy.levels.len();
+        if n_levels == 0 || n_levels > MAX_LEVELS {
+            return Err(Error::Solver(SolverError::BadParameter {
+                name: "levels",
+                problem: format!("{n_levels}: the GPU multigrid takes 1 to {MAX_LEVELS} levels"),
+            }));
+        }
+        if phi.format != vk::Format::R32G32B32A32_SFLOAT {
+            return Err(Error::Solver(SolverError::BadParameter {
+                name: "precision",
+                problem: "the multigrid schedule writes an fp32 phi: use precision mixed or fp32"
+                    .into(),
+            }));
+        }
+        let mut offsets = Vec::with_capacity(n_levels + 1);
+        let mut total = 0usize;
+        for l in &hierarchy.levels {
+            offsets.push(total);
+            total += l.node_count();
+        }
+        offsets.push(total);
+        if total >= u32::MAX as usize {
+            return Err(too_big("the node count"));
+        }
+        // Operators in compressed rows, every level's entries after the previous level's.
+        let mut row_start: Vec<u32> = Vec::with_capacity(total + 1);
+        let mut cols: Vec<u32> = Vec::new();
+        let mut values: Vec<[f32; 4]> = Vec::new();
+        let mut diag: Vec<[f32; 4]> = Vec::with_capacity(total);
+        let mut partner: Vec<u32> = Vec::with_capacity(total);
+        let mut partner_value: Vec<[f32; 4]> = Vec::with_capacity(total);
+        let mut links: Vec<[u32; 4]> = Vec::with_capacity(2 * total);
+        let mut link_weights: Vec<[f32; 4]> = Vec::with_capacity(2 * total);
+        for (l, level) in hierarchy.levels.iter().enumerate() {
+            let k = &level.operator;
+            let base = cols.len();
+            let off = offsets[l] as u32;
+            for i in 0..k.node_count() {
+                let start = base + k.row_start[i];
+                row_start.push(u32::try_from(start).map_err(|_| too_big("the operator"))?);
+                diag.push(rgb(k.diag[i]));
+                let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
+                partner.push(if p == NO_NODE { NO_NODE } else { p + off });
+                partner_value.push(k.partner_value.get(i).copied().map_or([0.0; 4], rgb));
+            }
+            cols.extend(k.cols.iter().map(|&c| c + off));
+            values.extend(k.values.iter().map(|&v| rgb(v)));
+            match (&level.prolongation, l.checked_sub(1)) {
+                (Some(p), Some(coarse)) => {
+                    let coarse_off = offsets[coarse] as u32;
+                    for (lk, w) in p.links.iter().zip(&p.weights) {
+                        let global = lk.map(|c| {
+                            if c == NO_NODE {
+                                NO_NODE
+                            } else {
+                                c + coarse_off
+                            }
+                        });
+                        links.push([global[0], global[1], global[2], global[3]]);
+                        links.push([global[4], global[5], global[6], global[7]]);
+                        link_weights.push([w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32]);
+                        link_weights.push([w[4] as f32, w[5] as f32, w[6] as f32, w[7] as f32]);
+                    }
+                }
+                _ => {
+                    for _ in 0..2 * k.node_count() {
+                        links.push([NO_NODE; 4]);
+                        link_weights.push([0.0; 4]);
+                    }
+                }
+            }
+        }
+        row_start.push(u32::try_from(cols.len()).map_err(|_| too_big("the operator"))?);
+        // Restriction by coarse rows: level l's rows gather from level l + 1.
+        let mut t_start: Vec<u32> = Vec::with_capacity(total + 1);
+        let mut t_fine: Vec<u32> = Vec::new();
+        let mut t_weight: Vec<f32> = Vec::new();
+        for (l, level) in hierarchy.levels.iter().enumerate() {
+            let finer = hierarchy
+                .levels
+                .get(l + 1)
+                .and_then(|f| f.prolongation.as_ref());
+            let base = t_fine.len();
+            match finer {
+                Some(p) => {
+                    for c in 0..level.node_count() {
+                        t_start.push((base + p.t_start[c]) as u32);
+                    }
+                    let fine_off = offsets[l + 1] as u32;
+                    t_fine.extend(p.t_fine.iter().map(|&i| i + fine_off));
+                    t_weight.extend(p.t_weight.iter().map(|&w| w as f32));
+                }
+                None => t_start.extend(std::iter::repeat_n(base as u32, level.node_count())),
+            }
+        }
+        t_start.push(u32::try_from(t_fine.len()).map_err(|_| too_big("the restriction"))?);
+        // The finest level's texels and right-hand side coefficients.
+        let top = n_levels - 1;
+        let finest = &hierarchy.finest;
+        let n_top = hierarchy.levels[top].node_count();
+        if packing.texels.len() != n_top {
+            return Err(Error::Solver(SolverError::BadGraph {
+                level: top,
+                problem: format!("{} texels for {n_top} nodes", packing.texels.len()),
+            }));
+        }
+        let node_texel: Vec<u32> = packing
+            .texels
+            .iter()
+            .map(|&[u, v]| v * packing.width + u)
+            .collect();
+        let rhs_coef: Vec<[f32; 4]> = (0..n_top)
+            .map(|i| {
+                if i >= finest.inner_count {
+                    let c = (finest.row_scale[i] * finest.q_gain) as f32;
+                    [c, c, c, 0.0]
+                } else {
+                    [0.0; 4]
+                }
+            })
+            .collect();
+        let partials = (n_top as u32).div_ceil(GROUP);
+        let zeros = vec![[0.0f32; 4]; total];
+        let contents: [Vec<u8>; 18] = [
+            bytemuck::cast_slice(&zeros).to_vec(),
+            bytemuck::cast_slice(&zeros).to_vec(),
+            bytemuck::cast_slice(&zeros).to_vec(),
+            bytemuck::cast_slice(&zeros).to_vec(),
+            bytemuck::cast_slice(&row_start).to_vec(),
+            bytemuck::cast_slice(&cols).to_vec(),
+            bytemuck::cast_slice(&values).to_vec(),
+            bytemuck::cast_slice(&diag).to_vec(),
+            bytemuck::cast_slice(&partner).to_vec(),
+            bytemuck::cast_slice(&partner_value).to_vec(),
+            bytemuck::cast_slice(&links).to_vec(),
+            bytemuck::cast_slice(&link_weights).to_vec(),
+            bytemuck::cast_slice(&t_start).to_vec(),
+            bytemuck::cast_slice(&t_fine).to_vec(),
+            bytemuck::cast_slice(&t_weight).to_vec(),
+            bytemuck::cast_slice(&node_texel).to_vec(),
+            bytemuck::cast_slice(&rhs_coef).to_vec(),
+            bytemuck::cast_slice(&vec![[0.0f32; 4]; partials as usize]).to_vec(),
+        ];
+        let mut buffers = Vec::with_capacity(BUFFER_NAMES.len());
+        let mut bytes = 0u64;
+        for (name, data) in BUFFER_NAMES.iter().zip(contents) {
+            // An empty array (no off-diagonal entries, one level) still gets a buffer.
+            let size = data.len().max(16) as u64;
+            let mut buffer = Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name,
+                    size,
+                    usage: vk::BufferUsageFlags::STORAGE_BUFFER,
+                    // why Upload: written once per material from the host; on lavapipe every
+                    // heap is host memory (a discrete GPU would stage into GpuOnly).
+                    memory: MemoryUse::Upload,
+                },
+            )?;
+            if !data.is_empty() {
+                buffer.write_bytes(0, &data)?;
+            }
+            bytes += size;
+            buffers.push(buffer);
+        }
+        let control = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "multigrid control",
+                size: std::mem::size_of::<MultigridControl>() as u64,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::INDIRECT_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+                memory: MemoryUse::Readback,
+            },
+        )?;
+        bytes += control.size;
+        let mut pipelines = Vec::with_capacity(KERNELS.len());
+        for (name, shader, bindings) in KERNELS {
+            let pipeline = ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name,
+                    shader,
+                    bindings,
+                    max_sets: 1,
+                },
+            )?;
+            let writes: Vec<DescriptorWrite<'_>> = bindings
+                .iter()
+                .map(|&b| match b {
+                    "q" => DescriptorWrite::storage_image("q", q),
+                    "phi" => DescriptorWrite::storage_image("phi", phi),
+                    "control" => DescriptorWrite::StorageBuffer {
+                        name: "control",
+                        buffer: &control,
+                    },
+                    other => {
+                        let i = BUFFER_NAMES.iter().position(|&n| n == other).unwrap_or(0);
+                        DescriptorWrite::StorageBuffer {
+                            name: BUFFER_NAMES[i],
+                            buffer: &buffers[i],
+                        }
+                    }
+                })
+                .collect();
+            let set = pipeline.allocate_set(ctx, &writes)?;
+            pipelines.push((pipeline, set));
+        }
+        // Chebyshev intervals: the smoother's on every level but the coarsest, the Lanczos
+        // interval (its smallest Ritz value) on the coarsest, whose polynomial is the solve.
+        let lower = match params.smoother {
+            Smoother::Chebyshev { lower } => lower,
+            Smoother::Jacobi { .. } => 0.0,
+        };
+        let coarse_bounds = eigenvalue_bounds(&hierarchy.levels[0].operator, COARSE_LANCZOS);
+        let mut worst_condition: f64 = 1.0;
+        let levels: Vec<Level> = hierarchy
+            .levels
+            .iter()
+            .enumerate()
+            .map(|(l, level)| {
+                let bounds = if l == 0 {
+                    std::array::from_fn(|c| {
+                        let hi = level.lambda_max[c].max(coarse_bounds[c].1 * 1.05);
+                        let lo = coarse_bounds[c].0.clamp(hi * 1e-8, hi * 0.5);
+                        worst_condition = worst_condition.max(hi / lo);
+                        (lo, hi)
+                    })
+                } else {
+                    level.lambda_max.map(|hi| (lower * hi, hi))
+                };
+                Level {
+                    offset: offsets[l] as u32,
+                    count: level.node_count() as u32,
+                    bounds,
+                }
+            })
+            .collect();
+        // Chebyshev on [lo, hi] reduces the error by 2 ((sqrt(k) - 1) / (sqrt(k) + 1))^m,
+        // k = hi / lo: m = ln(2 / tol) sqrt(k) / 2 steps reach the coarse tolerance.
+        let steps = (2.0 / params.coarse_tolerance).ln() * worst_condition.sqrt() * 0.5;
+        let coarse_steps = (steps.ceil() as u32).clamp(4, MAX_COARSE_STEPS);
+        Ok(Self {
+            params: params.clone(),
+            levels,
+            coarse_steps,
+            width: packing.width,
+            partials,
+            buffers,
+            control,
+            pipelines,
+            warm: Cell::new(false),
+            bytes,
+        })
+    }
+
+    /// GPU bytes of the buffers.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// Chebyshev steps of one coarsest-level solve.
+    pub fn coarse_steps(&self) -> u32 {
+        self.coarse_steps
+    }
+
+    /// What [`Self::record`] uses besides the finest level's q and phi images (the caller's).
+    pub fn uses(&self) -> Vec<Use<'_>> {
+        let mut uses = vec![Use::buffer_span(
+            &self.control,
+            Access::TransferDst,
+            Access::ComputeReadWrite,
+        )];
+        for (i, b) in self.buffers.iter().enumerate() {
+            let access = if i < 4 || i == BUFFER_NAMES.len() - 1 {
+                Access::ComputeReadWrite
+            } else {
+                Access::ComputeRead
+            };
+            uses.push(Use::buffer(b, access));
+        }
+        uses
+    }
+
+    fn top(&self) -> usize {
+        self.levels.len() - 1
+    }
+
+    /// Records one solve (see the module doc): cold (full multigrid) or warm (from x).
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::uses`] and the q (read) and phi (write) images; `self` must outlive its execution.
+    pub unsafe fn record(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        warm: bool,
+        tolerance: f32,
+        profiler: &mut Option<&mut GpuProfiler>,
+    ) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        self.warm.set(warm);
+        let top = self.top();
+        let mut control: MultigridControl = bytemuck::Zeroable::zeroed();
+        for (l, level) in self.levels.iter().enumerate() {
+            control.args[l] = [level.count.div_ceil(GROUP), 1, 1, 0];
+        }
+        let max_log = self.params.max_cycles.min(MAX_RECORDED_CYCLES) + 1;
+        let base = MultigridPush {
+            width: self.width,
+            tolerance,
+            max_log,
+            ..Default::default()
+        };
+        let rec = Recorder {
+            mg: self,
+            ctx,
+            cb,
+            base,
+        };
+        // SAFETY: the caller's contract; every set's resources live in `self` or are the
+        // caller's images.
+        unsafe {
+            ctx.raw()
+                .cmd_update_buffer(cb, self.control.raw, 0, bytemuck::bytes_of(&control));
+            // why: the cycles read the reset control record as indirect arguments and the check
+            // kernel updates it (RAW after the transfer).
+            barrier::record(
+                ctx,
+                cb,
+                &[super::raw_barrier(
+                    S::COPY,
+                    A::TRANSFER_WRITE,
+                    S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                    A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                )],
+                &[],
+            );
+            scope(profiler, ctx, cb, Some(PASS_MG_START));
+            let n_top = self.levels[top].count;
+            rec.direct(RHS, top, u32::from(!warm), n_top);
+            rec.direct(NORM, top, 1, n_top);
+            rec.check(0);
+            if !warm {
+                for l in (1..=top).rev() {
+                    rec.indirect(RESTRICT, l - 1, 1, [0.0; 3], [0.0; 3]);
+                }
+                rec.coarse();
+                for l in 1..=top {
+                    rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3]);
+                    rec.v_cycle(l);
+                }
+            }
+            rec.residual_check();
+            scope(profiler, ctx, cb, None);
+            scope(profiler, ctx, cb, Some(PASS_MG_CYCLES));
+            for _ in 1..max_log {
+                rec.v_cycle(top);
+                rec.residual_check();
+            }
+            scope(profiler, ctx, cb, None);
+            scope(profiler, ctx, cb, Some(PASS_MG_OUTPUT));
+            rec.direct(OUTPUT, top, 0, n_top);
+            scope(profiler, ctx, cb, None);
+        }
+    }
+
+    /// The control record of the last solve (call after its submission completed and its writes
+    /// were made host-visible).
+    pub fn control(&self) -> Result<MultigridControl, Error> {
+        let bytes = self.control.read_bytes()?;
+        Ok(bytemuck::pod_read_unaligned(
+            &bytes[..std::mem::size_of::<MultigridControl>()],
+        ))
+    }
+
+    /// Work units of one V-cycle from level `l` (as [`Hierarchy::solve`] counts them).
+    fn v_cycle_updates(&self, l: usize) -> u64 {
+        if l == 0 {
+            return u64::from(self.coarse_steps + 1) * u64::from(self.levels[0].count);
+        }
+        let n = u64::from(self.levels[l].count);
+        let sweeps = u64::from(self.params.pre_sweeps + self.params.post_sweeps);
+        n * (sweeps + 3) + self.v_cycle_updates(l - 1)
+    }
+
+    /// What the last solve did, from its control record.
+    pub fn report(&self) -> Result<GpuMultigridReport, Error> {
+        let c = self.control()?;
+        let top = self.top();
+        let n_top = u64::from(self.levels[top].count).max(1);
+        let logged = (c.logged as usize).min(MAX_LOG);
+        let log: Vec<f64> = c.residual[..logged].iter().map(|&v| f64::from(v)).collect();
+        let warm = self.warm.get();
+        let per = |u: u64| u as f64 / n_top as f64;
+        let v_updates = self.v_cycle_updates(top) + n_top;
+        let mut cycles = Vec::new();
+        // The start: warm, the residual's norm; cold, the full multigrid pass (f restricted,
+        // the coarsest solved, per level a prolongation and a V-cycle) and the residual's norm.
+        let start = if warm {
+            n_top
+        } else {
+            (1..=top)
+                .map(|l| 2 * u64::from(self.levels[l].count) + self.v_cycle_updates(l))
+                .sum::<u64>()
+                + self.v_cycle_updates(0)
+                + n_top
+        };
+        if !warm {
+            if let Some(&r) = log.first() {
+                cycles.push(CycleReport {
+                    residual: r,
+                    factor: r,
+                    work_units: per(start),
+                });
+            }
+        }
+        for k in 1..log.len() {
+            cycles.push(CycleReport {
+                residual: log[k],
+                factor: if log[k - 1] > 0.0 {
+                    log[k] / log[k - 1]
+                } else {
+                    0.0
+                },
+                work_units: per(v_updates),
+            });
+        }
+        let v_factors: Vec<f64> = cycles
+            .iter()
+            .skip(usize::from(!warm))
+            .map(|c| c.factor)
+            .collect();
+        let mean_factor = (v_factors.len() >= 2).then(|| {
+            let logs: f64 = v_factors.iter().map(|f| f.max(1e-300).ln()).sum();
+            (logs / v_factors.len() as f64).exp()
+        });
+        let state = match c.state {
+            0 => CycleState::Running,
+            1 => CycleState::Converged,
+            2 => CycleState::Diverged,
+            _ => CycleState::CycleCap,
+        };
+        let residual = log.last().copied().unwrap_or(f64::NAN);
+        let v_cycles = log.len().saturating_sub(1) as u64;
+        let work_units = per(start + v_cycles * v_updates);
+        Ok(GpuMultigridReport {
+            warm,
+            start_residual: log.first().copied().unwrap_or(f64::NAN),
+            residual,
+            converged: state == CycleState::Converged,
+            state,
+            cycles,
+            work_units,
+            mean_factor,
+            coarse_steps: self.coarse_steps,
+        })
+    }
+}
+
+/// Records the kernels of one solve.
+struct Recorder<'a> {
+    mg: &'a GpuMultigrid,
+    ctx: &'a Context,
+    cb: vk::CommandBuffer,
+    base: MultigridPush,
+}
+
+impl Recorder<'_> {
+    fn push(&self, level: usize, mode: u32, alpha: [f64; 3], beta: [f64; 3]) -> MultigridPush {
+        let l = &self.mg.levels[level];
+        let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+        MultigridPush {
+            count: l.count,
+            offset: l.offset,
+            mode,
+            alpha: f(alpha),
+            beta: f(beta),
+            ..self.base
+        }
+    }
+
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn direct(&self, kernel: usize, level: usize, mode: u32, invocations: u32) {
+        let (pipeline, set) = &self.mg.pipelines[kernel];
+        let push = self.push(level, mode, [0.0; 3], [0.0; 3]);
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: every kernel reads what the one before wrote (RAW) and overwrites what
+            // earlier ones read (WAR).
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
+            pipeline.dispatch(self.ctx, self.cb, *set, &push, [invocations, 1, 1]);
+        }
+    }
+
+    /// One dispatch over the nodes of `level`, its group count read from the control record
+    /// (zero once the cycles stopped).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn indirect(
+        &self,
+        kernel: usize,
+        level: usize,
+        mode: u32,
+        alpha: [f64; 3],
+        beta: [f64; 3],
+    ) {
+        let (pipeline, set) = &self.mg.pipelines[kernel];
+        let push = self.push(level, mode, alpha, beta);
+        let offset = (level * std::mem::size_of::<[u32; 4]>()) as u64;
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: every kernel reads what the one before wrote (RAW) and overwrites what
+            // earlier ones read (WAR).
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
+            pipeline.dispatch_indirect(self.ctx, self.cb, *set, &push, &self.mg.control, offset);
+        }
+    }
+
+    /// `steps` steps of the level's Chebyshev polynomial (damped Jacobi: alpha = 0).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn smooth(&self, level: usize, steps: u32) {
+        let bounds = self.mg.levels[level].bounds;
+        for step in 0..steps {
+            let (alpha, beta): ([f64; 3], [f64; 3]) = match self.mg.params.smoother {
+                Smoother::Jacobi { omega } if level > 0 => ([0.0; 3], [omega; 3]),
+                _ => {
+                    let c = chebyshev_coefficients(bounds, step);
+                    (c.map(|(a, _)| a), c.map(|(_, b)| b))
+                }
+            };
+            let alpha = if step == 0 { [0.0; 3] } else { alpha };
+            // SAFETY: the caller's contract.
+            unsafe {
+                self.indirect(RESIDUAL, level, 0, [0.0; 3], [0.0; 3]);
+                self.indirect(SMOOTH, level, 0, alpha, beta);
+            }
+        }
+    }
+
+    /// The coarsest level's solve: the Chebyshev polynomial on its whole interval, from x = 0.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn coarse(&self) {
+        // SAFETY: the caller's contract.
+        unsafe { self.smooth(0, self.mg.coarse_steps) };
+    }
+
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn v_cycle(&self, l: usize) {
+        // SAFETY: the caller's contract.
+        unsafe {
+            if l == 0 {
+                self.coarse();
+                return;
+            }
+            let p = &self.mg.params;
+            self.smooth(l, p.pre_sweeps);
+            self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
+            self.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
+            self.v_cycle(l - 1);
+            self.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]);
+            self.smooth(l, p.post_sweeps);
+        }
+    }
+
+    /// The finest level's residual, its norm and the convergence check.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn residual_check(&self) {
+        let top = self.mg.top();
+        // SAFETY: the caller's contract.
+        unsafe {
+            self.indirect(RESIDUAL, top, 0, [0.0; 3], [0.0; 3]);
+            self.indirect(NORM, top, 0, [0.0; 3], [0.0; 3]);
+            self.check(1);
+        }
+    }
+
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn check(&self, mode: u32) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        let (pipeline, set) = &self.mg.pipelines[CHECK];
+        let push = MultigridPush {
+            mode,
+            width: self.mg.partials,
+            ..self.base
+        };
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: the check sums the partials the norm kernel just wrote (RAW).
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
+            pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
+            // why: the next cycle's indirect dispatches read the arguments the check may have
+            // zeroed (RAW at DRAW_INDIRECT).
+            barrier::record(
+                self.ctx,
+                self.cb,
+                &[super::raw_barrier(
+                    S::COMPUTE_SHADER,
+                    A::SHADER_STORAGE_WRITE,
+                    S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                    A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                )],
+                &[],
+            );
+        }
+    }
+}

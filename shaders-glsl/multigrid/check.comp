@@ -1,0 +1,77 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Second stage of the residual norm and the convergence decision, one workgroup: sums the
+// partials; mode 0 stores ||f||^2 as the reference; mode 1 logs the relative residual
+// max_c ||r||_2 / ||f||_2 (absolute where f = 0) and, converged (below the tolerance), diverged
+// (above 1e3 or not finite) or at the cycle cap, zeroes every level's indirect arguments: the
+// cycles recorded after it dispatch nothing.
+layout(local_size_x = 64) in;
+
+#include "common.glsl"
+
+layout(set = 0, binding = 0, std430) readonly buffer Partials { vec4 v[]; } partials;
+layout(set = 0, binding = 1, std430) buffer Control { MultigridControl c; } control;
+
+shared vec3 sums[64];
+
+const float DIVERGED = 1e3;
+
+void main() {
+    if (control.c.state != 0u) {
+        return;
+    }
+    uint lid = gl_LocalInvocationID.x;
+    vec3 s = vec3(0.0);
+    for (uint g = lid; g < pc.width; g += 64u) {
+        s += partials.v[g].rgb;
+    }
+    sums[lid] = s;
+    // why: the tree below reads every invocation's sum (shared memory RAW).
+    barrier();
+    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
+        if (lid < stride) {
+            sums[lid] += sums[lid + stride];
+        }
+        // why: the next level of the tree reads the sums just written (shared memory RAW).
+        barrier();
+    }
+    if (lid != 0u) {
+        return;
+    }
+    vec3 total = sums[0];
+    if (pc.mode == 0u) {
+        control.c.reference = vec4(total, 0.0);
+        return;
+    }
+    vec3 ref = control.c.reference.rgb;
+    float rel = 0.0;
+    bool bad = false;
+    for (int ch = 0; ch < 3; ++ch) {
+        float v = ref[ch] > 0.0 ? sqrt(total[ch] / ref[ch]) : sqrt(total[ch]);
+        bad = bad || isnan(v) || isinf(v);
+        rel = max(rel, v);
+    }
+    if (bad) {
+        // A non-finite residual is logged as the float maximum and stops the cycles.
+        rel = 3.4e38;
+    }
+    uint n = control.c.logged;
+    if (n < MAX_LOG) {
+        control.c.residual[n] = rel;
+    }
+    control.c.logged = n + 1u;
+    uint state = 0u;
+    if (!(rel < DIVERGED)) {
+        state = 2u;
+    } else if (rel < pc.tolerance) {
+        state = 1u;
+    } else if (n + 1u >= pc.max_log) {
+        state = 3u;
+    }
+    if (state != 0u) {
+        control.c.state = state;
+        for (int l = 0; l < MAX_LEVELS; ++l) {
+            control.c.args[l].x = 0u;
+        }
+    }
+}

@@ -1,0 +1,42 @@
+// Shared by the multigrid cycle's kernels (DESIGN 5.1, engine/src/solver/gpu/multigrid.rs): the
+// push constants (`MultigridPush`) and the control record (`MultigridControl`). Every level's
+// vectors live in one buffer each, level `l` at node offset `offset`; one invocation per node.
+
+#define NO_NODE 0xffffffffu
+#define MAX_LEVELS 8
+#define MAX_LOG 64
+
+layout(push_constant) uniform MultigridPush {
+    // Invocations (nodes of the level the kernel runs over).
+    uint count;
+    // First node of that level in the concatenated vectors.
+    uint offset;
+    // Kernel-specific switch (see each kernel).
+    uint mode;
+    // Finest level: texture width (rhs, output); check: number of partial sums.
+    uint width;
+    // Chebyshev / damped Jacobi step: d = alpha d + beta B^-1 r (per channel).
+    vec4 alpha;
+    vec4 beta;
+    // check: stop below this relative residual.
+    float tolerance;
+    // check: stop after this many logged residuals.
+    uint max_log;
+    uint pad0;
+    uint pad1;
+} pc;
+
+struct MultigridControl {
+    // Per level the VkDispatchIndirectCommand of one invocation per node (x = groups of 64).
+    uvec4 args[MAX_LEVELS];
+    // ||f||^2 per channel of the finest level (rgb).
+    vec4 reference;
+    // Residuals logged so far.
+    uint logged;
+    // 0 running, 1 converged, 2 diverged or not finite, 3 cycle cap reached.
+    uint state;
+    uint pad0;
+    uint pad1;
+    // Relative residual after the start (cold: after full multigrid) and after every V-cycle.
+    float residual[MAX_LOG];
+};

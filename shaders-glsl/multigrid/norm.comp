@@ -1,0 +1,36 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// First stage of the residual norm: per workgroup, sum of r^2 per channel (mode 1: of f) over the
+// finest level, into partials[group] (the check kernel sums the partials).
+layout(local_size_x = 64) in;
+
+#include "common.glsl"
+
+layout(set = 0, binding = 0, std430) readonly buffer Fs { vec4 v[]; } f;
+layout(set = 0, binding = 1, std430) readonly buffer Rs { vec4 v[]; } r;
+layout(set = 0, binding = 2, std430) writeonly buffer Partials { vec4 v[]; } partials;
+
+shared vec3 sums[64];
+
+void main() {
+    uint lid = gl_LocalInvocationID.x;
+    vec3 s = vec3(0.0);
+    if (gl_GlobalInvocationID.x < pc.count) {
+        uint i = pc.offset + gl_GlobalInvocationID.x;
+        vec3 v = pc.mode == 1u ? f.v[i].rgb : r.v[i].rgb;
+        s = v * v;
+    }
+    sums[lid] = s;
+    // why: the tree below reads every invocation's square (shared memory RAW).
+    barrier();
+    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
+        if (lid < stride) {
+            sums[lid] += sums[lid + stride];
+        }
+        // why: the next level of the tree reads the sums just written (shared memory RAW).
+        barrier();
+    }
+    if (lid == 0u) {
+        partials.v[gl_WorkGroupID.x] = vec4(sums[0], 0.0);
+    }
+}

@@ -1,0 +1,40 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// One Chebyshev (or damped Jacobi: alpha = 0) step on one level, from the residual r = f - K x:
+// d = alpha d + beta B^-1 r, x += d. B is the diagonal, or the 2x2 block of a surface node and its
+// cell (`partner`). No reduction: alpha and beta are constants per step (push).
+layout(local_size_x = 64) in;
+
+#include "common.glsl"
+
+layout(set = 0, binding = 0, std430) buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 1, std430) buffer Ds { vec4 v[]; } d;
+layout(set = 0, binding = 2, std430) readonly buffer Rs { vec4 v[]; } r;
+layout(set = 0, binding = 3, std430) readonly buffer Diag { vec4 v[]; } diag;
+layout(set = 0, binding = 4, std430) readonly buffer Partner { uint v[]; } partner;
+layout(set = 0, binding = 5, std430) readonly buffer PartnerValue { vec4 v[]; } partner_value;
+
+void main() {
+    if (gl_GlobalInvocationID.x >= pc.count) {
+        return;
+    }
+    uint i = pc.offset + gl_GlobalInvocationID.x;
+    vec3 a = diag.v[i].rgb;
+    vec3 ri = r.v[i].rgb;
+    vec3 z;
+    uint p = partner.v[i];
+    if (p != NO_NODE) {
+        vec3 b = partner_value.v[i].rgb;
+        vec3 dp = diag.v[p].rgb;
+        z = (dp * ri - b * r.v[p].rgb) / (a * dp - b * b);
+    } else {
+        z = ri / a;
+    }
+    // alpha = 0 on a first step: d may hold the last visit's values.
+    vec3 di = pc.beta.rgb * z;
+    if (pc.alpha != vec4(0.0)) {
+        di += pc.alpha.rgb * d.v[i].rgb;
+    }
+    d.v[i] = vec4(di, 0.0);
+    x.v[i] = vec4(x.v[i].rgb + di, 0.0);
+}
