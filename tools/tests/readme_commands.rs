@@ -211,7 +211,7 @@ fn every_readme_command_runs() {
         return;
     }
     // scratch/work is the working directory; scratch/shared/meshes -> the test meshes, so the
-    // README's `../shared/meshes/X.obj` resolves.
+    // README's `../shared/meshes/X.obj` resolves; scratch/work/tests -> the repository's tests/.
     let scratch = common::scratch("readme");
     let work = scratch.join("work");
     let cache = scratch.join("cache");
@@ -222,6 +222,16 @@ fn every_readme_command_runs() {
         scratch.join("shared/meshes"),
     )
     .expect("link the meshes");
+    // why: the README's commands run from the repository root; its read-only inputs under
+    // `tests/` (the path-traced references, their .vol) resolve through a link.
+    std::os::unix::fs::symlink(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests")
+            .canonicalize()
+            .expect("tests dir"),
+        work.join("tests"),
+    )
+    .expect("link tests/");
     for note in &parsed.not_run {
         eprintln!("not run: {note}");
     }
