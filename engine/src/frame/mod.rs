@@ -21,6 +21,7 @@ pub mod method;
 pub mod plan;
 pub mod quadgraph;
 pub mod report;
+pub mod single_scattering;
 pub mod voxel;
 
 pub use dipole::{DipoleMethod, DipoleParams};
@@ -30,4 +31,7 @@ pub use method::{Method, MethodFrame, MethodKind};
 pub use plan::{FramePlan, PASS_SHADING, PASS_SHADOW};
 pub use quadgraph::{solve_headless, QuadGraphMethod, QuadGraphReport, SINGLE_LEVEL_NODES};
 pub use report::{CompletedSolve, FrameReport, SkipReason};
+pub use single_scattering::{
+    ScatterMode, ScatterParams, SingleScatteringPass, PASS_SINGLE_SCATTERING,
+};
 pub use voxel::VoxelMethod;

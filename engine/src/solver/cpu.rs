@@ -342,7 +342,9 @@ pub fn solve(
             Schedule::Cascade => {
                 let (phi, reports, (op, sources, row_h, b, boundary, cap)) =
                     cascade(graph, material, scene, occluder, params)?;
-                (op, sources, row_h, b, boundary, cap, phi, reports, None, None)
+                (
+                    op, sources, row_h, b, boundary, cap, phi, reports, None, None,
+                )
             }
             Schedule::Multigrid(mg) => {
                 let mg = MultigridParams {
@@ -366,9 +368,7 @@ pub fn solve(
                     b[inner + s] = src.rhs;
                 }
                 let start = match &params.initial {
-                    Some(previous) if previous.len() == level.node_count() => {
-                        Start::Warm(previous)
-                    }
+                    Some(previous) if previous.len() == level.node_count() => Start::Warm(previous),
                     Some(previous) => {
                         return Err(SolverError::BadParameter {
                             name: "initial",
@@ -396,7 +396,18 @@ pub fn solve(
                 let op = hierarchy.finest.clone();
                 hierarchy_mg = Some((hierarchy, mg));
                 let boundary = model.boundary;
-                (op, sources, row_h, b, boundary, 0, phi, reports, None, Some(report))
+                (
+                    op,
+                    sources,
+                    row_h,
+                    b,
+                    boundary,
+                    0,
+                    phi,
+                    reports,
+                    None,
+                    Some(report),
+                )
             }
         };
     // The exact solve (cascade) or the multigrid cycles again (warm) after the bounce.

@@ -777,9 +777,8 @@ impl Hierarchy {
         match params.coarse {
             CoarseOperator::Rediscretized => {
                 for (h, level) in graph.levels.iter().enumerate().take(finest_index) {
-                    let op =
-                        LevelOperator::build_with(level, material, scheme, exit)
-                            .map_err(|e| e.at_level(h))?;
+                    let op = LevelOperator::build_with(level, material, scheme, exit)
+                        .map_err(|e| e.at_level(h))?;
                     operators.push(SparseOperator::from_level(&op));
                 }
                 operators.push(SparseOperator::from_level(&finest));
