@@ -61,7 +61,14 @@ layout(push_constant) uniform ScatterPush {
     uint samples;
     uint mode;      // 1: difference to the flat closed form; 2: whole
     float normal_offset; // shadow-map texels, for the vertex's own visibility
+    float depth_bias_slope; // the shadow pass's slope-scaled depth bias (texels of depth per texel)
 } pc;
+
+// The slope bias grows as tan(theta_i); beyond this (a silhouette texel) it is held.
+const float MAX_BIAS_TAN = 8.0;
+// Below this cosine the tangent plane's crossing is ill-conditioned: the distance along the
+// light to the stored point is used instead.
+const float MIN_PLANE_COSINE = 0.05;
 
 // The cube face (+X, -X, +Y, -Y, +Z, -Z) whose frustum holds direction d (as gather_q.comp).
 uint cube_face(vec3 d) {
@@ -93,8 +100,10 @@ vec4 stored_point(ShadowView v, mat4 inv, ivec2 t) {
     return vec4(p.xyz / p.w, 1.0);
 }
 
-// Where the light's beam towards x enters the object (xyz; w = 0: x is not behind the surface the
-// view sees first, or outside the view) and the entry's normal from the depth's gradient.
+// Where the light's beam towards x enters the object, as stored (xyz; w: the view's texel size in
+// mm there; w = 0: nothing drawn there, or outside the view) and the entry's normal from the
+// depth's gradient. The stored depth carries the shadow pass's slope-scaled bias (the caller
+// adds it back along the light).
 vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
     ShadowView v = scene.views[index];
     n_entry = vec3(0.0);
@@ -109,12 +118,18 @@ vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
     mat4 inv = inverse(v.view_proj);
     ivec2 t = ivec2(floor((ndc.xy * 0.5 + 0.5) * v.tile.z));
     vec4 c = stored_point(v, inv, t);
+    // x's own texel is empty within a texel of the light's silhouette: a neighbour's surface
+    // (the caller intersects its plane with the ray, so the texel's offset does not matter).
+    const ivec2 NEIGHBOURS[4] = ivec2[](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
+    for (int k = 0; k < 4 && c.w == 0.0; ++k) {
+        t += NEIGHBOURS[k];
+        c = stored_point(v, inv, t);
+        if (c.w == 0.0) {
+            t -= NEIGHBOURS[k];
+        }
+    }
     if (c.w == 0.0) {
         return vec4(0.0);
-    }
-    vec4 cl = v.view_proj * vec4(c.xyz, 1.0);
-    if (ndc.z < cl.z / cl.w) {
-        return vec4(0.0); // in front of the first surface: outside, on the light's side
     }
     // The gradient from the one-sided differences with the smaller depth step (silhouettes jump).
     vec4 px = stored_point(v, inv, t + ivec2(1, 0));
@@ -135,7 +150,8 @@ vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
     }
     vec3 g = cross(dx, dy);
     n_entry = length(g) > 0.0 ? normalize(g) : vec3(0.0);
-    return vec4(c.xyz, 1.0);
+    float texel = v.tile.w + v.eye.w * distance(c.xyz, v.eye.xyz);
+    return vec4(c.xyz, max(texel, 1e-9));
 }
 
 // Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit (gather_q.comp).
@@ -258,9 +274,21 @@ void main() {
             }
             float mu_t = max(refracted_cosine(eta, mu_i), MIN_MU_T);
             float t_i = fresnel_transmittance(eta, mu_i);
+            // The distance to the entry along the light's ray (a texel centre is up to half a
+            // texel off the ray), the stored depth's slope bias added back: depth_bias_slope
+            // texels of depth per texel, tan(theta_i) mm of depth per mm across.
+            float tan_i = min(sqrt(max(1.0 - mu_i * mu_i, 0.0)) / max(mu_i, 1e-6), MAX_BIAS_TAN);
+            // The ray's crossing of the entry's tangent plane: a texel centre on a steep
+            // (grazing) surface lies far off the ray in depth; its plane does not.
+            float along = length(n_i) > 0.0 && mu_i > MIN_PLANE_COSINE
+                ? dot(entry.xyz - xk, n_i) / mu_i
+                : dot(entry.xyz - xk, l);
+            float s = along + pc.depth_bias_slope * entry.w * tan_i;
+            if (s < 0.0) {
+                continue; // in front of the first surface: outside, on the light's side
+            }
             // Jensen's refraction correction of the light-side distance s_i' = s_i mu_i / mu_t.
-            // Along the light's ray (a texel centre is up to half a texel off the ray).
-            float s_i = max(dot(entry.xyz - xk, l), 0.0) * mu_i / mu_t;
+            float s_i = s * mu_i / mu_t;
             vec3 tau = sigma_t * s_i + tau_v;
             vec3 fluence = e * (mu_i * t_i / mu_t);
             vec3 term = sigma_s / (4.0 * PI) * fluence * exp(-min(tau, vec3(MAX_OPTICAL_DEPTH))) * weight;

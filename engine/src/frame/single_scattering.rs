@@ -91,6 +91,8 @@ pub struct ScatterPush {
     /// 1: difference to the flat closed form; 2: whole.
     pub mode: u32,
     pub normal_offset: f32,
+    /// [`crate::render::SHADOW_SLOPE_BIAS`]: added back to the stored depths.
+    pub depth_bias_slope: f32,
 }
 
 /// The march's pipeline, its output per vertex and its copy of the lights and shadow views.
@@ -191,7 +193,10 @@ impl SingleScatteringPass {
             ctx,
             "single scattering per vertex",
             // VERTEX: the shading reads it as a second vertex stream; STORAGE: the march writes it.
-            vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+            // TRANSFER_SRC: read back for checks.
+            vk::BufferUsageFlags::VERTEX_BUFFER
+                | vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC,
             &vec![[0.0f32; 4]; vertex_count.max(1)],
         )?)
     }
@@ -373,6 +378,7 @@ impl SingleScatteringPass {
                 ScatterMode::Full => 2,
             },
             normal_offset: NORMAL_OFFSET_TEXELS,
+            depth_bias_slope: crate::render::SHADOW_SLOPE_BIAS,
         };
         // SAFETY: the caller's contract; the scene buffer is under vkCmdUpdateBuffer's 65536 bytes.
         unsafe {
