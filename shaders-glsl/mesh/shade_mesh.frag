@@ -1,6 +1,7 @@
 #version 460
 // Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) (J+ + X) / (pi eta^2) (physical) or
-// F_t (J+ + X) / pi (paper Eq. 4), X the single scattering per vertex (DESIGN 2.8), plus optional Cook-Torrance specular of one light, shadowed by the
+// F_t (J+ + X) / pi (paper Eq. 4), X the single scattering per vertex (DESIGN 2.8), plus optional
+// Cook-Torrance specular of one light, shadowed by the
 // light's tile of the shadow atlas (light_view_proj maps onto the whole atlas), plus the mirror
 // reflection of the environment F_r(eta, theta_o) L_env(r).
 #include "optics.glsl"

@@ -8,9 +8,12 @@
 //!   exitance ([`QuadGraphMethod`], [`DipoleMethod`]; [`FixedExitance`] for given values), between the
 //!   shared shadow maps and the shared shading.
 //! - [`report`]: [`FrameReport`] and [`SkipReason`].
+//! - [`single_scattering`]: [`SingleScatteringPass`], DESIGN 2.8 as a shared pass after the
+//!   method's (every method gets it; `ObjectParams::single_scattering`).
 //!
 //! [`crate::TranslucentObject::record`] is the one composition: changes -> [`FramePlan`] ->
-//! the method's edit passes -> shadow maps -> the method's passes -> shading, into the host's
+//! the method's edit passes -> shadow maps -> the method's passes -> single scattering (when on)
+//! -> shading, into the host's
 //! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
 //! `translucent bench`, the example host and the viewer all record frames through it.
 

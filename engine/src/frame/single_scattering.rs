@@ -266,7 +266,7 @@ impl SingleScatteringPass {
         shadows: &ShadowMaps,
         radius: f64,
     ) -> Result<(), Error> {
-        self.scene_data = Box::new(GatherScene::new(scene, shadows)?);
+        *self.scene_data = GatherScene::new(scene, shadows)?;
         self.radius = radius;
         Ok(())
     }

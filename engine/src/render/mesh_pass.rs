@@ -256,6 +256,10 @@ impl MeshPass {
     /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
     /// [`Self::uses`] and the attachments; the views' images, `mesh` and `self` must outlive
     /// its execution; the views must have this pass's formats.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the draw's inputs (mesh, its single-scattering stream) and the frame's (attachments, uniforms, push) are distinct things"
+    )]
     pub unsafe fn record_into(
         &self,
         ctx: &Context,
