@@ -707,6 +707,9 @@ impl TranslucentObject {
         ctx.begin_frame(rc.frame);
         ctx.frame_completed(rc.completed_frame);
         let completed = self.method.completed(rc.completed_frame)?;
+        // The march depends on the eye, the lights, the material and the shape: with none of
+        // them changed (and skipping on) its last output stands.
+        let scatter_stale = self.changes != Changes::default() || !self.params.skip;
         let plan = FramePlan::decide(
             self.changes,
             &Conditions {
@@ -752,7 +755,7 @@ impl TranslucentObject {
             specular: u32::from(specular),
         };
 
-        let scattering = self.params.single_scattering.is_some();
+        let scattering = self.params.single_scattering.is_some() && scatter_stale;
         if scattering {
             self.scatter.bind(ctx, &self.mesh, &self.shadows)?;
         }
@@ -766,6 +769,9 @@ impl TranslucentObject {
             .map(|d| graph.import("depth target", d.image, d.format, d.before, after(d)));
         for &(pass, why) in plan.skipped.iter().chain(&method.skipped) {
             graph.skip(pass, why);
+        }
+        if self.params.single_scattering.is_some() && !scattering {
+            graph.skip(PASS_SINGLE_SCATTERING, crate::frame::SkipReason::Unchanged);
         }
         self.method.add_edit_passes(&mut graph);
         let mesh = &*self.mesh;

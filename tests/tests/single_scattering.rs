@@ -86,6 +86,21 @@ fn march(
         .single_scattering()
         .read(&gpu.ctx)
         .expect("read back");
+    if params.is_some() {
+        // Nothing changed: the march is skipped and its last output stands.
+        let (_, again) = render_once(&gpu.ctx, &mut object, 48, 48);
+        assert!(
+            !again.passes.contains(&PASS_SINGLE_SCATTERING),
+            "{:?}",
+            again.passes
+        );
+        assert!(again.skipped.contains_key(PASS_SINGLE_SCATTERING));
+        let kept = object
+            .single_scattering()
+            .read(&gpu.ctx)
+            .expect("read back");
+        assert_eq!(kept, x);
+    }
     gpu.assert_no_messages();
     (x, report.passes, captured.image.pixels)
 }

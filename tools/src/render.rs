@@ -119,8 +119,10 @@ pub struct RenderArgs {
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
     /// every method): per display vertex the refracted view ray is marched at exponentially
     /// stratified depths, lit through the shadow maps, added to the method's exitance as the
-    /// difference to the flat-surface closed form. `off`: the pass is not recorded.
-    #[arg(long, value_name = "on|off", default_value = "on", value_parser = ["on", "off"])]
+    /// difference to the flat-surface closed form. `off` (the default: it costs front-lit scenes
+    /// 0.1-0.6 points, gains back- and side-lit ones 1.4-4.2; benches/RESULTS.md): the pass is not
+    /// recorded.
+    #[arg(long, value_name = "on|off", default_value = "off", value_parser = ["on", "off"])]
     pub single_scattering: String,
     /// Depths per view ray of `--single-scattering on` (4..=16).
     #[arg(long, value_name = "N", default_value_t = 8)]
