@@ -70,7 +70,8 @@ use crate::frame::graph::FrameGraph;
 use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHADOW};
 use crate::frame::quadgraph::QuadGraphParams;
 use crate::frame::{
-    FixedExitance, FrameReport, Method, QuadGraphMethod, VoxelMethod, SINGLE_LEVEL_NODES,
+    FixedExitance, FrameReport, Method, QuadGraphMethod, ScatterParams, SingleScatteringPass,
+    VoxelMethod, PASS_SINGLE_SCATTERING, SINGLE_LEVEL_NODES,
 };
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh};
@@ -104,6 +105,9 @@ pub struct ObjectParams {
     pub skip: bool,
     /// Finest-level node count below which a cold solve iterates one level.
     pub single_level_nodes: usize,
+    /// Single scattering (DESIGN 2.8) as the shared pass `single_scattering` between the method
+    /// and the shading; `None`: off (the pass is not recorded).
+    pub single_scattering: Option<ScatterParams>,
 }
 
 impl Default for ObjectParams {
@@ -120,6 +124,7 @@ impl Default for ObjectParams {
             radiance: RadianceMode::Physical,
             skip: true,
             single_level_nodes: SINGLE_LEVEL_NODES,
+            single_scattering: None,
         }
     }
 }
@@ -220,8 +225,14 @@ pub struct TranslucentObject {
     mesh: Arc<GpuMesh>,
     shadows: ShadowMaps,
     shading: MeshPass,
+    /// Single scattering per display vertex (its output is zero while off).
+    scatter: SingleScatteringPass,
+    /// The rest pose's display vertices (a heterogeneous field's mean coefficients for `scatter`).
+    rest_positions: Vec<DVec3>,
     params: ObjectParams,
     lights: Vec<Light>,
+    /// The last scene (`scatter` re-reads it when the shadow views are refitted).
+    scene: Scene,
     /// The rest pose's bounding sphere: what the automatic camera frames.
     framing: (DVec3, f64),
     /// The bounding sphere the shadow views are fitted to (follows deformations).
@@ -281,6 +292,7 @@ impl TranslucentObject {
             | MethodDesc::Dipole { mesh, .. } => mesh,
         };
         let framing = crate::mesh::bounding_sphere(&surface.positions);
+        let rest_positions = surface.positions.clone();
         let mut shadows = ShadowMaps::new(
             ctx,
             &ShadowMapsDesc {
@@ -351,13 +363,23 @@ impl TranslucentObject {
             params.color_format,
             params.depth_format,
         )?;
+        let mut scatter = SingleScatteringPass::new(
+            ctx,
+            mesh.vertex_count(),
+            &params.single_scattering.unwrap_or_default(),
+        )?;
+        scatter.set_lights(scene, &shadows, shadow_bounds.1)?;
+        scatter.set_material(field, &rest_positions);
         Ok(TranslucentObject {
             method,
             mesh,
             shadows,
             shading,
+            scatter,
+            rest_positions,
             params: params.clone(),
             lights: scene.lights.clone(),
+            scene: scene.clone(),
             framing,
             shadow_bounds,
             env_sh: environment_sh(&scene.environment),
@@ -393,6 +415,9 @@ impl TranslucentObject {
             self.shadows.restore(previous);
             return Err(e);
         }
+        self.scatter
+            .set_lights(scene, &self.shadows, self.shadow_bounds.1)?;
+        self.scene = scene.clone();
         self.env_sh = environment_sh(&scene.environment);
         self.lights = scene.lights.clone();
         self.changes.lights = true;
@@ -403,6 +428,7 @@ impl TranslucentObject {
     /// changes nothing), uploaded by the next frame, which warm-starts the solve.
     pub fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
         self.method.set_material(ctx, field)?;
+        self.scatter.set_material(field, &self.rest_positions);
         self.eta = field.eta() as f32;
         self.changes.material = true;
         Ok(())
@@ -413,6 +439,8 @@ impl TranslucentObject {
     pub fn deform(&mut self, ctx: &Context, deformation: &Deformation) -> Result<(), Error> {
         let bounds = self.method.deform(ctx, deformation)?;
         self.shadows.set_lights(&self.lights, bounds, true)?;
+        self.scatter
+            .set_lights(&self.scene, &self.shadows, bounds.1)?;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
         Ok(())
@@ -431,6 +459,9 @@ impl TranslucentObject {
         };
         let (display, bounds) = voxel.set_mesh(ctx, mesh)?;
         self.shadows.set_lights(&self.lights, bounds, true)?;
+        self.scatter.resize(ctx, display.vertex_count())?;
+        self.scatter
+            .set_lights(&self.scene, &self.shadows, bounds.1)?;
         self.mesh = display;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
@@ -481,6 +512,12 @@ impl TranslucentObject {
     /// The QuadGraph method, if that is the object's method.
     pub fn quadgraph(&self) -> Option<&QuadGraphMethod> {
         self.method.as_any().downcast_ref::<QuadGraphMethod>()
+    }
+
+    /// The single-scattering pass (its per-vertex output is zero while
+    /// [`ObjectParams::single_scattering`] is off).
+    pub fn single_scattering(&self) -> &SingleScatteringPass {
+        &self.scatter
     }
 
     /// The sphere the shadow views are fitted to (the deformed shape's, after `deform`).
@@ -691,13 +728,18 @@ impl TranslucentObject {
         ctx.begin_frame(rc.frame);
         ctx.frame_completed(rc.completed_frame);
         let completed = self.method.completed(rc.completed_frame)?;
+        // The march depends on the eye, the lights, the material and the shape: with none of
+        // them changed (and skipping on) its last output stands.
+        let scatter_stale = self.changes != Changes::default() || !self.params.skip;
         let plan = FramePlan::decide(
             self.changes,
             &Conditions {
                 skip: self.params.skip,
                 has_solution: self.method.has_solution(),
                 casts_shadows: self.shadows.any_shadows(),
-                shadows_read: self.method.reads_shadows() || self.params.specular,
+                shadows_read: self.method.reads_shadows()
+                    || self.params.specular
+                    || self.params.single_scattering.is_some(),
             },
         );
         let method = self.method.prepare(plan.method, rc.frame)?;
@@ -734,6 +776,10 @@ impl TranslucentObject {
             specular: u32::from(specular),
         };
 
+        let scattering = self.params.single_scattering.is_some() && scatter_stale;
+        if scattering {
+            self.scatter.bind(ctx, &self.mesh, &self.shadows)?;
+        }
         let mut graph = FrameGraph::new(ctx);
         let after = |t: &TargetImage| (!targets.host_barriers).then_some(t.after);
         let c = &targets.color;
@@ -744,6 +790,9 @@ impl TranslucentObject {
             .map(|d| graph.import("depth target", d.image, d.format, d.before, after(d)));
         for &(pass, why) in plan.skipped.iter().chain(&method.skipped) {
             graph.skip(pass, why);
+        }
+        if self.params.single_scattering.is_some() && !scattering {
+            graph.skip(PASS_SINGLE_SCATTERING, crate::frame::SkipReason::Unchanged);
         }
         self.method.add_edit_passes(&mut graph);
         let mesh = &*self.mesh;
@@ -760,10 +809,22 @@ impl TranslucentObject {
                 });
         }
         self.method.add_passes(&mut graph, shadows)?;
+        let scatter = &self.scatter;
+        if scattering {
+            let eye = glam::Vec3::from_slice(&uniforms.camera_pos[..3]);
+            graph
+                .pass(PASS_SINGLE_SCATTERING)
+                .uses(scatter.uses(mesh, shadows))
+                .record(move |p| {
+                    // SAFETY: inside the graph's pass declaring the march's uses, after `bind`;
+                    // `self` outlives the frame (the record contract).
+                    unsafe { scatter.record(p.ctx, p.cb, eye) }
+                });
+        }
         let own_depth = self.own_depth.as_ref().filter(|_| targets.depth.is_none());
         let mut shading = graph
             .pass(PASS_SHADING)
-            .uses(self.shading.uses(mesh, shadows))
+            .uses(self.shading.uses(mesh, scatter.buffer(), shadows))
             .host(color, COLOR_USE);
         shading = match (host_depth, own_depth) {
             (Some(id), _) => shading.host(id, DEPTH_USE),
@@ -785,8 +846,18 @@ impl TranslucentObject {
         shading.record(move |p| {
             // SAFETY: inside the graph's pass declaring the attachments in their attachment
             // layouts; everything outlives the frame (the record contract).
-            unsafe { shading_pass.record_into(p.ctx, p.cb, mesh, &attachments, &uniforms, &push) }
-                .map_err(Error::from)
+            unsafe {
+                shading_pass.record_into(
+                    p.ctx,
+                    p.cb,
+                    mesh,
+                    scatter.buffer(),
+                    &attachments,
+                    &uniforms,
+                    &push,
+                )
+            }
+            .map_err(Error::from)
         });
         // SAFETY: the caller's contract.
         let run =

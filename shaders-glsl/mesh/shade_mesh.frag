@@ -1,6 +1,7 @@
 #version 460
-// Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) J+ / (pi eta^2) (physical) or
-// F_t J+ / pi (paper Eq. 4), plus optional Cook-Torrance specular of one light, shadowed by the
+// Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) (J+ + X) / (pi eta^2) (physical) or
+// F_t (J+ + X) / pi (paper Eq. 4), X the single scattering per vertex (DESIGN 2.8), plus optional
+// Cook-Torrance specular of one light, shadowed by the
 // light's tile of the shadow atlas (light_view_proj maps onto the whole atlas), plus the mirror
 // reflection of the environment F_r(eta, theta_o) L_env(r).
 #include "optics.glsl"
@@ -8,6 +9,7 @@
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec3 v_exitance;
+layout(location = 3) in vec3 v_scattered;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -56,7 +58,9 @@ void main() {
     }
     float f_t = fresnel_transmittance(pc.eta, n_v);
     float scale = pc.radiance_mode == 0u ? 1.0 / (PI * pc.eta * pc.eta) : 1.0 / PI;
-    vec3 radiance = f_t * max(v_exitance, vec3(0.0)) * scale;
+    // Single scattering (DESIGN 2.8) joins the diffusion's J+: L_ss = T_o X / (pi eta^2). As a
+    // difference to the flat closed form it may be negative; the sum never is.
+    vec3 radiance = f_t * max(max(v_exitance, vec3(0.0)) + v_scattered, vec3(0.0)) * scale;
     // The smooth boundary mirrors the environment: the part F_r = 1 - F_t of the light arriving
     // from the reflected direction (F_t above is the same unpolarized Fresnel term). The object
     // does not occlude its own reflection (exact for convex shapes).

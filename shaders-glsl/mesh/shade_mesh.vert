@@ -3,6 +3,8 @@
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
 layout(location = 2) in vec3 exitance;
+// Single scattering X per vertex (DESIGN 2.8; frame::SingleScatteringPass, zero while off).
+layout(location = 3) in vec4 scattered;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -16,10 +18,12 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
 layout(location = 0) out vec3 v_position;
 layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec3 v_exitance;
+layout(location = 3) out vec3 v_scattered;
 
 void main() {
     v_position = position;
     v_normal = normal;
     v_exitance = exitance;
+    v_scattered = scattered.rgb;
     gl_Position = frame.view_proj * vec4(position, 1.0);
 }

@@ -121,6 +121,17 @@ pub struct RenderArgs {
     /// `--beam-source` implies `moments`.
     #[arg(long, value_name = "flux|moments", value_parser = ["flux", "moments"])]
     pub exit_query: Option<String>,
+    /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
+    /// every method): per display vertex the refracted view ray is marched at exponentially
+    /// stratified depths, lit through the shadow maps, added to the method's exitance as the
+    /// difference to the flat-surface closed form. `off` (the default: it costs front-lit scenes
+    /// 0.1-0.6 points, gains back- and side-lit ones 1.4-4.2; benches/RESULTS.md): the pass is not
+    /// recorded.
+    #[arg(long, value_name = "on|off", default_value = "off", value_parser = ["on", "off"])]
+    pub single_scattering: String,
+    /// Depths per view ray of `--single-scattering on` (4..=16).
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub scatter_samples: u32,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -306,6 +317,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.iterations == Some(0) {
         bail!("--iterations 0: give at least one iteration per level");
     }
+    if args.solver != "gpu" && args.single_scattering == "on" {
+        // why: the CPU path shades the f64 solution through the fixed-exitance renderer, which
+        // has no material for the march (the CPU reference's own is solver::single_scattering).
+        eprintln!("note: --solver cpu renders without single scattering (GPU pass only)");
+    }
     let mut frame_desc = args.scene.frame_desc()?;
     let lights = args.scene.lights()?;
     let environment = match (&args.env_constant, &args.env) {
@@ -459,6 +475,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
             skip: !args.no_skip,
+            single_scattering: args.scatter_params()?,
             ..ObjectParams::default()
         };
         let mut translucent =
@@ -862,4 +879,25 @@ fn gpu_multigrid_json(
         "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
         "coarse_steps": m.coarse_steps,
     })
+}
+
+impl RenderArgs {
+    /// `--single-scattering` and `--scatter-samples` as the object's parameters (`None`: off).
+    pub fn scatter_params(&self) -> anyhow::Result<Option<translucent::frame::ScatterParams>> {
+        let range = translucent::frame::single_scattering::SAMPLE_RANGE;
+        if !range.contains(&self.scatter_samples) {
+            bail!(
+                "--scatter-samples {}: must be in {}..={}",
+                self.scatter_samples,
+                range.start(),
+                range.end()
+            );
+        }
+        Ok(
+            (self.single_scattering == "on").then_some(translucent::frame::ScatterParams {
+                samples: self.scatter_samples,
+                ..translucent::frame::ScatterParams::default()
+            }),
+        )
+    }
 }

@@ -82,6 +82,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         roughness: r.frame_desc.roughness,
         radiance: r.frame_desc.radiance,
         skip: !args.no_skip,
+        single_scattering: args.scatter_params()?,
         ..ObjectParams::default()
     };
     let start = Instant::now();

@@ -119,6 +119,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
             skip: !args.no_skip,
+            single_scattering: args.scatter_params()?,
             ..ObjectParams::default()
         },
     )?;

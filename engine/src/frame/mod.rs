@@ -9,9 +9,12 @@
 //!   shared shadow maps and the shared shading.
 //! - [`report`]: [`FrameReport`] and [`SkipReason`].
 //! - [`choice`]: `--method auto`'s rule ([`choose_method`]).
+//! - [`single_scattering`]: [`SingleScatteringPass`], DESIGN 2.8 as a shared pass after the
+//!   method's (every method gets it; `ObjectParams::single_scattering`).
 //!
 //! [`crate::TranslucentObject::record`] is the one composition: changes -> [`FramePlan`] ->
-//! the method's edit passes -> shadow maps -> the method's passes -> shading, into the host's
+//! the method's edit passes -> shadow maps -> the method's passes -> single scattering (when on)
+//! -> shading, into the host's
 //! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
 //! `translucent bench`, the example host and the viewer all record frames through it.
 
@@ -23,6 +26,7 @@ pub mod method;
 pub mod plan;
 pub mod quadgraph;
 pub mod report;
+pub mod single_scattering;
 pub mod voxel;
 
 pub use choice::{choose_method, MethodChoice, SceneTraits};
@@ -33,4 +37,7 @@ pub use method::{Method, MethodFrame, MethodKind};
 pub use plan::{FramePlan, PASS_SHADING, PASS_SHADOW};
 pub use quadgraph::{solve_headless, QuadGraphMethod, QuadGraphReport, SINGLE_LEVEL_NODES};
 pub use report::{CompletedSolve, FrameReport, SkipReason};
+pub use single_scattering::{
+    ScatterMode, ScatterParams, SingleScatteringPass, PASS_SINGLE_SCATTERING,
+};
 pub use voxel::VoxelMethod;

@@ -153,6 +153,16 @@ impl MeshPass {
                         offset: 24,
                     },
                 ],
+                // Single scattering per vertex (DESIGN 2.8, `frame::SingleScatteringPass`): X
+                // added to J+ (zero while the pass is off).
+                second_stream: Some((
+                    16,
+                    &[VertexAttribute {
+                        location: 3,
+                        format: vk::Format::R32G32B32A32_SFLOAT,
+                        offset: 0,
+                    }],
+                )),
                 color_formats: &[color_format],
                 depth_format: Some(depth_format),
                 depth_bias: None,
@@ -222,16 +232,23 @@ impl MeshPass {
         (self.color_format, self.depth_format)
     }
 
-    /// What [`Self::record_into`] uses besides the attachments: `mesh`'s vertices and the shadow
-    /// atlas (sampled for the specular term).
-    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh, shadows: &'a ShadowMaps) -> [Use<'a>; 2] {
+    /// What [`Self::record_into`] uses besides the attachments: `mesh`'s vertices, the single
+    /// scattering per vertex and the shadow atlas (sampled for the specular term).
+    pub fn uses<'a>(
+        &'a self,
+        mesh: &'a GpuMesh,
+        scattered: &'a Buffer,
+        shadows: &'a ShadowMaps,
+    ) -> [Use<'a>; 3] {
         [
             Use::buffer(mesh.vertex_buffer(), Access::VertexInput),
+            Use::buffer(scattered, Access::VertexInput),
             Use::image(&shadows.atlas, Access::DepthSampledShaders),
         ]
     }
 
-    /// Updates the uniforms in the command stream, then draws `mesh` into `attachments` (in
+    /// Updates the uniforms in the command stream, then draws `mesh` with `scattered` (single
+    /// scattering per vertex, 16 bytes each, at least as many as `mesh` has) into `attachments` (in
     /// `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL`, their earlier uses ordered by the
     /// frame graph).
     ///
@@ -239,11 +256,16 @@ impl MeshPass {
     /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
     /// [`Self::uses`] and the attachments; the views' images, `mesh` and `self` must outlive
     /// its execution; the views must have this pass's formats.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the draw's inputs (mesh, its single-scattering stream) and the frame's (attachments, uniforms, push) are distinct things"
+    )]
     pub unsafe fn record_into(
         &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
         mesh: &GpuMesh,
+        scattered: &Buffer,
         attachments: &ShadeAttachments,
         uniforms: &ShadeUniforms,
         push: &ShadePush,
@@ -303,6 +325,8 @@ impl MeshPass {
             barrier::memory(ctx, cb, Access::TransferDst, Access::GraphicsUniformRead);
             ctx.raw().cmd_begin_rendering(cb, &rendering);
             self.pipeline.bind(ctx, cb, self.set, push, extent);
+            ctx.raw()
+                .cmd_bind_vertex_buffers(cb, 1, &[scattered.raw], &[0]);
             mesh.draw(ctx, cb);
             ctx.raw().cmd_end_rendering(cb);
         }

@@ -30,7 +30,7 @@ pub use laplace::{JacobiPush, LaplaceJacobiPass};
 pub use mesh_pass::{environment_sh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
-    SHADOW_ATLAS_FORMAT,
+    SHADOW_ATLAS_FORMAT, SHADOW_SLOPE_BIAS,
 };
 pub use target::{OffscreenTarget, COLOR_FORMAT, DEPTH_FORMAT};
 

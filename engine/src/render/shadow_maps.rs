@@ -45,6 +45,9 @@ use crate::vk::{barrier, Access, Context, Image, ImageDesc};
 
 /// Depth format of the atlas.
 pub const SHADOW_ATLAS_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+/// The shadow pass's slope-scaled depth bias (depth texels per texel of slope): against acne at
+/// grazing angles. Readers of the stored depth as a surface (single scattering) add it back.
+pub const SHADOW_SLOPE_BIAS: f32 = 1.5;
 /// Lights one [`ShadowMaps`] (and one irradiance gather) handles.
 pub const MAX_LIGHTS: usize = 8;
 /// Shadow views: every light a cube.
@@ -275,11 +278,12 @@ impl ShadowMaps {
                     format: vk::Format::R32G32B32_SFLOAT,
                     offset: 0,
                 }],
+                second_stream: None,
                 color_formats: &[],
                 depth_format: Some(SHADOW_ATLAS_FORMAT),
                 // Slope-scaled bias against acne on surfaces seen at grazing angles; the gather adds
                 // a normal offset for the rest.
-                depth_bias: Some((1.0, 1.5)),
+                depth_bias: Some((1.0, SHADOW_SLOPE_BIAS)),
                 cull_mode: vk::CullModeFlags::NONE,
                 bindings: &[],
                 max_sets: 1,

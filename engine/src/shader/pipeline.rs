@@ -624,6 +624,9 @@ pub struct GraphicsPipelineDesc<'a> {
     pub fragment: Option<&'a str>,
     pub vertex_stride: u32,
     pub vertex_attributes: &'a [VertexAttribute],
+    /// A second per-vertex stream (binding 1): its stride and attributes (e.g. the shading's
+    /// single scattering per vertex); `None`: one interleaved buffer.
+    pub second_stream: Option<(u32, &'a [VertexAttribute])>,
     pub color_formats: &'a [vk::Format],
     pub depth_format: Option<vk::Format>,
     /// (constant factor, slope factor) for shadow maps.
@@ -689,21 +692,31 @@ impl<P: bytemuck::Pod> GraphicsPipeline<P> {
                     .name(e)
             })
             .collect();
-        let vertex_bindings = [vk::VertexInputBindingDescription::default()
+        let mut vertex_bindings = vec![vk::VertexInputBindingDescription::default()
             .binding(0)
             .stride(desc.vertex_stride)
             .input_rate(vk::VertexInputRate::VERTEX)];
-        let attributes: Vec<_> = desc
+        let attribute = |binding: u32, a: &VertexAttribute| {
+            vk::VertexInputAttributeDescription::default()
+                .location(a.location)
+                .binding(binding)
+                .format(a.format)
+                .offset(a.offset)
+        };
+        let mut attributes: Vec<_> = desc
             .vertex_attributes
             .iter()
-            .map(|a| {
-                vk::VertexInputAttributeDescription::default()
-                    .location(a.location)
-                    .binding(0)
-                    .format(a.format)
-                    .offset(a.offset)
-            })
+            .map(|a| attribute(0, a))
             .collect();
+        if let Some((stride, second)) = desc.second_stream {
+            vertex_bindings.push(
+                vk::VertexInputBindingDescription::default()
+                    .binding(1)
+                    .stride(stride)
+                    .input_rate(vk::VertexInputRate::VERTEX),
+            );
+            attributes.extend(second.iter().map(|a| attribute(1, a)));
+        }
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vertex_bindings)
             .vertex_attribute_descriptions(&attributes);

@@ -305,8 +305,9 @@ impl Setup {
             roughness: self.frame.roughness,
             radiance: self.frame.radiance,
             skip: state.skip,
-            // HOOK(lead): single scattering (`state.single_scattering`) goes here once
-            // ObjectParams has the flag; the overlay already shows the switch.
+            single_scattering: state
+                .single_scattering
+                .then(translucent::frame::ScatterParams::default),
             ..ObjectParams::default()
         }
     }

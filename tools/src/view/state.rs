@@ -78,8 +78,7 @@ pub struct ViewState {
     /// Index into [`METHODS`].
     pub method: usize,
     pub precision: Precision,
-    /// Single scattering (DESIGN section 2.8). HOOK(lead): `ObjectParams` has no field for it
-    /// yet; `super::object_params` is where it goes when the object gets one.
+    /// Single scattering (DESIGN section 2.8): `ObjectParams::single_scattering`.
     pub single_scattering: bool,
     /// `ObjectParams::skip`.
     pub skip: bool,
@@ -210,12 +209,10 @@ impl ViewState {
                 effect.rebuild = true;
             }
             Action::SingleScattering(on) => {
-                self.single_scattering = on.unwrap_or(!self.single_scattering);
-                // HOOK(lead): a rebuild (or a setter on the object) once ObjectParams has the flag.
-                self.note = Some(
-                    "single scattering: the object has no switch for it yet (shown, not applied)"
-                        .into(),
-                );
+                let wanted = on.unwrap_or(!self.single_scattering);
+                // A new object: `ObjectParams::single_scattering` is fixed at creation.
+                effect.rebuild = wanted != self.single_scattering;
+                self.single_scattering = wanted;
             }
             Action::Skip(on) => {
                 let skip = on.unwrap_or(!self.skip);
@@ -435,8 +432,9 @@ mod tests {
         assert!(s.apply(&Action::Skip(None)).rebuild);
         assert!(!s.skip);
         assert!(!s.apply(&Action::Skip(Some(false))).rebuild);
-        let e = s.apply(&Action::SingleScattering(None));
-        assert!(s.single_scattering && e == Effect::default(), "a hook only");
+        assert!(s.apply(&Action::SingleScattering(None)).rebuild);
+        assert!(s.single_scattering);
+        assert!(!s.apply(&Action::SingleScattering(Some(true))).rebuild);
         assert!(s.apply(&Action::Material("Marble".into())).material);
         assert_eq!(s.material.as_deref(), Some("marble"));
         assert!(!s.apply(&Action::Material("jade".into())).material);

@@ -1,0 +1,323 @@
+#version 460
+// Single scattering (DESIGN 2.8), per display vertex, for the frame's eye: the mirror of the f64
+// `solver::single_scattering::vertex_single_scattering`. The view ray is refracted at the vertex
+// (w_o', cosine mu_o' inside) and sampled at `samples` depths t_k stratified in the exponential of
+// sigma_t'; at each x_k every light's beam enters where the light's shadow view sees the object
+// first (the entry point unprojected from the stored depth, its normal n_i from the depth's
+// gradient), refracts (T_i, mu_t), travels to x_k with Jensen's correction s mu_i / mu_t, is
+// scattered with p = 1 / (4 pi) (reduced coefficients) and leaves with T_o / eta^2 (the shading
+// multiplies by F_t / (pi eta^2), so X = pi S is written, S the sum of 2.8):
+//   S = sum_k w_k sigma_s' p (E T_i mu_i / mu_t) exp(-tau_L - tau_V).
+// A sample the light's view sees in front of the first surface is outside the object (the ray
+// left it on the light's side): it contributes nothing. Difference mode (`mode` 1) subtracts the
+// flat-surface closed form alpha p E mu_i T_i / (mu_t + mu_o') of each light that lights the
+// vertex directly (visibility by 3x3 PCF, as the gather), which the diffusion source carries.
+#include "optics.glsl"
+
+layout(local_size_x = 64) in;
+
+const uint MAX_LIGHTS = 8;
+const uint MAX_VIEWS = 48;
+const uint LIGHT_DIRECTIONAL = 0;
+const uint LIGHT_SPOT = 2;
+const uint VERTEX_FLOATS = 9; // mesh::Vertex: position, normal, exitance
+// Beyond this optical depth a path contributes nothing worth its exp (exp(-30)), as the f64 path.
+const float MAX_OPTICAL_DEPTH = 30.0;
+// Smallest inside cosine of a refracted beam (grazing at eta = 1): keeps E mu_i / mu_t finite.
+const float MIN_MU_T = 1e-4;
+
+struct GatherLight {
+    vec4 position;
+    vec4 direction;
+    vec4 colour;
+    uvec4 views;
+};
+
+struct ShadowView {
+    mat4 view_proj;
+    vec4 tile;
+    vec4 eye;
+};
+
+layout(std430, set = 0, binding = 0) readonly buffer Vertices {
+    float data[];
+} vertices;
+layout(std430, set = 0, binding = 1) writeonly buffer Scattered {
+    vec4 x[];
+} scattered;
+layout(set = 0, binding = 2) uniform sampler2D shadow_atlas;
+layout(std430, set = 0, binding = 3) readonly buffer GatherScene {
+    uvec4 counts;
+    vec4 sh[9];
+    GatherLight lights[MAX_LIGHTS];
+    ShadowView views[MAX_VIEWS];
+} scene;
+
+layout(push_constant) uniform ScatterPush {
+    vec4 eye;       // xyz: the camera's eye (object frame, mm)
+    vec4 sigma_s;   // rgb: sigma_s' (1/mm); w: eta
+    vec4 sigma_a;   // rgb: sigma_a (1/mm); w: offset (mm) of the march's start below the vertex
+    uint vertex_count;
+    uint samples;
+    uint mode;      // 1: difference to the flat closed form; 2: whole
+    float normal_offset; // shadow-map texels, for the vertex's own visibility
+    float depth_bias_slope; // the shadow pass's slope-scaled depth bias (texels of depth per texel)
+} pc;
+
+// The slope bias grows as tan(theta_i); beyond this (a silhouette texel) it is held.
+const float MAX_BIAS_TAN = 8.0;
+// Below this cosine the tangent plane's crossing is ill-conditioned: the distance along the
+// light to the stored point is used instead.
+const float MIN_PLANE_COSINE = 0.05;
+
+// The cube face (+X, -X, +Y, -Y, +Z, -Z) whose frustum holds direction d (as gather_q.comp).
+uint cube_face(vec3 d) {
+    vec3 a = abs(d);
+    if (a.x >= a.y && a.x >= a.z) {
+        return d.x >= 0.0 ? 0u : 1u;
+    }
+    if (a.y >= a.z) {
+        return d.y >= 0.0 ? 2u : 3u;
+    }
+    return d.z >= 0.0 ? 4u : 5u;
+}
+
+vec3 vertex_vec3(uint v, uint offset) {
+    uint b = v * VERTEX_FLOATS + offset;
+    return vec3(vertices.data[b], vertices.data[b + 1], vertices.data[b + 2]);
+}
+
+// The world point of texel t of view `v` at its stored depth; w = 0 where nothing was drawn.
+vec4 stored_point(ShadowView v, mat4 inv, ivec2 t) {
+    ivec2 size = ivec2(v.tile.z);
+    t = clamp(t, ivec2(0), size - 1);
+    float depth = texelFetch(shadow_atlas, ivec2(v.tile.xy) + t, 0).r;
+    if (depth >= 1.0) {
+        return vec4(0.0);
+    }
+    vec2 ndc = (vec2(t) + 0.5) / v.tile.z * 2.0 - 1.0;
+    vec4 p = inv * vec4(ndc, depth, 1.0);
+    return vec4(p.xyz / p.w, 1.0);
+}
+
+// Where the light's beam towards x enters the object, as stored (xyz; w: the view's texel size in
+// mm there; w = 0: nothing drawn there, or outside the view) and the entry's normal from the
+// depth's gradient. The stored depth carries the shadow pass's slope-scaled bias (the caller
+// adds it back along the light).
+vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
+    ShadowView v = scene.views[index];
+    n_entry = vec3(0.0);
+    vec4 clip = v.view_proj * vec4(x, 1.0);
+    if (clip.w <= 0.0) {
+        return vec4(0.0);
+    }
+    vec3 ndc = clip.xyz / clip.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) {
+        return vec4(0.0);
+    }
+    mat4 inv = inverse(v.view_proj);
+    ivec2 t = ivec2(floor((ndc.xy * 0.5 + 0.5) * v.tile.z));
+    vec4 c = stored_point(v, inv, t);
+    // x's own texel is empty within a texel of the light's silhouette: a neighbour's surface
+    // (the caller intersects its plane with the ray, so the texel's offset does not matter).
+    const ivec2 NEIGHBOURS[4] = ivec2[](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
+    for (int k = 0; k < 4 && c.w == 0.0; ++k) {
+        t += NEIGHBOURS[k];
+        c = stored_point(v, inv, t);
+        if (c.w == 0.0) {
+            t -= NEIGHBOURS[k];
+        }
+    }
+    if (c.w == 0.0) {
+        return vec4(0.0);
+    }
+    // The gradient from the one-sided differences with the smaller depth step (silhouettes jump).
+    vec4 px = stored_point(v, inv, t + ivec2(1, 0));
+    vec4 mx = stored_point(v, inv, t - ivec2(1, 0));
+    vec4 py = stored_point(v, inv, t + ivec2(0, 1));
+    vec4 my = stored_point(v, inv, t - ivec2(0, 1));
+    vec3 dx = vec3(0.0);
+    vec3 dy = vec3(0.0);
+    if (px.w > 0.0 && (mx.w == 0.0 || distance(px.xyz, c.xyz) <= distance(mx.xyz, c.xyz))) {
+        dx = px.xyz - c.xyz;
+    } else if (mx.w > 0.0) {
+        dx = c.xyz - mx.xyz;
+    }
+    if (py.w > 0.0 && (my.w == 0.0 || distance(py.xyz, c.xyz) <= distance(my.xyz, c.xyz))) {
+        dy = py.xyz - c.xyz;
+    } else if (my.w > 0.0) {
+        dy = c.xyz - my.xyz;
+    }
+    vec3 g = cross(dx, dy);
+    n_entry = length(g) > 0.0 ? normalize(g) : vec3(0.0);
+    float texel = v.tile.w + v.eye.w * distance(c.xyz, v.eye.xyz);
+    return vec4(c.xyz, max(texel, 1e-9));
+}
+
+// Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit (gather_q.comp).
+float visibility(uint index, vec3 p, vec3 n, float cos_l) {
+    ShadowView v = scene.views[index];
+    float texel = v.tile.w + v.eye.w * distance(p, v.eye.xyz);
+    float sin_l = sqrt(max(1.0 - cos_l * cos_l, 0.0));
+    vec4 clip = v.view_proj * vec4(p + n * (pc.normal_offset * texel * sin_l), 1.0);
+    if (clip.w <= 0.0) {
+        return 1.0;
+    }
+    vec3 ndc = clip.xyz / clip.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) {
+        return 1.0;
+    }
+    float size = v.tile.z;
+    ivec2 origin = ivec2(v.tile.xy);
+    ivec2 centre = ivec2(floor((ndc.xy * 0.5 + 0.5) * size));
+    float depth = clamp(ndc.z, 0.0, 1.0);
+    float lit = 0.0;
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            ivec2 t = clamp(centre + ivec2(dx, dy), ivec2(0), ivec2(size) - 1);
+            lit += depth <= texelFetch(shadow_atlas, origin + t, 0).r ? 1.0 : 0.0;
+        }
+    }
+    return lit / 9.0;
+}
+
+// Direction towards light i from p, its irradiance there (on a surface facing it), and its view.
+vec3 arriving(GatherLight light, vec3 p, out vec3 l) {
+    uint kind = uint(light.position.w);
+    if (kind == LIGHT_DIRECTIONAL) {
+        l = -light.position.xyz;
+        return light.colour.rgb;
+    }
+    vec3 to_light = light.position.xyz - p;
+    float r = max(length(to_light), 1e-9);
+    l = to_light / r;
+    float falloff = 1.0;
+    if (kind == LIGHT_SPOT) {
+        float cos_axis = dot(-l, light.direction.xyz);
+        float co = light.direction.w;
+        float ci = light.colour.w;
+        if (ci - co > 1e-12) {
+            float s = clamp((cos_axis - co) / (ci - co), 0.0, 1.0);
+            falloff = s * s * (3.0 - 2.0 * s);
+        } else {
+            falloff = cos_axis >= co ? 1.0 : 0.0;
+        }
+    }
+    return light.colour.rgb * falloff / r / r;
+}
+
+uint view_of(GatherLight light, vec3 l) {
+    return light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
+}
+
+float refracted_cosine(float eta, float mu) {
+    return sqrt(max(1.0 - (1.0 - mu * mu) / (eta * eta), 0.0));
+}
+
+void main() {
+    uint v = gl_GlobalInvocationID.x;
+    if (v >= pc.vertex_count) {
+        return;
+    }
+    vec3 x = vertex_vec3(v, 0u);
+    vec3 n = vertex_vec3(v, 3u);
+    vec3 sum = vec3(0.0);
+    float eta = pc.sigma_s.w;
+    vec3 to_eye = pc.eye.xyz - x;
+    n = length(n) > 0.0 ? normalize(n) : vec3(0.0);
+    to_eye = length(to_eye) > 0.0 ? normalize(to_eye) : vec3(0.0);
+    float mu_o = dot(n, to_eye);
+    if (mu_o <= 0.0 || pc.samples == 0u) {
+        scattered.x[v] = vec4(0.0);
+        return;
+    }
+    // Refracted view ray into the medium (solver::transport::refract_inward).
+    float cos_t = refracted_cosine(eta, mu_o);
+    vec3 w = (-to_eye + n * mu_o) / eta - n * cos_t;
+    w = length(w) > 0.0 ? normalize(w) : -n;
+    float mu_o_inside = -dot(w, n);
+    vec3 start = x - n * pc.sigma_a.w;
+    vec3 sigma_s = pc.sigma_s.rgb;
+    vec3 sigma_t = sigma_s + pc.sigma_a.rgb;
+    float sigma_ref = (sigma_t.r + sigma_t.g + sigma_t.b) / 3.0;
+    uint count = min(scene.counts.x, MAX_LIGHTS);
+    for (uint k = 0u; k < pc.samples; ++k) {
+        // Stratified in the exponential's cumulative distribution on [0, infinity): samples past
+        // the far face see no light (outside the object) or a long optical path.
+        float u = (float(k) + 0.5) / float(pc.samples);
+        float t = -log(1.0 - u) / sigma_ref;
+        float weight = 1.0 / (float(pc.samples) * sigma_ref * (1.0 - u)); // 1 / (N pdf)
+        vec3 xk = start + w * t;
+        vec3 tau_v = sigma_t * t;
+        if (all(greaterThan(tau_v, vec3(MAX_OPTICAL_DEPTH)))) {
+            continue;
+        }
+        for (uint i = 0u; i < count; ++i) {
+            GatherLight light = scene.lights[i];
+            if (light.views.y == 0u) {
+                continue; // an unshadowed light has no entry points to read
+            }
+            vec3 l;
+            arriving(light, xk, l);
+            vec3 n_i;
+            vec4 entry = entry_point(view_of(light, l), xk, n_i);
+            if (entry.w == 0.0) {
+                continue;
+            }
+            vec3 l_entry;
+            vec3 e = arriving(light, entry.xyz, l_entry);
+            // Facing the light by construction; a reconstructed normal that says otherwise
+            // (a silhouette texel) is taken as grazing.
+            float mu_i = clamp(dot(n_i, l_entry), 0.0, 1.0);
+            if (length(n_i) == 0.0) {
+                mu_i = 1.0;
+            }
+            float mu_t = max(refracted_cosine(eta, mu_i), MIN_MU_T);
+            float t_i = fresnel_transmittance(eta, mu_i);
+            // The distance to the entry along the light's ray (a texel centre is up to half a
+            // texel off the ray), the stored depth's slope bias added back: depth_bias_slope
+            // texels of depth per texel, tan(theta_i) mm of depth per mm across.
+            float tan_i = min(sqrt(max(1.0 - mu_i * mu_i, 0.0)) / max(mu_i, 1e-6), MAX_BIAS_TAN);
+            // The ray's crossing of the entry's tangent plane: a texel centre on a steep
+            // (grazing) surface lies far off the ray in depth; its plane does not.
+            float along = length(n_i) > 0.0 && mu_i > MIN_PLANE_COSINE
+                ? dot(entry.xyz - xk, n_i) / mu_i
+                : dot(entry.xyz - xk, l);
+            float s = along + pc.depth_bias_slope * entry.w * tan_i;
+            if (s < 0.0) {
+                continue; // in front of the first surface: outside, on the light's side
+            }
+            // Jensen's refraction correction of the light-side distance s_i' = s_i mu_i / mu_t.
+            float s_i = s * mu_i / mu_t;
+            vec3 tau = sigma_t * s_i + tau_v;
+            vec3 fluence = e * (mu_i * t_i / mu_t);
+            vec3 term = sigma_s / (4.0 * PI) * fluence * exp(-min(tau, vec3(MAX_OPTICAL_DEPTH))) * weight;
+            sum += mix(term, vec3(0.0), greaterThan(tau, vec3(MAX_OPTICAL_DEPTH)));
+        }
+    }
+    if (pc.mode == 1u) {
+        vec3 albedo = sigma_s / sigma_t;
+        for (uint i = 0u; i < count; ++i) {
+            GatherLight light = scene.lights[i];
+            vec3 l;
+            vec3 e = arriving(light, x, l);
+            float mu_i = dot(n, l);
+            if (mu_i <= 0.0 || all(equal(e, vec3(0.0)))) {
+                continue;
+            }
+            float vis = 1.0;
+            if (light.views.y > 0u) {
+                vis = visibility(view_of(light, l), x, n, mu_i);
+            }
+            float mu_t = refracted_cosine(eta, mu_i);
+            float t_i = fresnel_transmittance(eta, mu_i);
+            // DESIGN 2.8's flat closed form without T_o / eta^2 (transport::flat_single_scattering).
+            sum -= vis * albedo / (4.0 * PI) * e * mu_i * t_i / max(mu_t + mu_o_inside, MIN_MU_T);
+        }
+    }
+    vec3 out_x = PI * sum;
+    // No NaN/Inf leaves the pass (a degenerate normal or an overflowing light).
+    out_x = mix(out_x, vec3(0.0), isnan(out_x));
+    out_x = mix(out_x, vec3(0.0), isinf(out_x));
+    scattered.x[v] = vec4(out_x, 0.0);
+}
