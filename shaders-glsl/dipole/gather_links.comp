@@ -28,18 +28,12 @@ layout(push_constant) uniform GatherPush {
     uint link_window;
 } pc;
 
-Link link_at(uint k) {
-    uint window = k / pc.link_window;
-    uint i = k - window * pc.link_window;
-    if (window == 0u) {
-        return links_0.values[i];
-    } else if (window == 1u) {
-        return links_1.values[i];
-    } else if (window == 2u) {
-        return links_2.values[i];
+// Adds the links [first, last) of one window binding (indices inside the window).
+#define GATHER_WINDOW(binding)                                                  \
+    for (uint i = first; i < last; ++i) {                                       \
+        Link l = binding.values[i];                                             \
+        b += l.form_factor * irradiance_of(l.source, pc.leaf_count);            \
     }
-    return links_3.values[i];
-}
 
 void main() {
     uint r = gl_GlobalInvocationID.x;
@@ -47,10 +41,25 @@ void main() {
         return;
     }
     vec3 b = vec3(0.0);
+    uint k = receiver_offsets.values[r];
     uint end = receiver_offsets.values[r + 1u];
-    for (uint k = receiver_offsets.values[r]; k < end; ++k) {
-        Link l = link_at(k);
-        b += l.form_factor * irradiance_of(l.source, pc.leaf_count);
+    // A receiver's links are contiguous: split them where they cross a window boundary, so the
+    // inner loops neither divide nor branch per link.
+    while (k < end) {
+        uint window = k / pc.link_window;
+        uint base = window * pc.link_window;
+        uint first = k - base;
+        uint last = min(end - base, pc.link_window);
+        if (window == 0u) {
+            GATHER_WINDOW(links_0)
+        } else if (window == 1u) {
+            GATHER_WINDOW(links_1)
+        } else if (window == 2u) {
+            GATHER_WINDOW(links_2)
+        } else {
+            GATHER_WINDOW(links_3)
+        }
+        k = base + last;
     }
     node_exitance.values[r] = vec4(b, 0.0);
 }
