@@ -20,6 +20,10 @@
 //! only when no submitted frame still uses the pass (phase 2 of issue 15 moves these uploads into
 //! the frame).
 //!
+//! The link buffer is bound to the gather as [`LINK_WINDOWS`] storage-buffer windows of
+//! [`device_link_window`] links (each within the device's `maxStorageBufferRange`); more links
+//! than they hold is [`DipoleError::TooManyLinks`], before any GPU object is made.
+//!
 //! ```no_run
 //! use translucent::material::Material;
 //! use translucent::mesh::shapes::Shape;
