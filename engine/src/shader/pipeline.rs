@@ -47,6 +47,16 @@ pub enum DescriptorWrite<'a> {
         name: &'a str,
         buffer: &'a Buffer,
     },
+    /// Bytes `[offset, offset + range)` of a storage buffer: a window of a buffer larger than the
+    /// device's `maxStorageBufferRange`. `offset` must be a multiple of
+    /// `minStorageBufferOffsetAlignment`, `range` at most `maxStorageBufferRange`, and the window
+    /// inside the buffer ([`ShaderError::Unsupported`] otherwise).
+    StorageBufferRange {
+        name: &'a str,
+        buffer: &'a Buffer,
+        offset: u64,
+        range: u64,
+    },
 }
 
 impl<'a> DescriptorWrite<'a> {
@@ -59,7 +69,8 @@ impl<'a> DescriptorWrite<'a> {
             DescriptorWrite::StorageImage { name, .. }
             | DescriptorWrite::SampledImage { name, .. }
             | DescriptorWrite::UniformBuffer { name, .. }
-            | DescriptorWrite::StorageBuffer { name, .. } => name,
+            | DescriptorWrite::StorageBuffer { name, .. }
+            | DescriptorWrite::StorageBufferRange { name, .. } => name,
         }
     }
 
@@ -68,7 +79,9 @@ impl<'a> DescriptorWrite<'a> {
             DescriptorWrite::StorageImage { .. } => vk::DescriptorType::STORAGE_IMAGE,
             DescriptorWrite::SampledImage { .. } => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
             DescriptorWrite::UniformBuffer { .. } => vk::DescriptorType::UNIFORM_BUFFER,
-            DescriptorWrite::StorageBuffer { .. } => vk::DescriptorType::STORAGE_BUFFER,
+            DescriptorWrite::StorageBuffer { .. } | DescriptorWrite::StorageBufferRange { .. } => {
+                vk::DescriptorType::STORAGE_BUFFER
+            }
         }
     }
 }
@@ -283,6 +296,30 @@ impl Interface {
                     });
                 }
             }
+            if let DescriptorWrite::StorageBufferRange {
+                buffer,
+                offset,
+                range,
+                ..
+            } = *w
+            {
+                let limits = ctx.limits();
+                let align = limits.min_storage_buffer_offset_alignment.max(1);
+                let max_range = u64::from(limits.max_storage_buffer_range);
+                let inside = offset
+                    .checked_add(range)
+                    .is_some_and(|end| end <= buffer.size);
+                if offset % align != 0 || range == 0 || range > max_range || !inside {
+                    return Err(ShaderError::Unsupported {
+                        pipeline: self.name,
+                        message: format!(
+                            "binding {:?}: bytes {offset}..+{range} of a {}-byte buffer (offset a \
+                             multiple of {align}, range 1..={max_range}, inside the buffer)",
+                            b.name, buffer.size
+                        ),
+                    });
+                }
+            }
             slots.push((b.binding, *w));
         }
         if let Some((b, _)) = self
@@ -330,6 +367,15 @@ impl Interface {
                         .buffer(buffer.raw)
                         .range(vk::WHOLE_SIZE)]
                 }
+                DescriptorWrite::StorageBufferRange {
+                    buffer,
+                    offset,
+                    range,
+                    ..
+                } => [vk::DescriptorBufferInfo::default()
+                    .buffer(buffer.raw)
+                    .offset(offset)
+                    .range(range)],
                 _ => [vk::DescriptorBufferInfo::default()],
             })
             .collect();

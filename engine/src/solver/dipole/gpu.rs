@@ -20,6 +20,10 @@
 //! only when no submitted frame still uses the pass (phase 2 of issue 15 moves these uploads into
 //! the frame).
 //!
+//! The link buffer is bound to the gather as [`LINK_WINDOWS`] storage-buffer windows of
+//! [`device_link_window`] links (each within the device's `maxStorageBufferRange`); more links
+//! than they hold is [`DipoleError::TooManyLinks`], before any GPU object is made.
+//!
 //! ```no_run
 //! use translucent::material::Material;
 //! use translucent::mesh::shapes::Shape;
@@ -76,6 +80,8 @@ pub struct PullPush {
 pub struct GatherPush {
     pub node_count: u32,
     pub leaf_count: u32,
+    /// Links per window binding (`links_0..3`): link k is element k % window of binding k / window.
+    pub link_window: u32,
 }
 
 /// Push constants of `dipole/push_exitance.comp`.
@@ -155,6 +161,42 @@ pub struct DipoleGatherPass {
     node_count: u32,
     vertex_count: u32,
     link_capacity: usize,
+    /// Links per window binding of the gather (see [`LINK_WINDOWS`]).
+    link_window: usize,
+}
+
+/// Bindings of the one link buffer in the gather (`links_0..3` in `dipole/gather_links.comp`),
+/// each a window of at most the device's `maxStorageBufferRange` bytes: a whole-buffer binding
+/// of a large link set (the sphere's 11.5M links, 184 MB) exceeds lavapipe's 128 MiB. No
+/// descriptor indexing on lavapipe, so the shader branches over separate bindings.
+pub const LINK_WINDOWS: usize = 4;
+
+/// The gather's window bindings, by name in the shader.
+const LINK_WINDOW_NAMES: [&str; LINK_WINDOWS] = ["links_0", "links_1", "links_2", "links_3"];
+
+/// Bytes of one [`Link`] on the GPU (std430 `Link` of the gather shader).
+const LINK_BYTES: usize = std::mem::size_of::<Link>();
+
+/// Links per window on `ctx`'s device: the most whose bytes fit `maxStorageBufferRange` and are a
+/// multiple of `minStorageBufferOffsetAlignment` (the next window's offset).
+pub fn device_link_window(ctx: &Context) -> usize {
+    let limits = ctx.limits();
+    let step = link_window_step(ctx);
+    let most = limits.max_storage_buffer_range as usize / LINK_BYTES;
+    (most / step * step).max(step)
+}
+
+/// Window sizes must be multiples of this many links (the offset alignment in links).
+pub fn link_window_step(ctx: &Context) -> usize {
+    let align = (ctx.limits().min_storage_buffer_offset_alignment as usize).max(1);
+    // lcm(LINK_BYTES, align) / LINK_BYTES; both are powers of two in practice.
+    let gcd = |mut a: usize, mut b: usize| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    align / gcd(LINK_BYTES, align)
 }
 
 /// Re-allocations of the link buffer (each doubles it) before the gather's descriptor pool is spent.
@@ -195,15 +237,49 @@ fn sb<'a>(name: &'a str, buffer: &'a Buffer) -> DescriptorWrite<'a> {
 impl DipoleGatherPass {
     /// Creates the pipelines and buffers for `tree` and uploads its links and the per-vertex
     /// texture factor (`None`: 1). The leaf irradiance starts at zero.
+    ///
+    /// More links than [`LINK_WINDOWS`] windows of [`device_link_window`] hold is
+    /// [`DipoleError::TooManyLinks`], before any GPU object is made.
     pub fn new(
         ctx: &Context,
         tree: &FaceClusterHierarchy,
         links: &LinkSet,
         modulation: Option<&[[f64; 3]]>,
     ) -> Result<DipoleGatherPass, DipoleError> {
+        Self::with_link_window(ctx, tree, links, modulation, None)
+    }
+
+    /// [`Self::new`] with `window` links per window binding instead of the device's
+    /// ([`device_link_window`]): for tests, so a small mesh exercises several windows. `window`
+    /// must be > 0, a multiple of [`link_window_step`] and at most the device's window.
+    #[doc(hidden)]
+    pub fn with_link_window(
+        ctx: &Context,
+        tree: &FaceClusterHierarchy,
+        links: &LinkSet,
+        modulation: Option<&[[f64; 3]]>,
+        window: Option<usize>,
+    ) -> Result<DipoleGatherPass, DipoleError> {
         let (t, n) = (tree.leaf_count(), tree.nodes.len());
         let v = tree.vertex_face_offsets.len() - 1;
         links.check(n)?;
+        let device_window = device_link_window(ctx);
+        let link_window = match window {
+            None => device_window,
+            Some(w) => {
+                let step = link_window_step(ctx);
+                if w == 0 || w % step != 0 || w > device_window {
+                    return Err(DipoleError::Parameter {
+                        name: "link window",
+                        problem: format!(
+                            "{w} links: must be > 0, a multiple of {step} and at most {device_window}"
+                        ),
+                    });
+                }
+                w
+            }
+        };
+        check_link_count(ctx, links.len(), link_window)?;
         if let Some(m) = modulation {
             if m.len() != v || m.iter().flatten().any(|x| !(x.is_finite() && *x >= 0.0)) {
                 return Err(DipoleError::Invalid(format!(
@@ -237,8 +313,11 @@ impl DipoleGatherPass {
                     "leaf_irradiance",
                     "node_irradiance",
                     "receiver_offsets",
-                    "links",
                     "node_exitance",
+                    LINK_WINDOW_NAMES[0],
+                    LINK_WINDOW_NAMES[1],
+                    LINK_WINDOW_NAMES[2],
+                    LINK_WINDOW_NAMES[3],
                 ],
                 GATHER_SETS,
             ),
@@ -353,6 +432,7 @@ impl DipoleGatherPass {
             node_count: n as u32,
             vertex_count: v as u32,
             link_capacity,
+            link_window,
         };
         pass.gather_set = pass.allocate_gather_set(ctx)?;
         pass.links
@@ -361,16 +441,27 @@ impl DipoleGatherPass {
     }
 
     fn allocate_gather_set(&self, ctx: &Context) -> Result<vk::DescriptorSet, DipoleError> {
-        Ok(self.gather.allocate_set(
-            ctx,
-            &[
-                sb("leaf_irradiance", &self.leaf_irradiance),
-                sb("node_irradiance", &self.node_irradiance),
-                sb("receiver_offsets", &self.receiver_offsets),
-                sb("links", &self.links),
-                sb("node_exitance", &self.node_exitance),
-            ],
-        )?)
+        let window_bytes = (self.link_window * LINK_BYTES) as u64;
+        let size = self.links.size;
+        let mut writes = vec![
+            sb("leaf_irradiance", &self.leaf_irradiance),
+            sb("node_irradiance", &self.node_irradiance),
+            sb("receiver_offsets", &self.receiver_offsets),
+            sb("node_exitance", &self.node_exitance),
+        ];
+        for (i, name) in LINK_WINDOW_NAMES.into_iter().enumerate() {
+            let start = i as u64 * window_bytes;
+            // A window past the buffer's end is never read (link k < capacity): bind its start,
+            // a valid range.
+            let offset = if start < size { start } else { 0 };
+            writes.push(DescriptorWrite::StorageBufferRange {
+                name,
+                buffer: &self.links,
+                offset,
+                range: window_bytes.min(size - offset),
+            });
+        }
+        Ok(self.gather.allocate_set(ctx, &writes)?)
     }
 
     /// From now on the vertex step writes rgb `M * scale` at floats `[v * stride + offset, +3)` of
@@ -482,6 +573,16 @@ impl DipoleGatherPass {
         self.link_capacity
     }
 
+    /// Links per window binding of the gather ([`LINK_WINDOWS`] of them).
+    pub fn link_window(&self) -> usize {
+        self.link_window
+    }
+
+    /// Window bindings the links in the buffer span now (1..=[`LINK_WINDOWS`]).
+    pub fn link_windows_used(&self) -> usize {
+        self.link_capacity.div_ceil(self.link_window).max(1)
+    }
+
     /// [`Self::set_links`] without reallocation: a set larger than [`Self::link_capacity`] is an
     /// error (nothing written).
     pub fn write_links(&mut self, links: &LinkSet) -> Result<(), DipoleError> {
@@ -501,11 +602,14 @@ impl DipoleGatherPass {
     }
 
     /// Replaces the links (after incremental updates or a relink). A larger set than the buffer
-    /// holds reallocates it (doubling).
+    /// holds reallocates it (doubling, up to what the window bindings hold: more is
+    /// [`DipoleError::TooManyLinks`], nothing written).
     pub fn set_links(&mut self, ctx: &Context, links: &LinkSet) -> Result<(), DipoleError> {
         links.check(self.node_count as usize)?;
         if links.len() > self.link_capacity {
-            let capacity = links.len().max(2 * self.link_capacity);
+            check_link_count(ctx, links.len(), self.link_window)?;
+            let max_links = LINK_WINDOWS * self.link_window;
+            let capacity = links.len().max((2 * self.link_capacity).min(max_links));
             self.links = storage(ctx, "dipole links", capacity * 16, MemoryUse::Upload)?;
             self.link_capacity = capacity;
             self.gather_set = self.allocate_gather_set(ctx)?;
@@ -639,6 +743,7 @@ impl DipoleGatherPass {
             let push = GatherPush {
                 node_count: self.node_count,
                 leaf_count: t,
+                link_window: self.link_window as u32,
             };
             self.gather
                 .dispatch(ctx, cb, self.gather_set, &push, [self.node_count, 1, 1]);
@@ -672,6 +777,22 @@ impl DipoleGatherPass {
                 .dispatch(ctx, cb, out.set, &push, [self.vertex_count, 1, 1]);
         }
     }
+}
+
+/// [`DipoleError::TooManyLinks`] unless `links` fit [`LINK_WINDOWS`] windows of `window` links.
+fn check_link_count(ctx: &Context, links: usize, window: usize) -> Result<(), DipoleError> {
+    let max_links = LINK_WINDOWS * window;
+    if links <= max_links {
+        return Ok(());
+    }
+    Err(DipoleError::TooManyLinks {
+        links,
+        windows: LINK_WINDOWS,
+        window,
+        window_bytes: (window * LINK_BYTES) as u64,
+        max_range: ctx.limits().max_storage_buffer_range,
+        max_links,
+    })
 }
 
 /// Children and area shares of every internal node, for the pull.

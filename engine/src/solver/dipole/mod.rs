@@ -74,6 +74,20 @@ pub enum DipoleError {
          field's mean)"
     )]
     Heterogeneous { kind: &'static str },
+    #[error(
+        "dipole: {links} links do not fit the GPU gather: it binds at most {windows} windows of \
+         {window} links ({window_bytes} bytes each, the device's maxStorageBufferRange is \
+         {max_range} bytes), {max_links} links in all. Raise --link-tolerance (fewer, coarser links) \
+         or use a coarser mesh"
+    )]
+    TooManyLinks {
+        links: usize,
+        windows: usize,
+        window: usize,
+        window_bytes: u64,
+        max_range: u32,
+        max_links: usize,
+    },
     #[error("dipole: {0}")]
     Mesh(#[from] crate::mesh::MeshError),
     #[error("dipole: {0}")]
