@@ -1,0 +1,289 @@
+//! Building the viewer's [`Setup`] from the command line: the bake, the material, the scene,
+//! the script (everything that does not need a window).
+
+use super::*;
+
+pub(super) fn rgb(option: &str, text: &str) -> anyhow::Result<[f64; 3]> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{option} {text:?}: expected R,G,B numbers"))?;
+    v.try_into()
+        .map_err(|_| anyhow::anyhow!("{option} {text:?}: expected 3 numbers"))
+}
+
+/// `path` with extension `ext` (the screenshot's PNG and EXR).
+pub(super) fn with_extension(path: &Path, ext: &str) -> PathBuf {
+    path.with_extension(ext)
+}
+
+/// The PNG and EXR paths of a screenshot named `path` (`.png` or `.exr`).
+pub(super) fn screenshot_paths(path: &Path) -> anyhow::Result<(PathBuf, PathBuf)> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("png" | "exr") => Ok((with_extension(path, "png"), with_extension(path, "exr"))),
+        _ => bail!("screenshot {}: must end in .png or .exr", path.display()),
+    }
+}
+
+impl Setup {
+    pub(super) fn new(args: &ViewArgs) -> anyhow::Result<Setup> {
+        // Everything a user can get wrong is checked before the bake and the window.
+        if args.frames == Some(0) {
+            bail!("--frames 0: give at least one frame");
+        }
+        if let Some(s) = &args.screenshot {
+            screenshot_paths(s).context("--screenshot")?;
+        }
+        if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
+            bail!(
+                "--tolerance {}: must be a finite non-negative number",
+                args.tolerance
+            );
+        }
+        if args.iterations == 0 {
+            bail!("--iterations 0: give at least one iteration per level");
+        }
+        if let Some(m) = METHODS.iter().find(|m| m.name == args.method && !m.built) {
+            bail!("--method {}: not built yet (only quadgraph is)", m.name);
+        }
+        let script = match &args.script {
+            Some(path) => Script::read(path)?,
+            None => Script::default(),
+        };
+        if let (Some(n), Some(last)) = (args.frames, script.last_frame()) {
+            if last >= n {
+                bail!(
+                    "--script has actions at frame {last}, but --frames {n} runs frames 0..={}",
+                    n - 1
+                );
+            }
+        }
+        let frame = args.scene.frame_desc()?;
+        let environment = match (&args.env_constant, &args.env) {
+            (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
+            (None, Some(path)) => Environment::load_exr(path).context("--env")?,
+            (None, None) => Environment::None,
+        };
+        let lights = args.scene.lights()?;
+        Scene {
+            lights,
+            environment,
+        }
+        .validate()?;
+        let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
+        let object = args.object.load(Some(DEFAULT_SHAPE))?;
+        // `auto`: the material's bound only (the viewer zooms, so no pixel footprint binds).
+        let resolution = args.object.resolution(&object, &field, None);
+        let params = args.object.bake_params(&resolution);
+        let start = Instant::now();
+        let (graph, stats, outcome, file) =
+            crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+        eprintln!(
+            "{}",
+            resolution.line(
+                stats
+                    .levels
+                    .last()
+                    .map_or(0, |l| l.surface_nodes + l.inner_nodes)
+            )
+        );
+        eprintln!(
+            "{} {} in {:.1} s ({})",
+            match outcome {
+                translucent::quadgraph::cache::CacheOutcome::Loaded => "loaded",
+                _ => "baked",
+            },
+            object.name,
+            start.elapsed().as_secs_f64(),
+            file.display()
+        );
+        Ok(Setup {
+            args: args.clone(),
+            name: object.name,
+            graph: Arc::new(graph),
+            field,
+            environment,
+            frame,
+            script,
+            resolution: resolution.cells,
+            dipole_hierarchy: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// The material `state` names (or the command line's).
+    pub(super) fn field(&self, state: &ViewState) -> anyhow::Result<MaterialField> {
+        match &state.material {
+            None => Ok(self.field.clone()),
+            Some(name) => MaterialArgs {
+                material: Some(name.clone()),
+                sigma_a: None,
+                sigma_s: None,
+                eta: self.args.material.eta,
+                volume: None,
+            }
+            .field(self.args.object.size_mm, DEFAULT_MATERIAL),
+        }
+    }
+
+    pub(super) fn frame_exposure(&self) -> f32 {
+        self.args.scene.exposure
+    }
+
+    pub(super) fn scene(&self, state: &ViewState) -> Scene {
+        Scene {
+            lights: state.lights.clone(),
+            environment: self.environment,
+        }
+    }
+
+    /// The object's parameters for `state`.
+    pub(super) fn object_params(&self, state: &ViewState) -> ObjectParams {
+        ObjectParams {
+            solve: GpuSolveParams {
+                scheme: if self.args.scheme == "paper" {
+                    Scheme::Paper
+                } else {
+                    Scheme::Fv
+                },
+                precision: state.precision,
+                iterations: vec![self.args.iterations],
+                tolerance: self.args.tolerance as f32,
+                ..GpuSolveParams::default()
+            },
+            color_format: COLOR_FORMAT,
+            depth_format: DEPTH_FORMAT,
+            specular: self.frame.specular,
+            roughness: self.frame.roughness,
+            radiance: self.frame.radiance,
+            skip: state.skip,
+            single_scattering: state
+                .single_scattering
+                .then(translucent::frame::ScatterParams::default),
+            ..ObjectParams::default()
+        }
+    }
+
+    /// Builds the object for `state` (a new method, precision or skip setting).
+    pub(super) fn object(&self, ctx: &Context, state: &ViewState) -> anyhow::Result<TranslucentObject> {
+        match state.method_name() {
+            "voxel" => Ok(TranslucentObject::with_method(
+                ctx,
+                MethodDesc::Voxel {
+                    mesh: self.graph.surface.clone(),
+                    params: crate::render_voxel::voxel_params(None, None, None)?,
+                },
+                &self.field(state)?,
+                &self.scene(state),
+                &self.object_params(state),
+            )?),
+            "dipole" => {
+                let hierarchy = match self.dipole_hierarchy.get() {
+                    Some(h) => h.clone(),
+                    None => {
+                        let (tree, _) = translucent::solver::dipole::FaceClusterHierarchy::build(
+                            &self.graph.surface,
+                        )?;
+                        self.dipole_hierarchy.get_or_init(|| Arc::new(tree)).clone()
+                    }
+                };
+                Ok(TranslucentObject::with_method(
+                    ctx,
+                    MethodDesc::Dipole {
+                        mesh: self.graph.surface.clone(),
+                        hierarchy,
+                        params: translucent::frame::DipoleParams {
+                            heterogeneous:
+                                translucent::solver::dipole::HeterogeneousPolicy::TextureOnly,
+                            ..Default::default()
+                        },
+                    },
+                    &self.field(state)?,
+                    &self.scene(state),
+                    &self.object_params(state),
+                )?)
+            }
+            "quadgraph" => Ok(TranslucentObject::new(
+                ctx,
+                self.graph.clone(),
+                &self.field(state)?,
+                &self.scene(state),
+                &self.object_params(state),
+            )?),
+            other => bail!("method {other} is not built"),
+        }
+    }
+
+    /// The `translucent render` options that draw what `state` shows at `extent`.
+    pub(super) fn render_args(&self, state: &ViewState, extent: [u32; 2]) -> Vec<String> {
+        let a = &self.args;
+        let mut out: Vec<String> = Vec::new();
+        // `--option=value`: values such as a camera at x < 0 start with '-'.
+        let mut push = |k: &str, v: String| out.push(format!("{k}={v}"));
+        match (&a.object.mesh, &a.object.shape) {
+            (Some(m), _) => push("--mesh", m.display().to_string()),
+            (None, s) => push("--shape", s.clone().unwrap_or(DEFAULT_SHAPE.into())),
+        }
+        push("--size-mm", a.object.size_mm.to_string());
+        push("-K", a.object.k.to_string());
+        push("--levels", a.object.levels.to_string());
+        push("--resolution", self.resolution.to_string());
+        if state.method_name() != "quadgraph" {
+            push("--method", state.method_name().to_string());
+        }
+        match &state.material {
+            Some(name) => push("--material", name.clone()),
+            None => {
+                if let Some(v) = &a.material.volume {
+                    push("--volume", v.display().to_string());
+                }
+                if let (Some(sa), Some(ss)) = (&a.material.sigma_a, &a.material.sigma_s) {
+                    push("--sigma-a", sa.clone());
+                    push("--sigma-s", ss.clone());
+                }
+                if let Some(m) = &a.material.material {
+                    push("--material", m.clone());
+                }
+            }
+        }
+        if let Some(eta) = a.material.eta {
+            push("--eta", eta.to_string());
+        }
+        for light in &state.lights {
+            push("--light", light_arg(light));
+        }
+        if let Some(e) = &a.env_constant {
+            push("--env-constant", e.clone());
+        }
+        if let Some(e) = &a.env {
+            push("--env", e.display().to_string());
+        }
+        push("--camera", camera_arg(&state.camera));
+        push("--width", extent[0].to_string());
+        push("--height", extent[1].to_string());
+        push("--radiance", a.scene.radiance.clone());
+        push("--exposure", a.scene.exposure.to_string());
+        push("--scheme", a.scheme.clone());
+        // The QuadGraph's solver options; render refuses them for the other methods.
+        if state.method_name() == "quadgraph" {
+            push("--precision", precision_name(state.precision).into());
+            push("--iterations", a.iterations.to_string());
+            push("--tolerance", a.tolerance.to_string());
+        }
+        if a.scene.no_specular {
+            out.push("--no-specular".into());
+        }
+        if !state.skip {
+            out.push("--no-skip".into());
+        }
+        if state.method_name() == "dipole" && !self.field(state).is_ok_and(|f| f.is_homogeneous()) {
+            out.push("--texture-only".into());
+        }
+        out
+    }
+}
