@@ -34,8 +34,8 @@ mod present;
 mod reload;
 mod report;
 mod script;
-mod state;
 mod setup;
+mod state;
 mod targets;
 
 use std::path::{Path, PathBuf};
@@ -69,8 +69,8 @@ use overlay::Colour;
 use present::{PresentPass, PresentPush};
 use report::{FrameEntry, FrameLog};
 use script::Script;
-use state::{camera_arg, light_arg, ViewState, METHODS};
 use setup::*;
+use state::{camera_arg, light_arg, ViewState, METHODS};
 use targets::*;
 
 pub use app::run;

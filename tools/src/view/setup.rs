@@ -170,7 +170,11 @@ impl Setup {
     }
 
     /// Builds the object for `state` (a new method, precision or skip setting).
-    pub(super) fn object(&self, ctx: &Context, state: &ViewState) -> anyhow::Result<TranslucentObject> {
+    pub(super) fn object(
+        &self,
+        ctx: &Context,
+        state: &ViewState,
+    ) -> anyhow::Result<TranslucentObject> {
         match state.method_name() {
             "voxel" => Ok(TranslucentObject::with_method(
                 ctx,

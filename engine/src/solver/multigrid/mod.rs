@@ -66,10 +66,9 @@ mod smoothers;
 mod sparse;
 
 pub use prolongation::{linear_links, mixed_links, Prolongation};
+use smoothers::*;
 pub use smoothers::{chebyshev_coefficients, eigenvalue_bounds, largest_eigenvalue, norm2};
 pub use sparse::SparseOperator;
-use prolongation::*;
-use smoothers::*;
 use sparse::*;
 
 type Field = Vec<[f64; 3]>;

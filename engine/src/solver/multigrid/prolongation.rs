@@ -211,7 +211,7 @@ pub fn linear_links(links: &ShepardLinks, fine: &GraphLevel, coarse: &GraphLevel
 /// `normal` is given), with `lambda` such that `sum c_k v_k = (1, 0)`: constants and linear
 /// functions are reproduced. `None` when the moment matrix is singular or the weights would
 /// extrapolate wildly (sum |c| > 3).
-pub(super) fn linear_weights(
+fn linear_weights(
     x: DVec3,
     links: &[u32; 8],
     w: &[f64; 8],
