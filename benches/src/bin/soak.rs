@@ -74,6 +74,44 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// How every soak ends: the median GPU ms per pass, then its checks: the allocator at the end
+/// equals what it held after `phase.0`, the frame at the end's schedule phase (`phase.1`), and no
+/// validation message.
+fn finish(
+    passes: &BTreeMap<String, Vec<f64>>,
+    phase: (Option<usize>, Option<(usize, u64, u64)>),
+    end: (usize, u64, u64),
+    frames: usize,
+    messages: usize,
+) -> Result<()> {
+    println!("median GPU ms per pass (over the frames it ran in):");
+    for (name, v) in passes {
+        println!(
+            "  {name:28} {:8.3} ms ({} frames)",
+            median(v.clone()),
+            v.len()
+        );
+    }
+    match phase {
+        (Some(f), Some(then)) if f + 1 < frames => {
+            println!(
+                "allocator at frame {} (the end's schedule phase): {then:?}",
+                f + 1
+            );
+            if end != then {
+                return Err(
+                    format!("allocator grew: {then:?} at frame {} -> {end:?}", f + 1).into(),
+                );
+            }
+        }
+        _ => println!("allocator growth not checked: too few frames for a second schedule period"),
+    }
+    if messages > 0 {
+        return Err(format!("{messages} validation messages").into());
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let method: String = arg(&args, "--method", "quadgraph".to_string())?;
@@ -239,36 +277,8 @@ fn voxel_soak(args: &[String]) -> Result<()> {
         median(wall_ms),
         median(gpu_ms)
     );
-    println!("median GPU ms per pass (over the frames it ran in):");
-    for (name, v) in passes {
-        println!(
-            "  {name:28} {:8.3} ms ({} frames)",
-            median(v.clone()),
-            v.len()
-        );
-    }
     drop((object, host));
-    match (phase_frame, at_phase) {
-        (Some(f), Some(then)) if f + 1 < frames => {
-            println!(
-                "allocator at frame {} (the end's schedule phase): {then:?}",
-                f + 1
-            );
-            if end != then {
-                return Err(
-                    format!("allocator grew: {then:?} at frame {} -> {end:?}", f + 1).into(),
-                );
-            }
-        }
-        _ => println!(
-            "allocator growth not checked: needs more than {} frames",
-            10 + period
-        ),
-    }
-    if messages > 0 {
-        return Err(format!("{messages} validation messages").into());
-    }
-    Ok(())
+    finish(&passes, (phase_frame, at_phase), end, frames, messages)
 }
 
 fn lcm(a: usize, b: usize) -> usize {
@@ -400,34 +410,6 @@ fn quadgraph_soak(args: &[String]) -> Result<()> {
         1e3 * wall / frames.max(1) as f64
     );
     println!("\n{warm} of {frames} frames warm-started the solve");
-    println!("median GPU ms per pass (over the frames it ran in):");
-    for (name, v) in passes {
-        println!(
-            "  {name:28} {:8.3} ms ({} frames)",
-            median(v.clone()),
-            v.len()
-        );
-    }
     drop((object, host));
-    match (phase_frame, at_phase) {
-        (Some(f), Some(then)) if f + 1 < frames => {
-            println!(
-                "allocator at frame {} (the end's schedule phase): {then:?}",
-                f + 1
-            );
-            if end != then {
-                return Err(
-                    format!("allocator grew: {then:?} at frame {} -> {end:?}", f + 1).into(),
-                );
-            }
-        }
-        _ => println!(
-            "allocator growth not checked: needs more than {} frames",
-            10 + SCHEDULE_PERIOD
-        ),
-    }
-    if messages > 0 {
-        return Err(format!("{messages} validation messages").into());
-    }
-    Ok(())
+    finish(&passes, (phase_frame, at_phase), end, frames, messages)
 }
