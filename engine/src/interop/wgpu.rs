@@ -64,6 +64,7 @@ use wg::hal::api::Vulkan;
 
 use crate::frame::FrameReport;
 use crate::object::{RecordCtx, TargetImage, Targets, TranslucentObject};
+use crate::vk::context::check_device;
 use crate::vk::validation::{on_validation_message, MessageSink};
 use crate::vk::{
     Context, GpuProfiler, HostOptions, ImageState, ValidationMessage, VkError, REQUIRED_FEATURES,
@@ -371,46 +372,12 @@ pub fn check_adapter(adapter: &wg::Adapter) -> Result<(), WgpuError> {
         unsafe { adapter.as_hal::<Vulkan>() }.ok_or(WgpuError::NotVulkan { what: "adapter" })?;
     let instance = hal.shared_instance().raw_instance();
     let physical = hal.raw_physical_device();
-    let name = adapter.get_info().name;
-    let properties = hal.physical_device_capabilities().properties();
-    if properties.api_version < vk::API_VERSION_1_3 {
-        return Err(VkError::ApiVersion {
-            device: name,
-            version: format!(
-                "{}.{}",
-                vk::api_version_major(properties.api_version),
-                vk::api_version_minor(properties.api_version)
-            ),
+    // wgpu opens queue family 0: the first family with graphics and compute must be that one.
+    if check_device(instance, physical)? != 0 {
+        return Err(VkError::NoQueue {
+            device: adapter.get_info().name,
         }
         .into());
-    }
-    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
-    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13);
-    // SAFETY: `physical` belongs to `instance`; the chain holds one core 1.3 struct.
-    unsafe { instance.get_physical_device_features2(physical, &mut f2) };
-    for (present, feature) in [
-        f13.synchronization2,
-        f13.dynamic_rendering,
-        f13.maintenance4,
-    ]
-    .into_iter()
-    .zip(REQUIRED_FEATURES)
-    {
-        if present == vk::FALSE {
-            return Err(VkError::MissingFeature {
-                device: name,
-                feature,
-            }
-            .into());
-        }
-    }
-    // SAFETY: plain query.
-    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-    if !families.first().is_some_and(|f| {
-        f.queue_flags
-            .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
-    }) {
-        return Err(VkError::NoQueue { device: name }.into());
     }
     Ok(())
 }

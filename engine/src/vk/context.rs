@@ -114,7 +114,10 @@ fn c_name(bytes: &[std::ffi::c_char]) -> String {
 }
 
 /// Checks API version and the 1.3 features; returns the graphics+compute queue family.
-fn check_device(instance: &ash::Instance, physical: vk::PhysicalDevice) -> Result<u32, VkError> {
+pub(crate) fn check_device(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+) -> Result<u32, VkError> {
     // SAFETY: `physical` was enumerated from `instance`.
     let props = unsafe { instance.get_physical_device_properties(physical) };
     let name = c_name(&props.device_name);

@@ -39,7 +39,7 @@
 
 pub mod barrier;
 pub mod capture;
-mod context;
+pub(crate) mod context;
 pub(crate) mod device;
 mod memory;
 mod profiler;
