@@ -6,6 +6,7 @@
 //! ```
 //!
 //! Prints `refused: ...` or `accepted` per file; a panic is the crash the fuzzer found.
+//! `make-env-seeds DIR` and `make-cache-seeds DIR` write those targets' seed inputs.
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -29,6 +30,16 @@ fn main() -> anyhow::Result<()> {
                 SpecificChannels::rgb(|p: Vec2<usize>| sky(p.x(), p.y())),
             ));
             image.write().to_file(dir.join(name))?;
+        }
+        return Ok(());
+    }
+    if target == "make-cache-seeds" {
+        // The cache target's seeds in the current format (see `hostile::cache_seeds`).
+        let dir = std::path::PathBuf::from(args.next().unwrap_or_else(|| ".".into()));
+        for (name, bytes) in
+            translucent_tools::hostile::cache_seeds().map_err(|e| anyhow::anyhow!(e))?
+        {
+            std::fs::write(dir.join(name), bytes)?;
         }
         return Ok(());
     }

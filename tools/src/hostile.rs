@@ -130,6 +130,49 @@ pub fn obj(data: &[u8]) -> Result<(), String> {
     solve_is_finite(&graph, true)
 }
 
+/// The cache target's seeds, in the current [`cache::FORMAT_VERSION`]: a tetrahedron baked at
+/// [`tiny_bake`] with one and with two levels, as a whole file (first byte 0: read as given) and as
+/// a bare payload (first byte 1: [`cache_bytes`] wraps it in a valid header and checksum, so the
+/// fuzzer's mutations reach the decoder). A format change makes the committed seeds stale (the
+/// reader refuses them at the version or the decoder): `fuzz_corpus` tests that they are accepted,
+/// and `cargo run --release -p translucent-tools --example fuzz_replay -- make-cache-seeds DIR`
+/// writes them again.
+pub fn cache_seeds() -> Result<Vec<(&'static str, Vec<u8>)>, String> {
+    const TETRA: &[u8] =
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    let mut mesh = TriMesh::parse_obj(TETRA, Path::new("tetra.obj"), &limits()).map_err(text)?;
+    mesh.validate(&ValidateOptions::default()).map_err(text)?;
+    let (mut mesh, _) = mesh.normalized(50.0).map_err(text)?;
+    mesh.compute_normals();
+    let solid = MeshSolid::new(mesh).map_err(text)?;
+    let surface = solid.mesh().clone();
+    let mut seeds = Vec::new();
+    for (levels, file, payload) in [
+        (
+            1,
+            Some("seed-tetra-1level-file"),
+            "seed-tetra-1level-payload",
+        ),
+        (2, None, "seed-tetra-2levels-payload"),
+    ] {
+        let params = BakeParams {
+            levels,
+            resolution: 4 << (levels - 1),
+            ..tiny_bake()
+        };
+        let (graph, _) = QuadGraph::bake(&surface, &solid, &params, &mut |_| {}).map_err(text)?;
+        let key = cache::cache_key(&surface, &params);
+        let bytes = graph.to_cache_bytes(key);
+        if let Some(name) = file {
+            seeds.push((name, [&[0u8][..], &bytes].concat()));
+        }
+        // The payload sits between the 32-byte header and the 8-byte checksum.
+        let body = &bytes[32..bytes.len() - 8];
+        seeds.push((payload, [&[1u8][..], body].concat()));
+    }
+    Ok(seeds)
+}
+
 /// Properties every baked or loaded graph must have for its consumers.
 fn check_graph(graph: &QuadGraph) {
     let stats = graph.stats();

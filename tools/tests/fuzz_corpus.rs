@@ -67,6 +67,32 @@ fn every_corpus_input_goes_through_its_entry_point_without_a_panic() {
     }
 }
 
+/// A seed the reader refuses seeds nothing, and a found input refused at the version or an array
+/// length no longer reaches the check it regresses: after a cache format change both go stale.
+/// Every `seed-*` input of the cache target must be accepted, every `found-*` input must get past
+/// the header and the decoder's lengths.
+#[test]
+fn cache_corpus_is_in_the_current_format() {
+    for (name, data) in corpus("cache") {
+        let outcome = hostile::run("cache", &data);
+        if name.starts_with("seed-") {
+            if let Err(message) = outcome {
+                panic!(
+                    "cache/{name} is refused ({message}): regenerate the seeds with `cargo run \
+                     --release -p translucent-tools --example fuzz_replay -- make-cache-seeds \
+                     tests/fuzz-corpus/cache`"
+                );
+            }
+        } else if let Err(message) = outcome {
+            assert!(
+                !message.contains("version") && !message.contains("does not fit"),
+                "cache/{name} is refused before the check it regresses ({message}): carry it \
+                 into the current format"
+            );
+        }
+    }
+}
+
 /// Runs the binary in `dir` (so any relative output lands there), killing it after
 /// [`CLI_TIMEOUT`].
 fn run_cli(args: &[&str], dir: &Path) -> Output {
