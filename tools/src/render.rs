@@ -93,12 +93,14 @@ pub struct RenderArgs {
     /// Stop a level's iterations once the estimated relative error is below this.
     #[arg(long, default_value_t = 1e-4)]
     pub tolerance: f64,
-    /// How the levels are used (DESIGN 5.1): cascade (the paper's: Jacobi per level, coarsest
-    /// first; then, for the CPU solver, PCG on the finest level unless --iterations) or
-    /// multigrid (full multigrid + V-cycles to the relative residual --tolerance, on either
-    /// solver; warm frames start from the last solution).
-    #[arg(long, default_value = "cascade", value_parser = ["cascade", "multigrid"])]
-    pub schedule: String,
+    /// How the levels are used (DESIGN 5.1): multigrid (full multigrid + CG-accelerated
+    /// V-cycles to the relative residual --tolerance, on either solver; warm frames start from
+    /// the last solution) or cascade (the paper's: Jacobi per level, coarsest first; then, for
+    /// the CPU solver, PCG on the finest level unless --iterations). Default: multigrid on the
+    /// GPU solver, except with the cascade's own options (--precision fp16, --iterations);
+    /// cascade (+ the exact PCG) on the CPU solver, the f64 reference.
+    #[arg(long, value_parser = ["cascade", "multigrid"])]
+    pub schedule: Option<String>,
     /// GPU state precision (mixed, fp16, fp32); applies to the GPU solver only.
     #[arg(long, value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: Option<String>,
@@ -233,6 +235,25 @@ pub fn choice_json(choice: Option<MethodChoice>) -> serde_json::Value {
     }
 }
 
+/// The schedule a render uses: `--schedule` when given; else multigrid on the GPU solver (DESIGN
+/// 5.1: the default, measured faster than the cascade: benches/RESULTS.md, "Multigrid on the GPU
+/// with CG") unless an option only the cascade has asks for it (`--precision fp16`, whose phi
+/// the cycles cannot keep; `--iterations`, the cascade's cap per level); cascade + exact PCG on
+/// the CPU solver (the f64 reference).
+pub fn schedule_of(args: &RenderArgs) -> &'static str {
+    match args.schedule.as_deref() {
+        Some("multigrid") => "multigrid",
+        Some(_) => "cascade",
+        None if args.solver != "gpu"
+            || args.precision.as_deref() == Some("fp16")
+            || args.iterations.is_some() =>
+        {
+            "cascade"
+        }
+        None => "multigrid",
+    }
+}
+
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     match args
         .out
@@ -307,7 +328,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.no_skip && !on_gpu {
         bail!("--no-skip applies to the GPU solver (--solver gpu)");
     }
-    let multigrid = args.schedule == "multigrid";
+    let schedule = schedule_of(args);
+    let multigrid = schedule == "multigrid";
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
     }
@@ -533,6 +555,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 Some(m) => Some(m.converged),
                 None => solve.map(|s| s.converged()),
             };
+            // The cascade's fp16 phi stops when its update rounds to zero: stalled, not converged.
+            let stalled = match &mg_report {
+                Some(_) => None,
+                None => solve.map(|s| s.stalled()),
+            };
             if let (Some(m), false) = (&mg_report, args.json) {
                 if !m.converged {
                     eprintln!(
@@ -540,6 +567,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                         m.residual, m.state
                     );
                 }
+            } else if stalled == Some(true) && !args.json {
+                eprintln!(
+                    "warning: frame {i}: a level stalled (its fp16 update rounded to zero before --tolerance); use --precision mixed"
+                );
             } else if converged == Some(false) && !args.json {
                 eprintln!(
                     "warning: frame {i}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations"
@@ -555,6 +586,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "passes": captured.passes,
                 "iterations": iterations,
                 "converged": converged,
+                "stalled": stalled,
                 "skipped": skipped,
                 "warm_start": report.warm_start,
                 "material_variant": report.material_variant,
@@ -715,7 +747,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "resolution": resolution.json(Some(finest_nodes)),
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
-            "schedule": args.schedule,
+            "schedule": schedule,
             "multigrid": match &last_gpu_multigrid {
                 Some(m) => Some(gpu_multigrid_json(m)),
                 None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
