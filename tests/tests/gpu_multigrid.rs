@@ -299,3 +299,39 @@ fn gpu_multigrid_warm_start_at_the_solution_runs_no_cycle_and_keeps_it() {
     drop(solve);
     gpu.finish();
 }
+
+/// The spot mesh (the accuracy check: GPU vs f64 exact <= 0.5% on spot and marble), at
+/// the default tolerance and cycle cap: the default multigrid (CG) reaches the exact solve.
+#[test]
+fn gpu_multigrid_reaches_the_exact_solve_on_the_spot_mesh() {
+    use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
+    let Some(path) = translucent_tests::test_mesh("spot.obj") else {
+        return;
+    };
+    let mut mesh = TriMesh::load_obj(&path).unwrap();
+    mesh.validate(&ValidateOptions::default()).unwrap();
+    let (mut mesh, _) = mesh.normalized(50.0).unwrap();
+    mesh.compute_normals();
+    let solid = MeshSolid::new(mesh.clone()).unwrap();
+    let bake = BakeParams {
+        resolution: 16,
+        levels: 3,
+        ..Default::default()
+    };
+    let graph = QuadGraph::bake(&mesh, &solid, &bake, &mut |_| {})
+        .unwrap()
+        .0;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
+    let (j, report) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
+    check(
+        "spot, marble, cold",
+        &j,
+        &exact(&graph, &field, &scene(0.0)),
+        &report,
+    );
+    drop(solve);
+    gpu.finish();
+}
