@@ -97,7 +97,8 @@ pub struct RenderArgs {
     /// V-cycles to the relative residual --tolerance, on either solver; warm frames start from
     /// the last solution) or cascade (the paper's: Jacobi per level, coarsest first; then, for
     /// the CPU solver, PCG on the finest level unless --iterations). Default: multigrid on the
-    /// GPU solver, except with the cascade's own options (--precision fp16, --iterations);
+    /// GPU solver, except with the cascade's own options (--precision fp16, --iterations,
+    /// --scheme paper);
     /// cascade (+ the exact PCG) on the CPU solver, the f64 reference.
     #[arg(long, value_parser = ["cascade", "multigrid"])]
     pub schedule: Option<String>,
@@ -236,9 +237,10 @@ pub fn choice_json(choice: Option<MethodChoice>) -> serde_json::Value {
 }
 
 /// The schedule a render uses: `--schedule` when given; else multigrid on the GPU solver (DESIGN
-/// 5.1: the default, measured faster than the cascade: benches/RESULTS.md, "Multigrid on the GPU
-/// with CG") unless an option only the cascade has asks for it (`--precision fp16`, whose phi
-/// the cycles cannot keep; `--iterations`, the cascade's cap per level); cascade + exact PCG on
+/// 5.1: the default, measured faster than the cascade: benches/RESULTS.md, "GPU multigrid with
+/// CG, and the default schedule") unless an option only the cascade has asks for it (`--precision fp16`, whose phi
+/// the cycles cannot keep; `--iterations`, the cascade's cap per level; `--scheme paper`, whose
+/// operator is not symmetric, which the CG around the V-cycle assumes); cascade + exact PCG on
 /// the CPU solver (the f64 reference).
 pub fn schedule_of(args: &RenderArgs) -> &'static str {
     match args.schedule.as_deref() {
@@ -246,7 +248,8 @@ pub fn schedule_of(args: &RenderArgs) -> &'static str {
         Some(_) => "cascade",
         None if args.solver != "gpu"
             || args.precision.as_deref() == Some("fp16")
-            || args.iterations.is_some() =>
+            || args.iterations.is_some()
+            || args.scheme == "paper" =>
         {
             "cascade"
         }
