@@ -589,7 +589,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "passes": captured.passes,
                 "iterations": iterations,
                 "converged": converged,
-                "stalled": stalled,
                 "skipped": skipped,
                 "warm_start": report.warm_start,
                 "material_variant": report.material_variant,
@@ -597,6 +596,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // Only multigrid frames carry the key (a `null` in frames reads as NaN to the checks).
             if let (Some(m), Some(frame)) = (&mg_report, frames.last_mut()) {
                 frame["multigrid"] = gpu_multigrid_json(m);
+            }
+            // Only cascade frames that solved carry `stalled` (likewise no `null`).
+            if let (Some(stalled), Some(frame)) = (stalled, frames.last_mut()) {
+                frame["stalled"] = stalled.into();
             }
             if mg_report.is_some() {
                 last_gpu_multigrid = mg_report;
