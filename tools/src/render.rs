@@ -903,7 +903,7 @@ pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
 fn gpu_multigrid_json(
     m: &translucent::solver::gpu::multigrid::GpuMultigridReport,
 ) -> serde_json::Value {
-    serde_json::json!({
+    let mut json = serde_json::json!({
         "solver": "gpu",
         "warm": m.warm,
         "cycles": m.cycles.len(),
@@ -912,11 +912,15 @@ fn gpu_multigrid_json(
         "state": m.state,
         "start_residual": m.start_residual,
         "residual": m.residual,
-        "mean_factor": m.mean_factor,
         "factor_per_cycle": m.cycles.iter().map(|c| c.factor).collect::<Vec<_>>(),
         "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
         "coarse_steps": m.coarse_steps,
-    })
+    });
+    // Present from two cycles on: a `null` in frames reads as NaN to the checks.
+    if let Some(mean) = m.mean_factor {
+        json["mean_factor"] = mean.into();
+    }
+    json
 }
 
 impl RenderArgs {
