@@ -4,7 +4,10 @@
 // partials; mode 0 stores ||f||^2 as the reference; mode 1 logs the relative residual
 // max_c ||r||_2 / ||f||_2 (absolute where f = 0) and, converged (below the tolerance), diverged
 // (above 1e3 or not finite) or at the cycle cap, zeroes every level's indirect arguments: the
-// cycles recorded after it dispatch nothing.
+// cycles recorded after it dispatch nothing. The conjugate gradients' scalars (krylov.comp):
+// mode 2 sums (R . z, R . z_old) (partials and partials[width..]) into rz and
+// beta = (R . z - R . z_old) / rz_old (the flexible CG's, 0 on the first direction: rz_old = 0);
+// mode 3 sums dir . K dir into alpha = rz / (dir . K dir) (0 where not positive).
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
@@ -16,14 +19,12 @@ shared vec3 sums[64];
 
 const float DIVERGED = 1e3;
 
-void main() {
-    if (control.c.state != 0u) {
-        return;
-    }
+// The sum over the partials from `base` (every invocation calls it: it holds barriers).
+vec3 sum_partials(uint base) {
     uint lid = gl_LocalInvocationID.x;
     vec3 s = vec3(0.0);
     for (uint g = lid; g < pc.width; g += 64u) {
-        s += partials.v[g].rgb;
+        s += partials.v[base + g].rgb;
     }
     sums[lid] = s;
     // why: the tree below reads every invocation's sum (shared memory RAW).
@@ -35,10 +36,51 @@ void main() {
         // why: the next level of the tree reads the sums just written (shared memory RAW).
         barrier();
     }
+    vec3 t = sums[0];
+    // why: a second sum_partials() overwrites sums[] every invocation just read (WAR).
+    barrier();
+    return t;
+}
+
+bool finite(float v) {
+    return !(isnan(v) || isinf(v));
+}
+
+void main() {
+    if (control.c.state != 0u) {
+        return;
+    }
+    uint lid = gl_LocalInvocationID.x;
+    vec3 sum = sum_partials(0u);
+    if (pc.mode == 2u) {
+        vec3 against_old = sum_partials(pc.width);
+        if (lid != 0u) {
+            return;
+        }
+        vec3 rz_old = control.c.rz.rgb;
+        vec3 beta = vec3(0.0);
+        for (int ch = 0; ch < 3; ++ch) {
+            float b = (sum[ch] - against_old[ch]) / rz_old[ch];
+            beta[ch] = rz_old[ch] > 0.0 && finite(b) ? b : 0.0;
+        }
+        control.c.rz = vec4(sum, 0.0);
+        control.c.beta = vec4(beta, 0.0);
+        return;
+    }
     if (lid != 0u) {
         return;
     }
-    vec3 total = sums[0];
+    vec3 total = sum;
+    if (pc.mode == 3u) {
+        vec3 rz = control.c.rz.rgb;
+        vec3 alpha = vec3(0.0);
+        for (int ch = 0; ch < 3; ++ch) {
+            float a = rz[ch] / total[ch];
+            alpha[ch] = total[ch] > 0.0 && finite(a) ? a : 0.0;
+        }
+        control.c.alpha = vec4(alpha, 0.0);
+        return;
+    }
     if (pc.mode == 0u) {
         control.c.reference = vec4(total, 0.0);
         return;

@@ -13,7 +13,7 @@ layout(push_constant) uniform MultigridPush {
     uint offset;
     // Kernel-specific switch (see each kernel).
     uint mode;
-    // Finest level: texture width (rhs, output); check: number of partial sums.
+    // Finest level: texture width (rhs, output); check and krylov: number of partial sums.
     uint width;
     // Chebyshev / damped Jacobi step: d = alpha d + beta B^-1 r (per channel).
     vec4 alpha;
@@ -37,6 +37,11 @@ struct MultigridControl {
     uint state;
     uint pad0;
     uint pad1;
+    // Conjugate gradients (krylov.comp): R . z of the current direction, the step alpha and the
+    // direction update beta, per channel.
+    vec4 rz;
+    vec4 alpha;
+    vec4 beta;
     // Relative residual after the start (cold: after full multigrid) and after every V-cycle.
     float residual[MAX_LOG];
 };

@@ -4,8 +4,11 @@
 // thread updates the level's control record: iterations run, rel = max_c max|dphi_c| / max|phi_c|,
 // rho = (rel / rel_previous_block)^(1/k), estimate = rel / (1 - rho); once the estimate is below the
 // tolerance (or rel is exactly 0) the indirect dispatch arguments of the following blocks become 0
-// groups. Same rule as the CPU reference (solver::cpu::jacobi with BLOCK = k).
-// Included with DELTA_FORMAT (latest/previous) and PHI_FORMAT set.
+// groups. Same rule as the CPU reference (solver::cpu::jacobi with BLOCK = k). A block whose
+// change is exactly 0 stops the level too (nothing will change any more): `stopped_early` 1
+// (converged) where the state's rounding (STALL_BELOW, the format's relative half-ulp) is below
+// the tolerance, else 2 (stalled: the update rounded to zero before the tolerance; fp16 phi).
+// Included with DELTA_FORMAT (latest/previous), PHI_FORMAT and STALL_BELOW set.
 layout(local_size_x = 256) in;
 
 layout(set = 0, binding = 0, DELTA_FORMAT) uniform readonly image2D latest;
@@ -96,6 +99,8 @@ void main() {
     if (stop) {
         control.levels[level].groups_x = 0u;
         control.levels[level].groups_y = 0u;
-        control.levels[level].stopped_early = 1u;
+        // 1 converged, 2 stalled (LevelControl::STALLED).
+        bool stalled = rel == 0.0 && pc.tolerance < STALL_BELOW && any(greaterThan(pm, vec3(0.0)));
+        control.levels[level].stopped_early = stalled ? 2u : 1u;
     }
 }

@@ -11,7 +11,7 @@ use translucent::material::{Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Scene};
-use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, Precision};
+use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, LevelControl, Precision};
 use translucent::solver::rel_rms;
 use translucent::solver::{self, CpuSolveParams, Scheme};
 use translucent::vk::Context;
@@ -786,6 +786,51 @@ fn no_absorption_and_uniform_light_give_the_exact_constant_phi() {
             assert!(worst < 1e-3, "{worst}");
             drop(solve);
         }
+    }
+    gpu.finish();
+}
+
+/// fp16 phi asked for a tolerance below its rounding (half an ulp, ~4.9e-4 relative): its update
+/// rounds to zero before the error is that small, and the level must report stalled, never
+/// converged (issue 13 item 5); fp32 at the same tolerance keeps iterating or converges.
+#[test]
+fn fp16_reports_stalled_when_its_update_rounds_to_zero() {
+    /// Far below fp16's relative rounding, well above fp32's.
+    const TIGHT: f32 = 1e-6;
+    /// Iterations per level at most: fp16 stops changing long before.
+    const CAP: u32 = 4000;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 12, 2);
+    let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    for precision in [Precision::Fp16, Precision::Fp32] {
+        let params = GpuSolveParams {
+            precision,
+            iterations: vec![CAP],
+            tolerance: TIGHT,
+            ..Default::default()
+        };
+        let (j, _, solve) = gpu_solve(ctx, &graph, &field, &params, 1.0);
+        assert!(j.iter().flatten().all(|v| v.is_finite()));
+        let control = solve.control(ctx).unwrap();
+        println!("{precision:?} at {TIGHT:e}: {control:?}");
+        let stopped: Vec<u32> = control.iter().map(|c| c.stopped_early).collect();
+        if precision == Precision::Fp16 {
+            assert!(
+                !stopped.contains(&LevelControl::CONVERGED),
+                "fp16 reported converged below its rounding: {control:?}"
+            );
+            assert!(
+                stopped.contains(&LevelControl::STALLED),
+                "fp16 ran to the cap instead of stalling: {control:?}"
+            );
+        } else {
+            assert!(
+                !stopped.contains(&LevelControl::STALLED),
+                "fp32 reported stalled: {control:?}"
+            );
+        }
+        drop(solve);
     }
     gpu.finish();
 }

@@ -93,12 +93,15 @@ pub struct RenderArgs {
     /// Stop a level's iterations once the estimated relative error is below this.
     #[arg(long, default_value_t = 1e-4)]
     pub tolerance: f64,
-    /// How the levels are used (DESIGN 5.1): cascade (the paper's: Jacobi per level, coarsest
-    /// first; then, for the CPU solver, PCG on the finest level unless --iterations) or
-    /// multigrid (full multigrid + V-cycles to the relative residual --tolerance, on either
-    /// solver; warm frames start from the last solution).
-    #[arg(long, default_value = "cascade", value_parser = ["cascade", "multigrid"])]
-    pub schedule: String,
+    /// How the levels are used (DESIGN 5.1): multigrid (full multigrid + CG-accelerated
+    /// V-cycles to the relative residual --tolerance, on either solver; warm frames start from
+    /// the last solution) or cascade (the paper's: Jacobi per level, coarsest first; then, for
+    /// the CPU solver, PCG on the finest level unless --iterations). Default: multigrid on the
+    /// GPU solver, except with the cascade's own options (--precision fp16, --iterations,
+    /// --scheme paper);
+    /// cascade (+ the exact PCG) on the CPU solver, the f64 reference.
+    #[arg(long, value_parser = ["cascade", "multigrid"])]
+    pub schedule: Option<String>,
     /// GPU state precision (mixed, fp16, fp32); applies to the GPU solver only.
     #[arg(long, value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: Option<String>,
@@ -233,6 +236,27 @@ pub fn choice_json(choice: Option<MethodChoice>) -> serde_json::Value {
     }
 }
 
+/// The schedule a render uses: `--schedule` when given; else multigrid on the GPU solver (DESIGN
+/// 5.1: the default, measured faster than the cascade: benches/RESULTS.md, "GPU multigrid with
+/// CG, and the default schedule") unless an option only the cascade has asks for it (`--precision fp16`, whose phi
+/// the cycles cannot keep; `--iterations`, the cascade's cap per level; `--scheme paper`, whose
+/// operator is not symmetric, which the CG around the V-cycle assumes); cascade + exact PCG on
+/// the CPU solver (the f64 reference).
+pub fn schedule_of(args: &RenderArgs) -> &'static str {
+    match args.schedule.as_deref() {
+        Some("multigrid") => "multigrid",
+        Some(_) => "cascade",
+        None if args.solver != "gpu"
+            || args.precision.as_deref() == Some("fp16")
+            || args.iterations.is_some()
+            || args.scheme == "paper" =>
+        {
+            "cascade"
+        }
+        None => "multigrid",
+    }
+}
+
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     match args
         .out
@@ -307,7 +331,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.no_skip && !on_gpu {
         bail!("--no-skip applies to the GPU solver (--solver gpu)");
     }
-    let multigrid = args.schedule == "multigrid";
+    let schedule = schedule_of(args);
+    let multigrid = schedule == "multigrid";
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
     }
@@ -533,6 +558,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 Some(m) => Some(m.converged),
                 None => solve.map(|s| s.converged()),
             };
+            // The cascade's fp16 phi stops when its update rounds to zero: stalled, not converged.
+            let stalled = match &mg_report {
+                Some(_) => None,
+                None => solve.map(|s| s.stalled()),
+            };
             if let (Some(m), false) = (&mg_report, args.json) {
                 if !m.converged {
                     eprintln!(
@@ -540,6 +570,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                         m.residual, m.state
                     );
                 }
+            } else if stalled == Some(true) && !args.json {
+                eprintln!(
+                    "warning: frame {i}: a level stalled (its fp16 update rounded to zero before --tolerance); use --precision mixed"
+                );
             } else if converged == Some(false) && !args.json {
                 eprintln!(
                     "warning: frame {i}: a level reached the iteration cap before --tolerance (iterations per level {iterations:?}); raise --iterations"
@@ -562,6 +596,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // Only multigrid frames carry the key (a `null` in frames reads as NaN to the checks).
             if let (Some(m), Some(frame)) = (&mg_report, frames.last_mut()) {
                 frame["multigrid"] = gpu_multigrid_json(m);
+            }
+            // Only cascade frames that solved carry `stalled` (likewise no `null`).
+            if let (Some(stalled), Some(frame)) = (stalled, frames.last_mut()) {
+                frame["stalled"] = stalled.into();
             }
             if mg_report.is_some() {
                 last_gpu_multigrid = mg_report;
@@ -715,7 +753,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "resolution": resolution.json(Some(finest_nodes)),
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
-            "schedule": args.schedule,
+            "schedule": schedule,
             "multigrid": match &last_gpu_multigrid {
                 Some(m) => Some(gpu_multigrid_json(m)),
                 None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
@@ -865,7 +903,7 @@ pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
 fn gpu_multigrid_json(
     m: &translucent::solver::gpu::multigrid::GpuMultigridReport,
 ) -> serde_json::Value {
-    serde_json::json!({
+    let mut json = serde_json::json!({
         "solver": "gpu",
         "warm": m.warm,
         "cycles": m.cycles.len(),
@@ -874,11 +912,15 @@ fn gpu_multigrid_json(
         "state": m.state,
         "start_residual": m.start_residual,
         "residual": m.residual,
-        "mean_factor": m.mean_factor,
         "factor_per_cycle": m.cycles.iter().map(|c| c.factor).collect::<Vec<_>>(),
         "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
         "coarse_steps": m.coarse_steps,
-    })
+    });
+    // Present from two cycles on: a `null` in frames reads as NaN to the checks.
+    if let Some(mean) = m.mean_factor {
+        json["mean_factor"] = mean.into();
+    }
+    json
 }
 
 impl RenderArgs {

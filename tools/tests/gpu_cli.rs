@@ -40,7 +40,16 @@ fn gpu_solver_renders_with_gpu_counted_iterations_and_matches_the_cpu_energy() {
     let dir = scratch("gpu-render");
     let gpu = json_of(&render(
         &dir,
-        &["--solver", "gpu", "--frames", "2", "--tolerance", "1e-5"],
+        &[
+            "--solver",
+            "gpu",
+            "--schedule",
+            "cascade",
+            "--frames",
+            "2",
+            "--tolerance",
+            "1e-5",
+        ],
     ));
     let cpu = json_of(&render(&dir, &["--solver", "cpu"]));
     assert_eq!(gpu["solver"], "gpu");
@@ -297,6 +306,8 @@ fn frames_of_an_unchanged_scene_skip_the_solve_and_say_why() {
             "render",
             "--shape",
             "torus",
+            "--schedule",
+            "cascade",
             "--resolution",
             "16",
             "--levels",
@@ -391,7 +402,7 @@ fn frames_of_an_unchanged_scene_skip_the_solve_and_say_why() {
 
 /// `--schedule multigrid` (CPU solver): the cycles, work units and factors are in `--json`, the
 /// solve reaches `--tolerance` on the true residual, and the energy agrees with the cascade's exact
-/// solve; with the GPU solver (no GPU cycle yet) and with `--iterations` it is refused by name.
+/// solve (the CPU solver's default); with fp16 or `--iterations` it is refused by name.
 #[test]
 fn cpu_multigrid_schedule_reports_its_cycles() {
     /// The multigrid stops at relative residual 1e-6; the cascade's PCG at 1e-10.
@@ -462,11 +473,16 @@ fn gpu_multigrid_schedule_reports_its_cycles_and_matches_the_cascade() {
     /// closer than the fp16 q both read.
     const ENERGY_AGREEMENT: f64 = 1e-3;
     let dir = scratch("gpu-multigrid");
+    // No --schedule: multigrid is the GPU solver's default (DESIGN 5.1).
     let mg = json_of(&render(
+        &dir,
+        &["--tolerance", "1e-5", "--frames", "2", "--orbit-light", "3"],
+    ));
+    let cascade = json_of(&render(
         &dir,
         &[
             "--schedule",
-            "multigrid",
+            "cascade",
             "--tolerance",
             "1e-5",
             "--frames",
@@ -475,11 +491,11 @@ fn gpu_multigrid_schedule_reports_its_cycles_and_matches_the_cascade() {
             "3",
         ],
     ));
-    let cascade = json_of(&render(
-        &dir,
-        &["--tolerance", "1e-5", "--frames", "2", "--orbit-light", "3"],
-    ));
     assert_eq!(mg["schedule"], "multigrid");
+    assert_eq!(cascade["schedule"], "cascade");
+    // The cascade's own options select it when no --schedule is given.
+    let fp16 = json_of(&render(&dir, &["--precision", "fp16"]));
+    assert_eq!(fp16["schedule"], "cascade", "--precision fp16 alone");
     let report = &mg["multigrid"];
     assert_eq!(report["solver"], "gpu", "{report}");
     assert_eq!(report["converged"], true, "{report}");

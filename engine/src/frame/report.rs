@@ -58,11 +58,19 @@ impl CompletedSolve {
     pub fn iterations(&self) -> Vec<u32> {
         self.levels.iter().map(|l| l.iterations).collect()
     }
-    /// Whether every level that iterated stopped at the tolerance before its cap.
+    /// Whether every level that iterated stopped at the tolerance before its cap (a stalled
+    /// level did not).
     pub fn converged(&self) -> bool {
         self.levels
             .iter()
-            .all(|l| l.iterations == 0 || l.stopped_early != 0)
+            .all(|l| l.iterations == 0 || l.stopped_early == LevelControl::CONVERGED)
+    }
+    /// Whether a level stopped because its update rounded to zero before the tolerance
+    /// ([`LevelControl::STALLED`]: fp16 phi).
+    pub fn stalled(&self) -> bool {
+        self.levels
+            .iter()
+            .any(|l| l.stopped_early == LevelControl::STALLED)
     }
 }
 

@@ -16,13 +16,17 @@
 //! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval, then per level
 //! going up: prolongation and one V-cycle) or warm: the last solution. Then V-cycles (smoother:
 //! Chebyshev-accelerated block Jacobi, nu1/nu2 steps of `residual` + `smooth`; `restrict`,
-//! `prolong`) until the true relative residual of the finest level, `max_c ||f - K x|| / ||f||`,
-//! is below the tolerance: after every cycle `norm` sums squares per workgroup and `check` (one
+//! `prolong`) until the relative residual of the finest level, `max_c ||f - K x|| / ||f||`, is
+//! below the tolerance: after every cycle `norm` sums squares per workgroup and `check` (one
 //! workgroup) logs the residual and, converged, diverged or at the cap, zeroes the indirect
-//! dispatch arguments of every level, so the V-cycles recorded after it dispatch nothing. The CPU
-//! reads nothing inside the frame; [`GpuMultigrid::report`] reads the log afterwards. `output`
-//! writes x into the finest level's phi image, which the exitance pass reads as it reads the
-//! cascade's.
+//! dispatch arguments of every level, so the V-cycles recorded after it dispatch nothing.
+//! With [`MultigridParams::krylov`] (the default) the V-cycles precondition a flexible CG
+//! (Notay 2000; `krylov.comp`, as the CPU [`Hierarchy::solve`]): per iteration one V-cycle from
+//! zero on the CG residual, the dot products `R . z`, `R . z_old`, `p . K p` and `R . R` reduced
+//! per workgroup and summed by `check` into the scalars beta and alpha of the control record (no
+//! read-back), and the same convergence check on the CG residual. The CPU reads nothing inside the
+//! frame; [`GpuMultigrid::report`] reads the log afterwards. `output` writes x into the finest
+//! level's phi image, which the exitance pass reads as it reads the cascade's.
 //!
 //! Synchronization: one global memory barrier (compute write -> compute read|write) before every
 //! dispatch (each reads what the one before wrote); after each `check` one barrier to the indirect
@@ -102,6 +106,10 @@ pub struct MultigridControl {
     pub logged: u32,
     pub state: u32,
     pub pad: [u32; 2],
+    /// Conjugate gradients: `R . z` of the current direction, the step and the direction update.
+    pub rz: [f32; 4],
+    pub alpha: [f32; 4],
+    pub beta: [f32; 4],
     pub residual: [f32; MAX_LOG],
 }
 
@@ -127,7 +135,8 @@ pub struct GpuMultigridReport {
     pub residual: f64,
     pub converged: bool,
     pub state: CycleState,
-    /// Node updates / finest nodes (as the CPU [`Hierarchy::solve`] counts them).
+    /// Node updates / finest nodes (as the CPU [`Hierarchy::solve`] counts them; a CG iteration
+    /// also counts its four passes over the finest level: dots, direction, K p, update).
     pub work_units: f64,
     /// Geometric mean of the V-cycles' factors; `None` before two.
     pub mean_factor: Option<f64>,
@@ -165,9 +174,23 @@ const PROLONG: usize = 4;
 const NORM: usize = 5;
 const CHECK: usize = 6;
 const OUTPUT: usize = 7;
+const KRYLOV: usize = 8;
+
+/// Modes of `multigrid/krylov.comp` (see the shader).
+const CG_START: u32 = 0;
+const CG_DOTS: u32 = 1;
+const CG_DIRECTION: u32 = 2;
+const CG_APPLY: u32 = 3;
+const CG_UPDATE: u32 = 4;
+const CG_FINISH: u32 = 5;
+/// Modes of `multigrid/check.comp`.
+const CHECK_REFERENCE: u32 = 0;
+const CHECK_RESIDUAL: u32 = 1;
+const CHECK_BETA: u32 = 2;
+const CHECK_ALPHA: u32 = 3;
 
 /// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
-const KERNELS: [(&str, &str, &[&str]); 8] = [
+const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid rhs",
         "multigrid/rhs.comp",
@@ -208,10 +231,28 @@ const KERNELS: [(&str, &str, &[&str]); 8] = [
         "multigrid/output.comp",
         &["phi", "x", "node_texel"],
     ),
+    (
+        "multigrid krylov",
+        "multigrid/krylov.comp",
+        &[
+            "x",
+            "f",
+            "r",
+            "sol",
+            "dir",
+            "z_old",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "partials",
+            "control",
+        ],
+    ),
 ];
 
 /// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 18] = [
+const BUFFER_NAMES: [&str; 21] = [
     "x",
     "f",
     "r",
@@ -230,7 +271,13 @@ const BUFFER_NAMES: [&str; 18] = [
     "node_texel",
     "rhs_coef",
     "partials",
+    "sol",
+    "dir",
+    "z_old",
 ];
+
+/// The buffers the kernels write (the others are written once, from the host).
+const WRITTEN: [&str; 8] = ["x", "f", "r", "d", "partials", "sol", "dir", "z_old"];
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
@@ -377,7 +424,9 @@ impl GpuMultigrid {
             .collect();
         let partials = (n_top as u32).div_ceil(GROUP);
         let zeros = vec![[0.0f32; 4]; total];
-        let contents: [Vec<u8>; 18] = [
+        // The conjugate gradients' vectors (finest level only; none without `krylov`).
+        let krylov_zeros = vec![[0.0f32; 4]; if params.krylov { n_top } else { 0 }];
+        let contents: [Vec<u8>; 21] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
@@ -395,7 +444,11 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&t_weight).to_vec(),
             bytemuck::cast_slice(&node_texel).to_vec(),
             bytemuck::cast_slice(&rhs_coef).to_vec(),
-            bytemuck::cast_slice(&vec![[0.0f32; 4]; partials as usize]).to_vec(),
+            // Two halves: the dots kernel's second sum goes at `partials`.
+            bytemuck::cast_slice(&vec![[0.0f32; 4]; 2 * partials as usize]).to_vec(),
+            bytemuck::cast_slice(&krylov_zeros).to_vec(),
+            bytemuck::cast_slice(&krylov_zeros).to_vec(),
+            bytemuck::cast_slice(&krylov_zeros).to_vec(),
         ];
         let mut buffers = Vec::with_capacity(BUFFER_NAMES.len());
         let mut bytes = 0u64;
@@ -528,8 +581,8 @@ impl GpuMultigrid {
             Access::TransferDst,
             Access::ComputeReadWrite,
         )];
-        for (i, b) in self.buffers.iter().enumerate() {
-            let access = if i < 4 || i == BUFFER_NAMES.len() - 1 {
+        for (name, b) in BUFFER_NAMES.iter().zip(&self.buffers) {
+            let access = if WRITTEN.contains(name) {
                 Access::ComputeReadWrite
             } else {
                 Access::ComputeRead
@@ -599,7 +652,7 @@ impl GpuMultigrid {
             let n_top = self.levels[top].count;
             rec.direct(RHS, top, u32::from(!warm), n_top);
             rec.direct(NORM, top, 1, n_top);
-            rec.check(0);
+            rec.check(CHECK_REFERENCE);
             if !warm {
                 for l in (1..=top).rev() {
                     rec.indirect(RESTRICT, l - 1, 1, [0.0; 3], [0.0; 3]);
@@ -613,9 +666,18 @@ impl GpuMultigrid {
             rec.residual_check();
             scope(profiler, ctx, cb, None);
             scope(profiler, ctx, cb, Some(PASS_MG_CYCLES));
-            for _ in 1..max_log {
-                rec.v_cycle(top);
-                rec.residual_check();
+            if self.params.krylov {
+                // Direct: converged already, the start still moves x into the iterate.
+                rec.direct(KRYLOV, top, CG_START, n_top);
+                for _ in 1..max_log {
+                    rec.krylov_iteration();
+                }
+                rec.direct(KRYLOV, top, CG_FINISH, n_top);
+            } else {
+                for _ in 1..max_log {
+                    rec.v_cycle(top);
+                    rec.residual_check();
+                }
             }
             scope(profiler, ctx, cb, None);
             scope(profiler, ctx, cb, Some(PASS_MG_OUTPUT));
@@ -652,19 +714,25 @@ impl GpuMultigrid {
         let log: Vec<f64> = c.residual[..logged].iter().map(|&v| f64::from(v)).collect();
         let warm = self.warm.get();
         let per = |u: u64| u as f64 / n_top as f64;
-        let v_updates = self.v_cycle_updates(top) + n_top;
+        // A CG iteration: the V-cycle, then the dots, direction, K dir and update passes; without
+        // CG the V-cycle and the residual (its norm in the same pass).
+        let krylov = self.params.krylov;
+        let v_updates = self.v_cycle_updates(top) + if krylov { 4 * n_top } else { n_top };
+        // CG: the start and finish passes (x into the iterate and back).
+        let krylov_ends = if krylov { 2 * n_top } else { 0 };
         let mut cycles = Vec::new();
         // The start: warm, the residual's norm; cold, the full multigrid pass (f restricted,
         // the coarsest solved, per level a prolongation and a V-cycle) and the residual's norm.
-        let start = if warm {
-            n_top
-        } else {
-            (1..=top)
-                .map(|l| 2 * u64::from(self.levels[l].count) + self.v_cycle_updates(l))
-                .sum::<u64>()
-                + self.v_cycle_updates(0)
-                + n_top
-        };
+        let start = krylov_ends
+            + if warm {
+                n_top
+            } else {
+                (1..=top)
+                    .map(|l| 2 * u64::from(self.levels[l].count) + self.v_cycle_updates(l))
+                    .sum::<u64>()
+                    + self.v_cycle_updates(0)
+                    + n_top
+            };
         if !warm {
             if let Some(&r) = log.first() {
                 cycles.push(CycleReport {
@@ -726,7 +794,14 @@ struct Recorder<'a> {
 }
 
 impl Recorder<'_> {
-    fn push(&self, level: usize, mode: u32, alpha: [f64; 3], beta: [f64; 3]) -> MultigridPush {
+    fn push(
+        &self,
+        kernel: usize,
+        level: usize,
+        mode: u32,
+        alpha: [f64; 3],
+        beta: [f64; 3],
+    ) -> MultigridPush {
         let l = &self.mg.levels[level];
         let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
         MultigridPush {
@@ -735,6 +810,12 @@ impl Recorder<'_> {
             mode,
             alpha: f(alpha),
             beta: f(beta),
+            // The krylov kernel's second partial sums start after the first.
+            width: if kernel == KRYLOV {
+                self.mg.partials
+            } else {
+                self.base.width
+            },
             ..self.base
         }
     }
@@ -743,7 +824,7 @@ impl Recorder<'_> {
     /// As [`GpuMultigrid::record`].
     unsafe fn direct(&self, kernel: usize, level: usize, mode: u32, invocations: u32) {
         let (pipeline, set) = &self.mg.pipelines[kernel];
-        let push = self.push(level, mode, [0.0; 3], [0.0; 3]);
+        let push = self.push(kernel, level, mode, [0.0; 3], [0.0; 3]);
         // SAFETY: the caller's contract.
         unsafe {
             // why: every kernel reads what the one before wrote (RAW) and overwrites what
@@ -772,7 +853,7 @@ impl Recorder<'_> {
         beta: [f64; 3],
     ) {
         let (pipeline, set) = &self.mg.pipelines[kernel];
-        let push = self.push(level, mode, alpha, beta);
+        let push = self.push(kernel, level, mode, alpha, beta);
         let offset = (level * std::mem::size_of::<[u32; 4]>()) as u64;
         // SAFETY: the caller's contract.
         unsafe {
@@ -849,7 +930,28 @@ impl Recorder<'_> {
         unsafe {
             self.indirect(RESIDUAL, top, 0, [0.0; 3], [0.0; 3]);
             self.indirect(NORM, top, 0, [0.0; 3], [0.0; 3]);
-            self.check(1);
+            self.check(CHECK_RESIDUAL);
+        }
+    }
+
+    /// One flexible CG iteration preconditioned by one V-cycle (`krylov.comp`), ending in the
+    /// convergence check of the CG residual.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    unsafe fn krylov_iteration(&self) {
+        let top = self.mg.top();
+        let none = [0.0; 3];
+        // SAFETY: the caller's contract.
+        unsafe {
+            self.v_cycle(top);
+            self.indirect(KRYLOV, top, CG_DOTS, none, none);
+            self.check(CHECK_BETA);
+            self.indirect(KRYLOV, top, CG_DIRECTION, none, none);
+            self.indirect(KRYLOV, top, CG_APPLY, none, none);
+            self.check(CHECK_ALPHA);
+            self.indirect(KRYLOV, top, CG_UPDATE, none, none);
+            self.check(CHECK_RESIDUAL);
         }
     }
 
@@ -866,7 +968,7 @@ impl Recorder<'_> {
         };
         // SAFETY: the caller's contract.
         unsafe {
-            // why: the check sums the partials the norm kernel just wrote (RAW).
+            // why: the check sums the partials the norm or krylov kernel just wrote (RAW).
             barrier::memory(
                 self.ctx,
                 self.cb,

@@ -87,7 +87,16 @@ pub struct LevelControl {
     pub rel_previous: f32,
     /// Error estimate after the last block that ran (f32::MAX-like when not contracting yet).
     pub estimate: f32,
+    /// 0 running or at the cap, [`Self::CONVERGED`] or [`Self::STALLED`].
     pub stopped_early: u32,
+}
+
+impl LevelControl {
+    /// `stopped_early`: the estimated error reached the tolerance.
+    pub const CONVERGED: u32 = 1;
+    /// `stopped_early`: a block changed nothing while the state's rounding is above the
+    /// tolerance (fp16 phi: the update rounds to zero before the error is small).
+    pub const STALLED: u32 = 2;
 }
 
 /// What the last [`GpuDiffusion::record`] put in the command buffer (for tests and reports).

@@ -1,0 +1,127 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Flexible preconditioned conjugate gradients around the V-cycle (Notay 2000; the CPU's
+// `Hierarchy::solve` with `krylov`), on the finest level, one invocation per node. The CG
+// residual R lives in the finest level's f (the V-cycle's right-hand side), the preconditioned
+// residual z = V(R) in its x (the V-cycle starts from x = 0), the iterate in `sol`, the search
+// direction in `dir`, the last z in `z_old`, K dir in the finest level's r. Scalars (beta, alpha)
+// come from the control record, which the check kernel writes from this kernel's partial sums.
+// Modes:
+//   0 start:     sol = x, f = f - K x (= r, the start's residual), x = 0
+//   1 dots:      partials = (R . z, R . z_old) per workgroup (second half at offset `width`)
+//   2 direction: dir = z + beta dir (dir = z where beta = 0), z_old = z, x = 0
+//   3 apply:     r = K dir, partials = dir . K dir
+//   4 update:    sol += alpha dir, R -= alpha K dir, partials = R . R
+//   5 finish:    x = sol (the solution the output pass writes and the next warm start reads)
+layout(local_size_x = 64) in;
+
+#include "common.glsl"
+
+layout(set = 0, binding = 0, std430) buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 1, std430) buffer Fs { vec4 v[]; } f;
+layout(set = 0, binding = 2, std430) buffer Rs { vec4 v[]; } r;
+layout(set = 0, binding = 3, std430) buffer Sol { vec4 v[]; } sol;
+layout(set = 0, binding = 4, std430) buffer Dir { vec4 v[]; } dir;
+layout(set = 0, binding = 5, std430) buffer ZOld { vec4 v[]; } z_old;
+layout(set = 0, binding = 6, std430) readonly buffer RowStart { uint v[]; } row_start;
+layout(set = 0, binding = 7, std430) readonly buffer Cols { uint v[]; } cols;
+layout(set = 0, binding = 8, std430) readonly buffer Values { vec4 v[]; } values;
+layout(set = 0, binding = 9, std430) readonly buffer Diag { vec4 v[]; } diag;
+layout(set = 0, binding = 10, std430) writeonly buffer Partials { vec4 v[]; } partials;
+layout(set = 0, binding = 11, std430) readonly buffer Control { MultigridControl c; } control;
+
+#define MODE_START 0u
+#define MODE_DOTS 1u
+#define MODE_DIRECTION 2u
+#define MODE_APPLY 3u
+#define MODE_UPDATE 4u
+#define MODE_FINISH 5u
+
+shared vec3 sums[64];
+
+// Workgroup sum of `s` into partials[slot] (every invocation calls it: it holds barriers).
+void reduce(vec3 s, uint slot) {
+    uint lid = gl_LocalInvocationID.x;
+    sums[lid] = s;
+    // why: the tree below reads every invocation's value (shared memory RAW).
+    barrier();
+    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
+        if (lid < stride) {
+            sums[lid] += sums[lid + stride];
+        }
+        // why: the next level of the tree reads the sums just written (shared memory RAW).
+        barrier();
+    }
+    if (lid == 0u) {
+        partials.v[slot] = vec4(sums[0], 0.0);
+    }
+    // why: a second reduce() overwrites sums[] that invocation 0 may still be reading (WAR).
+    barrier();
+}
+
+vec3 apply_k(uint i) {
+    vec3 acc = diag.v[i].rgb * dir.v[i - pc.offset].rgb;
+    for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
+        acc += values.v[e].rgb * dir.v[cols.v[e] - pc.offset].rgb;
+    }
+    return acc;
+}
+
+void main() {
+    uint node = gl_GlobalInvocationID.x;
+    bool inside = node < pc.count;
+    uint i = pc.offset + node;
+    uint group = gl_WorkGroupID.x;
+    if (pc.mode == MODE_DOTS) {
+        vec3 a = vec3(0.0);
+        vec3 b = vec3(0.0);
+        if (inside) {
+            vec3 rr = f.v[i].rgb;
+            a = rr * x.v[i].rgb;
+            b = rr * z_old.v[node].rgb;
+        }
+        reduce(a, group);
+        reduce(b, pc.width + group);
+        return;
+    }
+    if (pc.mode == MODE_APPLY) {
+        vec3 s = vec3(0.0);
+        if (inside) {
+            vec3 kp = apply_k(i);
+            r.v[i] = vec4(kp, 0.0);
+            s = dir.v[node].rgb * kp;
+        }
+        reduce(s, group);
+        return;
+    }
+    if (pc.mode == MODE_UPDATE) {
+        vec3 s = vec3(0.0);
+        if (inside) {
+            vec3 alpha = control.c.alpha.rgb;
+            sol.v[node] = vec4(sol.v[node].rgb + alpha * dir.v[node].rgb, 0.0);
+            vec3 rr = f.v[i].rgb - alpha * r.v[i].rgb;
+            f.v[i] = vec4(rr, 0.0);
+            s = rr * rr;
+        }
+        reduce(s, group);
+        return;
+    }
+    if (!inside) {
+        return;
+    }
+    if (pc.mode == MODE_START) {
+        sol.v[node] = x.v[i];
+        f.v[i] = r.v[i];
+        x.v[i] = vec4(0.0);
+    } else if (pc.mode == MODE_DIRECTION) {
+        vec3 z = x.v[i].rgb;
+        vec3 beta = control.c.beta.rgb;
+        // beta = 0 (the first direction) must not multiply a stale (possibly non-finite) dir.
+        vec3 d = mix(z + beta * dir.v[node].rgb, z, equal(beta, vec3(0.0)));
+        dir.v[node] = vec4(d, 0.0);
+        z_old.v[node] = vec4(z, 0.0);
+        x.v[i] = vec4(0.0);
+    } else if (pc.mode == MODE_FINISH) {
+        x.v[i] = sol.v[node];
+    }
+}
