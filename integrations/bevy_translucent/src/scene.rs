@@ -113,7 +113,7 @@ impl WorldLight {
 
     /// The light in the frame of an object whose origin is at `origin_mm` (world mm).
     pub fn in_object(&self, origin_mm: DVec3) -> Light {
-        match self.0.clone() {
+        match self.0 {
             Light::Point {
                 position,
                 intensity,
