@@ -77,6 +77,10 @@ pub struct LinkParams {
     pub receiver: ReceiverCriterion,
     /// epsilon_2 (sr): largest solid angle of E seen from R's midpoint.
     pub emitter_epsilon: f64,
+    /// `Some(tolerance)`: an emitter beyond epsilon_2 is split only if averaging its irradiance
+    /// can matter, rho_E k F_up > tolerance x R_total (module doc); `None`: the paper's
+    /// epsilon_2 alone.
+    pub emitter_tolerance: Option<f64>,
     /// Smallest A'/A of a cluster integrated semi-analytically.
     pub min_planarity: f64,
     /// Largest error bound of one point sample, relative to R_total.
@@ -90,6 +94,7 @@ impl Default for LinkParams {
         LinkParams {
             receiver: ReceiverCriterion::Transport { tolerance: 1e-3 },
             emitter_epsilon: 0.1,
+            emitter_tolerance: None,
             min_planarity: 0.9,
             sample_tolerance: 1e-3,
             near_field: NearField::SemiAnalytic(FormFactorParams::default()),
@@ -103,6 +108,7 @@ impl LinkParams {
         LinkParams {
             receiver: ReceiverCriterion::SolidAngle { epsilon: epsilon_1 },
             emitter_epsilon: epsilon_2,
+            emitter_tolerance: None,
             ..Default::default()
         }
     }
@@ -128,6 +134,9 @@ impl LinkParams {
             }
         }
         positive("emitter_epsilon", self.emitter_epsilon)?;
+        if let Some(t) = self.emitter_tolerance {
+            positive("emitter_tolerance", t)?;
+        }
         positive("sample_tolerance", self.sample_tolerance)?;
         if !(0.0..=1.0).contains(&self.min_planarity) {
             return Err(DipoleError::Parameter {
@@ -253,6 +262,23 @@ fn one_sample(profile: &DipoleProfile, p: DVec3, e: &NodeGeometry, tolerance: f6
         .all(|(&(f_up, k), t)| (e.radius * k).powi(4) / 64.0 * f_up <= tolerance * t)
 }
 
+/// Whether E's irradiance may be averaged over E seen from `p`: the error of F x mean(E) against
+/// the integral of R_d E over E is at most the variation of R_d over E times E's area times the
+/// irradiance's, rho k F_up x E_max; bounded by `tolerance` x R_total x E_max.
+fn averaging_is_harmless(
+    profile: &DipoleProfile,
+    p: DVec3,
+    e: &NodeGeometry,
+    tolerance: f64,
+) -> bool {
+    let gap = ((p - e.centroid).length() - e.radius).max(0.0);
+    let total = profile.total_reflectance();
+    bounds(profile, gap, e.area)
+        .iter()
+        .zip(total)
+        .all(|(&(f_up, k), t)| e.radius * k * f_up <= tolerance * t)
+}
+
 /// Whether a plain midpoint sample (no moment correction, the comparison of Table 5) suffices: its
 /// error bound is second order, (rho k)^2 / 8 x F_up.
 fn midpoint_sample(profile: &DipoleProfile, p: DVec3, e: &NodeGeometry, tolerance: f64) -> bool {
@@ -284,7 +310,11 @@ pub(crate) fn decide(
     let (gr, ge) = (&tree.geometry[r as usize], &tree.geometry[e as usize]);
     let (r_node, e_node) = (&tree.nodes[r as usize], &tree.nodes[e as usize]);
     let omega = solid_angle(gr.centroid, ge);
-    let mut split_e = !e_node.is_leaf() && omega > params.emitter_epsilon;
+    let mut split_e = !e_node.is_leaf()
+        && omega > params.emitter_epsilon
+        && params
+            .emitter_tolerance
+            .is_none_or(|tolerance| !averaging_is_harmless(profile, gr.centroid, ge, tolerance));
     let split_r = !r_node.is_leaf()
         && match params.receiver {
             ReceiverCriterion::SolidAngle { epsilon } => {
