@@ -7,8 +7,8 @@
 //! cargo run --release -p translucent-benches --bin dipole -- modes      # render / on-the-fly / relink after a deformation (full, incremental) against T
 //! cargo run --release -p translucent-benches --bin dipole -- diagnose   # per-link form factors against their leaves' (spot)
 //! ```
-//! Options (after the subcommand): `--eps1 F --eps2 F --emitter-tolerance F --receiver-tolerance F
-//! --tolerance F --ratio F` (link parameters),
+//! Options (after the subcommand): `--eps1 F --eps2 F --receiver-tolerance F --tolerance F
+//! --ratio F` (link parameters),
 //! `--max-triangles N` (skip larger meshes), `--material NAME`, `--size-mm F`. Meshes come from
 //! `$TRANSLUCENT_MESH_DIR` (default `../shared/meshes`); run from the repository root.
 
@@ -62,7 +62,6 @@ fn options(args: &[String]) -> Result<Options> {
                 }
             }
             "--eps2" => o.params.emitter_epsilon = value()?.parse()?,
-            "--emitter-tolerance" => o.params.emitter_tolerance = Some(value()?.parse()?),
             "--tolerance" => o.params.sample_tolerance = value()?.parse()?,
             "--planarity" => o.params.min_planarity = value()?.parse()?,
             "--ratio" => {
@@ -140,12 +139,11 @@ fn meshes(size_mm: f64, max_triangles: usize) -> Result<Vec<(String, TriMesh)>> 
 fn links_table(o: &Options) -> Result<()> {
     let profile = DipoleProfile::new(&Material::preset(&o.material)?, BoundaryModel::Moments);
     println!(
-        "material {} at {} mm, receiver {:?} eps2 {} emitter tolerance {:?} sample tolerance {} planarity {}",
+        "material {} at {} mm, receiver {:?} eps2 {} sample tolerance {} planarity {}",
         o.material,
         o.size_mm,
         o.params.receiver,
         o.params.emitter_epsilon,
-        o.params.emitter_tolerance,
         o.params.sample_tolerance,
         o.params.min_planarity
     );
@@ -386,8 +384,8 @@ fn modes(o: &Options) -> Result<()> {
     let profile = DipoleProfile::new(&Material::preset(&o.material)?, BoundaryModel::Moments);
     let budget: u64 = 100_000;
     println!(
-        "material {} at {} mm, receiver {:?} eps2 {} emitter tolerance {:?}; deformation: twist of 0.02 rad/mm",
-        o.material, o.size_mm, o.params.receiver, o.params.emitter_epsilon, o.params.emitter_tolerance
+        "material {} at {} mm, receiver {:?} eps2 {} sample tolerance {}; deformation: twist of 0.02 rad/mm",
+        o.material, o.size_mm, o.params.receiver, o.params.emitter_epsilon, o.params.sample_tolerance
     );
     println!("| mesh | T | L/T | link s | render s | on-the-fly s | refit s | full relink s | incremental s (steps of {budget} form factors) | incremental form factors | links after (incr. / full) |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
