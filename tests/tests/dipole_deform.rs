@@ -79,7 +79,7 @@ fn display(object: &TranslucentObject, offset: usize) -> Vec<[f32; 3]> {
     let bytes = object.mesh().vertex_buffer().read_bytes().expect("read");
     let stride = std::mem::size_of::<Vertex>();
     let float = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
-    (0..object.mesh().vertex_count() as usize)
+    (0..object.mesh().vertex_count())
         .map(|v| std::array::from_fn(|c| float(v * stride + offset + 4 * c)))
         .collect()
 }
