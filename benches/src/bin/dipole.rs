@@ -3,12 +3,12 @@
 //!
 //! ```text
 //! cargo run --release -p translucent-benches --bin dipole -- links      # links per triangle, build times (Table 3)
-//! cargo run --release -p translucent-benches --bin dipole -- accuracy   # form factor error and cost against cubature
-//! cargo run --release -p translucent-benches --bin dipole -- boundary   # total diffuse reflectance of both boundary models
-//! cargo run --release -p translucent-benches --bin dipole -- modes      # render / incremental / on-the-fly times, GPU gather
-//! cargo run --release -p translucent-benches --bin dipole -- images OUT_DIR   # CPU reference renders (PNG)
+//! cargo run --release -p translucent-benches --bin dipole -- sweep [paper] [uniform] E1S E2S TOLS  # error against the brute-force sum per link parameters
+//! cargo run --release -p translucent-benches --bin dipole -- modes      # render / on-the-fly / relink after a deformation (full, incremental) against T
+//! cargo run --release -p translucent-benches --bin dipole -- diagnose   # per-link form factors against their leaves' (spot)
 //! ```
-//! Options (after the subcommand): `--eps1 F --eps2 F --tolerance F --ratio F` (link parameters),
+//! Options (after the subcommand): `--eps1 F --eps2 F --receiver-tolerance F --tolerance F
+//! --ratio F` (link parameters),
 //! `--max-triangles N` (skip larger meshes), `--material NAME`, `--size-mm F`. Meshes come from
 //! `$TRANSLUCENT_MESH_DIR` (default `../shared/meshes`); run from the repository root.
 
@@ -375,6 +375,69 @@ fn diagnose(o: &Options) -> Result<()> {
     Ok(())
 }
 
+/// The modes of section 5.5 against triangle count (the torus of the links table, 2k-124k): render
+/// mode (gather along stored links), on-the-fly (oracle + gather every frame, nothing stored), and
+/// after a deformation (a twist of the whole object) the refit plus either a full relink or
+/// incremental relinking drained to the end (and the form factors that took). CPU, rayon.
+fn modes(o: &Options) -> Result<()> {
+    use translucent::solver::dipole::IncrementalLinks;
+    let profile = DipoleProfile::new(&Material::preset(&o.material)?, BoundaryModel::Moments);
+    let budget: u64 = 100_000;
+    println!(
+        "material {} at {} mm, receiver {:?} eps2 {} sample tolerance {}; deformation: twist of 0.02 rad/mm",
+        o.material, o.size_mm, o.params.receiver, o.params.emitter_epsilon, o.params.sample_tolerance
+    );
+    println!("| mesh | T | L/T | link s | render s | on-the-fly s | refit s | full relink s | incremental s (steps of {budget} form factors) | incremental form factors | links after (incr. / full) |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for (name, mesh) in meshes(o.size_mm, o.max_triangles)?
+        .into_iter()
+        .filter(|(n, _)| n.starts_with("torus"))
+    {
+        let (mut tree, _) = FaceClusterHierarchy::build(&mesh)?;
+        let (set, ls) = LinkSet::build(&tree, &profile, &o.params);
+        let irradiance = vec![[1.0; 3]; tree.leaf_count()];
+        let start = Instant::now();
+        let _ = links::render(&tree, &profile, &set, &irradiance, None);
+        let render_s = start.elapsed().as_secs_f64();
+        let (_, fly) = links::on_the_fly(&tree, &profile, &o.params, &irradiance, None);
+        let mut incremental = IncrementalLinks::new(&tree, &profile, &o.params);
+        drop(set);
+        let twisted: Vec<_> = mesh
+            .positions
+            .iter()
+            .map(|p| {
+                let (s, c) = (0.02 * p.y).sin_cos();
+                glam::DVec3::new(c * p.x + s * p.z, p.y, -s * p.x + c * p.z)
+            })
+            .collect();
+        let start = Instant::now();
+        let report = tree.refit(&twisted)?;
+        let refit_s = start.elapsed().as_secs_f64();
+        let (full, fs) = LinkSet::build(&tree, &profile, &o.params);
+        let start = Instant::now();
+        incremental.geometry_changed(&report);
+        let mut form_factors = 0;
+        while incremental.pending() > 0 {
+            form_factors += incremental.step(&tree, budget).form_factors;
+        }
+        let incremental_s = start.elapsed().as_secs_f64();
+        let t = tree.leaf_count();
+        println!(
+            "| {name} | {t} | {:.1} | {:.2} | {:.3} | {:.2} | {:.3} | {:.2} | {:.2} | {form_factors} | {:.1} / {:.1} |",
+            ls.links as f64 / t as f64,
+            ls.seconds,
+            render_s,
+            fly.seconds,
+            refit_s,
+            fs.seconds,
+            incremental_s,
+            incremental.len() as f64 / t as f64,
+            full.len() as f64 / t as f64,
+        );
+    }
+    Ok(())
+}
+
 #[allow(dead_code)]
 fn unused() -> Result<()> {
     let total_err = [0.0f64; 2];
@@ -398,6 +461,7 @@ fn main() -> Result<()> {
         "links" => links_table(&o),
         "sweep" => sweep(&o),
         "diagnose" => diagnose(&o),
+        "modes" => modes(&o),
         other => Err(format!("unknown subcommand {other}").into()),
     }
 }

@@ -13,7 +13,8 @@
 //!    as a flat irradiance (semi-infinite slab, one injected q); the QuadGraph's diffusion closes
 //!    the solid and is near the path tracer;
 //! 4. the object deforms (no topology change) -> **quadgraph**: it deforms its baked graph on the
-//!    GPU; the dipole's links are built for one shape (deforming is a typed error there);
+//!    GPU; the dipole relinks on the CPU after each deformation (seconds on large meshes, or
+//!    spread over frames in its incremental mode);
 //! 5. otherwise (homogeneous, delta lights only, rigid) -> **dipole**: the lowest image error on
 //!    the directly lit references and the cheapest frame once linked.
 //!
@@ -81,7 +82,7 @@ pub fn choose_method(traits: &SceneTraits) -> MethodChoice {
     } else if traits.deforms {
         (
             MethodKind::QuadGraph,
-            "the object deforms: the quadgraph deforms its baked graph; the dipole's links are per shape",
+            "the object deforms: the quadgraph deforms its baked graph on the GPU; the dipole relinks on the CPU per deformation",
         )
     } else {
         (

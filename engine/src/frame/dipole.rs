@@ -13,10 +13,18 @@
 //!   write J+ = M / (1 - F_dr) into the display mesh's exitance field, which the shared shading
 //!   turns into radiance (DESIGN section 2: integrated over the hemisphere it gives back M).
 //!
-//! What it does not do yet: deformation ([`Method::deform`] is a typed error; the CPU side,
-//! [`FaceClusterHierarchy::refit`] and [`crate::solver::dipole::IncrementalLinks`], exists) and
-//! the on-the-fly and incremental modes inside a frame (they run on the CPU:
-//! [`crate::solver::dipole::links::on_the_fly`], `benches/src/bin/dipole.rs`).
+//! Deformation ([`Method::deform`], an analytic map of the rest pose): the hierarchy is refitted
+//! ([`FaceClusterHierarchy::refit`], same topology) and relinked from scratch on the CPU (rayon;
+//! measured cheaper than draining [`crate::solver::dipole::IncrementalLinks`] for a whole-object
+//! deformation, benches/RESULTS.md "Dipole modes"), the pull and vertex weights and the links are
+//! rewritten, and the next frame's [`PASS_DEFORM`] copies the moved display vertices and the
+//! triangles' new centroids and normals into the display mesh and the leaf images before the
+//! gather. The links and weights live in host-visible buffers the frames read: a deformation
+//! while frames are in flight waits for them first.
+//!
+//! What it does not do yet: the on-the-fly and incremental modes inside a frame (they run on the
+//! CPU: [`crate::solver::dipole::links::on_the_fly`], [`crate::solver::dipole::IncrementalLinks`],
+//! `benches/src/bin/dipole.rs`).
 //!
 //! ```no_run
 //! use std::sync::Arc;
@@ -48,18 +56,21 @@ use crate::scene::Scene;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
 use crate::solver::dipole::{
     irradiance::leaf_irradiance, BoundaryModel, DipoleGatherPass, DipoleMaterial,
-    FaceClusterHierarchy, HeterogeneousPolicy, LinkParams, LinkSet, LinkStats,
+    FaceClusterHierarchy, HeterogeneousPolicy, IncrementalLinks, LinkParams, LinkSet, LinkStats,
+    StepReport,
 };
 use crate::solver::gpu::Deformation;
 use crate::solver::SolverError;
 use crate::vk::barrier::Use;
-use crate::vk::{barrier, Access, Context, Image, VkError};
+use crate::vk::{barrier, Access, Buffer, Context, Image, VkError};
 use crate::Error;
 
 /// The irradiance gather at the triangles' centroids.
 pub const PASS_IRRADIANCE: &str = "dipole_irradiance";
 /// Leaf irradiance, pull, link gather, push and the display mesh's J+.
 pub const PASS_LINKS: &str = "dipole_links";
+/// After a deformation: the moved display vertices and leaf centroids and normals copied in.
+pub const PASS_DEFORM: &str = "dipole_deform";
 
 /// Texels per row of the leaf images (the gather's workgroups are 8 x 8).
 const LEAF_IMAGE_WIDTH: u32 = 256;
@@ -76,6 +87,24 @@ pub struct DipoleParams {
     pub links: LinkParams,
     /// A heterogeneous material: refused (typed error naming the other methods) or texture only.
     pub heterogeneous: HeterogeneousPolicy,
+    /// How the links follow a deformation.
+    pub relink: Relink,
+}
+
+/// How the links follow a deformation (paper section 5.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Relink {
+    /// Relink from scratch on the CPU (rayon) in [`Method::deform`]: the next frame gathers with
+    /// links made for the new shape.
+    #[default]
+    Full,
+    /// The paper's incremental mode: [`Method::deform`] only refits the hierarchy and marks the
+    /// links touching moved triangles stale; each frame then promotes, demotes or re-evaluates
+    /// stale links ([`crate::solver::dipole::IncrementalLinks::step`]) for about
+    /// `form_factors_per_frame` form factors and gathers with the links as they stand (some old
+    /// form factors until the queue drained). The link buffer is reserved at twice the links at
+    /// the deformation; a set outgrowing it waits on the GPU for the next deformation.
+    Incremental { form_factors_per_frame: u64 },
 }
 
 impl Default for DipoleParams {
@@ -84,6 +113,7 @@ impl Default for DipoleParams {
             model: BoundaryModel::Moments,
             links: LinkParams::default(),
             heterogeneous: HeterogeneousPolicy::Refuse,
+            relink: Relink::Full,
         }
     }
 }
@@ -98,9 +128,10 @@ pub struct LeafPush {
     pub pad: u32,
 }
 
-/// The gather's images over the triangles (texel `(i % width, i / width)` is triangle `i`):
-/// position (a = 1 on a triangle with area) and normal filled, `q` undefined.
-fn upload_leaf_images(ctx: &Context, tree: &FaceClusterHierarchy) -> Result<SurfaceImages, Error> {
+/// The texels of the leaf images (texel `(i % width, i / width)` is triangle `i`): position (a = 1
+/// on a triangle with area) and normal; `(width, rows)`.
+#[allow(clippy::type_complexity)]
+fn leaf_texels(tree: &FaceClusterHierarchy) -> ((u32, u32), Vec<[f32; 4]>, Vec<[half::f16; 4]>) {
     let t = tree.leaf_count();
     let width = LEAF_IMAGE_WIDTH;
     let rows = (t as u32).div_ceil(width).max(1);
@@ -120,6 +151,12 @@ fn upload_leaf_images(ctx: &Context, tree: &FaceClusterHierarchy) -> Result<Surf
             half::f16::ZERO,
         ];
     }
+    ((width, rows), positions, normals)
+}
+
+/// The gather's images over the triangles ([`leaf_texels`]), `q` undefined.
+fn upload_leaf_images(ctx: &Context, tree: &FaceClusterHierarchy) -> Result<SurfaceImages, Error> {
+    let (size, positions, normals) = leaf_texels(tree);
     Ok(SurfaceImages::from_texels(
         ctx,
         [
@@ -127,10 +164,53 @@ fn upload_leaf_images(ctx: &Context, tree: &FaceClusterHierarchy) -> Result<Surf
             "dipole leaf normal",
             "dipole leaf q",
         ],
-        (width, rows),
+        size,
         &positions,
         &normals,
     )?)
+}
+
+/// A deformed shape's GPU data, staged for [`PASS_DEFORM`]'s copies.
+struct StagedShape {
+    vertices: Buffer,
+    leaf_positions: Buffer,
+    leaf_normals: Buffer,
+}
+
+impl StagedShape {
+    /// The display vertices of `moved` and the leaf texels of `tree` (refitted to it).
+    fn new(
+        ctx: &Context,
+        moved: &TriMesh,
+        tree: &FaceClusterHierarchy,
+    ) -> Result<StagedShape, Error> {
+        let vertices: Vec<Vertex> = moved
+            .positions
+            .iter()
+            .zip(&moved.normals)
+            .map(|(p, n)| Vertex {
+                position: p.as_vec3().to_array(),
+                normal: n.as_vec3().to_array(),
+                exitance: [0.0; 3],
+            })
+            .collect();
+        let (_, positions, normals) = leaf_texels(tree);
+        let normal_bits: Vec<u16> = normals.iter().flatten().map(|h| h.to_bits()).collect();
+        let staging = |name, data: &[u8]| {
+            Buffer::with_data(ctx, name, vk::BufferUsageFlags::TRANSFER_SRC, data)
+        };
+        Ok(StagedShape {
+            vertices: staging("dipole deformed vertices", bytemuck::cast_slice(&vertices))?,
+            leaf_positions: staging(
+                "dipole deformed leaf positions",
+                bytemuck::cast_slice(&positions),
+            )?,
+            leaf_normals: staging(
+                "dipole deformed leaf normals",
+                bytemuck::cast_slice(&normal_bits),
+            )?,
+        })
+    }
 }
 
 /// A relink waiting until no frame in flight reads the links it replaces.
@@ -159,6 +239,17 @@ pub struct DipoleMethod {
     uniforms: GatherScene,
     q_scale: f32,
     pending: Option<PendingMaterial>,
+    /// The scene (the leaf irradiance's exposure is refitted after a deformation).
+    scene: Scene,
+    /// A deformation's copies, waiting for the next frame; `copy_now` while that frame records.
+    staged: Option<StagedShape>,
+    copy_now: bool,
+    /// The frame that recorded the copies of `staged` (dropped once it completed).
+    staged_frame: Option<u64>,
+    /// [`Relink::Incremental`]: the links kept per receiver with their queue of stale links.
+    incremental: Option<IncrementalLinks>,
+    /// What the last incremental step did (None before the first).
+    last_step: Option<StepReport>,
     /// The last frame that recorded the passes, and the last one the host reported complete.
     last_recorded: Option<u64>,
     completed: u64,
@@ -265,6 +356,15 @@ impl DipoleMethod {
         )?;
         let uniforms = GatherScene::new(scene, shadows)?;
         let q_scale = q_scale(&tree, scene, field.eta())?;
+        let incremental = match params.relink {
+            Relink::Full => None,
+            Relink::Incremental { .. } => Some(IncrementalLinks::from_set(
+                &links,
+                &material.profile,
+                &params.links,
+                link_stats,
+            )),
+        };
         Ok(DipoleMethod {
             tree,
             surface,
@@ -282,6 +382,12 @@ impl DipoleMethod {
             uniforms,
             q_scale,
             pending: None,
+            scene: scene.clone(),
+            staged: None,
+            copy_now: false,
+            staged_frame: None,
+            incremental,
+            last_step: None,
             last_recorded: None,
             completed: 0,
             solved: false,
@@ -304,6 +410,12 @@ impl DipoleMethod {
         &self.material
     }
 
+    /// [`Relink::Incremental`]: what the last frame's step did and the stale links left.
+    pub fn incremental_step(&self) -> Option<(StepReport, usize)> {
+        let pending = self.incremental.as_ref()?.pending();
+        Some((self.last_step.unwrap_or_default(), pending))
+    }
+
     /// The exposure the leaf irradiance is stored at in fp16.
     pub fn q_scale(&self) -> f32 {
         self.q_scale
@@ -316,10 +428,78 @@ impl DipoleMethod {
             .map_err(dipole_error)?;
         self.gather
             .set_output_scale((1.0 / (1.0 - p.material.base.f_dr())) as f32);
+        if self.incremental.is_some() {
+            self.incremental = Some(IncrementalLinks::from_set(
+                &p.links,
+                &p.material.profile,
+                &self.params.links,
+                LinkStats::default(),
+            ));
+        }
         self.links = p.links;
         self.material = p.material;
         // The exitance must be gathered again with the new links.
         self.solved = false;
+        Ok(())
+    }
+
+    /// Waits until no submitted frame reads the host-visible link and weight buffers.
+    fn wait_for_frames(&mut self, ctx: &Context) -> Result<(), Error> {
+        if !self.idle() {
+            // SAFETY: the device is valid; waiting has no other effect.
+            unsafe { ctx.raw().device_wait_idle() }.map_err(VkError::call("vkDeviceWaitIdle"))?;
+            self.completed = self.last_recorded.unwrap_or(self.completed);
+        }
+        Ok(())
+    }
+
+    /// [`Relink::Incremental`]'s deformation: `tree` (refitted by `refit` to `moved`) replaces
+    /// the hierarchy, the links touching moved triangles are queued; the frames relink.
+    fn deform_incremental(
+        &mut self,
+        ctx: &Context,
+        tree: FaceClusterHierarchy,
+        refit: &crate::solver::dipole::RefitReport,
+        moved: &TriMesh,
+    ) -> Result<(DVec3, f64), Error> {
+        let staged = StagedShape::new(ctx, moved, &tree)?;
+        let q_scale = q_scale(&tree, &self.scene, self.material.base.eta)?;
+        self.wait_for_frames(ctx)?;
+        if self.gather.link_capacity() < self.links.len() * 3 / 2 {
+            self.gather
+                .set_links_reserving(ctx, &self.links, 2 * self.links.len())
+                .map_err(dipole_error)?;
+        }
+        self.gather.refit(&tree).map_err(dipole_error)?;
+        if let Some(links) = &mut self.incremental {
+            links.geometry_changed(refit);
+        }
+        self.tree = Arc::new(tree);
+        self.q_scale = q_scale;
+        self.staged = Some(staged);
+        self.staged_frame = None;
+        self.solved = false;
+        Ok(crate::mesh::bounding_sphere(&moved.positions))
+    }
+
+    /// [`Relink::Incremental`]: one bounded step of relinking, its links written when they fit.
+    fn step_links(&mut self) -> Result<(), Error> {
+        let Relink::Incremental {
+            form_factors_per_frame,
+        } = self.params.relink
+        else {
+            return Ok(());
+        };
+        let Some(links) = self.incremental.as_mut().filter(|l| l.pending() > 0) else {
+            return Ok(());
+        };
+        let report = links.step(&self.tree, form_factors_per_frame);
+        let set = links.link_set();
+        self.last_step = Some(report);
+        if set.len() <= self.gather.link_capacity() {
+            self.gather.write_links(&set).map_err(dipole_error)?;
+            self.links = set;
+        }
         Ok(())
     }
 
@@ -338,14 +518,16 @@ impl Method for DipoleMethod {
         let uniforms = GatherScene::new(scene, shadows)?;
         self.q_scale = q_scale(&self.tree, scene, self.material.base.eta)?;
         self.uniforms = uniforms;
+        self.scene = scene.clone();
         Ok(())
     }
 
     /// Relinks on the CPU for the new material (or texture factors). With no frame in flight
     /// the new links are written at once; otherwise they replace the old ones once the frames
     /// reading them completed (until then the method reports no solution, so each frame
-    /// updates), which needs them to fit the link buffer: a larger set while frames are in
-    /// flight is an error that changes nothing (retry after they completed).
+    /// updates) when they fit the link buffer; a larger set waits for the frames in flight and
+    /// replaces the buffer. In [`Relink::Incremental`] mode every link is marked stale instead and
+    /// the frames re-evaluate them.
     fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
         let material = DipoleMaterial::from_field(
             field,
@@ -354,6 +536,26 @@ impl Method for DipoleMethod {
             self.params.heterogeneous,
         )
         .map_err(dipole_error)?;
+        if self.incremental.is_some() && self.pending.is_none() {
+            // Incremental mode: every link is stale; the frames re-evaluate, promote and demote.
+            self.wait_for_frames(ctx)?;
+            if self.gather.link_capacity() < self.links.len() * 3 / 2 {
+                self.gather
+                    .set_links_reserving(ctx, &self.links, 2 * self.links.len())
+                    .map_err(dipole_error)?;
+            }
+            self.gather
+                .set_modulation(material.modulation.as_deref())
+                .map_err(dipole_error)?;
+            self.gather
+                .set_output_scale((1.0 / (1.0 - material.base.f_dr())) as f32);
+            if let Some(links) = &mut self.incremental {
+                links.material_changed(material.profile);
+            }
+            self.material = material;
+            self.solved = false;
+            return Ok(());
+        }
         let (links, stats) = LinkSet::build(&self.tree, &material.profile, &self.params.links);
         links.check(self.tree.nodes.len()).map_err(dipole_error)?;
         if self.idle() {
@@ -362,31 +564,96 @@ impl Method for DipoleMethod {
         } else if links.len() <= self.gather.link_capacity() {
             self.pending = Some(PendingMaterial { links, material });
         } else {
-            return Err(VkError::invalid(
-                "dipole material",
-                format!(
-                    "the new material needs {} links, more than the buffer in use by frames in                      flight holds ({}): set it again once they completed",
-                    links.len(),
-                    self.gather.link_capacity()
-                ),
-            )
-            .into());
+            // A larger buffer: the frames in flight read the one it replaces.
+            self.wait_for_frames(ctx)?;
+            self.pending = None;
+            self.gather.set_links(ctx, &links).map_err(dipole_error)?;
+            self.apply(PendingMaterial { links, material })?;
         }
         self.link_stats = stats;
         Ok(())
     }
 
-    fn deform(&mut self, _: &Context, _: &Deformation) -> Result<(DVec3, f64), Error> {
-        Err(VkError::invalid(
-            "dipole method",
-            "deformation inside a frame is not built yet (use --method quadgraph); the CPU \
-             refit and incremental relinking exist in solver::dipole",
-        )
-        .into())
+    /// Refits the hierarchy to `deformation` of the rest pose and relinks it (module doc). A
+    /// typed error (tetrahedron positions, a non-finite vertex, too many links) changes nothing.
+    fn deform(&mut self, ctx: &Context, deformation: &Deformation) -> Result<(DVec3, f64), Error> {
+        if matches!(deformation, Deformation::TetPositions(_)) {
+            return Err(VkError::invalid(
+                "dipole deformation",
+                "tetrahedron positions belong to a QuadGraph; the dipole method takes an analytic \
+                 map of its surface (affine, twist)",
+            )
+            .into());
+        }
+        let mut moved = self.surface.clone();
+        for p in &mut moved.positions {
+            *p = deformation.map_point(*p).unwrap_or(*p);
+        }
+        moved.compute_normals();
+        if let Some(v) = moved
+            .positions
+            .iter()
+            .chain(&moved.normals)
+            .position(|p| !p.as_vec3().is_finite())
+        {
+            return Err(VkError::invalid(
+                "dipole deformation",
+                format!(
+                    "deformed vertex {} is not finite in f32",
+                    v % moved.positions.len()
+                ),
+            )
+            .into());
+        }
+        let mut tree = (*self.tree).clone();
+        let refit = tree.refit(&moved.positions).map_err(dipole_error)?;
+        if self.incremental.is_some() && self.pending.is_none() {
+            return self.deform_incremental(ctx, tree, &refit, &moved);
+        }
+        // A material staged behind frames in flight: relink for it (its links are for the old
+        // shape).
+        let material = match &self.pending {
+            Some(p) => p.material.clone(),
+            None => self.material.clone(),
+        };
+        let (links, stats) = LinkSet::build(&tree, &material.profile, &self.params.links);
+        links.check(tree.nodes.len()).map_err(dipole_error)?;
+        let staged = StagedShape::new(ctx, &moved, &tree)?;
+        let q_scale = q_scale(&tree, &self.scene, material.base.eta)?;
+        self.wait_for_frames(ctx)?;
+        // Fails (TooManyLinks) before writing anything.
+        self.gather.set_links(ctx, &links).map_err(dipole_error)?;
+        self.gather.refit(&tree).map_err(dipole_error)?;
+        if let Some(p) = self.pending.take() {
+            self.gather
+                .set_modulation(p.material.modulation.as_deref())
+                .map_err(dipole_error)?;
+            self.gather
+                .set_output_scale((1.0 / (1.0 - p.material.base.f_dr())) as f32);
+            self.material = p.material;
+        }
+        if self.incremental.is_some() {
+            self.incremental = Some(IncrementalLinks::from_set(
+                &links,
+                &self.material.profile,
+                &self.params.links,
+                stats,
+            ));
+        }
+        self.tree = Arc::new(tree);
+        self.links = links;
+        self.link_stats = stats;
+        self.q_scale = q_scale;
+        self.staged = Some(staged);
+        self.staged_frame = None;
+        self.solved = false;
+        Ok(crate::mesh::bounding_sphere(&moved.positions))
     }
 
     fn has_solution(&self) -> bool {
-        self.solved && self.pending.is_none()
+        self.solved
+            && self.pending.is_none()
+            && self.incremental.as_ref().is_none_or(|l| l.pending() == 0)
     }
 
     fn material_variant(&self) -> &'static str {
@@ -404,9 +671,18 @@ impl Method for DipoleMethod {
                 self.apply(p)?;
             }
         }
+        if self.idle() {
+            self.step_links()?;
+        }
         let mut out = MethodFrame::default();
+        self.copy_now = self.staged.is_some() && self.staged_frame.is_none();
+        if self.copy_now {
+            self.staged_frame = Some(frame);
+        }
         self.update = match work {
-            MethodWork::Skip(why) if self.solved => {
+            MethodWork::Skip(why)
+                if self.solved && self.incremental.as_ref().is_none_or(|l| l.pending() == 0) =>
+            {
                 for pass in [PASS_IRRADIANCE, PASS_LINKS] {
                     out.skipped.push((pass, why));
                 }
@@ -422,7 +698,42 @@ impl Method for DipoleMethod {
         Ok(out)
     }
 
-    fn add_edit_passes<'g>(&'g self, _: &mut FrameGraph<'g>) {}
+    fn add_edit_passes<'g>(&'g self, graph: &mut FrameGraph<'g>) {
+        let Some(staged) = self.staged.as_ref().filter(|_| self.copy_now) else {
+            return;
+        };
+        let target = self.mesh.vertex_buffer();
+        graph
+            .pass(PASS_DEFORM)
+            .uses([
+                Use::buffer(&staged.vertices, Access::TransferSrc),
+                Use::buffer(&staged.leaf_positions, Access::TransferSrc),
+                Use::buffer(&staged.leaf_normals, Access::TransferSrc),
+                Use::buffer(target, Access::TransferDst),
+                Use::image(&self.images.position, Access::TransferDst),
+                Use::image(&self.images.normal, Access::TransferDst),
+            ])
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the copies' buffers and images (the
+                // graph puts the images in TRANSFER_DST); everything lives in `self` until the
+                // frame completed.
+                unsafe {
+                    p.ctx.raw().cmd_copy_buffer(
+                        p.cb,
+                        staged.vertices.raw,
+                        target.raw,
+                        &[vk::BufferCopy::default().size(staged.vertices.size.min(target.size))],
+                    );
+                    self.images
+                        .position
+                        .record_upload_from(p.ctx, p.cb, &staged.leaf_positions);
+                    self.images
+                        .normal
+                        .record_upload_from(p.ctx, p.cb, &staged.leaf_normals);
+                }
+                Ok(())
+            });
+    }
 
     fn add_passes<'g>(
         &'g self,
@@ -493,6 +804,10 @@ impl Method for DipoleMethod {
 
     fn completed(&mut self, completed_frame: u64) -> Result<Vec<CompletedSolve>, Error> {
         self.completed = self.completed.max(completed_frame);
+        if self.staged_frame.is_some_and(|f| f <= self.completed) {
+            self.staged = None;
+            self.staged_frame = None;
+        }
         Ok(Vec::new())
     }
 

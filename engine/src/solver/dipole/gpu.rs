@@ -605,11 +605,24 @@ impl DipoleGatherPass {
     /// holds reallocates it (doubling, up to what the window bindings hold: more is
     /// [`DipoleError::TooManyLinks`], nothing written).
     pub fn set_links(&mut self, ctx: &Context, links: &LinkSet) -> Result<(), DipoleError> {
+        self.set_links_reserving(ctx, links, 0)
+    }
+
+    /// [`Self::set_links`] with room for at least `reserve` links (capped at what the window
+    /// bindings hold): incremental relinking then writes its growing sets with
+    /// [`Self::write_links`], which needs no context.
+    pub fn set_links_reserving(
+        &mut self,
+        ctx: &Context,
+        links: &LinkSet,
+        reserve: usize,
+    ) -> Result<(), DipoleError> {
         links.check(self.node_count as usize)?;
-        if links.len() > self.link_capacity {
+        let max_links = LINK_WINDOWS * self.link_window;
+        let wanted = links.len().max(reserve.min(max_links));
+        if wanted > self.link_capacity {
             check_link_count(ctx, links.len(), self.link_window)?;
-            let max_links = LINK_WINDOWS * self.link_window;
-            let capacity = links.len().max((2 * self.link_capacity).min(max_links));
+            let capacity = wanted.max((2 * self.link_capacity).min(max_links));
             self.links = storage(ctx, "dipole links", capacity * 16, MemoryUse::Upload)?;
             self.link_capacity = capacity;
             self.gather_set = self.allocate_gather_set(ctx)?;

@@ -100,6 +100,33 @@ impl IncrementalLinks {
         }
     }
 
+    /// Keeps `set` (made by [`LinkSet::build`] with `profile` and `params`, counters `stats`) for
+    /// incremental updates, without linking again.
+    pub fn from_set(
+        set: &LinkSet,
+        profile: &DipoleProfile,
+        params: &LinkParams,
+        stats: LinkStats,
+    ) -> IncrementalLinks {
+        let by_receiver = (0..set.receiver_offsets.len().saturating_sub(1))
+            .map(|r| {
+                set.of(r as u32)
+                    .iter()
+                    .map(|&link| Entry { link, evaluated: 0 })
+                    .collect()
+            })
+            .collect();
+        IncrementalLinks {
+            by_receiver,
+            queue: VecDeque::new(),
+            generation: 0,
+            profile: *profile,
+            params: *params,
+            count: set.len(),
+            stats,
+        }
+    }
+
     /// The counters of the initial linking.
     pub fn build_stats(&self) -> &LinkStats {
         &self.stats

@@ -85,13 +85,15 @@ pub struct LinkParams {
 }
 
 impl Default for LinkParams {
-    /// Chosen on the accuracy sweep (benches/RESULTS.md, "Dipole method").
+    /// Chosen on the accuracy sweep (benches/RESULTS.md, "Dipole modes and oracle"): half the
+    /// links of the earlier 1e-3 / 0.1 sr / 1e-3 for 2.8e-3 instead of 1.0e-3 relative RMS
+    /// against the exact sum, far below the dipole's own error against path tracing.
     fn default() -> Self {
         LinkParams {
-            receiver: ReceiverCriterion::Transport { tolerance: 1e-3 },
-            emitter_epsilon: 0.1,
+            receiver: ReceiverCriterion::Transport { tolerance: 1e-2 },
+            emitter_epsilon: 0.3,
             min_planarity: 0.9,
-            sample_tolerance: 1e-3,
+            sample_tolerance: 1e-2,
             near_field: NearField::SemiAnalytic(FormFactorParams::default()),
         }
     }
@@ -865,9 +867,9 @@ mod tests {
 
     /// Relative RMS of the hierarchical render against the brute-force sum over every triangle
     /// with the semi-analytic form factor (Eq. 6 without clusters), per leaf. Why 1e-2: the
-    /// oracle's tolerance (1e-3 of R_total per link and per point sample, default) summed over
-    /// the ~100 links a receiver gathers, most of them far below their bound; the measured
-    /// error is printed.
+    /// default oracle's measured error against the same sum on spot is 2.8e-3 (benches/RESULTS.md,
+    /// "Dipole modes and oracle"), 1.0e-3 at the stricter 1e-3 tolerances; the measured error is
+    /// printed.
     const HIERARCHY_VS_BRUTE_FORCE: f64 = 1e-2;
 
     #[test]
