@@ -7,34 +7,27 @@
 // flux E T_i A_perp summed and divided by the surface area they cover, A_perp / mu_i, so q does not
 // depend on how the surface cuts the voxel (the paper's P = (1/N^2) sum A_i does, by up to sqrt 3);
 // plus a constant environment's q_env. The paper's F_t P is our q: F_t is in the map's E T_i.
-// Ownership: a texel's surface point moved half a voxel inward along its normal lies in one voxel;
-// if that voxel is empty (a thin or tilted wall), the nearest solid voxel of its 26 neighbours owns
-// it (ties: the lower index), so no lit texel is lost and none is counted twice.
+// Ownership: voxel/rsm_owner.comp (run just before in the same pass) wrote per texel the index of
+// the voxel that owns it and the surface area it covers; this gather sums the texels whose owner
+// is this voxel, in texel order.
 // Voxels with no light start at N_UNLIT; every voxel's state and path length are initialised.
 #include "voxel_grid.glsl"
 #include "rsm_view.glsl"
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
-
 // Texels further than this many voxels from a voxel's centre cannot be its own (see main).
 const float OWNER_REACH = 3.2;
 // The gather's half-width in texels is capped (a map far coarser than the voxels).
 const int MAX_TEXEL_RADIUS = 24;
-// Grazing texels: mu_i below this counts as this (their area A_perp / mu_i stays finite).
-const float MIN_COS = 0.02;
-
-
-
 layout(set = 0, binding = 0, std430) readonly buffer Grid { GridFrame grid; } grid;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image3D medium;
-layout(set = 0, binding = 2) uniform sampler2D rsm_position;
-layout(set = 0, binding = 3) uniform sampler2D rsm_normal;
-layout(set = 0, binding = 4) uniform sampler2D rsm_irradiance;
-layout(set = 0, binding = 5, std430) readonly buffer RsmViews { RsmView views[RSM_MAX_VIEWS]; } rsm;
-layout(set = 0, binding = 6, rgba32f) uniform writeonly image3D seed;
-layout(set = 0, binding = 7, rgba32f) uniform writeonly image3D state;
-layout(set = 0, binding = 8, rgba32f) uniform writeonly image3D path;
+layout(set = 0, binding = 2, rg32ui) uniform readonly uimage2D owner;
+layout(set = 0, binding = 3) uniform sampler2D rsm_irradiance;
+layout(set = 0, binding = 4, std430) readonly buffer RsmViews { RsmView views[RSM_MAX_VIEWS]; } rsm;
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image3D seed;
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image3D state;
+layout(set = 0, binding = 7, rgba32f) uniform writeonly image3D path;
 
 layout(push_constant) uniform InjectPush {
     uvec4 dims;     // xyz: voxels per axis
@@ -47,33 +40,6 @@ layout(push_constant) uniform InjectPush {
 
 bool solid(ivec3 v) {
     return in_grid(v, pc.dims.xyz) && imageLoad(medium, v).a != 0.0;
-}
-
-// The voxel that owns the surface point p' (see the header), or (-1) if none.
-ivec3 owner(vec3 p, GridFrame g) {
-    ivec3 c = ivec3(floor((p - g.origin.xyz) / g.origin.w));
-    if (solid(c)) {
-        return c;
-    }
-    ivec3 best = ivec3(-1);
-    float best_d = 3.0e38;
-    for (int z = -1; z <= 1; ++z) {
-        for (int y = -1; y <= 1; ++y) {
-            for (int x = -1; x <= 1; ++x) {
-                ivec3 u = c + ivec3(x, y, z);
-                if (!solid(u)) {
-                    continue;
-                }
-                vec3 d = voxel_centre(u, g) - p;
-                float d2 = dot(d, d);
-                if (d2 < best_d) {
-                    best_d = d2;
-                    best = u;
-                }
-            }
-        }
-    }
-    return best;
 }
 
 void main() {
@@ -96,6 +62,7 @@ void main() {
     }
     if (surface) {
         vec3 centre = voxel_centre(v, g);
+        uint self_index = voxel_index(v, pc.dims.xyz);
         vec3 q = pc.env_q.rgb;
         vec3 flux = vec3(0.0);
         float area = 0.0;
@@ -117,24 +84,13 @@ void main() {
                 for (int ty = lo.y; ty <= hi.y; ++ty) {
                     for (int tx = lo.x; tx <= hi.x; ++tx) {
                         ivec2 t = ivec2(view.tile.xy) + ivec2(tx, ty);
-                        vec4 p = texelFetch(rsm_position, t, 0);
-                        if (p.w == 0.0) {
+                        uvec2 o = imageLoad(owner, t).xy;
+                        if (o.x != self_index) {
                             continue;
                         }
-                        vec4 n = texelFetch(rsm_normal, t, 0);
-                        if (n.w <= 0.0) {
-                            continue; // facing away from the light: no transmitted flux
-                        }
-                        if (owner(p.xyz - n.xyz * (pc.inward * h), g) != v) {
-                            continue;
-                        }
-                        // mu_i again in f32 (the map's a is fp16: 2e-4 off at 30 degrees).
-                        vec3 l;
-                        light_arriving(view, p.xyz, l);
-                        float mu = dot(normalize(n.xyz), l);
                         vec4 e = texelFetch(rsm_irradiance, t, 0);
                         flux += e.rgb * e.a;
-                        area += e.a / max(mu, MIN_COS);
+                        area += uintBitsToFloat(o.y);
                     }
                 }
             }

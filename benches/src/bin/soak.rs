@@ -194,7 +194,7 @@ fn voxel_soak(args: &[String]) -> Result<()> {
     let mut at_phase = None;
     let at_start = ctx.allocator_usage();
     let mut lines = vec![
-        "frame,render_wall_ms,frame_gpu_ms,allocations,allocated_bytes,block_bytes,pieces"
+        "frame,render_wall_ms,frame_gpu_ms,allocations,allocated_bytes,block_bytes,pieces,padded_bytes"
             .to_string(),
     ];
     let mut messages = 0usize;
@@ -223,12 +223,13 @@ fn voxel_soak(args: &[String]) -> Result<()> {
         }
         let usage = ctx.allocator_usage();
         lines.push(format!(
-            "{},{ms:.3},{gpu:.3},{},{},{},{}",
+            "{},{ms:.3},{gpu:.3},{},{},{},{},{}",
             i + 1,
             usage.0,
             usage.1,
             usage.2,
-            if split { 2 } else { 1 }
+            if split { 2 } else { 1 },
+            ctx.allocator_padded_bytes()
         ));
         if i % check_every == check_every - 1 || i + 1 == frames {
             let voxel = object
