@@ -1,14 +1,9 @@
 //! [`InjectPass`]: light into the surface voxels (paper section 2.1, Eqs. 2-3): every solid voxel
-//! next to an empty one gathers the reflective-shadow-map texels it owns and starts at
-//! n0 = -ln(q), q the irradiance transmitted into its surface, per colour channel
-//! (`voxel/inject_light.comp` explains the area normalization). It also initialises the
-//! relaxation's state (`state[0]` = n0) and path lengths (0).
-//!
-//! Two dispatches: `voxel/rsm_owner.comp` finds, once per texel of the active views, the voxel
-//! that owns the texel (its surface point moved half a voxel inward) and the area it covers, into
-//! [`InjectPass::owner`]; `voxel/inject_light.comp` then sums, per surface voxel, the texels of its
-//! window whose owner it is. Before, every voxel searched the ownership of every texel of its window
-//! itself (tens of voxels per texel): 4 texel fetches and a 26-neighbour search against one load.
+//! next to an empty one gathers the reflective-shadow-map texels whose surface points lie within
+//! [`KERNEL_REACH_VOXELS`] of its centre (a smooth kernel of the distance) and starts at
+//! n0 = -ln(q), q the irradiance transmitted into the surface there, per colour channel
+//! (`voxel/inject_light.comp` explains the kernel and the area normalization). It also
+//! initialises the relaxation's state (`state[0]` = n0) and path lengths (0).
 
 use ash::vk;
 
@@ -16,16 +11,18 @@ use super::rsm::ReflectiveShadowMaps;
 use crate::material::fresnel;
 use crate::scene::Environment;
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
-use crate::solver::voxel::sync::{image_barrier, ResourceUse};
+use crate::solver::voxel::sync::ResourceUse;
 use crate::solver::voxel::VoxelGrid;
-use crate::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc, Sampler};
+use crate::vk::{Access, Context, GpuProfiler, Sampler};
 use crate::Error;
 
 /// Profiler scope and debug label of the pass.
 pub const PASS_INJECT: &str = "voxel inject";
-/// How far (in voxels) a texel's surface point moves inward along its normal to find its voxel:
-/// half a voxel puts a flat surface's points in the voxels whose centres are just inside.
-pub const INWARD_VOXELS: f32 = 0.5;
+/// The injection kernel's radius, in voxels: more than the surface shell's depth (a shell voxel's
+/// centre lies up to sqrt 3 voxels deep on a tilted surface), so each of its voxels sees the
+/// surface near it. Every shell voxel gets the local transmitted irradiance; with one owner voxel
+/// per texel (before) the deeper shell voxels of tilted surfaces started unlit: the mottling.
+pub const KERNEL_REACH_VOXELS: f32 = 2.0;
 
 /// Push constants of `voxel/inject_light.comp`.
 #[repr(C)]
@@ -35,35 +32,16 @@ pub struct InjectPush {
     /// rgb: a constant environment's transmitted irradiance pi L (1 - F_dr,ext).
     pub env_q: [f32; 4],
     pub view_count: u32,
-    pub inward: f32,
+    /// The kernel's radius in voxels ([`KERNEL_REACH_VOXELS`]).
+    pub reach: f32,
     pub track_path: u32,
     pub pad: u32,
 }
-
-/// Push constants of `voxel/rsm_owner.comp`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct OwnerPush {
-    pub dims: [u32; 4],
-    pub view_count: u32,
-    pub inward: f32,
-    pub pad: [u32; 2],
-}
-
-/// Format of [`InjectPass::owner`]: r the owning voxel's linear index (`u32::MAX`: none), g the
-/// bits of the f32 area the texel covers.
-pub const OWNER_FORMAT: vk::Format = vk::Format::R32G32_UINT;
 
 /// The injection pass.
 pub struct InjectPass {
     pipeline: ComputePipeline<InjectPush>,
     set: vk::DescriptorSet,
-    owner_pipeline: ComputePipeline<OwnerPush>,
-    owner_set: vk::DescriptorSet,
-    /// Per texel of the reflective shadow maps' atlas: (owning voxel, covered area bits).
-    pub owner: Image,
-    /// Texels per side of a view's tile.
-    tile: u32,
     #[allow(dead_code, reason = "owned here: the descriptor set refers to it")]
     sampler: Sampler,
     env_q: [f32; 3],
@@ -83,7 +61,8 @@ impl InjectPass {
                 bindings: &[
                     "grid",
                     "medium",
-                    "owner",
+                    "rsm_position",
+                    "rsm_normal",
                     "rsm_irradiance",
                     "rsm",
                     "seed",
@@ -91,34 +70,6 @@ impl InjectPass {
                     "path",
                 ],
                 max_sets: 1,
-            },
-        )?;
-        let owner_pipeline = ComputePipeline::new(
-            ctx,
-            &ComputePipelineDesc {
-                name: "voxel rsm owner",
-                shader: "voxel/rsm_owner.comp",
-                bindings: &[
-                    "grid",
-                    "medium",
-                    "rsm_position",
-                    "rsm_normal",
-                    "rsm_irradiance",
-                    "rsm",
-                    "owner",
-                ],
-                max_sets: 1,
-            },
-        )?;
-        let extent = rsm.extent();
-        let owner = Image::new(
-            ctx,
-            &ImageDesc {
-                name: "voxel rsm owner",
-                width: extent.width,
-                height: extent.height,
-                format: OWNER_FORMAT,
-                usage: vk::ImageUsageFlags::STORAGE,
             },
         )?;
         // texelFetch only: the filter never applies.
@@ -144,7 +95,8 @@ impl InjectPass {
                     buffer: &grid.frame,
                 },
                 DescriptorWrite::storage_image("medium", &grid.medium),
-                DescriptorWrite::storage_image("owner", &owner),
+                map("rsm_position", &rsm.position),
+                map("rsm_normal", &rsm.normal),
                 map("rsm_irradiance", &rsm.irradiance),
                 DescriptorWrite::StorageBuffer {
                     name: "rsm",
@@ -155,31 +107,9 @@ impl InjectPass {
                 DescriptorWrite::storage_image("path", &grid.path[0]),
             ],
         )?;
-        let owner_set = owner_pipeline.allocate_set(
-            ctx,
-            &[
-                DescriptorWrite::StorageBuffer {
-                    name: "grid",
-                    buffer: &grid.frame,
-                },
-                DescriptorWrite::storage_image("medium", &grid.medium),
-                map("rsm_position", &rsm.position),
-                map("rsm_normal", &rsm.normal),
-                map("rsm_irradiance", &rsm.irradiance),
-                DescriptorWrite::StorageBuffer {
-                    name: "rsm",
-                    buffer: &rsm.views_buffer,
-                },
-                DescriptorWrite::storage_image("owner", &owner),
-            ],
-        )?;
         Ok(InjectPass {
             pipeline,
             set,
-            owner_pipeline,
-            owner_set,
-            owner,
-            tile: rsm.tile_resolution(),
             sampler,
             env_q: [0.0; 3],
         })
@@ -208,10 +138,9 @@ impl InjectPass {
     }
 
     /// Reads: the grid frame and medium, the reflective shadow maps (sampled) and their views.
-    /// Writes: the texel owners (then read inside the pass), the seed, the first state and path
-    /// images.
+    /// Writes: the seed, the first state and path images.
     pub fn declare<'a>(
-        &'a self,
+        &self,
         grid: &'a VoxelGrid,
         rsm: &'a ReflectiveShadowMaps,
     ) -> Vec<ResourceUse<'a>> {
@@ -222,8 +151,6 @@ impl InjectPass {
             ResourceUse::image(&rsm.normal, Access::ShadersSampled),
             ResourceUse::image(&rsm.irradiance, Access::ShadersSampled),
             ResourceUse::buffer(&rsm.views_buffer, Access::ComputeRead),
-            // Written per texel, then read by the gather inside the pass.
-            ResourceUse::image_span(&self.owner, Access::ComputeWrite, Access::ComputeRead),
             ResourceUse::image(&grid.seed, Access::ComputeWrite),
             ResourceUse::image(&grid.state[0], Access::ComputeWrite),
             // Bound either way (a placeholder without paths): GENERAL.
@@ -231,8 +158,7 @@ impl InjectPass {
         ]
     }
 
-    /// Records the injection: the texel owners (one invocation per texel of each active view),
-    /// then the gather (one per voxel).
+    /// Records the injection (one dispatch over the grid).
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope, the declared resources in their declared
@@ -253,30 +179,6 @@ impl InjectPass {
             if let Some(p) = profiler.as_deref_mut() {
                 p.begin_scope(cb, PASS_INJECT);
             }
-            let view_count = rsm.views().len() as u32;
-            self.owner_pipeline.dispatch(
-                ctx,
-                cb,
-                self.owner_set,
-                &OwnerPush {
-                    dims,
-                    view_count,
-                    inward: INWARD_VOXELS,
-                    pad: [0; 2],
-                },
-                [self.tile, self.tile, view_count.max(1)],
-            );
-            // why: the gather reads the texel owners just written (RAW).
-            barrier::record(
-                ctx,
-                cb,
-                &[],
-                &[image_barrier(
-                    &self.owner,
-                    Access::ComputeWrite,
-                    Access::ComputeRead,
-                )],
-            );
             self.pipeline.dispatch(
                 ctx,
                 cb,
@@ -284,8 +186,8 @@ impl InjectPass {
                 &InjectPush {
                     dims,
                     env_q: [self.env_q[0], self.env_q[1], self.env_q[2], 0.0],
-                    view_count,
-                    inward: INWARD_VOXELS,
+                    view_count: rsm.views().len() as u32,
+                    reach: KERNEL_REACH_VOXELS,
                     track_path: u32::from(grid.track_path),
                     pad: 0,
                 },

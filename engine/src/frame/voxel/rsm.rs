@@ -117,8 +117,6 @@ pub struct ReflectiveShadowMaps {
     pub views_buffer: Buffer,
     views: Vec<RsmView>,
     eta: f32,
-    /// Texels per side of a view's tile.
-    tile_resolution: u32,
 }
 
 fn invalid(problem: impl Into<String>) -> Error {
@@ -224,7 +222,6 @@ impl ReflectiveShadowMaps {
             views_buffer,
             views: Vec::new(),
             eta: 1.0,
-            tile_resolution: desc.tile_resolution,
         })
     }
 
@@ -325,11 +322,6 @@ impl ReflectiveShadowMaps {
     /// The views of the current lights, in atlas order (a light's views are consecutive).
     pub fn views(&self) -> &[RsmView] {
         &self.views
-    }
-
-    /// Texels per side of one view's tile.
-    pub fn tile_resolution(&self) -> u32 {
-        self.tile_resolution
     }
 
     /// The depth atlas's format and size and the colour maps'.
