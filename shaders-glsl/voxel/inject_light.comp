@@ -10,7 +10,8 @@
 // Which texels: every lit texel whose surface point lies within `reach` voxels (KERNEL_REACH_VOXELS) of the voxel's
 // centre, weighted by a smooth kernel of that distance (q is a density: its local average, not a
 // share of the flux). Every voxel of the surface shell (solid, next to an empty one: centres up to
-// sqrt 3 voxels deep on a tilted surface) sees the surface near it. Before, each texel had one
+// sqrt 3 voxels deep on a tilted surface) sees the surface near it; texels whose normal points
+// away from the voxel's empty neighbours (the other face of a thin part) are left out. Before, each texel had one
 // owner voxel (its point moved half a voxel inward); on a tilted surface the shell voxels deeper
 // than ~1.4 voxels owned no texel and started unlit, so the exit read lit and unlit voxels side by
 // side: the mottling at the voxel scale (issue 14).
@@ -57,11 +58,17 @@ void main() {
     float h = g.origin.w;
     vec3 n0 = vec3(N_UNLIT);
     bool surface = false;
+    // Towards the air: the sum of the offsets to the empty neighbours.
+    vec3 outward = vec3(0.0);
     if (solid(v)) {
-        for (int z = -1; z <= 1 && !surface; ++z) {
-            for (int y = -1; y <= 1 && !surface; ++y) {
-                for (int x = -1; x <= 1 && !surface; ++x) {
-                    surface = !solid(v + ivec3(x, y, z));
+        for (int z = -1; z <= 1; ++z) {
+            for (int y = -1; y <= 1; ++y) {
+                for (int x = -1; x <= 1; ++x) {
+                    ivec3 o = ivec3(x, y, z);
+                    if (!solid(v + o)) {
+                        surface = true;
+                        outward += vec3(o) / edge_factor(o);
+                    }
                 }
             }
         }
@@ -102,6 +109,9 @@ void main() {
                         vec4 n = texelFetch(rsm_normal, t, 0);
                         if (n.w <= 0.0) {
                             continue; // facing away from the light: no transmitted flux
+                        }
+                        if (dot(n.xyz, outward) <= 0.0) {
+                            continue; // the other face of a part thinner than the kernel
                         }
                         // mu_i again in f32 (the map's a is fp16: 2e-4 off at 30 degrees).
                         vec3 l;
