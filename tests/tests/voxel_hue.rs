@@ -131,12 +131,11 @@ fn the_lit_face_returns_the_albedo_of_each_channel_smoothly() {
         .collect();
     assert!(cap.len() >= 5, "{} vertices on the cap", cap.len());
     let mean = |c: usize| cap.iter().map(|(p, v)| ratio(p, v, c)).sum::<f64>() / cap.len() as f64;
-    for c in 0..3 {
+    for (c, r) in albedo.iter().enumerate() {
         assert!(
             (mean(c) - 1.0).abs() < ALBEDO_TOL,
-            "channel {c}: M / (q R) = {:.4} on the lit cap (R = {:.3})",
-            mean(c),
-            albedo[c]
+            "channel {c}: M / (q R) = {:.4} on the lit cap (R = {r:.3})",
+            mean(c)
         );
     }
     for c in 1..3 {
