@@ -18,4 +18,28 @@ float slab_profile(float diffusion, float s, float h, float d) {
     return 8.0 * diffusion * s / ((1.0 + hs) * (1.0 + hs) - (1.0 - hs) * (1.0 - hs) * exp(-2.0 * sd));
 }
 
+// DESIGN section 2's albedo R of a semi-infinite medium under uniform light (h s = 2 A D sigma_tr).
+float semi_infinite_albedo(float hs, float f_dr) {
+    return max((2.0 / (1.0 + hs) - (1.0 - f_dr)) / (1.0 + f_dr), 0.0);
+}
+
+// The exit gain G(d) of a path of length d (mm): M = q exp(-n) G(d). Where the light entered
+// (d = 0) a uniformly lit flat face returns R q; far from it the slab profile P(d) (the far face of
+// a lit slab as thick as the path is long, with its 1/d spreading); between them the difference
+// R - P(0) fades over the profile's own length, 4 A D (P(d) ~ P(0) / (1 + d / (4 A D))):
+//   G(d) = P(d) + (R - P(0)) exp(-d / (4 A D)),   P(0) = 1 / (1 + F_dr).
+// (Before: min(R, P(d)). P(0) is the same in every channel and below R in weakly absorbing media,
+// so every lit voxel took it: the lit surface lost its albedo's colour, grey next to the warm
+// transmitted light, the purple cast of issue 14, and 0.81 R too dark on marble.)
+// `big_a` = A = (1 + F_dr) / (1 - F_dr).
+float exit_gain(float diffusion, float s, float big_a, float d) {
+    float f_dr = (big_a - 1.0) / (big_a + 1.0);
+    float h = 2.0 * big_a * diffusion;
+    float inv = 1.0 / (1.0 - f_dr);
+    float p_d = slab_profile(diffusion, s, h, d) * inv;
+    float p_0 = 1.0 / (1.0 + f_dr);
+    float r = semi_infinite_albedo(h * s, f_dr);
+    return max(p_d + (r - p_0) * exp(-d / (2.0 * h)), 0.0);
+}
+
 #endif

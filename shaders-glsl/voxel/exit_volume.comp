@@ -3,15 +3,19 @@
 // partial current J+ the optical path gives, M = (1 - F_dr) J+ leaving into air:
 //   paper:      J+ = exp(-n)                 (the paper's L = F_t exp(-n), Eq. 1, read as
 //                                             L = F_t J+ / (pi eta^2): see the module doc)
-//   diffusion:  M  = exp(-n) min(R, P(d))    n along sigma_tr = sqrt(3 sigma_a sigma_t'),
-//                                             d the path's length (mm)
+//   diffusion:  M  = exp(-n) G(d)            n along sigma_tr = sqrt(3 sigma_a sigma_t'),
+//                                             d the path's length (mm), G: diffusion_profile.glsl
 // R is DESIGN section 2's albedo of a semi-infinite medium under uniform light, and
 // P(d) exp(-sigma_tr d) its transmittance T of a slab of thickness d lit on one face:
 //   P(d) = 8 D s / ((1 - F_dr) [(1 + h s)^2 - (1 - h s)^2 exp(-2 s d)]),  s = sigma_tr, h = 2 A D,
-// so a uniformly lit flat face returns R q, and the far face of a lit slab T(d) q: the diffusion
-// falloff along the path, with its 1/d spreading (P -> 4 D / ((1 - F_dr)(2 h + d)) when s d << 1).
-// Stored premultiplied by coverage (rgb J+, a = 1; empty voxels 0): the trilinear read at the
-// surface (vertex_exitance.comp) divides by a, so the empty voxels outside do not darken it.
+// G(d) = P(d) + (R - P(0)) exp(-d / (2 h)): a uniformly lit flat face returns R q, and the far face
+// of a lit slab T(d) q: the diffusion falloff along the path, with its 1/d spreading
+// (P -> 4 D / ((1 - F_dr)(2 h + d)) when s d << 1).
+// Stored premultiplied by coverage (rgb J+, a = 1) in the surface shell only (solid voxels next to
+// an empty one, where the injection starts the light); empty and interior voxels hold 0, so the
+// trilinear read at the surface (vertex_exitance.comp, which divides by a) sees neither the air
+// outside nor the deeper voxels behind the shell, whose share of a vertex's 8 neighbours varies
+// with where the vertex falls in the grid (a voxel-scale pattern, issue 14).
 #include "voxel_grid.glsl"
 #include "optics.glsl"
 #include "diffusion_profile.glsl"
@@ -45,7 +49,18 @@ void main() {
         return;
     }
     vec4 value = vec4(0.0);
+    bool shell = false;
     if (imageLoad(medium, v).a != 0.0) {
+        for (int z = -1; z <= 1 && !shell; ++z) {
+            for (int y = -1; y <= 1 && !shell; ++y) {
+                for (int x = -1; x <= 1 && !shell; ++x) {
+                    ivec3 u = v + ivec3(x, y, z);
+                    shell = !in_grid(u, pc.dims.xyz) || imageLoad(medium, u).a == 0.0;
+                }
+            }
+        }
+    }
+    if (shell) {
         vec3 n = imageLoad(state, v).rgb;
         vec3 j = vec3(0.0);
         for (int c = 0; c < 3; ++c) {
@@ -66,11 +81,7 @@ void main() {
                 if (sigma_t[c] > 0.0) {
                     float diffusion = 1.0 / (3.0 * sigma_t[c]);
                     float s = sqrt(3.0 * sigma_a[c] * sigma_t[c]);
-                    float h = 2.0 * big_a * diffusion;
-                    float hs = h * s;
-                    float albedo = max((2.0 / (1.0 + hs) - (1.0 - f_dr)) / (1.0 + f_dr), 0.0);
-                    float slab = slab_profile(diffusion, s, h, d[c]);
-                    gain = min(albedo, slab / (1.0 - f_dr));
+                    gain = exit_gain(diffusion, s, big_a, d[c]);
                 }
                 // Stored as J+ = M / (1 - F_dr).
                 j[c] *= gain / (1.0 - f_dr);

@@ -1,30 +1,30 @@
 #version 460
 // Light injection (solver::voxel::InjectPass; paper section 2.1, Eqs. 2-3): every solid voxel next
-// to an empty one gathers the reflective-shadow-map texels it owns and starts the relaxation at
+// to an empty one gathers the reflective-shadow-map texels near it and starts the relaxation at
 //   n0 = -ln(q)   per colour channel,
 // where q is the irradiance transmitted into the surface in the voxel (DESIGN section 2's q =
 // E max(0, n.l) F_t(eta, theta_l), visibility by the map): per light, the texels' transmitted
 // flux E T_i A_perp summed and divided by the surface area they cover, A_perp / mu_i, so q does not
 // depend on how the surface cuts the voxel (the paper's P = (1/N^2) sum A_i does, by up to sqrt 3);
 // plus a constant environment's q_env. The paper's F_t P is our q: F_t is in the map's E T_i.
-// Ownership: a texel's surface point moved half a voxel inward along its normal lies in one voxel;
-// if that voxel is empty (a thin or tilted wall), the nearest solid voxel of its 26 neighbours owns
-// it (ties: the lower index), so no lit texel is lost and none is counted twice.
+// Which texels: every lit texel whose surface point lies within `reach` voxels (KERNEL_REACH_VOXELS) of the voxel's
+// centre, weighted by a smooth kernel of that distance (q is a density: its local average, not a
+// share of the flux). Every voxel of the surface shell (solid, next to an empty one: centres up to
+// sqrt 3 voxels deep on a tilted surface) sees the surface near it; texels whose normal points
+// away from the voxel's empty neighbours (the other face of a thin part) are left out. Before, each texel had one
+// owner voxel (its point moved half a voxel inward); on a tilted surface the shell voxels deeper
+// than ~1.4 voxels owned no texel and started unlit, so the exit read lit and unlit voxels side by
+// side: the mottling at the voxel scale (issue 14).
 // Voxels with no light start at N_UNLIT; every voxel's state and path length are initialised.
 #include "voxel_grid.glsl"
 #include "rsm_view.glsl"
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
-
-// Texels further than this many voxels from a voxel's centre cannot be its own (see main).
-const float OWNER_REACH = 3.2;
-// The gather's half-width in texels is capped (a map far coarser than the voxels).
-const int MAX_TEXEL_RADIUS = 24;
 // Grazing texels: mu_i below this counts as this (their area A_perp / mu_i stays finite).
 const float MIN_COS = 0.02;
-
-
+// The gather's half-width in texels is capped (a map far coarser than the voxels).
+const int MAX_TEXEL_RADIUS = 24;
 
 layout(set = 0, binding = 0, std430) readonly buffer Grid { GridFrame grid; } grid;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image3D medium;
@@ -40,40 +40,13 @@ layout(push_constant) uniform InjectPush {
     uvec4 dims;     // xyz: voxels per axis
     vec4 env_q;     // rgb: transmitted irradiance of a constant environment, at every surface voxel
     uint view_count;
-    float inward;   // how far a texel's point moves inward to find its voxel, in voxels
+    float reach;    // the kernel's radius, in voxels
     uint track_path; // 1: initialise the path lengths too (the diffusion model)
     uint pad;
 } pc;
 
 bool solid(ivec3 v) {
     return in_grid(v, pc.dims.xyz) && imageLoad(medium, v).a != 0.0;
-}
-
-// The voxel that owns the surface point p' (see the header), or (-1) if none.
-ivec3 owner(vec3 p, GridFrame g) {
-    ivec3 c = ivec3(floor((p - g.origin.xyz) / g.origin.w));
-    if (solid(c)) {
-        return c;
-    }
-    ivec3 best = ivec3(-1);
-    float best_d = 3.0e38;
-    for (int z = -1; z <= 1; ++z) {
-        for (int y = -1; y <= 1; ++y) {
-            for (int x = -1; x <= 1; ++x) {
-                ivec3 u = c + ivec3(x, y, z);
-                if (!solid(u)) {
-                    continue;
-                }
-                vec3 d = voxel_centre(u, g) - p;
-                float d2 = dot(d, d);
-                if (d2 < best_d) {
-                    best_d = d2;
-                    best = u;
-                }
-            }
-        }
-    }
-    return best;
 }
 
 void main() {
@@ -85,17 +58,24 @@ void main() {
     float h = g.origin.w;
     vec3 n0 = vec3(N_UNLIT);
     bool surface = false;
+    // Towards the air: the sum of the offsets to the empty neighbours.
+    vec3 outward = vec3(0.0);
     if (solid(v)) {
-        for (int z = -1; z <= 1 && !surface; ++z) {
-            for (int y = -1; y <= 1 && !surface; ++y) {
-                for (int x = -1; x <= 1 && !surface; ++x) {
-                    surface = !solid(v + ivec3(x, y, z));
+        for (int z = -1; z <= 1; ++z) {
+            for (int y = -1; y <= 1; ++y) {
+                for (int x = -1; x <= 1; ++x) {
+                    ivec3 o = ivec3(x, y, z);
+                    if (!solid(v + o)) {
+                        surface = true;
+                        outward += vec3(o) / edge_factor(o);
+                    }
                 }
             }
         }
     }
     if (surface) {
         vec3 centre = voxel_centre(v, g);
+        float reach = pc.reach * h;
         vec3 q = pc.env_q.rgb;
         vec3 flux = vec3(0.0);
         float area = 0.0;
@@ -108,9 +88,9 @@ void main() {
                 float texel = view.eye.w == 0.0
                     ? view.axis.w
                     : view.axis.w * max(dot(centre - view.eye.xyz, view.axis.xyz), 1e-6);
-                // An owned texel's point p lies within 1.5 sqrt(3) h (the owner's reach) plus
-                // `inward` h of the centre; its texel within that distance of the centre's texel.
-                int radius = min(int(ceil(OWNER_REACH * h / max(texel, 1e-30))) + 1, MAX_TEXEL_RADIUS);
+                // A texel within the kernel lies within `reach` of the centre, its texel within
+                // that distance (over the texel size) of the centre's texel.
+                int radius = min(int(ceil(reach / max(texel, 1e-30))) + 1, MAX_TEXEL_RADIUS);
                 ivec2 centre_texel = ivec2(floor((ndc * 0.5 + 0.5) * size));
                 ivec2 lo = max(centre_texel - radius, ivec2(0));
                 ivec2 hi = min(centre_texel + radius, ivec2(int(size) - 1));
@@ -121,20 +101,27 @@ void main() {
                         if (p.w == 0.0) {
                             continue;
                         }
+                        vec3 to_centre = p.xyz - centre;
+                        float r2 = dot(to_centre, to_centre) / (reach * reach);
+                        if (r2 >= 1.0) {
+                            continue;
+                        }
                         vec4 n = texelFetch(rsm_normal, t, 0);
                         if (n.w <= 0.0) {
                             continue; // facing away from the light: no transmitted flux
                         }
-                        if (owner(p.xyz - n.xyz * (pc.inward * h), g) != v) {
-                            continue;
+                        if (dot(n.xyz, outward) <= 0.0) {
+                            continue; // the other face of a part thinner than the kernel
                         }
                         // mu_i again in f32 (the map's a is fp16: 2e-4 off at 30 degrees).
                         vec3 l;
                         light_arriving(view, p.xyz, l);
                         float mu = dot(normalize(n.xyz), l);
                         vec4 e = texelFetch(rsm_irradiance, t, 0);
-                        flux += e.rgb * e.a;
-                        area += e.a / max(mu, MIN_COS);
+                        // The kernel: smooth, 1 at the centre, 0 with zero slope at the reach.
+                        float w = (1.0 - r2) * (1.0 - r2);
+                        flux += w * e.rgb * e.a;
+                        area += w * e.a / max(mu, MIN_COS);
                     }
                 }
             }

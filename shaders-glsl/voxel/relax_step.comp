@@ -6,10 +6,16 @@
 //   soft:          n_v <- softmin_tau(n0_v, {n_u + c_uv})      (log-sum-exp: several paths add)
 // with c_uv = (sigma_u + sigma_v) / 2 * |x_u - x_v|, per colour channel. With TRACK_PATH (the
 // diffusion model) the geometric length d of the chosen path is carried too, and candidates are
-// compared by what they contribute at the exit, n - ln P(d) (diffusion_profile.glsl: the paper's
+// compared by what they contribute at the exit, n - ln G(d) (diffusion_profile.glsl: the paper's
 // "single ray which has maximum contribution", with the diffusion falloff and 1/d spreading of
 // the path); on equal contributions the shorter d. Soft: the softmin of those, d the weighted
-// mean, n = the softmin + ln P(d).
+// mean, n = the softmin + ln G(d).
+// Hard minimum with TRACK_PATH: one path per voxel for all three channels, the candidate whose
+// summed contribution sum_c exp(-(n_c - ln G_c(d))) is largest. Chosen per channel (before), a
+// voxel between two lights took red from the path through the object and blue from the one across
+// the lit face: a magenta band along the terminator (issue 14's purple cast). A voxel changes only
+// to a strictly better score, so the iteration still ends; the paper's model keeps the exact
+// per-channel min-plus (= the CPU Dijkstra).
 // Soft temperature: tau = beta * (the voxel's cheapest edge), so one step gains at most
 // tau ln 27 < the edge's cost for beta < 1/ln 27: no cycle gains, the iteration is bounded.
 // The hard min is exact: every value is a real path's cost, added in the same f32 order as the CPU
@@ -58,7 +64,18 @@ float objective(float n, float d, int c) {
     } else {
         return n;
     }
-    return n - log(slab_profile(g_diffusion[c], g_s[c], 2.0 * pc.big_a * g_diffusion[c], d));
+    // A floor keeps the log finite (G > 0 for every material the grid accepts).
+    return n - log(max(exit_gain(g_diffusion[c], g_s[c], pc.big_a, d), 1e-30));
+}
+
+// The three channels' contributions at the exit as one optical depth, -ln sum_c exp(-f_c)
+// (stable: the smallest f factored out; unreached channels add 0).
+float total_contribution(vec3 f) {
+    float m = min(f.x, min(f.y, f.z));
+    if (m >= N_UNLIT) {
+        return N_UNLIT;
+    }
+    return m - log(exp(m - f.x) + exp(m - f.y) + exp(m - f.z));
 }
 
 shared uint s_changed;
@@ -175,6 +192,7 @@ void main() {
             for (int c = 0; c < 3; ++c) {
                 best_f[c] = objective(own[c], own_d[c], c);
             }
+            float best_score = total_contribution(best_f);
             for (int z = -1; z <= 1; ++z) {
                 for (int y = -1; y <= 1; ++y) {
                     for (int x = -1; x <= 1; ++x) {
@@ -190,12 +208,25 @@ void main() {
                         precise float len = h * edge_factor(o);
                         precise vec3 cand = imageLoad(state_in, u).rgb + edge_cost(mu.rgb, mv.rgb, len);
                         precise vec3 cand_d = TRACK_PATH ? imageLoad(path_in, u).rgb + len : vec3(0.0);
-                        for (int c = 0; c < 3; ++c) {
-                            float f = objective(cand[c], cand_d[c], c);
-                            if (f < best_f[c] || (TRACK_PATH && f == best_f[c] && cand_d[c] < best_d[c])) {
-                                best_f[c] = f;
-                                best[c] = cand[c];
-                                best_d[c] = cand_d[c];
+                        if (TRACK_PATH) {
+                            // One path for all three channels (see the header).
+                            vec3 f;
+                            for (int c = 0; c < 3; ++c) {
+                                f[c] = objective(cand[c], cand_d[c], c);
+                            }
+                            float score = total_contribution(f);
+                            if (score < best_score || (score == best_score && cand_d.x < best_d.x)) {
+                                best_score = score;
+                                best = cand;
+                                best_d = cand_d;
+                            }
+                        } else {
+                            for (int c = 0; c < 3; ++c) {
+                                float f = cand[c];
+                                if (f < best_f[c]) {
+                                    best_f[c] = f;
+                                    best[c] = cand[c];
+                                }
                             }
                         }
                     }

@@ -157,12 +157,13 @@ fn a_lit_flat_face_injects_the_transmitted_irradiance_and_emits_its_exitance() {
     let mu = (3.0f64).sqrt() / 2.0;
     let q: [f64; 3] = [2.0, 1.0, 0.5].map(|e| e * mu * fresnel::transmittance(eta, mu));
     // n0 of the top layer of voxels, away from the edges (the last 1.25 mm of the face has
-    // interpolated normals that turn towards the edge's averaged normal).
+    // interpolated normals that turn towards the edge's averaged normal, and the injection
+    // averages the texels within 2 voxels, KERNEL_REACH_VOXELS: at most 8.3 mm from the centre).
     let seed = method.read_volume(ctx, &method.grid.seed).unwrap();
     let grid = method.grid.read_frame(ctx).unwrap();
     let mut checked = 0;
-    for x in -7..=7 {
-        for z in -7..=7 {
+    for x in -6..=6 {
+        for z in -6..=6 {
             let v = voxel_of(&grid, glam::Vec3::new(x as f32, 9.9, z as f32));
             let n0 = seed[method.grid.dims.index(v)];
             for c in 0..3 {
@@ -177,13 +178,13 @@ fn a_lit_flat_face_injects_the_transmitted_irradiance_and_emits_its_exitance() {
             checked += 1;
         }
     }
-    assert!(checked > 200, "{checked}");
+    assert!(checked > 150, "{checked}");
     // M = (1 - F_dr) q at the face's inner vertices (paper model: n = n0 on a uniformly lit face).
     let f_dr = fresnel::diffuse_reflectance(eta);
     let exitance = method.exitance(ctx).unwrap();
     let mut vertices = 0;
     for (p, m) in cube.positions.iter().zip(&exitance) {
-        if p.y > 9.99 && p.x.abs() < 7.0 && p.z.abs() < 7.0 {
+        if p.y > 9.99 && p.x.abs() < 6.0 && p.z.abs() < 6.0 {
             for c in 0..3 {
                 let want = (1.0 - f_dr) * q[c];
                 assert!((f64::from(m[c]) - want).abs() < 1e-5 * want, "{p}: {m:?}");
@@ -195,7 +196,7 @@ fn a_lit_flat_face_injects_the_transmitted_irradiance_and_emits_its_exitance() {
             assert!(m[0] < 1e-6, "{p}: {m:?}");
         }
     }
-    assert!(vertices > 30, "{vertices}");
+    assert!(vertices > 20, "{vertices}");
     drop((method, mesh));
     gpu.finish();
 }

@@ -7,6 +7,9 @@
 
 mod voxel_common;
 
+/// Reached voxels per seed at least (see the assertion).
+const REACHED_PER_LIT: usize = 3;
+
 use glam::DVec3;
 use translucent::frame::voxel::VoxelPasses;
 use translucent::material::{Material, MaterialField, Procedural};
@@ -143,15 +146,19 @@ fn gpu_relaxation_equals_cpu_dijkstra_bit_for_bit() {
             case.name
         );
         assert!(converged, "{}", case.name);
+        // The relaxation has work: most reached voxels are not seeds. The injection lights every
+        // shell voxel within 2 voxels of a lit texel (`KERNEL_REACH_VOXELS` in frame/voxel/inject.rs), which on
+        // the thin torus (point light in its hole) is over a quarter of the reached voxels.
         assert!(
-            lit > 20 && reached > 5 * lit,
+            lit > 20 && reached > REACHED_PER_LIT * lit,
             "{}: {lit} lit, {reached} reached",
             case.name
         );
         if case.params.model == VoxelModel::Diffusion {
             // The diffusion model picks, per voxel, the neighbour whose path contributes most at
-            // the exit, n - ln P(d) (d the path's length, not additive): its n is some path's
-            // optical depth, never below the shortest one, and reaches the same voxels.
+            // the exit, n - ln G(d) summed over the channels (d the path's length, not additive):
+            // its n is some path's optical depth, never below the shortest one, and reaches the
+            // same voxels.
             let below = gpu_n
                 .iter()
                 .zip(&cpu_n)

@@ -17,10 +17,10 @@
 //! every `--split-every` frames changes the topology with `set_mesh`: the sphere is replaced by
 //! two separate half-size spheres (two pieces, 4 mm apart), and back. The deformation of the
 //! frame applies to whichever mesh is current. Allocator growth is checked against the first frame
-//! in the same phase of both schedules (the mesh's and the material's) after the first full period
-//! (the allocator must then hold exactly the same bytes at the end). `--csv FILE`
+//! from 10 on in the same phase of both schedules (the mesh's and the material's): the allocator
+//! must then hold exactly the same allocations, requested bytes and blocks at the end. `--csv FILE`
 //! writes one line per frame: frame, wall ms of `render`, GPU ms of the frame's passes,
-//! allocations, allocated bytes, block bytes, pieces.
+//! allocations, requested bytes, block bytes, pieces, gpu-allocator's padded bytes.
 //!
 //! ```text
 //! cargo run --release -p translucent-benches --bin soak -- [--frames 10000] [--resolution 10]
@@ -185,16 +185,18 @@ fn voxel_soak(args: &[String]) -> Result<()> {
         pieces.positions.len()
     );
     // What the object holds depends on the material's phase (SCHEDULE_PERIOD) and the mesh's
-    // (2 split_every): growth is the end against the first frame from 10 on in the same phase.
-    // The first period is left out: in it the same phase held a few tens of bytes more or less
-    // (measured -56..+24 B, allocation count equal: content-sized staging), from the second on
-    // exactly the same bytes.
+    // (2 split_every): growth is the end against the first frame from 10 on in the same phase,
+    // the first period included. The bytes are the allocations' requested sizes
+    // (`Context::allocator_usage`): gpu-allocator's own total adds alignment padding that depends
+    // on where each allocation lands, and it picks among free chunks in `HashSet` order (random
+    // per process), so the same allocations measured -56..+24 bytes apart in the first period
+    // (issue 14; the CSV's padded_bytes column shows it) while the requested bytes are equal.
     let period = lcm(SCHEDULE_PERIOD, 2 * split_every);
-    let phase_frame = (period + 10..frames).find(|i| i % period == (frames - 1) % period);
+    let phase_frame = (10..frames).find(|i| i % period == (frames - 1) % period);
     let mut at_phase = None;
     let at_start = ctx.allocator_usage();
     let mut lines = vec![
-        "frame,render_wall_ms,frame_gpu_ms,allocations,allocated_bytes,block_bytes,pieces"
+        "frame,render_wall_ms,frame_gpu_ms,allocations,allocated_bytes,block_bytes,pieces,padded_bytes"
             .to_string(),
     ];
     let mut messages = 0usize;
@@ -223,12 +225,13 @@ fn voxel_soak(args: &[String]) -> Result<()> {
         }
         let usage = ctx.allocator_usage();
         lines.push(format!(
-            "{},{ms:.3},{gpu:.3},{},{},{},{}",
+            "{},{ms:.3},{gpu:.3},{},{},{},{},{}",
             i + 1,
             usage.0,
             usage.1,
             usage.2,
-            if split { 2 } else { 1 }
+            if split { 2 } else { 1 },
+            ctx.allocator_padded_bytes()
         ));
         if i % check_every == check_every - 1 || i + 1 == frames {
             let voxel = object

@@ -1,6 +1,7 @@
 //! [`Context`]: owned (headless) or borrowed from a host; validation; frames; one-shot submission.
 
 use std::ffi::{c_void, CStr, CString};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
@@ -553,6 +554,7 @@ impl Context {
             properties,
             debug_utils,
             allocator: Mutex::new(None),
+            requested_bytes: Default::default(),
             frames: Mutex::new(Default::default()),
             messages,
             keep: Mutex::new(None),
@@ -671,20 +673,31 @@ impl Context {
             .map_or(0, |a| a.generate_report().allocations.len())
     }
 
-    /// gpu-allocator's totals: (live allocations, bytes they use, bytes of memory blocks held).
-    /// For soak tests: all three stay flat when nothing leaks.
+    /// The allocator's totals: (live allocations, bytes they asked for, bytes of memory blocks
+    /// held). For soak tests: all three stay flat when nothing leaks, and equal states give equal
+    /// totals. The bytes are the allocations' requested sizes, not gpu-allocator's
+    /// `total_allocated_bytes`, which adds each allocation's alignment padding: that depends on
+    /// where it lands in a block, and the allocator picks among equal free chunks in the order of
+    /// a `HashSet` (random per process), so the same allocations measured -56..+24 bytes apart
+    /// (the voxel soak's first period, issue 14).
     pub fn allocator_usage(&self) -> (usize, u64, u64) {
+        let requested = self.device.requested_bytes.load(Ordering::Relaxed);
         self.device
             .lock_allocator()
             .as_ref()
-            .map_or((0, 0, 0), |a| {
+            .map_or((0, requested, 0), |a| {
                 let r = a.generate_report();
-                (
-                    r.allocations.len(),
-                    r.total_allocated_bytes,
-                    r.total_capacity_bytes,
-                )
+                (r.allocations.len(), requested, r.total_capacity_bytes)
             })
+    }
+
+    /// gpu-allocator's own byte total: the requested bytes of [`Self::allocator_usage`] plus each
+    /// allocation's alignment padding (placement-dependent: for diagnosis, not for flatness checks).
+    pub fn allocator_padded_bytes(&self) -> u64 {
+        self.device
+            .lock_allocator()
+            .as_ref()
+            .map_or(0, |a| a.generate_report().total_allocated_bytes)
     }
 
     /// Gives `handle` a debug-utils name.

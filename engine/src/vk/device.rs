@@ -1,6 +1,7 @@
 //! The device every resource holds an `Arc` of: raw handles, the allocator, the deferred release
 //! queue and the frame counters.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
@@ -73,6 +74,11 @@ pub(crate) struct Device {
     pub debug_utils: Option<ash::ext::debug_utils::Device>,
     /// `None` only during drop: the allocator goes before the device.
     pub allocator: Mutex<Option<Allocator>>,
+    /// Bytes the live allocations asked for (their memory requirements' sizes), without the
+    /// alignment padding the allocator adds in front of each one: that padding depends on where
+    /// the allocation lands in a block, and gpu-allocator's free list is a `HashSet` (random
+    /// iteration order per process), so its report's byte total varies between equal states.
+    pub requested_bytes: AtomicU64,
     pub frames: Mutex<Frames>,
     pub messages: Arc<Mutex<Vec<ValidationMessage>>>,
     /// Data that must outlive the instance (the validation callback's user data).
@@ -109,7 +115,7 @@ impl Device {
             name: name.into(),
             message: "device is shutting down".into(),
         })?;
-        allocator
+        let allocation = allocator
             .allocate(&gpu_allocator::vulkan::AllocationCreateDesc {
                 name,
                 requirements,
@@ -120,7 +126,10 @@ impl Device {
             .map_err(|e| VkError::Allocation {
                 name: name.into(),
                 message: e.to_string(),
-            })
+            })?;
+        self.requested_bytes
+            .fetch_add(allocation.size(), Ordering::Relaxed);
+        Ok(allocation)
     }
 
     /// Queues `object` for destruction after the frame being recorded completes (at once when no
@@ -157,6 +166,8 @@ impl Device {
     fn destroy(&self, object: Retired) {
         let device = self.raw();
         let free = |allocation: Allocation| {
+            self.requested_bytes
+                .fetch_sub(allocation.size(), Ordering::Relaxed);
             if let Some(allocator) = self.lock_allocator().as_mut() {
                 // A failing free only means the allocation was already gone: nothing to leak.
                 let _ = allocator.free(allocation);

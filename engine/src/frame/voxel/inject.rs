@@ -1,7 +1,8 @@
 //! [`InjectPass`]: light into the surface voxels (paper section 2.1, Eqs. 2-3): every solid voxel
-//! next to an empty one gathers the reflective-shadow-map texels it owns and starts at
-//! n0 = -ln(q), q the irradiance transmitted into its surface, per colour channel
-//! (`voxel/inject_light.comp` explains the ownership and the area normalization). It also
+//! next to an empty one gathers the reflective-shadow-map texels whose surface points lie within
+//! [`KERNEL_REACH_VOXELS`] of its centre (a smooth kernel of the distance) and starts at
+//! n0 = -ln(q), q the irradiance transmitted into the surface there, per colour channel
+//! (`voxel/inject_light.comp` explains the kernel and the area normalization). It also
 //! initialises the relaxation's state (`state[0]` = n0) and path lengths (0).
 
 use ash::vk;
@@ -17,9 +18,11 @@ use crate::Error;
 
 /// Profiler scope and debug label of the pass.
 pub const PASS_INJECT: &str = "voxel inject";
-/// How far (in voxels) a texel's surface point moves inward along its normal to find its voxel:
-/// half a voxel puts a flat surface's points in the voxels whose centres are just inside.
-pub const INWARD_VOXELS: f32 = 0.5;
+/// The injection kernel's radius, in voxels: more than the surface shell's depth (a shell voxel's
+/// centre lies up to sqrt 3 voxels deep on a tilted surface), so each of its voxels sees the
+/// surface near it. Every shell voxel gets the local transmitted irradiance; with one owner voxel
+/// per texel (before) the deeper shell voxels of tilted surfaces started unlit: the mottling.
+pub const KERNEL_REACH_VOXELS: f32 = 2.0;
 
 /// Push constants of `voxel/inject_light.comp`.
 #[repr(C)]
@@ -29,7 +32,8 @@ pub struct InjectPush {
     /// rgb: a constant environment's transmitted irradiance pi L (1 - F_dr,ext).
     pub env_q: [f32; 4],
     pub view_count: u32,
-    pub inward: f32,
+    /// The kernel's radius in voxels ([`KERNEL_REACH_VOXELS`]).
+    pub reach: f32,
     pub track_path: u32,
     pub pad: u32,
 }
@@ -183,7 +187,7 @@ impl InjectPass {
                     dims,
                     env_q: [self.env_q[0], self.env_q[1], self.env_q[2], 0.0],
                     view_count: rsm.views().len() as u32,
-                    inward: INWARD_VOXELS,
+                    reach: KERNEL_REACH_VOXELS,
                     track_path: u32::from(grid.track_path),
                     pad: 0,
                 },

@@ -32,10 +32,13 @@
 //! **Beyond the paper** ([`VoxelModel::Diffusion`], measured against path tracing in
 //! benches/RESULTS.md, "Voxel method"): the cost along the path is the diffusion's effective
 //! transport coefficient sigma_tr = sqrt(3 sigma_a sigma_t'), and the exit is DESIGN section 2's
-//! diffusion closed forms along the path: M = q exp(-integral of sigma_tr) min(R, P(d)), R the
-//! semi-infinite albedo (a uniformly lit flat face returns R q), P(d) exp(-sigma_tr d) the
-//! transmittance of a slab as thick as the path is long (the far face of a lit slab returns T q;
-//! for sigma_tr d << 1 it falls as 4D / (2h + d): the 1/d spreading), `voxel/exit_volume.comp`.
+//! diffusion closed forms along the path: M = q exp(-integral of sigma_tr) G(d) with
+//! G(d) = P(d) + (R - P(0)) exp(-d / 4AD), R the semi-infinite albedo (a uniformly lit flat face
+//! returns R q), P(d) exp(-sigma_tr d) the transmittance of a slab as thick as the path is long
+//! (the far face of a lit slab returns T q; for sigma_tr d << 1 it falls as 4D / (2h + d): the 1/d
+//! spreading), `voxel/exit_volume.comp`, `diffusion_profile.glsl`. (min(R, P(d)) before took
+//! P(0) = 1 / (1 + F_dr), equal in all channels, on every lit face at eta > 1: grey, issue 14.)
+//! The hard minimum keeps one path per voxel for the three channels (their summed contribution).
 //! [`VoxelParams::soft_beta`] > 0 replaces the minimum over neighbours with a log-sum-exp soft
 //! minimum, so several paths add.
 //!
