@@ -1,15 +1,18 @@
 #!/usr/bin/env python3
-"""High-frequency energy of a rendered image over the object's interior pixels: the share of the
-image that a lattice pattern (rings, blotches a few pixels across) adds to smooth shading.
+"""High-frequency content of a rendered image over the object's interior pixels: how much a
+lattice pattern (rings, blotches a few pixels across) adds to smooth shading.
 
     tools/smoothness_exr.py ours.exr [--sigma 2.0] [--json]
 
-hf = sqrt(sum (I - G_sigma * I)^2 / sum I^2) over pixels whose whole (6 sigma + 1)^2 window is
-object (alpha >= 0.999, or any channel > 0 without alpha), summed over the three channels, with
-G_sigma a Gaussian of `sigma` pixels (separable, normalized per pixel over object pixels only, so
-the silhouette does not count as detail). Smooth shading of a 20 mm object at 96-128 px has
-hf of a few tenths of a percent; the lattice of 24-48 cells adds to it. Reads EXR through
-Mitsuba's Bitmap, in the venv tools/pt_reference.py makes (as tools/compare_exr.py).
+hf = sqrt(mean ((Y - G_sigma * Y) / (G_sigma * Y))^2), the RMS of the relative high-pass of the
+luminance Y = (r + g + b) / 3, over pixels whose whole (6 sigma + 1)^2 window is object (alpha >=
+0.999, or any channel > 0 without alpha), with G_sigma a Gaussian of `sigma` pixels (separable).
+Relative per pixel, so a dark side's rings count as much as a bright crescent's curvature (a
+plain energy ratio is dominated by the few brightest pixels). Also printed: the same per channel
+as an energy ratio sqrt(sum (I - G I)^2 / sum I^2), and `cov`: the coefficient of variation of
+Y over the same interior pixels (anti-aliased silhouettes left out) (the issue's flatness metric for a sphere under a constant
+environment at eta = 1, whose exact radiance is constant). Reads EXR through Mitsuba's Bitmap, in the
+venv tools/pt_reference.py makes (as tools/compare_exr.py).
 """
 
 from __future__ import annotations
@@ -68,12 +71,18 @@ def main() -> int:
     d = (rgb - blurred)[interior]
     ref = rgb[interior]
     per_channel = np.sqrt(np.sum(d**2, axis=0) / np.maximum(np.sum(ref**2, axis=0), 1e-30))
-    total = float(np.sqrt(np.sum(d**2) / max(np.sum(ref**2), 1e-30)))
+    y = rgb.mean(axis=-1)[interior]
+    y_blur = blurred.mean(axis=-1)[interior]
+    total = float(np.sqrt(np.mean(((y - y_blur) / np.maximum(y_blur, 1e-30)) ** 2)))
+    y_all = y
+    cov = float(np.std(y_all) / max(np.mean(y_all), 1e-30))
     if a.json:
-        print(json.dumps({"hf": total, "hf_rgb": per_channel.tolist(), "pixels": int(interior.sum())}))
+        print(json.dumps({"hf": total, "hf_rgb": per_channel.tolist(), "cov": cov,
+                          "pixels": int(interior.sum())}))
     else:
         r, g, b = (100 * per_channel).tolist()
-        print(f"hf {100 * total:.2f}% (r {r:.2f}, g {g:.2f}, b {b:.2f}) over {int(interior.sum())} px")
+        print(f"hf {100 * total:.2f}% (energy r {r:.2f}, g {g:.2f}, b {b:.2f}) over "
+              f"{int(interior.sum())} px, cov {100 * cov:.2f}%")
     return 0
 
 

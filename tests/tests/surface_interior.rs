@@ -21,16 +21,16 @@ use translucent::QuadGraph;
 use translucent_tests::{solve_once, GpuTest};
 
 /// GPU (converged to 1e-6, f32 state, fp16 q) against the CPU's exact solve with the same
-/// reconstruction, relative RMS over the vertices: the node J+ agree to 0.5-0.9e-4
-/// (`exit_query.rs`); the profile adds f32 sinh/cosh.
-const SAME_FORMULAS: f64 = 1e-3;
+/// reconstruction, relative RMS over the vertices: measured 0.7-1.3e-4 (the node J+ agree to
+/// 0.5-0.9e-4, `exit_query.rs`); the interior and Shepard values differ by 13-16% here.
+const SAME_FORMULAS: f64 = 5e-4;
 
 /// Coefficient of variation over the vertices of the interior reconstruction on an
 /// environment-lit sphere whose exact exitance is constant (the bound is 1% per pixel).
 const FLAT: f64 = 0.01;
 
 /// The same for the Shepard interpolation of node J+: it must be above this for the test to see
-/// the lattice at all (measured 3-10x FLAT on these spheres).
+/// the lattice at all (measured 10.5% skin1, 58.6% ketchup; the interior 0.33% and 0.11%).
 const LATTICE_SHOWS: f64 = 0.02;
 
 fn sphere(resolution: u32) -> QuadGraph {
