@@ -122,11 +122,12 @@ pub struct RenderArgs {
     #[arg(long, value_name = "flux|moments", value_parser = ["flux", "moments"])]
     pub exit_query: Option<String>,
     /// How the display vertices get their exitance (GPU and CPU solvers, same formulas):
-    /// `interior` (the default: phi at a point a fixed depth inside, interpolated from the
-    /// tetrahedra around it, extended to the surface by the local 1D profile; DESIGN 2.6, issue
-    /// 12 item 4) or `shepard` (each surface node's J+ through the shading weights: shows the
-    /// lattice as rings and blotches on skin and ketchup).
-    #[arg(long, value_name = "interior|shepard", default_value = "interior", value_parser = ["interior", "shepard"])]
+    /// `interior` (phi at a point a fixed depth inside, interpolated from the tetrahedra around
+    /// it, extended to the surface by the local 1D profile; DESIGN 2.6, issue 12 item 4: no
+    /// lattice rings or blotches on skin and ketchup) or `shepard` (the default: each surface
+    /// node's J+ through the shading weights; closer to the path-traced references on the
+    /// bunny and the back-lit scenes so far, benches/RESULTS.md "Smooth surfaces").
+    #[arg(long, value_name = "interior|shepard", default_value = "shepard", value_parser = ["interior", "shepard"])]
     pub surface: String,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
     /// every method): per display vertex the refracted view ray is marched at exponentially

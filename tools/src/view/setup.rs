@@ -154,8 +154,6 @@ impl Setup {
                 precision: state.precision,
                 iterations: vec![self.args.iterations],
                 tolerance: self.args.tolerance as f32,
-                // As `render`'s default `--surface interior` (DESIGN 2.6, issue 12 item 4).
-                surface: translucent::solver::transport::SurfaceReconstruction::Interior,
                 ..GpuSolveParams::default()
             },
             color_format: COLOR_FORMAT,

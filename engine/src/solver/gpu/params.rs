@@ -57,9 +57,9 @@ pub struct GpuSolveParams {
     pub multigrid: Option<crate::solver::multigrid::MultigridParams>,
     /// How the display vertices get their exitance: `Interior` (phi from a point a fixed depth
     /// inside and the local 1D profile, `diffusion/vertex_interior*.comp`, the f64 reference's
-    /// [`crate::solver::transport::SurfaceReconstruction::Interior`]; `translucent render`'s
-    /// default) or `Shepard` (the surface nodes' J+ through the shading weights; the library
-    /// default, as the f64 reference's `Transport::default()`). A graph without surface samples
+    /// [`crate::solver::transport::SurfaceReconstruction::Interior`]; `--surface interior`) or
+    /// `Shepard` (the surface nodes' J+ through the shading weights; the default, as the f64
+    /// reference's `Transport::default()`: closer to the path-traced references so far). A graph without surface samples
     /// (built by hand, not baked) uses `Shepard`. `DepthSample` is CPU only.
     pub surface: SurfaceReconstruction,
 }
