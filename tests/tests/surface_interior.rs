@@ -30,7 +30,7 @@ const SAME_FORMULAS: f64 = 5e-4;
 const FLAT: f64 = 0.01;
 
 /// The same for the Shepard interpolation of node J+: it must be above this for the test to see
-/// the lattice at all (measured 10.5% skin1, 58.6% ketchup; the interior 0.33% and 0.11%).
+/// the lattice at all (measured 10.5% skin1, 58.6% ketchup; the interior 0.32% and 0.10%).
 const LATTICE_SHOWS: f64 = 0.02;
 
 fn sphere(resolution: u32) -> QuadGraph {
