@@ -162,7 +162,7 @@ fn mls_weights(points: &[DVec3], p: DVec3) -> Vec<f64> {
 
 /// Per vertex, the unit normals of the vertices within `radius` averaged (see [`NORMAL_SPACINGS`]).
 fn smoothed_normals(positions: &[DVec3], normals: &[DVec3], radius: f64) -> Vec<DVec3> {
-    if positions.is_empty() || !(radius > 0.0) {
+    if positions.is_empty() || radius.is_nan() || radius <= 0.0 {
         return normals.to_vec();
     }
     let coords: Vec<[f64; 3]> = positions.iter().map(|p| p.to_array()).collect();
