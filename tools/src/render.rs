@@ -124,6 +124,14 @@ pub struct RenderArgs {
     /// `--beam-source` implies `moments`.
     #[arg(long, value_name = "flux|moments", value_parser = ["flux", "moments"])]
     pub exit_query: Option<String>,
+    /// How the display vertices get their exitance (GPU and CPU solvers, same formulas):
+    /// `interior` (phi at a point a fixed depth inside, interpolated from the tetrahedra around
+    /// it, extended to the surface by the local 1D profile; DESIGN 2.6, issue 12 item 4: no
+    /// lattice rings or blotches on skin and ketchup) or `shepard` (the default: each surface
+    /// node's J+ through the shading weights; closer to the path-traced references on the
+    /// bunny and the back-lit scenes so far, benches/RESULTS.md "Smooth surfaces").
+    #[arg(long, value_name = "interior|shepard", default_value = "shepard", value_parser = ["interior", "shepard"])]
+    pub surface: String,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
     /// every method): per display vertex the refracted view ray is marched at exponentially
     /// stratified depths, lit through the shadow maps, added to the method's exitance as the
@@ -410,6 +418,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Solve on the CPU (f64 reference), or below on the GPU.
     let exit_query: solver::transport::ExitQuery =
         args.exit_query.as_deref().unwrap_or("flux").parse()?;
+    let surface: solver::transport::SurfaceReconstruction = args.surface.parse()?;
     let solve_params = CpuSolveParams {
         scheme,
         iterations: vec![args
@@ -417,12 +426,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or(CpuSolveParams::default().iterations[0])],
         tolerance: args.tolerance,
         exact: args.iterations.is_none() && !multigrid,
-        transport: if args.beam_source {
-            solver::transport::Transport::gpu_collimated()
-        } else {
-            solver::transport::Transport {
-                exit: exit_query,
-                ..solver::transport::Transport::default()
+        transport: solver::transport::Transport {
+            surface,
+            ..if args.beam_source {
+                solver::transport::Transport::gpu_collimated()
+            } else {
+                solver::transport::Transport {
+                    exit: exit_query,
+                    ..solver::transport::Transport::default()
+                }
             }
         },
         schedule: if multigrid {
@@ -477,6 +489,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             exit_query
         },
         collimated: args.beam_source,
+        surface,
         multigrid: multigrid.then(|| MultigridParams {
             tolerance: args.tolerance,
             ..MultigridParams::default()

@@ -42,6 +42,14 @@ pub const SAMPLE_NODES: usize = 16;
 pub const DEPTH_SPACINGS: f64 = 1.5;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
+/// The direction a sample is taken in: the vertex normals averaged over this many finest
+/// spacings around the vertex (weights (1 - (d / R)^2)^2, only normals within 90 degrees of
+/// the vertex's own), so that geometric detail finer than the lattice (a scanned mesh's bumps)
+/// does not move the sample points about (diffusion does not resolve it either). Measured on
+/// the front-lit bunny against path tracing: 16.1% with the raw normals, 16.3% with these (the
+/// bunny's remaining bump texture under `--surface interior` has another cause, not found yet).
+pub const NORMAL_SPACINGS: f64 = 1.5;
+
 /// Graph rings searched around the sample's tetrahedron for candidates.
 const RINGS: usize = 3;
 
@@ -152,6 +160,31 @@ fn mls_weights(points: &[DVec3], p: DVec3) -> Vec<f64> {
     }
 }
 
+/// Per vertex, the unit normals of the vertices within `radius` averaged (see [`NORMAL_SPACINGS`]).
+fn smoothed_normals(positions: &[DVec3], normals: &[DVec3], radius: f64) -> Vec<DVec3> {
+    if positions.is_empty() || radius.is_nan() || radius <= 0.0 {
+        return normals.to_vec();
+    }
+    let coords: Vec<[f64; 3]> = positions.iter().map(|p| p.to_array()).collect();
+    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
+    positions
+        .par_iter()
+        .zip(normals)
+        .map(|(p, &n)| {
+            let n = n.normalize_or(DVec3::Y);
+            let mut sum = DVec3::ZERO;
+            for nb in tree.within_unsorted::<SquaredEuclidean>(&p.to_array(), radius * radius) {
+                let m = normals[nb.item as usize].normalize_or(DVec3::ZERO);
+                if m.dot(n) > 0.0 {
+                    let r = nb.distance / (radius * radius);
+                    sum += m * (1.0 - r).powi(2);
+                }
+            }
+            sum.normalize_or(n)
+        })
+        .collect()
+}
+
 /// The sample points of `surface`'s vertices (outward unit normals in `surface.normals`, or
 /// computed from the faces) in the finest level, inside `solid`.
 pub fn surface_samples(
@@ -173,6 +206,7 @@ pub fn surface_samples(
         .collect();
     let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
     let h = finest.spacing;
+    let normals = smoothed_normals(&surface.positions, &normals, NORMAL_SPACINGS * h);
     let per_vertex: Vec<(f64, [u32; SAMPLE_NODES], [f64; SAMPLE_NODES], u32)> = surface
         .positions
         .par_iter()

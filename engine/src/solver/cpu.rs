@@ -317,8 +317,10 @@ pub fn solve(
         });
     }
     let vertices = graph.surface.positions.len();
-    if transport.surface == SurfaceReconstruction::DepthSample
-        && vertices > 0
+    if matches!(
+        transport.surface,
+        SurfaceReconstruction::DepthSample | SurfaceReconstruction::Interior
+    ) && vertices > 0
         && graph.samples.depth.len() != vertices
     {
         return Err(SolverError::BadParameter {
@@ -493,6 +495,19 @@ pub fn solve(
             let m = shade_vertices(graph, &exitance)?;
             (v, m.iter().map(|m| m.map(f64::from)).collect(), clamped)
         }
+        SurfaceReconstruction::Interior => {
+            let m = interior_vertices(graph, &boundary, material, &sources, &phi)?;
+            let x: Vec<[f64; 3]> = m
+                .iter()
+                .map(|m| m.map(|v| boundary.shading_input(v)))
+                .collect();
+            let (x, vertex_clamped) = clamp_negative(&x);
+            (
+                x.iter().map(|x| x.map(|v| v as f32)).collect(),
+                m,
+                vertex_clamped,
+            )
+        }
         SurfaceReconstruction::DepthSample => {
             let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
             let bounce_at_vertices = if bounce_sources.is_empty() {
@@ -665,6 +680,68 @@ pub fn reconstruct_vertices(
             })
         })
         .collect()
+}
+
+/// Per display vertex, the exitance M reconstructed from the interior solution (issue 12 item 4,
+/// [`SurfaceReconstruction::Interior`]), the f64 twin of the GPU's `diffusion/vertex_interior`:
+/// phi at the vertex's sample point (`QuadGraph::samples`, a fixed depth inside along the
+/// normal), the sources q and the collimated exit part P through the shading weights, the local
+/// 1D profile through the sample ([`profile_from_sample`], h = 2 A D and s of the tetrahedron
+/// holding the sample) for phi(0) and dphi/dz_in(0), then the exit query plus P. Unclamped.
+pub fn interior_vertices(
+    graph: &QuadGraph,
+    boundary: &Boundary,
+    material: &MaterialField,
+    sources: &[LocalSource],
+    phi_h: &[[f64; 3]],
+) -> Result<Vec<[f64; 3]>, SolverError> {
+    let level = graph.finest();
+    let inner = level.inner_count();
+    // The diffuse-flux equivalent of each node's Robin right-hand side (what the GPU keeps in q)
+    // and the particular solution's part of the exit query (the GPU's `particular`).
+    let q: Vec<[f64; 3]> = sources
+        .iter()
+        .map(|s| s.rhs.map(|r| r / boundary.flux_gain))
+        .collect();
+    let part: Vec<[f64; 3]> = (0..sources.len())
+        .map(|s| {
+            let d = material
+                .sample(level.positions[level.surface_faces[s].0 as usize])
+                .kappa();
+            std::array::from_fn(|c| {
+                boundary.exitance(d[c], sources[s].phi_p[c], sources[s].dphi_p[c], 0.0)
+            })
+        })
+        .collect();
+    let q_v = shade_vertices(graph, &q)?;
+    let part_v = shade_vertices(graph, &part)?;
+    let samples = &graph.samples;
+    let vertices = graph.surface.positions.len();
+    if samples.depth.len() != vertices {
+        return Err(SolverError::BadParameter {
+            name: "surface",
+            problem: format!(
+                "the interior reconstruction needs the bake's surface samples ({} for {vertices} vertices: bake again)",
+                samples.depth.len()
+            ),
+        });
+    }
+    Ok((0..vertices)
+        .into_par_iter()
+        .map(|v| {
+            let cell = (samples.cell[v] as usize).min(inner.saturating_sub(1));
+            let here = material.sample(level.positions[cell]);
+            let p = samples.interpolate(v, phi_h);
+            std::array::from_fn(|c| {
+                let (d, h) = (here.kappa()[c], 2.0 * boundary.a * here.kappa()[c]);
+                let s = (here.mu()[c] / d).sqrt();
+                let qv = f64::from(q_v[v][c]);
+                let (phi0, dphi0) =
+                    profile_from_sample(s, h, samples.depth[v], p[c], boundary.flux_gain * qv);
+                boundary.exitance(d, phi0, dphi0, qv) + f64::from(part_v[v][c])
+            })
+        })
+        .collect())
 }
 
 /// Per display vertex, the Shepard interpolation (shading weights) of per-node sources; the

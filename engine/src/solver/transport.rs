@@ -96,6 +96,28 @@ pub enum SurfaceReconstruction {
     /// (`QuadGraph::samples`), extended to the surface by the local 1D profile with the vertex's
     /// own source terms (issue 12 item 4).
     DepthSample,
+    /// phi at the same interior sample point, extended to the surface by the same 1D profile,
+    /// with the sources (q, the collimated exit part) interpolated from the surface nodes with
+    /// the shading weights: what the GPU's `vertex_interior` pass computes (same formulas), and
+    /// the default there. Reads no surface node's phi, so the one-neighbour differences
+    /// phi_s - phi_k that draw the lattice on the surface (DESIGN 2.6) never reach the image.
+    Interior,
+}
+
+impl std::str::FromStr for SurfaceReconstruction {
+    type Err = super::SolverError;
+    /// `shepard` (the surface nodes' values through the shading weights) or `interior`.
+    fn from_str(s: &str) -> Result<Self, super::SolverError> {
+        match s {
+            "shepard" => Ok(Self::Shepard),
+            "interior" => Ok(Self::Interior),
+            "depth-sample" => Ok(Self::DepthSample),
+            _ => Err(super::SolverError::BadParameter {
+                name: "surface",
+                problem: format!("'{s}' (expected interior or shepard)"),
+            }),
+        }
+    }
 }
 
 /// The transport terms of the CPU reference, each on or off (issue 12).
@@ -268,6 +290,23 @@ impl Boundary {
             ExitQuery::Moments => {
                 0.25 * (1.0 - 2.0 * self.c1) * phi0 + 0.5 * (1.0 - 3.0 * self.c2) * d * dphi0
             }
+        }
+    }
+
+    /// [`Self::exitance`] as M = f_phi phi0 + f_d D dphi0 - f_q q_flux: (f_phi, f_d, f_q), the
+    /// constants the GPU's `vertex_interior` pass takes.
+    pub fn exitance_factors(&self) -> (f64, f64, f64) {
+        match self.exit {
+            ExitQuery::Classic => (
+                (1.0 - self.f_dr) * (1.0 + 1.0 / self.a) / 4.0,
+                0.0,
+                (1.0 - self.f_dr) / (1.0 + self.f_dr),
+            ),
+            ExitQuery::Moments => (
+                0.25 * (1.0 - 2.0 * self.c1),
+                0.5 * (1.0 - 3.0 * self.c2),
+                0.0,
+            ),
         }
     }
 

@@ -1,7 +1,7 @@
 //! What a GPU solve is asked for: storage precision and [`GpuSolveParams`].
 
 use super::*;
-pub use crate::solver::transport::ExitQuery;
+pub use crate::solver::transport::{ExitQuery, SurfaceReconstruction};
 
 /// How phi is stored (DESIGN section 4).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -55,6 +55,13 @@ pub struct GpuSolveParams {
     /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
     /// paper's cascade.
     pub multigrid: Option<crate::solver::multigrid::MultigridParams>,
+    /// How the display vertices get their exitance: `Interior` (phi from a point a fixed depth
+    /// inside and the local 1D profile, `diffusion/vertex_interior*.comp`, the f64 reference's
+    /// [`crate::solver::transport::SurfaceReconstruction::Interior`]; `--surface interior`) or
+    /// `Shepard` (the surface nodes' J+ through the shading weights; the default, as the f64
+    /// reference's `Transport::default()`: closer to the path-traced references so far). A graph without surface samples
+    /// (built by hand, not baked) uses `Shepard`. `DepthSample` is CPU only.
+    pub surface: SurfaceReconstruction,
 }
 
 impl Default for GpuSolveParams {
@@ -68,6 +75,7 @@ impl Default for GpuSolveParams {
             exit: ExitQuery::default(),
             collimated: false,
             multigrid: None,
+            surface: SurfaceReconstruction::Shepard,
         }
     }
 }

@@ -58,6 +58,10 @@ impl GpuDiffusion {
         levels: u32,
     ) -> Result<Pipelines, Error> {
         let sets = 2 * levels + 2;
+        let interior = match precision {
+            Precision::Mixed | Precision::Fp32 => "diffusion/vertex_interior_fp32.comp",
+            Precision::Fp16 => "diffusion/vertex_interior_fp16.comp",
+        };
         let (init, warm, reduce, j_plus) = match precision {
             Precision::Mixed | Precision::Fp32 => (
                 "shepard/init_phi_fp32.comp",
@@ -153,6 +157,27 @@ impl GpuDiffusion {
                     shader: "diffusion/vertex_j_plus.comp",
                     bindings: &["j_plus", "vertex_links", "vertex_weights", "vertex_j_plus"],
                     max_sets: 4,
+                },
+            )?,
+            interior: ComputePipeline::new(
+                ctx,
+                &ComputePipelineDesc {
+                    name: PASS_VERTEX_J_PLUS,
+                    shader: interior,
+                    bindings: &[
+                        "phi",
+                        "q",
+                        "particular",
+                        "kappa",
+                        "mu",
+                        "vertex_links",
+                        "vertex_weights",
+                        "sample_nodes",
+                        "sample_weights",
+                        "sample_cells",
+                        "vertex_j_plus",
+                    ],
+                    max_sets: 16,
                 },
             )?,
         })

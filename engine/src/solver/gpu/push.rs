@@ -76,6 +76,25 @@ pub struct VertexPush {
     pub offset: u32,
 }
 
+/// Push constants of `diffusion/vertex_interior*.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct InteriorPush {
+    pub count: u32,
+    pub width: u32,
+    /// Floats per vertex in the output buffer and the float offset of J+ in a vertex.
+    pub stride: u32,
+    pub offset: u32,
+    /// Homogeneous: D rgb; a: 1 = read the kappa / mu images (heterogeneous).
+    pub kappa: [f32; 4],
+    /// Homogeneous: sigma_a rgb; a: 2A.
+    pub mu: [f32; 4],
+    /// The exit query M = x phi0 + y D dphi0 - z q; w: the flux gain (rhs = w q).
+    pub exit: [f32; 4],
+    /// x: 1 / q_scale, y: shading input per unit exitance, z: 1 = add the collimated part.
+    pub scale: [f32; 4],
+}
+
 /// One level's record in the control buffer (`LevelControl` in `reduce/convergence.glsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

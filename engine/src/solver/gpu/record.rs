@@ -18,9 +18,9 @@
 use ash::vk;
 
 use super::{
-    raw_barrier, GpuDiffusion, JPlusPush, LevelControl, LevelPush, Precision, RecordStats,
-    ReducePush, ShepardPush, VertexPush, WarmPush, PASS_CONVERGENCE, PASS_INIT, PASS_JACOBI,
-    PASS_J_PLUS, PASS_VERTEX_J_PLUS, PASS_WARM, WARM_CORRECT, WARM_SAVE,
+    raw_barrier, GpuDiffusion, InteriorPush, InteriorSamples, JPlusPush, LevelControl, LevelPush,
+    Precision, RecordStats, ReducePush, ShepardPush, VertexPush, WarmPush, PASS_CONVERGENCE,
+    PASS_INIT, PASS_JACOBI, PASS_J_PLUS, PASS_VERTEX_J_PLUS, PASS_WARM, WARM_CORRECT, WARM_SAVE,
 };
 use crate::mesh::Vertex;
 use crate::vk::barrier::{self, Use};
@@ -459,6 +459,15 @@ impl GpuDiffusion {
         if let Some((mesh, _)) = &self.mesh {
             uses.push(Use::buffer(mesh.vertex_buffer(), Access::ComputeWrite));
         }
+        if let Some(interior) = &self.interior {
+            uses.push(Use::buffer(&interior.nodes, Access::ComputeRead));
+            uses.push(Use::buffer(&interior.weights, Access::ComputeRead));
+            uses.push(Use::buffer(&interior.cells, Access::ComputeRead));
+            if let (false, Some([kappa, mu])) = (self.homogeneous, &finest.material) {
+                uses.push(Use::image(kappa, Access::ComputeRead));
+                uses.push(Use::image(mu, Access::ComputeRead));
+            }
+        }
         uses
     }
 
@@ -506,34 +515,118 @@ impl GpuDiffusion {
             scope(&mut profiler, ctx, cb, Some(PASS_VERTEX_J_PLUS));
             // why: the vertex pass reads the J+ image just written (RAW).
             barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
-            self.pipelines.vertex.dispatch(
-                ctx,
-                cb,
-                self.vertex_set,
-                &VertexPush {
-                    count: self.vertex_count,
-                    width: finest.packing.width,
-                    stride: 4,
-                    offset: 0,
-                },
-                [self.vertex_count.max(1), 1, 1],
-            );
-            if let Some((_, set)) = &self.mesh {
-                let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
+            match &self.interior {
+                Some(interior) => self.dispatch_interior(ctx, cb, interior),
+                None => self.dispatch_shepard(ctx, cb),
+            }
+            scope(&mut profiler, ctx, cb, None);
+        }
+    }
+
+    /// The display vertices' exitance through the Shepard shading weights of the surface nodes'
+    /// J+ (`vertex_j_plus.comp`): our buffer, and the bound mesh's.
+    ///
+    /// # Safety
+    /// As [`Self::record_exitance`], after its J+ pass.
+    unsafe fn dispatch_shepard(&self, ctx: &Context, cb: vk::CommandBuffer) {
+        let finest = &self.levels[self.levels.len() - 1];
+        let mut targets = vec![(self.vertex_set, 4u32, 0u32)];
+        if let Some((_, set)) = &self.mesh {
+            let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
+            targets.push((
+                *set,
+                floats(std::mem::size_of::<Vertex>()),
+                floats(std::mem::offset_of!(Vertex, exitance)),
+            ));
+        }
+        for (set, stride, offset) in targets {
+            // SAFETY: the caller's contract; every set's resources live in `self`.
+            unsafe {
                 self.pipelines.vertex.dispatch(
                     ctx,
                     cb,
-                    *set,
+                    set,
                     &VertexPush {
                         count: self.vertex_count,
                         width: finest.packing.width,
-                        stride: floats(std::mem::size_of::<Vertex>()),
-                        offset: floats(std::mem::offset_of!(Vertex, exitance)),
+                        stride,
+                        offset,
                     },
                     [self.vertex_count.max(1), 1, 1],
                 );
             }
-            scope(&mut profiler, ctx, cb, None);
+        }
+    }
+
+    /// The display vertices' exitance reconstructed from the interior solution
+    /// (`vertex_interior*.comp`, [`GpuSolveParams::surface`]): our buffer, and the bound mesh's.
+    ///
+    /// # Safety
+    /// As [`Self::record_exitance`].
+    unsafe fn dispatch_interior(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        interior: &InteriorSamples,
+    ) {
+        let finest = &self.levels[self.levels.len() - 1];
+        let boundary = self.boundary();
+        let (f_phi, f_d, f_q) = boundary.exitance_factors();
+        let heterogeneous = !self.homogeneous;
+        let push = |stride: u32, offset: u32| InteriorPush {
+            count: self.vertex_count,
+            width: finest.packing.width,
+            stride,
+            offset,
+            kappa: [
+                self.kappa[0],
+                self.kappa[1],
+                self.kappa[2],
+                if heterogeneous { 1.0 } else { 0.0 },
+            ],
+            mu: [
+                self.mu_gain[0],
+                self.mu_gain[1],
+                self.mu_gain[2],
+                (2.0 * boundary.a) as f32,
+            ],
+            exit: [
+                f_phi as f32,
+                f_d as f32,
+                f_q as f32,
+                boundary.flux_gain as f32,
+            ],
+            scale: [
+                1.0 / self.q_scale,
+                boundary.shading_input(1.0) as f32,
+                if self.params.collimated { 1.0 } else { 0.0 },
+                0.0,
+            ],
+        };
+        let h = usize::from(heterogeneous);
+        let mut targets = vec![(interior.sets[h], 4u32, 0u32)];
+        if self.mesh.is_some() {
+            let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
+            targets.push((
+                interior.sets[2 + h],
+                floats(std::mem::size_of::<Vertex>()),
+                floats(std::mem::offset_of!(Vertex, exitance)),
+            ));
+        }
+        for (set, stride, offset) in targets {
+            // A set not allocated cannot happen after `ensure_interior_sets` (material set,
+            // mesh bound); skipping keeps the last values rather than binding nothing.
+            let Some(set) = set else { continue };
+            // SAFETY: the caller's contract; every set's resources live in `self`.
+            unsafe {
+                self.pipelines.interior.dispatch(
+                    ctx,
+                    cb,
+                    set,
+                    &push(stride, offset),
+                    [self.vertex_count.max(1), 1, 1],
+                );
+            }
         }
     }
 }

@@ -162,6 +162,7 @@ impl GpuDiffusion {
         self.a = a;
         self.boundary = boundary;
         self.set_constants(homogeneous, a, q_gain);
+        self.ensure_interior_sets(ctx)?;
         self.build_multigrid(ctx, graph, field)?;
         Ok(())
     }

@@ -1,0 +1,107 @@
+// Per display-mesh vertex exitance reconstructed from the interior solution (DESIGN 2.6, issue 12
+// item 4), the GPU twin of `solver::cpu::interior_vertices` (same formulas, f32):
+//   p      = sum_k w_k phi(node_k): phi at the vertex's sample point a fixed depth inside along
+//            its normal (the bake's `SurfaceSamples`: moving least squares over 16 inner nodes);
+//   q, P   = the surface nodes' q and collimated exit part through the vertex's Shepard weights
+//            (smooth sources; the lattice is in phi_s - phi_k, which is no longer read);
+//   phi0, dphi0 = the local 1D profile phi'' = s^2 phi through p at `depth` with the Robin
+//            condition phi - h dphi/dz_in = rhs = flux_gain q at z = 0 (h = 2 A D, s = sqrt(mu / D),
+//            D and mu of the tetrahedron holding the sample: `solver::transport::profile_from_sample`);
+//   M      = the exit query (flux: (1 - F_dr)((1 + 1/A) phi0 / 4 - q / (1 + F_dr)); moments:
+//            (1 - 2 C1) phi0 / 4 + (1 - 3 C2) D dphi0 / 2) + P;
+//   X      = M times the shading input per unit exitance, unscaled from the exposure, clamped at 0
+//            (a smooth field, so the clamp follows the physics, not the lattice).
+// Writes rgb X at floats [v * stride + offset, +3) of `vertex_j_plus` (as vertex_j_plus.comp).
+// Included with PHI_FORMAT set.
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 0, PHI_FORMAT) uniform readonly image2D phi;
+layout(set = 0, binding = 1, rgba16f) uniform readonly image2D q;
+layout(set = 0, binding = 2, rgba16f) uniform readonly image2D particular;
+// Heterogeneous materials only (push flag): per-node kappa and mu of the finest level.
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D kappa;
+layout(set = 0, binding = 4, rgba32f) uniform readonly image2D mu;
+layout(set = 0, binding = 5, std430) readonly buffer VertexLinks { uvec4 links[]; } vertex_links;
+layout(set = 0, binding = 6, std430) readonly buffer VertexWeights { vec4 weights[]; } vertex_weights;
+// Per vertex 4 uvec4: 16 linear texel indices of the sample's inner nodes; 4 vec4: their weights.
+layout(set = 0, binding = 7, std430) readonly buffer SampleNodes { uvec4 nodes[]; } sample_nodes;
+layout(set = 0, binding = 8, std430) readonly buffer SampleWeights { vec4 weights[]; } sample_weights;
+// Per vertex: x the sample cell's linear texel index, y the sample depth (mm, float bits).
+layout(set = 0, binding = 9, std430) readonly buffer SampleCells { uvec4 cells[]; } sample_cells;
+layout(set = 0, binding = 10, std430) writeonly buffer VertexJPlus { float values[]; } vertex_j_plus;
+
+layout(push_constant) uniform InteriorPush {
+    uint count;
+    uint width;
+    uint stride;
+    uint offset;
+    vec4 kappa;     // homogeneous: D rgb; a: 1 = read the kappa / mu images (heterogeneous)
+    vec4 mu;        // homogeneous: sigma_a rgb; a: 2A (h = 2 A D)
+    vec4 exit;      // x: phi factor, y: D dphi factor, z: q factor (flux query), w: flux gain
+    vec4 scale;     // x: 1 / q_scale, y: shading input per unit exitance, z: 1 = add P
+} pc;
+
+ivec2 texel(uint linear) {
+    return ivec2(int(linear % pc.width), int(linear / pc.width));
+}
+
+void main() {
+    uint v = gl_GlobalInvocationID.x;
+    if (v >= pc.count) {
+        return;
+    }
+    // phi at the sample point.
+    vec3 p = vec3(0.0);
+    for (uint g = 0u; g < 4u; ++g) {
+        uvec4 n = sample_nodes.nodes[4u * v + g];
+        vec4 w = sample_weights.weights[4u * v + g];
+        for (int k = 0; k < 4; ++k) {
+            if (w[k] != 0.0) {
+                p += w[k] * imageLoad(phi, texel(n[k])).rgb;
+            }
+        }
+    }
+    // The sources at the vertex.
+    uvec4 l = vertex_links.links[v];
+    vec4 sw = vertex_weights.weights[v];
+    vec3 qv = vec3(0.0);
+    vec3 part = vec3(0.0);
+    for (int k = 0; k < 4; ++k) {
+        ivec2 t = texel(l[k]);
+        qv += sw[k] * imageLoad(q, t).rgb;
+        if (pc.scale.z > 0.5) {
+            part += sw[k] * imageLoad(particular, t).rgb;
+        }
+    }
+    uvec4 cell = sample_cells.cells[v];
+    float depth = uintBitsToFloat(cell.y);
+    vec3 d = pc.kappa.rgb;
+    vec3 sigma_a = pc.mu.rgb;
+    if (pc.kappa.a > 0.5) {
+        d = imageLoad(kappa, texel(cell.x)).rgb;
+        sigma_a = imageLoad(mu, texel(cell.x)).rgb;
+    }
+    vec3 rhs = pc.exit.w * qv;
+    vec3 m;
+    for (int c = 0; c < 3; ++c) {
+        float h = pc.mu.a * d[c];
+        float s = sqrt(max(sigma_a[c], 0.0) / max(d[c], 1e-30));
+        float x = s * depth;
+        // sinh(s depth) / s with its s -> 0 limit; cosh (exp overflow: far beyond any sample).
+        float sinh_over_s = x < 1e-3 ? depth * (1.0 + x * x / 6.0) : sinh(min(x, 80.0)) / s;
+        float cosh_x = cosh(min(x, 80.0));
+        float phi0 = (p[c] + rhs[c] * sinh_over_s / h) / (cosh_x + sinh_over_s / h);
+        float dphi0 = (phi0 - rhs[c]) / h;
+        m[c] = pc.exit.x * phi0 + pc.exit.y * d[c] * dphi0 - pc.exit.z * qv[c];
+    }
+    vec3 raw = (m * pc.scale.y + part * pc.scale.y) * pc.scale.x;
+    for (int c = 0; c < 3; ++c) {
+        if (!(raw[c] >= 0.0)) {
+            raw[c] = 0.0;
+        }
+    }
+    uint base = v * pc.stride + pc.offset;
+    vertex_j_plus.values[base] = raw.r;
+    vertex_j_plus.values[base + 1u] = raw.g;
+    vertex_j_plus.values[base + 2u] = raw.b;
+}
