@@ -171,6 +171,75 @@ pub struct RenderArgs {
     /// $XDG_CACHE_HOME/translucent, else ~/.cache/translucent).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
+    /// Render with this QuadGraph, written by `translucent bake --out FILE.qgraph`, instead of
+    /// baking or using the cache. It must be a bake of the surface the object options describe
+    /// (the --mesh or --shape, --size-mm and --up given to `bake`); the bake's own options
+    /// (--resolution, --levels, -K, --relax) are the file's and may not be given.
+    #[arg(
+        long,
+        value_name = "FILE.qgraph",
+        conflicts_with_all = ["resolution", "levels", "k", "relax", "cache_dir"]
+    )]
+    pub graph: Option<PathBuf>,
+}
+
+/// Why `render --graph FILE` cannot use FILE.
+#[derive(Debug, thiserror::Error)]
+pub enum GraphFileError {
+    /// Not a readable QuadGraph file of this format version (the library's error says which).
+    #[error("--graph: {source}")]
+    Load {
+        path: PathBuf,
+        #[source]
+        source: translucent::quadgraph::BakeError,
+    },
+    /// A graph baked from another surface than the one the object options describe.
+    #[error(
+        "--graph {path}: baked from another surface ({graph_vertices} vertices, {graph_triangles} triangles) than {object} ({vertices} vertices, {triangles} triangles); give the --mesh or --shape, --size-mm and --up that `translucent bake` was given"
+    )]
+    OtherSurface {
+        path: PathBuf,
+        object: String,
+        graph_vertices: usize,
+        graph_triangles: usize,
+        vertices: usize,
+        triangles: usize,
+    },
+    /// A method that does not read a QuadGraph.
+    #[error(
+        "--graph {path}: a QuadGraph is read by --method quadgraph only (--method {method} {why})"
+    )]
+    Method {
+        path: PathBuf,
+        method: String,
+        why: &'static str,
+    },
+}
+
+/// Loads `path` (`render --graph`) and checks that it is a bake of `object`'s surface: the
+/// graph keeps the surface it was baked from, compared exactly (the cache file stores the f64
+/// coordinates as they were).
+pub fn load_graph_file(
+    path: &Path,
+    object: &crate::object_args::Object,
+) -> Result<translucent::QuadGraph, GraphFileError> {
+    let graph =
+        translucent::QuadGraph::load(path, None).map_err(|source| GraphFileError::Load {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let (ours, theirs) = (&object.surface, &graph.surface);
+    if ours.positions != theirs.positions || ours.indices != theirs.indices {
+        return Err(GraphFileError::OtherSurface {
+            path: path.to_path_buf(),
+            object: object.name.clone(),
+            graph_vertices: theirs.positions.len(),
+            graph_triangles: theirs.indices.len(),
+            vertices: ours.positions.len(),
+            triangles: ours.indices.len(),
+        });
+    }
+    Ok(graph)
 }
 
 /// The default scene: a torus of skim milk, back lit (see `scene_args::default_lights`), so the
@@ -259,6 +328,22 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
+    if let Some(path) = &args.graph {
+        let why = match args.method.as_str() {
+            "voxel" => "builds its voxel grid every frame",
+            "dipole" => "links the surface's triangles",
+            "auto" => "may pick another method: name quadgraph",
+            _ => "",
+        };
+        if !why.is_empty() {
+            return Err(GraphFileError::Method {
+                path: path.clone(),
+                method: args.method.clone(),
+                why,
+            }
+            .into());
+        }
+    }
     if args.method == "auto" {
         return run(&resolve_auto(args)?);
     }
@@ -323,7 +408,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("note: --solver cpu renders without single scattering (GPU pass only)");
     }
     let mut frame_desc = args.scene.frame_desc()?;
-    let lights = args.scene.lights()?;
+    // The options are checked before the bake; the default lights follow the camera (below).
+    args.scene.lights()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
         (None, Some(path)) => Environment::load_exr(path).context("--env")?,
@@ -339,6 +425,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
         frame_desc.camera = Some(crate::scene_args::default_camera(centre, radius, aspect));
     }
+    // Without --light: the default lights placed relative to the camera (`--camera` or the
+    // automatic framing), so a custom view is lit as the default one is.
+    let lights = args
+        .scene
+        .lights_for(&frame_desc.camera.context("the camera is set above")?)?;
     if args.method == "dipole" {
         let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
         std::fs::create_dir_all(&cache_dir)
@@ -358,16 +449,34 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // `--resolution auto`: from the material and the pixel footprint of the object for the
     // camera this render uses (the automatic framing when none is given).
     let footprint_camera = frame_desc.camera.context("the camera is set above")?;
-    let resolution = args.object.resolution(
-        &object,
-        &field,
-        Some((&footprint_camera, frame_desc.height)),
-    );
-    let params = args.object.bake_params(&resolution);
     let start = Instant::now();
-    // The bake cache with its size limit (least recently used bakes are evicted).
-    let (graph, stats, outcome, cache_file) =
-        crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+    let (graph, stats, outcome, cache_file, resolution) = match &args.graph {
+        // `--graph FILE`: the bake `translucent bake` wrote, with its own resolution.
+        Some(path) => {
+            let graph = load_graph_file(path, &object)?;
+            let stats = graph.stats();
+            let spacing_mm = stats.levels.last().map_or(0.0, |l| l.spacing_mm);
+            let (lo, hi) = object.bounds();
+            let resolution = crate::object_args::Resolution {
+                cells: ((hi - lo).max_element() / spacing_mm.max(f64::MIN_POSITIVE)).round() as u32,
+                spacing_mm,
+                auto: None,
+            };
+            (graph, stats, CacheOutcome::Loaded, path.clone(), resolution)
+        }
+        None => {
+            let resolution = args.object.resolution(
+                &object,
+                &field,
+                Some((&footprint_camera, frame_desc.height)),
+            );
+            let params = args.object.bake_params(&resolution);
+            // The bake cache with its size limit (least recently used bakes are evicted).
+            let (graph, stats, outcome, cache_file) =
+                crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+            (graph, stats, outcome, cache_file, resolution)
+        }
+    };
     let bake_s = start.elapsed().as_secs_f64();
     let finest_nodes = stats
         .levels

@@ -79,7 +79,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         args.voxel_soft,
     )?;
     let frame_desc = args.scene.frame_desc()?;
-    let lights = args.scene.lights()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => {
             let v: Vec<f64> = text
@@ -97,6 +96,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
+    let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
+    let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
+    let base_camera = frame_desc
+        .camera
+        .unwrap_or_else(|| crate::scene_args::default_camera(centre, radius, aspect));
+    // Without --light: the default lights placed relative to this camera.
+    let lights = args.scene.lights_for(&base_camera)?;
     let base_scene = scene::Scene {
         lights: lights.clone(),
         environment,
@@ -123,11 +129,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             ..ObjectParams::default()
         },
     )?;
-    let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-    let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
-    let base_camera = frame_desc
-        .camera
-        .unwrap_or_else(|| crate::scene_args::default_camera(centre, radius, aspect));
     translucent.set_camera(Some(base_camera))?;
     if let Some(choice) = args.method_choice {
         translucent.set_method_choice(choice)?;

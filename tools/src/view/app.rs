@@ -26,6 +26,11 @@ struct App {
     screenshots: u32,
     validation: bool,
     last_progress: Instant,
+    /// When the event loop last began an iteration, and the longest gap between two
+    /// iterations after the first frame (the window handles no event meanwhile): ms, and the
+    /// frame index drawn next when it ended.
+    last_iteration: Option<Instant>,
+    longest_stall: (f64, u64),
     #[cfg(feature = "hot-reload")]
     shaders: reload::ShaderWatch,
     result: anyhow::Result<()>,
@@ -155,6 +160,16 @@ impl App {
             return Ok(());
         };
         viewer.idle()?;
+        let (stall_ms, stall_frame) = self.longest_stall;
+        eprintln!(
+            "event loop: longest stall {stall_ms:.0} ms (before frame {stall_frame}); {} iteration(s) went back to the events while the GPU was busy",
+            viewer.busy_polls
+        );
+        viewer.log.event_loop = Some(serde_json::json!({
+            "longest_stall_ms": stall_ms,
+            "longest_stall_before_frame": stall_frame,
+            "busy_polls": viewer.busy_polls,
+        }));
         if let Some(path) = &self.setup.args.report {
             let extent = viewer
                 .swapchain
@@ -184,6 +199,18 @@ impl App {
 }
 
 impl ApplicationHandler for App {
+    fn new_events(&mut self, _: &ActiveEventLoop, _: winit::event::StartCause) {
+        let now = Instant::now();
+        // From the first drawn frame on (window and object creation come before it).
+        if let (Some(last), true) = (self.last_iteration, self.index > 0) {
+            let gap = (now - last).as_secs_f64() * 1e3;
+            if gap > self.longest_stall.0 {
+                self.longest_stall = (gap, self.index);
+            }
+        }
+        self.last_iteration = Some(now);
+    }
+
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
         if self.viewer.is_some() {
             return;
@@ -293,7 +320,10 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         .frame
         .camera
         .unwrap_or_else(|| crate::scene_args::default_camera(bounds.0, bounds.1, aspect));
-    let mut state = ViewState::new(camera, bounds, args.scene.lights()?);
+    // Without --light: the default lights placed relative to the starting camera. They stay in
+    // the world while the camera orbits (see the module page: an orbit only re-shades), and the
+    // right mouse button turns the key light from there.
+    let mut state = ViewState::new(camera, bounds, args.scene.lights_for(&camera)?);
     state.material = match (&args.material.volume, &args.material.sigma_a) {
         (None, None) => Some(
             args.material
@@ -327,6 +357,8 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         screenshots: 0,
         validation: std::env::var("TRANSLUCENT_VALIDATION").is_ok_and(|v| v == "1"),
         last_progress: Instant::now(),
+        last_iteration: None,
+        longest_stall: (0.0, 0),
         result: Ok(()),
     };
     event_loop
