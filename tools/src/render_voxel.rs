@@ -8,6 +8,7 @@
 
 use anyhow::{bail, Context as _};
 use glam::DQuat;
+use std::time::Instant;
 use translucent::frame::VoxelMethod;
 use translucent::headless::HeadlessHost;
 use translucent::scene::{self, Camera, Environment};
@@ -52,6 +53,7 @@ pub fn voxel_params(
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
     if args.solver != "gpu" {
         bail!("--method voxel runs on the GPU: --solver cpu is the QuadGraph's f64 reference");
     }
@@ -134,7 +136,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         translucent.set_method_choice(choice)?;
     }
     let mut method_choice = None;
-    let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
+    let supersample = crate::render::supersample_factor(args, frame_desc.width, frame_desc.height);
+    let mut host = HeadlessHost::new(
+        &ctx,
+        frame_desc.width * supersample,
+        frame_desc.height * supersample,
+    )?;
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     let mut last = None;
@@ -200,9 +207,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("--trace {}", path.display()))?;
     }
     let last = last.context("no frame rendered")?;
-    last.image
-        .write(&args.out, args.scene.exposure)
-        .with_context(|| format!("--out {}", args.out.display()))?;
+    crate::render::write_output(args, &last.image, supersample, started)?;
     if args.profile && !args.json {
         println!(
             "voxel grid {}x{}x{} ({} along the longest side), {:?} model, relaxation {} iterations{}",

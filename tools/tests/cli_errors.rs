@@ -278,3 +278,21 @@ fn render_graph_refuses_files_and_options_it_cannot_use() {
         "a refused render wrote its image"
     );
 }
+
+#[test]
+fn no_vulkan_driver_names_the_packages_to_install() {
+    let dir = scratch("no-driver");
+    // The loader with no driver to load (both the current and the older variable).
+    let line = error_line(
+        &["info"],
+        &dir,
+        &[
+            ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+            ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ],
+    );
+    assert!(
+        line.contains("found no driver") && line.contains("apt-get install mesa-vulkan-drivers"),
+        "{line}"
+    );
+}
