@@ -562,21 +562,21 @@ fn lit_mean(dir: &Path, name: &str, extra: &[&str]) -> (f64, usize) {
 }
 
 /// A camera on the far side of the object without `--light` must see it lit as the default
-/// view does: its default lights follow the camera. Measured (lavapipe): the far view is within
-/// a few per cent of the default one (the sphere's tessellation and the shadow maps differ by
-/// view), while the default lights kept in world directions show it at about a third (the
-/// unlit side, only light passed through the marble).
-const FOLLOWING_LIGHTS_MIN_RATIO: f64 = 0.8;
+/// view does: its default lights follow the camera. Measured (lavapipe): the far view's mean is
+/// 0.995 of the default one (the sphere's tessellation and the shadow maps differ by view),
+/// while the default lights kept in world directions show it at 0.56 (the side neither light
+/// reaches directly, lit by what passes through the marble).
+const FOLLOWING_LIGHTS_MIN_RATIO: f64 = 0.85;
 /// Fixed world lights seen from that side must be darker than this share of the default view
 /// (what makes the check above able to fail).
-const FIXED_LIGHTS_MAX_RATIO: f64 = 0.6;
+const FIXED_LIGHTS_MAX_RATIO: f64 = 0.75;
 
 #[test]
 fn default_lights_follow_a_custom_camera() {
     let dir = scratch("gpu-follow");
     let (home, home_pixels) = lit_mean(&dir, "home", &[]);
     // From below, behind and to the left: the side neither default light reaches directly.
-    let far = ["--camera", "-36,-42,24:0,0,0:30"];
+    let far = ["--camera=-36,-42,24:0,0,0:30"];
     let (follow, pixels) = lit_mean(&dir, "follow", &far);
     let mut fixed_args = far.to_vec();
     fixed_args.extend([
@@ -707,10 +707,16 @@ fn sphere_exr(dir: &Path, name: &str, size: [u32; 2], extra: &[&str]) -> Vec<[f3
     );
     let image = exr::prelude::read_first_rgba_layer_from_file(
         &exr,
-        |res, _| (res.width(), res.height(), Vec::<[f32; 3]>::new()),
-        |(_, _, px): &mut (usize, usize, Vec<[f32; 3]>), _, (r, g, b, _a): (f32, f32, f32, f32)| {
-            px.push([r, g, b])
+        |res, _| {
+            (
+                res.width(),
+                res.height(),
+                vec![[0.0f32; 3]; res.width() * res.height()],
+            )
         },
+        |(w, _, px): &mut (usize, usize, Vec<[f32; 3]>),
+         pos,
+         (r, g, b, _a): (f32, f32, f32, f32)| { px[pos.y() * *w + pos.x()] = [r, g, b] },
     )
     .unwrap_or_else(|e| panic!("{}: {e}", exr.display()));
     let (iw, ih, pixels) = image.layer_data.channel_data.pixels;
@@ -735,10 +741,10 @@ fn relative_rms(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
 
 /// `--supersample 2` (the default) against the 2x2 box average of a render twice the size with
 /// one sample per pixel: the same samples, so equal up to the GPU solve's run-to-run float
-/// order (the graph and scene are the same). Measured below 1e-5.
+/// order (the graph and scene are the same). Measured 0 (bit-equal).
 const SUPERSAMPLE_MATCH: f64 = 1e-3;
 /// One sample per pixel at the output size differs from that by its jagged silhouette (the
-/// sphere's edge pixels are all or nothing): measured ~0.05.
+/// sphere's edge pixels are all or nothing): measured 0.13.
 const JAGGED_DIFFERENCE: f64 = 1e-2;
 
 #[test]
