@@ -238,8 +238,7 @@ mod tests {
             assert!((*a - b).length() < DIRECTION_TOL, "{a} vs {b}");
         }
         // Each light keeps its angle to the view direction for cameras all around the object,
-        // looking along Y included; the key light stays behind the object (travels away from the
-        // eye) and comes from above on the screen.
+        // looking along Y included.
         let view = |c: &Camera| (c.target - c.eye).normalize();
         let reference: Vec<f64> = directions(&default_lights())
             .iter()
@@ -265,8 +264,9 @@ mod tests {
                     "{eye}: {d}"
                 );
             }
+            // The key is a back light: it travels towards the eye.
             assert!(
-                lights[0].dot(view(&camera)) > 0.5,
+                lights[0].dot(view(&camera)) < -0.5,
                 "{eye}: key {}",
                 lights[0]
             );
