@@ -23,7 +23,8 @@
 //! target (`translucent::render::COLOR_FORMAT`), the object's `record` (exactly as a host does:
 //! the object adds its passes and barriers, and hands the target back for sampling), then its
 //! own present pass ([`present`]: tone map and overlay into the swapchain image); it submits,
-//! presents and fences two frames in flight itself. A frame with nothing changed records only
+//! presents and fences two frames in flight itself, on a render thread (`app`: the window's
+//! event loop stays responsive while a long solve runs inside `vkQueueSubmit`). A frame with nothing changed records only
 //! the object's shading pass (the report says why each other pass was skipped).
 //!
 //! The clear and the present pass are host passes around `record`, not frame-graph passes: they
