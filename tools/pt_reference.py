@@ -67,7 +67,8 @@ PRESETS = {
     "wholemilk": ((2.55, 3.21, 3.77), (0.0011, 0.0024, 0.014), 1.3),
 }
 SHAPES = ("sphere", "torus", "box", "capsule")
-# `translucent render`'s lights when none is given (tools/src/scene_args.rs, default_lights).
+# `translucent render`'s lights when none is given, for its default camera (tools/src/scene_args.rs,
+# default_lights; render turns them with a --camera, so the printed command passes them explicitly).
 DEFAULT_LIGHTS = ["dir:0.2,-0.35,1:5,5,5", "dir:-0.6,-0.7,-0.4:0.6,0.6,0.6"]
 
 

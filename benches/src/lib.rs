@@ -7,7 +7,11 @@
 //! ```no_run
 //! use translucent_benches::plot::{error_vs_time, palette, Panel, Series};
 //! let panel = Panel {
-//!     series: vec![Series { colour: palette(0), points: vec![(10.0, 1e-2), (40.0, 1e-3)] }],
+//!     series: vec![Series {
+//!         name: "K4 mixed cold".into(),
+//!         colour: palette(0),
+//!         points: vec![(10.0, 1e-2), (40.0, 1e-3)],
+//!     }],
 //!     front: vec![(10.0, 1e-2), (40.0, 1e-3)],
 //!     floors: vec![5e-4],
 //! };
@@ -18,8 +22,8 @@ pub mod plot {
     //! Log-log plots without a font backend (this `plotters` build has none): decade tick labels
     //! are drawn with a built-in 3x5 pixel font holding only digits, `.`, `-` and `e`; the axis
     //! titles ([`X_TITLE`], [`Y_TITLE`]) with the 8x8 bitmap font of the `font8x8` crate (the y
-    //! title turned a quarter); series colours are written down where the plot is shown
-    //! (benches/RESULTS.md).
+    //! title turned a quarter) and the legend under each panel naming every series, the Pareto
+    //! front and the floor.
 
     use std::path::Path;
 
@@ -32,6 +36,8 @@ pub mod plot {
     /// Points of one family, joined in the order given (e.g. of decreasing error: measured times
     /// are noisy, and sorting by them would zigzag).
     pub struct Series {
+        /// Shown in the legend (printable ASCII; other characters are drawn as `?`).
+        pub name: String,
         pub colour: RGBColor,
         pub points: Vec<(f64, f64)>,
     }
@@ -156,14 +162,95 @@ pub mod plot {
         }
     }
 
-    /// Writes a PNG of the panels side by side (800 x 560 each): log-log, decade grid with
-    /// labels, each series in its colour (lines and dots), the front in black, floors in grey.
+    /// Height of the chart part of an [`error_vs_time`] panel (the legend goes below it).
+    const CHART_HEIGHT: u32 = 560;
+    /// The legend's columns per panel, and the pixels per column and per line.
+    const LEGEND_COLUMNS: usize = 2;
+    const LEGEND_COLUMN_WIDTH: i32 = 340;
+    const LEGEND_LINE: i32 = 14;
+
+    /// What one legend line shows before its name.
+    enum Swatch {
+        /// A series: a short line with a dot in its colour.
+        Series(RGBColor),
+        /// The Pareto front: a black line with a ring.
+        Front,
+        /// A floor: a grey line.
+        Floor,
+    }
+
+    /// The legend lines of `panel`: each series with points, the front, the floors.
+    fn legend(panel: &Panel) -> Vec<(Swatch, String)> {
+        let mut lines: Vec<(Swatch, String)> = panel
+            .series
+            .iter()
+            .filter(|s| !s.points.is_empty())
+            .map(|s| (Swatch::Series(s.colour), s.name.clone()))
+            .collect();
+        if !panel.front.is_empty() {
+            lines.push((Swatch::Front, "Pareto front".into()));
+        }
+        if !panel.floors.is_empty() {
+            lines.push((Swatch::Floor, "exact solution (floor)".into()));
+        }
+        lines
+    }
+
+    /// Draws `lines` in columns from `at` (top-left), cutting names to their column's width.
+    fn draw_legend(
+        area: &DrawingArea<BitMapBackend, Shift>,
+        lines: &[(Swatch, String)],
+        at: (i32, i32),
+    ) -> Result<()> {
+        let rows = lines.len().div_ceil(LEGEND_COLUMNS);
+        let fits = ((LEGEND_COLUMN_WIDTH - 40) / 8) as usize;
+        for (i, (swatch, name)) in lines.iter().enumerate() {
+            let (column, row) = (i / rows.max(1), i % rows.max(1));
+            let x = at.0 + column as i32 * LEGEND_COLUMN_WIDTH;
+            let y = at.1 + row as i32 * LEGEND_LINE;
+            let (a, b, mid) = ((x, y + 4), (x + 24, y + 4), (x + 12, y + 4));
+            match swatch {
+                Swatch::Series(colour) => {
+                    area.draw(&PathElement::new(vec![a, b], colour.stroke_width(1)))?;
+                    area.draw(&Circle::new(mid, 4, colour.filled()))?;
+                }
+                Swatch::Front => {
+                    area.draw(&PathElement::new(vec![a, b], BLACK.stroke_width(2)))?;
+                    area.draw(&Circle::new(mid, 5, BLACK.stroke_width(2)))?;
+                }
+                Swatch::Floor => {
+                    let grey = RGBColor(150, 150, 150);
+                    area.draw(&PathElement::new(vec![a, b], grey.stroke_width(2)))?;
+                }
+            }
+            let shown: String = if name.chars().count() > fits {
+                name.chars().take(fits - 1).chain(['~']).collect()
+            } else {
+                name.clone()
+            };
+            draw_text8(area, &shown, (x + 32, y), false, BLACK)?;
+        }
+        Ok(())
+    }
+
+    /// Writes a PNG of the panels side by side (700 x 560 each, and the legend below):
+    /// log-log, decade grid with labels, axis titles, each series in its colour (lines and
+    /// dots), the front in black, floors in grey, and a legend naming them.
     pub fn error_vs_time(path: &Path, panels: &[Panel]) -> Result<()> {
         let count = panels.len().max(1);
-        let root = BitMapBackend::new(path, (700 * count as u32, 560)).into_drawing_area();
+        let legend_rows = panels
+            .iter()
+            .map(|p| legend(p).len().div_ceil(LEGEND_COLUMNS))
+            .max()
+            .unwrap_or(0) as i32;
+        let legend_height = (legend_rows * LEGEND_LINE + 16) as u32;
+        let root = BitMapBackend::new(path, (700 * count as u32, CHART_HEIGHT + legend_height))
+            .into_drawing_area();
         root.fill(&WHITE)?;
-        let areas = root.split_evenly((1, count));
-        for (panel, area) in panels.iter().zip(&areas) {
+        let (charts, legends) = root.split_vertically(CHART_HEIGHT);
+        let areas = charts.split_evenly((1, count));
+        for (i, (panel, area)) in panels.iter().zip(&areas).enumerate() {
+            draw_legend(&legends, &legend(panel), (700 * i as i32 + 80, 4))?;
             let all = panel
                 .series
                 .iter()

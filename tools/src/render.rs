@@ -23,7 +23,7 @@ use translucent::scene;
 
 use glam::{DQuat, DVec3};
 use translucent::frame::{choose_method, MethodChoice, SceneTraits};
-use translucent::headless::{ExitanceMesh, HeadlessHost, HeadlessRenderer};
+use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRenderer};
 use translucent::scene::Camera;
 use translucent::scene::Environment;
 use translucent::scene::Light;
@@ -169,6 +169,12 @@ pub struct RenderArgs {
     /// object's pixels are unchanged. EXR stays linear radiance on black (DESIGN 8).
     #[arg(long)]
     pub backdrop: bool,
+    /// Anti-aliasing: render N x N samples per output pixel and average them (linear radiance,
+    /// before the tone map); 1 turns it off. Default 2: smooth silhouettes for 4x the shading
+    /// and read-back (not the solve; benches/RESULTS.md, "Anti-aliasing").
+    #[arg(long, value_name = "N", default_value_t = 2,
+          value_parser = clap::value_parser!(u32).range(1..=4))]
+    pub supersample: u32,
     /// Print the per-pass GPU milliseconds of the last frame.
     #[arg(long)]
     pub profile: bool,
@@ -182,6 +188,155 @@ pub struct RenderArgs {
     /// $XDG_CACHE_HOME/translucent, else ~/.cache/translucent).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
+    /// Render with this QuadGraph, written by `translucent bake --out FILE.qgraph`, instead of
+    /// baking or using the cache. It must be a bake of the surface the object options describe
+    /// (the --mesh or --shape, --size-mm and --up given to `bake`); the bake's own options
+    /// (--resolution, --levels, -K, --relax) are the file's and may not be given.
+    #[arg(
+        long,
+        value_name = "FILE.qgraph",
+        conflicts_with_all = ["resolution", "levels", "k", "relax", "cache_dir"]
+    )]
+    pub graph: Option<PathBuf>,
+}
+
+/// The samples per side `--supersample` renders with for a `width` x `height` image: at most
+/// the option, and no more than keeps the rendered image within 16384 pixels a side.
+pub(crate) fn supersample_factor(args: &RenderArgs, width: u32, height: u32) -> u32 {
+    let largest = width.max(height).max(1);
+    args.supersample.clamp(1, (16384 / largest).max(1))
+}
+
+/// The image rendered `factor` x `factor` times larger, averaged down to the output size (a box
+/// filter over linear radiance and coverage, so edges blend before the tone map).
+pub(crate) fn downsample(
+    image: &translucent::vk::capture::LinearImage,
+    factor: u32,
+) -> translucent::vk::capture::LinearImage {
+    if factor <= 1 {
+        return image.clone();
+    }
+    let (width, height) = (image.width / factor, image.height / factor);
+    let weight = 1.0 / (factor * factor) as f32;
+    let mut pixels = Vec::with_capacity((width * height) as usize);
+    for y in 0..height {
+        for x in 0..width {
+            let mut sum = [0.0f32; 4];
+            for sy in 0..factor {
+                let row = ((y * factor + sy) * image.width) as usize;
+                for sx in 0..factor {
+                    let p = image.pixels[row + (x * factor + sx) as usize];
+                    for c in 0..4 {
+                        sum[c] += p[c] * weight;
+                    }
+                }
+            }
+            pixels.push(sum);
+        }
+    }
+    translucent::vk::capture::LinearImage {
+        width,
+        height,
+        pixels,
+    }
+}
+
+/// What every method's render does with its last frame: averages the supersamples, refuses an
+/// image with no lit object pixel (unless `--allow-black`), adds the backdrop, writes `--out`
+/// and says so. Returns the written image.
+pub(crate) fn write_output(
+    args: &RenderArgs,
+    rendered: &translucent::vk::capture::LinearImage,
+    factor: u32,
+    started: Instant,
+) -> anyhow::Result<translucent::vk::capture::LinearImage> {
+    let mut image = downsample(rendered, factor);
+    // An EXR keeps any radiance (a dim scene is data); a PNG must show something.
+    let png = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let lit = lit_pixels(&image, png.then_some(args.scene.exposure));
+    if lit == 0 && !args.allow_black {
+        bail!(
+            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it{}? --allow-black writes it anyway",
+            args.out.display(),
+            if png { ", or is --exposure too low" } else { "" }
+        );
+    }
+    if args.backdrop {
+        crate::backdrop::composite(&mut image, args.scene.exposure);
+    }
+    image
+        .write(&args.out, args.scene.exposure)
+        .with_context(|| format!("--out {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({} x {}, {} ms)",
+        args.out.display(),
+        image.width,
+        image.height,
+        started.elapsed().as_millis()
+    );
+    Ok(image)
+}
+
+/// Why `render --graph FILE` cannot use FILE.
+#[derive(Debug, thiserror::Error)]
+pub enum GraphFileError {
+    /// Not a readable QuadGraph file of this format version (the library's error says which).
+    #[error("--graph: {source}")]
+    Load {
+        path: PathBuf,
+        #[source]
+        source: translucent::quadgraph::BakeError,
+    },
+    /// A graph baked from another surface than the one the object options describe.
+    #[error(
+        "--graph {path}: baked from another surface ({graph_vertices} vertices, {graph_triangles} triangles) than {object} ({vertices} vertices, {triangles} triangles); give the --mesh or --shape, --size-mm and --up that `translucent bake` was given"
+    )]
+    OtherSurface {
+        path: PathBuf,
+        object: String,
+        graph_vertices: usize,
+        graph_triangles: usize,
+        vertices: usize,
+        triangles: usize,
+    },
+    /// A method that does not read a QuadGraph.
+    #[error(
+        "--graph {path}: a QuadGraph is read by --method quadgraph only (--method {method} {why})"
+    )]
+    Method {
+        path: PathBuf,
+        method: String,
+        why: &'static str,
+    },
+}
+
+/// Loads `path` (`render --graph`) and checks that it is a bake of `object`'s surface: the
+/// graph keeps the surface it was baked from, compared exactly (the cache file stores the f64
+/// coordinates as they were).
+pub fn load_graph_file(
+    path: &Path,
+    object: &crate::object_args::Object,
+) -> Result<translucent::QuadGraph, GraphFileError> {
+    let graph =
+        translucent::QuadGraph::load(path, None).map_err(|source| GraphFileError::Load {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let (ours, theirs) = (&object.surface, &graph.surface);
+    if ours.positions != theirs.positions || ours.indices != theirs.indices {
+        return Err(GraphFileError::OtherSurface {
+            path: path.to_path_buf(),
+            object: object.name.clone(),
+            graph_vertices: theirs.positions.len(),
+            graph_triangles: theirs.indices.len(),
+            vertices: ours.positions.len(),
+            triangles: ours.indices.len(),
+        });
+    }
+    Ok(graph)
 }
 
 /// The default scene: a torus of skim milk, back lit (see `scene_args::default_lights`), so the
@@ -291,6 +446,22 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
     }
+    if let Some(path) = &args.graph {
+        let why = match args.method.as_str() {
+            "voxel" => "builds its voxel grid every frame",
+            "dipole" => "links the surface's triangles",
+            "auto" => "may pick another method: name quadgraph",
+            _ => "",
+        };
+        if !why.is_empty() {
+            return Err(GraphFileError::Method {
+                path: path.clone(),
+                method: args.method.clone(),
+                why,
+            }
+            .into());
+        }
+    }
     if args.method == "auto" {
         return run(&resolve_auto(args)?);
     }
@@ -356,7 +527,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("note: --solver cpu renders without single scattering (GPU pass only)");
     }
     let mut frame_desc = args.scene.frame_desc()?;
-    let lights = args.scene.lights()?;
+    // The options are checked before the bake; the default lights follow the camera (below).
+    args.scene.lights()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
         (None, Some(path)) => Environment::load_exr(path).context("--env")?,
@@ -372,6 +544,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
         frame_desc.camera = Some(crate::scene_args::default_camera(centre, radius, aspect));
     }
+    // Without --light: the default lights placed relative to the camera (`--camera` or the
+    // automatic framing), so a custom view is lit as the default one is.
+    let lights = args
+        .scene
+        .lights_for(&frame_desc.camera.context("the camera is set above")?)?;
+    // Anti-aliasing: the frames are rendered this many times larger per side.
+    let supersample = supersample_factor(args, frame_desc.width, frame_desc.height);
     if args.method == "dipole" {
         let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
         std::fs::create_dir_all(&cache_dir)
@@ -386,21 +565,40 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             },
             frame_desc,
             cache_dir,
+            started,
         });
     }
     // `--resolution auto`: from the material and the pixel footprint of the object for the
     // camera this render uses (the automatic framing when none is given).
     let footprint_camera = frame_desc.camera.context("the camera is set above")?;
-    let resolution = args.object.resolution(
-        &object,
-        &field,
-        Some((&footprint_camera, frame_desc.height)),
-    );
-    let params = args.object.bake_params(&resolution);
     let start = Instant::now();
-    // The bake cache with its size limit (least recently used bakes are evicted).
-    let (graph, stats, outcome, cache_file) =
-        crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+    let (graph, stats, outcome, cache_file, resolution) = match &args.graph {
+        // `--graph FILE`: the bake `translucent bake` wrote, with its own resolution.
+        Some(path) => {
+            let graph = load_graph_file(path, &object)?;
+            let stats = graph.stats();
+            let spacing_mm = stats.levels.last().map_or(0.0, |l| l.spacing_mm);
+            let (lo, hi) = object.bounds();
+            let resolution = crate::object_args::Resolution {
+                cells: ((hi - lo).max_element() / spacing_mm.max(f64::MIN_POSITIVE)).round() as u32,
+                spacing_mm,
+                auto: None,
+            };
+            (graph, stats, CacheOutcome::Loaded, path.clone(), resolution)
+        }
+        None => {
+            let resolution = args.object.resolution(
+                &object,
+                &field,
+                Some((&footprint_camera, frame_desc.height)),
+            );
+            let params = args.object.bake_params(&resolution);
+            // The bake cache with its size limit (least recently used bakes are evicted).
+            let (graph, stats, outcome, cache_file) =
+                crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+            (graph, stats, outcome, cache_file, resolution)
+        }
+    };
     let bake_s = start.elapsed().as_secs_f64();
     let finest_nodes = stats
         .levels
@@ -527,7 +725,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if let Some(choice) = args.method_choice {
             translucent.set_method_choice(choice)?;
         }
-        let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
+        let mut host = HeadlessHost::new(
+            &ctx,
+            frame_desc.width * supersample,
+            frame_desc.height * supersample,
+        )?;
         let bar = crate::progress::spinner();
         for i in 0..args.frames {
             bar.set_message(format!(
@@ -640,7 +842,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         };
         // The same frame as the GPU path's (shadow maps, shading with the environment's mirror
         // reflection), with the f64 solution as the given exitance.
-        let mut renderer = HeadlessRenderer::new(&ctx, &mesh, &solver_scene, &frame_desc)?;
+        let supersampled = FrameDesc {
+            width: frame_desc.width * supersample,
+            height: frame_desc.height * supersample,
+            ..frame_desc.clone()
+        };
+        let mut renderer = HeadlessRenderer::new(&ctx, &mesh, &solver_scene, &supersampled)?;
         for i in 0..args.frames {
             let captured = renderer.render_frame(&ctx)?;
             let iterations: Vec<usize> = match (&solution, i) {
@@ -660,33 +867,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
     }
     let last = last.context("no frame rendered")?;
-    // An EXR keeps any radiance (a dim scene is data); a PNG must show something.
-    let png = args
-        .out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    let lit = lit_pixels(&last.image, png.then_some(args.scene.exposure));
-    if lit == 0 && !args.allow_black {
-        bail!(
-            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it{}? --allow-black writes it anyway",
-            args.out.display(),
-            if png { ", or is --exposure too low" } else { "" }
-        );
-    }
-    let mut image = last.image.clone();
-    if args.backdrop {
-        crate::backdrop::composite(&mut image, args.scene.exposure);
-    }
-    image
-        .write(&args.out, args.scene.exposure)
-        .with_context(|| format!("--out {}", args.out.display()))?;
-    eprintln!(
-        "wrote {} ({} x {}, {} ms)",
-        args.out.display(),
-        last.image.width,
-        last.image.height,
-        started.elapsed().as_millis()
-    );
+    write_output(args, &last.image, supersample, started)?;
 
     // The last frame's GPU scopes in execution order (nested ones indented) and its total.
     let profile = last.timings.as_ref().map(profile_in_order);

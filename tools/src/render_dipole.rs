@@ -32,6 +32,8 @@ pub struct DipoleRender<'a> {
     pub scene: Scene,
     pub frame_desc: translucent::headless::FrameDesc,
     pub cache_dir: std::path::PathBuf,
+    /// When the command started (for the `wrote` line).
+    pub started: Instant,
 }
 
 pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
@@ -118,7 +120,13 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         object.set_method_choice(choice)?;
     }
     let mut method_choice = None;
-    let mut host = HeadlessHost::new(&ctx, r.frame_desc.width, r.frame_desc.height)?;
+    let supersample =
+        crate::render::supersample_factor(args, r.frame_desc.width, r.frame_desc.height);
+    let mut host = HeadlessHost::new(
+        &ctx,
+        r.frame_desc.width * supersample,
+        r.frame_desc.height * supersample,
+    )?;
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     let mut last = None;
@@ -162,9 +170,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         crate::render::write_trace(path, &FrameTimings::chrome_trace(&timings).to_string())?;
     }
     let last = last.context("no frame rendered")?;
-    last.image
-        .write(&args.out, args.scene.exposure)
-        .with_context(|| format!("--out {}", args.out.display()))?;
+    crate::render::write_output(args, &last.image, supersample, r.started)?;
 
     // Energy on the CPU, in f64 (render mode with shadow rays against the display mesh, whose
     // triangle centroids lie inside a procedural shape's own solid): sum E A and sum M A over the

@@ -8,6 +8,7 @@
 
 use anyhow::{bail, Context as _};
 use glam::DQuat;
+use std::time::Instant;
 use translucent::frame::VoxelMethod;
 use translucent::headless::HeadlessHost;
 use translucent::scene::{self, Camera, Environment};
@@ -52,6 +53,7 @@ pub fn voxel_params(
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
     if args.solver != "gpu" {
         bail!("--method voxel runs on the GPU: --solver cpu is the QuadGraph's f64 reference");
     }
@@ -79,7 +81,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         args.voxel_soft,
     )?;
     let frame_desc = args.scene.frame_desc()?;
-    let lights = args.scene.lights()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => {
             let v: Vec<f64> = text
@@ -97,6 +98,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
+    let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
+    let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
+    let base_camera = frame_desc
+        .camera
+        .unwrap_or_else(|| crate::scene_args::default_camera(centre, radius, aspect));
+    // Without --light: the default lights placed relative to this camera.
+    let lights = args.scene.lights_for(&base_camera)?;
     let base_scene = scene::Scene {
         lights: lights.clone(),
         environment,
@@ -123,17 +131,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             ..ObjectParams::default()
         },
     )?;
-    let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-    let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
-    let base_camera = frame_desc
-        .camera
-        .unwrap_or_else(|| crate::scene_args::default_camera(centre, radius, aspect));
     translucent.set_camera(Some(base_camera))?;
     if let Some(choice) = args.method_choice {
         translucent.set_method_choice(choice)?;
     }
     let mut method_choice = None;
-    let mut host = HeadlessHost::new(&ctx, frame_desc.width, frame_desc.height)?;
+    let supersample = crate::render::supersample_factor(args, frame_desc.width, frame_desc.height);
+    let mut host = HeadlessHost::new(
+        &ctx,
+        frame_desc.width * supersample,
+        frame_desc.height * supersample,
+    )?;
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     let mut last = None;
@@ -199,9 +207,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("--trace {}", path.display()))?;
     }
     let last = last.context("no frame rendered")?;
-    last.image
-        .write(&args.out, args.scene.exposure)
-        .with_context(|| format!("--out {}", args.out.display()))?;
+    crate::render::write_output(args, &last.image, supersample, started)?;
     if args.profile && !args.json {
         println!(
             "voxel grid {}x{}x{} ({} along the longest side), {:?} model, relaxation {} iterations{}",

@@ -3,7 +3,7 @@
 //! naming the option.
 
 use anyhow::{bail, Context as _};
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use translucent::headless::FrameDesc;
 use translucent::scene::{Camera, Light, RadianceMode};
 
@@ -11,7 +11,9 @@ use translucent::scene::{Camera, Light, RadianceMode};
 pub struct SceneArgs {
     /// `dir:X,Y,Z:R,G,B` (direction the light travels, irradiance), `point:X,Y,Z:R,G,B`
     /// (intensity) or `spot:X,Y,Z:DX,DY,DZ:R,G,B:INNER_DEG,OUTER_DEG`; repeatable.
-    /// Default: a back light (dir:0.2,-0.35,1:5,5,5) and a dim front fill (dir:-0.6,-0.7,-0.4:0.6,0.6,0.6).
+    /// Default: a back light and a dim front fill placed relative to the camera (for the default
+    /// camera: dir:0.2,-0.35,1:5,5,5 and dir:-0.6,-0.7,-0.4:0.6,0.6,0.6; a `--camera` elsewhere
+    /// turns both with it, so the object is lit the same way from any side).
     #[arg(long = "light")]
     pub lights: Vec<String>,
     /// `X,Y,Z:TX,TY,TZ:FOVY_DEG`: eye, target, vertical field of view. Default: auto-framed.
@@ -54,8 +56,9 @@ fn vec3(option: &str, text: &str) -> anyhow::Result<DVec3> {
     Ok(DVec3::from_array(numbers::<3>(option, text)?))
 }
 
-/// The default scene's lights: a back light that shows the light passing through the object, and
-/// a dim fill from the front so its shape reads.
+/// The default scene's lights for the default camera ([`default_camera`]'s view direction): a
+/// back light that shows the light passing through the object, and a dim fill from the front so
+/// its shape reads. [`default_lights_for`] turns them to another camera.
 pub fn default_lights() -> Vec<Light> {
     vec![
         Light::Directional {
@@ -67,6 +70,34 @@ pub fn default_lights() -> Vec<Light> {
             irradiance: [0.6; 3],
         },
     ]
+}
+
+/// The camera's frame as a rotation taking (right, up, back) = (+X, +Y, +Z) to the camera's
+/// right, up and back (towards the eye) directions; the up hint is +Y as in
+/// `Camera::view_proj` (+Z when looking along Y).
+fn camera_frame(camera: &Camera) -> DQuat {
+    let back = (camera.eye - camera.target).normalize();
+    let hint = if back.cross(DVec3::Y).length() < 1e-6 {
+        DVec3::Z
+    } else {
+        DVec3::Y
+    };
+    let right = hint.cross(back).normalize();
+    let up = back.cross(right);
+    DQuat::from_mat3(&glam::DMat3::from_cols(right, up, back))
+}
+
+/// The default lights placed relative to `camera`: [`default_lights`] turned by the rotation
+/// that takes the default camera's view to this one, so the key light stays behind the object
+/// (slightly above and to the right of the view direction) and the fill in front above-left,
+/// whichever side the camera looks from. For the default camera they are [`default_lights`].
+pub fn default_lights_for(camera: &Camera) -> Vec<Light> {
+    let reference = default_camera(DVec3::ZERO, 1.0, 1.0);
+    let turn = camera_frame(camera) * camera_frame(&reference).inverse();
+    default_lights()
+        .iter()
+        .map(|light| light.rotated(turn))
+        .collect()
 }
 
 /// The azimuth (from +Z towards +X) and elevation of the default camera: a three-quarter view
@@ -119,11 +150,22 @@ pub fn parse_camera(text: &str) -> anyhow::Result<Camera> {
 }
 
 impl SceneArgs {
+    /// The `--light` values, or the default lights for the default camera (to check the
+    /// options; a render uses [`SceneArgs::lights_for`]).
     pub fn lights(&self) -> anyhow::Result<Vec<Light>> {
         if self.lights.is_empty() {
             return Ok(default_lights());
         }
         self.lights.iter().map(|l| parse_light(l)).collect()
+    }
+
+    /// The `--light` values, or without any the default lights placed relative to `camera`
+    /// (the `--camera` or the automatic framing): [`default_lights_for`].
+    pub fn lights_for(&self, camera: &Camera) -> anyhow::Result<Vec<Light>> {
+        if self.lights.is_empty() {
+            return Ok(default_lights_for(camera));
+        }
+        self.lights()
     }
 
     pub fn frame_desc(&self) -> anyhow::Result<FrameDesc> {
@@ -169,6 +211,66 @@ mod tests {
         assert_eq!(camera.fovy_deg, framed.fovy_deg);
         // From the front right and above, neither axis-aligned nor from behind.
         assert!(d.x > 0.3 * d.length() && d.y > 0.3 * d.length() && d.z > 0.5 * d.length());
+    }
+
+    /// Directions equal to rounding (the rotation is built from normalised f64 vectors).
+    const DIRECTION_TOL: f64 = 1e-9;
+
+    fn directions(lights: &[Light]) -> Vec<DVec3> {
+        lights
+            .iter()
+            .map(|l| match l {
+                Light::Directional { direction, .. } => *direction,
+                other => panic!("the defaults are directional, got {other:?}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn default_lights_follow_the_camera() {
+        let centre = DVec3::new(5.0, -2.0, 1.0);
+        // The default camera (any centre, radius, aspect) keeps the documented directions.
+        let home = default_camera(centre, 30.0, 1.5);
+        for (a, b) in directions(&default_lights_for(&home))
+            .iter()
+            .zip(directions(&default_lights()))
+        {
+            assert!((*a - b).length() < DIRECTION_TOL, "{a} vs {b}");
+        }
+        // Each light keeps its angle to the view direction for cameras all around the object,
+        // looking along Y included.
+        let view = |c: &Camera| (c.target - c.eye).normalize();
+        let reference: Vec<f64> = directions(&default_lights())
+            .iter()
+            .map(|d| d.dot(view(&home)))
+            .collect();
+        for eye in [
+            DVec3::new(0.0, 0.0, -100.0),
+            DVec3::new(-60.0, -70.0, 40.0),
+            DVec3::new(0.0, 100.0, 0.0),
+            DVec3::new(0.0, -100.0, 0.0),
+            DVec3::new(100.0, 0.0, 0.0),
+        ] {
+            let camera = Camera {
+                eye: centre + eye,
+                target: centre,
+                fovy_deg: 30.0,
+            };
+            let lights = directions(&default_lights_for(&camera));
+            for (d, r) in lights.iter().zip(&reference) {
+                assert!((d.length() - 1.0).abs() < DIRECTION_TOL);
+                assert!(
+                    (d.dot(view(&camera)) - r).abs() < DIRECTION_TOL,
+                    "{eye}: {d}"
+                );
+            }
+            // The key is a back light: it travels towards the eye.
+            assert!(
+                lights[0].dot(view(&camera)) < -0.5,
+                "{eye}: key {}",
+                lights[0]
+            );
+        }
     }
 
     #[test]

@@ -71,7 +71,16 @@ fn a_tiny_sweep_measures_all_three_errors_and_the_exact_row_is_its_own_zero() {
     // The reference image: the exact (CPU) solution of the same scene, rendered by `render`.
     let reference = dir.join("reference.exr");
     let mut args = vec![
-        "render", "--solver", "cpu", "--width", "48", "--height", "40",
+        "render",
+        "--solver",
+        "cpu",
+        "--width",
+        "48",
+        "--height",
+        "40",
+        // The bench draws one sample per pixel.
+        "--supersample",
+        "1",
     ];
     args.extend(SCENE);
     args.extend(["--out", reference.to_str().expect("utf-8")]);

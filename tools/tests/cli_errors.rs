@@ -181,3 +181,118 @@ fn limits_are_named_with_the_variable_that_raises_them() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn render_graph_refuses_files_and_options_it_cannot_use() {
+    let dir = scratch("graph-errors");
+    let path = |name: &str| dir.join(name).to_str().expect("utf-8").to_string();
+    let (sphere, out) = (path("sphere.qgraph"), path("x.png"));
+    let baked = translucent(
+        &[
+            "bake",
+            "--shape",
+            "sphere",
+            "--size-mm",
+            "20",
+            "--resolution",
+            "12",
+            "--levels",
+            "2",
+            "--out",
+            &sphere,
+        ],
+        &dir,
+    );
+    assert!(
+        baked.status.success(),
+        "{}",
+        String::from_utf8_lossy(&baked.stderr)
+    );
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", "--size-mm", "20", "--out", &out];
+        args.extend(extra);
+        error_line(&args, &dir, &[])
+    };
+    // Not a graph at all.
+    let text = path("notes.qgraph");
+    std::fs::write(&text, "not a graph\n").expect("write");
+    let line = render(&["--shape", "sphere", "--graph", &text]);
+    assert!(
+        line.contains("--graph") && line.contains("not a QuadGraph cache file"),
+        "{line}"
+    );
+    // Another format version (the header's version field, bytes 8..12).
+    let mut bytes = std::fs::read(&sphere).expect("read the bake");
+    bytes[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+    let old = path("old.qgraph");
+    std::fs::write(&old, &bytes).expect("write");
+    let line = render(&["--shape", "sphere", "--graph", &old]);
+    assert!(line.contains("format version"), "{line}");
+    // Baked from another surface: the default torus, or the sphere at another size.
+    let line = render(&["--graph", &sphere]);
+    assert!(
+        line.contains("baked from another surface") && line.contains("shape-torus"),
+        "{line}"
+    );
+    let line = error_line(
+        &[
+            "render",
+            "--shape",
+            "sphere",
+            "--size-mm",
+            "30",
+            "--graph",
+            &sphere,
+            "--out",
+            &out,
+        ],
+        &dir,
+        &[],
+    );
+    assert!(line.contains("baked from another surface"), "{line}");
+    // Methods that read no QuadGraph.
+    for method in ["voxel", "dipole", "auto"] {
+        let line = render(&["--shape", "sphere", "--graph", &sphere, "--method", method]);
+        assert!(
+            line.contains("--method quadgraph only") && line.contains(method),
+            "{line}"
+        );
+    }
+    // The bake's own options are the file's (a usage error from the option parser: exit 2).
+    for (option, value) in [("--levels", "3"), ("--resolution", "24"), ("-K", "0")] {
+        let o = translucent(
+            &[
+                "render", "--shape", "sphere", "--graph", &sphere, option, value, "--out", &out,
+            ],
+            &dir,
+        );
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{option}: {stderr}");
+        assert!(
+            stderr.contains("--graph") && stderr.contains("cannot be used"),
+            "{stderr}"
+        );
+    }
+    assert!(
+        !dir.join("x.png").exists(),
+        "a refused render wrote its image"
+    );
+}
+
+#[test]
+fn no_vulkan_driver_names_the_packages_to_install() {
+    let dir = scratch("no-driver");
+    // The loader with no driver to load (both the current and the older variable).
+    let line = error_line(
+        &["info"],
+        &dir,
+        &[
+            ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+            ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ],
+    );
+    assert!(
+        line.contains("found no driver") && line.contains("apt-get install mesa-vulkan-drivers"),
+        "{line}"
+    );
+}

@@ -11,7 +11,8 @@
 //! - A command with `[`, `|` or `...` is a synopsis, not an example: listed, not run.
 //!
 //! CI runs the rest with small images and lattices: `render` gets `--width 64 --height 64` and
-//! `render`/`bake` get `--resolution 16 --levels 2` unless the command sets them (these options
+//! `render`/`bake` get `--resolution 16 --levels 2` unless the command sets them (or `render` reads
+//! a `--graph`, which fixes them) (these options
 //! change sizes, not what the command exercises). `TRANSLUCENT_README_AS_WRITTEN=1` runs the
 //! commands exactly as written (minutes on lavapipe).
 
@@ -138,7 +139,8 @@ fn small(args: &[String]) -> Vec<String> {
             }
         }
     }
-    if matches!(sub, Some("render" | "bake")) {
+    // `render --graph FILE` takes the bake's options from the file (giving them is refused).
+    if matches!(sub, Some("render" | "bake")) && !has("--graph") {
         for (o, v) in [("--resolution", "16"), ("--levels", "2")] {
             if !has(o) {
                 out.extend([o.to_string(), v.to_string()]);

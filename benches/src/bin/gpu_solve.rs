@@ -272,7 +272,8 @@ fn plot(path: &Path, series: &[(u32, Vec<(f64, f64)>)]) -> Result<()> {
         series: series
             .iter()
             .enumerate()
-            .map(|(i, (_, points))| Series {
+            .map(|(i, (levels, points))| Series {
+                name: format!("{levels} levels"),
                 colour: palette(i),
                 points: points.clone(),
             })

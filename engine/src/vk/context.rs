@@ -242,7 +242,7 @@ impl Context {
         }
         // SAFETY: every pointer in `instance_info` refers to locals alive across the call.
         let instance = unsafe { entry.create_instance(&instance_info, None) }
-            .map_err(VkError::call("vkCreateInstance"))?;
+            .map_err(VkError::create_instance)?;
         let messenger = if use_messenger {
             let utils = ash::ext::debug_utils::Instance::new(&entry, &instance);
             // A fresh struct: the one chained into the instance has its `p_next` rewritten.

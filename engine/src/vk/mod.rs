@@ -74,6 +74,9 @@ pub enum VkError {
     },
     #[error("cannot load the Vulkan loader (libvulkan.so.1): {0}; {INSTALL_HINT}")]
     Loader(String),
+    /// The loader found no driver (vkCreateInstance: VK_ERROR_INCOMPATIBLE_DRIVER).
+    #[error("the Vulkan loader found no driver (vkCreateInstance: {result}); {INSTALL_HINT}")]
+    NoDriver { result: ash::vk::Result },
     #[error("no Vulkan device{}; available: [{}]; {INSTALL_HINT}",
         .wanted.as_ref().map(|w| format!(" whose name contains {w:?} (TRANSLUCENT_DEVICE)")).unwrap_or_default(),
         .available.join(", "))]
@@ -109,6 +112,17 @@ pub enum VkError {
 }
 
 impl VkError {
+    /// vkCreateInstance's failure: no driver (with the install hint) or the call's result.
+    pub fn create_instance(result: ash::vk::Result) -> VkError {
+        match result {
+            ash::vk::Result::ERROR_INCOMPATIBLE_DRIVER => VkError::NoDriver { result },
+            result => VkError::Call {
+                call: "vkCreateInstance",
+                result,
+            },
+        }
+    }
+
     /// Wraps a failed call's result; use as `.map_err(VkError::call("vkCreateImage"))`.
     pub fn call(call: &'static str) -> impl Fn(ash::vk::Result) -> VkError {
         move |result| VkError::Call { call, result }

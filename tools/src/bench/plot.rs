@@ -21,9 +21,10 @@ pub(super) fn replot(dir: &Path) -> anyhow::Result<()> {
             .position(|h| *h == name)
             .with_context(|| format!("{}: no column {name}", csv_path.display()))
     };
-    let [solver, family, ms, discrete, closed, image, front_d, front_i] = [
+    let [solver, family, family_name, ms, discrete, closed, image, front_d, front_i] = [
         "solver",
         "family",
+        "family_name",
         "solve_gpu_ms",
         "solver_all",
         "closed_form_all",
@@ -32,7 +33,8 @@ pub(super) fn replot(dir: &Path) -> anyhow::Result<()> {
         "pareto_image",
     ]
     .map(column);
-    let (solver, family, ms, discrete) = (solver?, family?, ms?, discrete?);
+    let (solver, family, family_name, ms) = (solver?, family?, family_name?, ms?);
+    let discrete = discrete?;
     let (closed, image, front_d, front_i) = (closed?, image?, front_d?, front_i?);
     let mut rows = Vec::new();
     for (n, line) in lines.enumerate() {
@@ -57,6 +59,7 @@ pub(super) fn replot(dir: &Path) -> anyhow::Result<()> {
                 "gpu"
             },
             family: cells[family].parse().map_err(|_| bad())?,
+            family_name: cells[family_name].to_string(),
             solve_gpu_ms: number(ms)?,
             solver_error: all(discrete)?.unwrap_or([None; 4]),
             closed_form: all(closed)?,
@@ -77,8 +80,8 @@ pub(super) fn colour_name(family: usize) -> String {
     palette_hex(family)
 }
 
-/// Log-log error against solve GPU ms (`translucent_benches::plot`): one colour per family, the
-/// Pareto front in black. Left: error (a); right (when any row has one): error (c) or (b), with
+/// Log-log error against solve GPU ms (`translucent_benches::plot`): one colour per family (named
+/// in the legend), the Pareto front in black. Left: error (a); right (when any row has one): error (c) or (b), with
 /// each exact row's value (the floor) as a grey line.
 pub(super) fn plot(path: &Path, rows: &[Row]) -> Result<(), Box<dyn std::error::Error>> {
     type ErrorOf<'a> = &'a dyn Fn(&Row) -> Option<f64>;
@@ -97,6 +100,10 @@ pub(super) fn plot(path: &Path, rows: &[Row]) -> Result<(), Box<dyn std::error::
             Panel {
                 series: (0..families)
                     .map(|f| Series {
+                        name: rows
+                            .iter()
+                            .find(|r| r.family == f)
+                            .map_or_else(String::new, |r| r.family_name.clone()),
                         colour: palette(f),
                         points: rows
                             .iter()

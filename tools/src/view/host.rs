@@ -107,13 +107,15 @@ impl Host {
             info = info.push_next(&mut features);
         }
         // SAFETY: every pointer in `info` refers to locals or statics alive across the call.
-        let instance = unsafe { entry.create_instance(&info, None) }.with_context(|| {
-            if validation {
-                "vkCreateInstance (validation asked for: is vulkan-validationlayers installed?)"
-            } else {
-                "vkCreateInstance"
-            }
-        })?;
+        let instance = unsafe { entry.create_instance(&info, None) }
+            .map_err(translucent::vk::VkError::create_instance)
+            .with_context(|| {
+                if validation {
+                    "vkCreateInstance (validation asked for: is vulkan-validationlayers installed?)"
+                } else {
+                    "vkCreateInstance"
+                }
+            })?;
         let surface_loader = ash::khr::surface::Instance::new(&entry, &instance);
         let mut parts = InstanceParts {
             entry,

@@ -4,6 +4,13 @@
 //! ([`controls::BINDINGS`]); an overlay shows per-pass GPU ms, iterations per level and every
 //! skipped pass with its reason.
 //!
+//! Lights: without `--light` the default lights are placed relative to the starting camera
+//! (`--camera` or the automatic framing; `scene_args::default_lights_for`), as `translucent
+//! render` places them. While the camera orbits they stay fixed in the world: orbiting then
+//! shows the object's lit and back-lit sides and re-runs only the shading pass (lights that
+//! followed the camera would re-solve the diffusion at every mouse move). The right mouse button
+//! turns the key light from there; `r` (reset camera) does not move the lights.
+//!
 //! ```text
 //! translucent view                                   # the default scene: a back-lit milk torus
 //! translucent view --mesh ../shared/meshes/spot.obj --material skin1
@@ -16,7 +23,8 @@
 //! target (`translucent::render::COLOR_FORMAT`), the object's `record` (exactly as a host does:
 //! the object adds its passes and barriers, and hands the target back for sampling), then its
 //! own present pass ([`present`]: tone map and overlay into the swapchain image); it submits,
-//! presents and fences two frames in flight itself. A frame with nothing changed records only
+//! presents and fences two frames in flight itself, on a render thread (`app`: the window's
+//! event loop stays responsive while a long solve runs inside `vkQueueSubmit`). A frame with nothing changed records only
 //! the object's shading pass (the report says why each other pass was skipped).
 //!
 //! The clear and the present pass are host passes around `record`, not frame-graph passes: they
@@ -77,6 +85,10 @@ pub use app::run;
 
 /// Frames the viewer keeps in flight (command buffers, fences, profiler slots).
 const IN_FLIGHT: usize = 2;
+/// How long one event-loop iteration waits for the GPU before it goes back to the window's
+/// events (the frame is tried again on the next iteration): short enough that input and
+/// window events keep flowing during a long solve, long enough not to spin a core.
+const GPU_POLL: Duration = Duration::from_millis(4);
 /// Timestamp scopes per frame: a whole cold solve has two per Jacobi block and level.
 const PROFILER_SCOPES: u32 = 4096;
 /// The material when no material option is given (as `render`).
@@ -271,6 +283,15 @@ struct Viewer {
     log: FrameLog,
     /// When the last frame began recording (for the report's `interval_ms`).
     last_draw: Option<Instant>,
+    /// Since when the GPU has been busy with an earlier frame while a new one waits (`None`:
+    /// not waiting); the window's title says so.
+    busy_since: Option<Instant>,
+    /// The title says the GPU is busy.
+    busy_titled: bool,
+    /// The object's name (the window's title).
+    name: String,
+    /// Event-loop iterations that found the GPU busy and went back to the events.
+    pub(super) busy_polls: u64,
     host: Host,
     window: Arc<Window>,
 }
@@ -354,9 +375,36 @@ impl Viewer {
             last_report: None,
             log: FrameLog::default(),
             last_draw: None,
+            busy_since: None,
+            busy_titled: false,
+            name: setup.name.clone(),
+            busy_polls: 0,
             host,
             window,
         })
+    }
+
+    /// Notes whether the next frame waits for the GPU: after BUSY_TITLE_AFTER of waiting the
+    /// window's title says the GPU is working (the last image stays on screen).
+    fn set_busy(&mut self, busy: bool) {
+        const BUSY_TITLE_AFTER: Duration = Duration::from_millis(250);
+        let title = |extra: &str| format!("translucent view: {}{extra}", self.name);
+        match (busy, self.busy_since) {
+            (true, None) => self.busy_since = Some(Instant::now()),
+            (true, Some(t)) if t.elapsed() >= BUSY_TITLE_AFTER && !self.busy_titled => {
+                self.window.set_title(&title(" (GPU busy: solving...)"));
+                self.busy_titled = true;
+            }
+            (false, Some(_)) => {
+                self.busy_since = None;
+                if self.busy_titled {
+                    self.window.set_title(&title(""));
+                    self.busy_titled = false;
+                }
+            }
+            _ => {}
+        }
+        self.busy_polls += u64::from(busy);
     }
 
     /// Waits for the GPU and tells the library every frame recorded so far is complete.
@@ -452,8 +500,19 @@ impl Viewer {
             self.slots.fences[slot],
             self.slots.acquired[slot],
         );
+        // The slot's last frame must complete before its command buffer is reused, but the
+        // event loop does not wait for it beyond GPU_POLL: while the GPU is busy (a cold solve
+        // is one long submission) the window keeps taking input, shows the last image, says so
+        // in its title, and the next loop iteration tries again.
         // SAFETY: the fence belongs to this device.
-        unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }.context("vkWaitForFences")?;
+        match unsafe { d.wait_for_fences(&[fence], true, GPU_POLL.as_nanos() as u64) } {
+            Ok(()) => self.set_busy(false),
+            Err(vk::Result::TIMEOUT) => {
+                self.set_busy(true);
+                return Ok(None);
+            }
+            Err(e) => return Err(e).context("vkWaitForFences"),
+        }
         // The slot's last frame (host_frame - IN_FLIGHT) and every earlier one are done.
         let completed = host_frame.saturating_sub(IN_FLIGHT as u64);
         self.collect(completed)?;

@@ -76,6 +76,9 @@ impl FrameEntry {
 #[derive(Debug, Default)]
 pub struct FrameLog {
     pub frames: BTreeMap<u64, FrameEntry>,
+    /// How responsive the window stayed: the longest gap between two event-loop iterations
+    /// after the first frame, and how often a frame waited for the GPU (set at exit).
+    pub event_loop: Option<Value>,
 }
 
 impl FrameLog {
@@ -98,7 +101,8 @@ impl FrameLog {
         }
     }
 
-    /// Writes the report: `device`, `frames`, `final` (the scene) and `validation_messages`.
+    /// Writes the report: `device`, `frames`, `final` (the scene), `event_loop` and
+    /// `validation_messages`.
     pub fn write(
         &self,
         path: &Path,
@@ -110,6 +114,7 @@ impl FrameLog {
             "device": device,
             "frames": self.frames.values().map(FrameEntry::json).collect::<Vec<_>>(),
             "final": final_scene,
+            "event_loop": self.event_loop,
             "validation_messages": validation_messages,
         });
         let text = serde_json::to_string_pretty(&report)?;

@@ -270,6 +270,8 @@ impl Setup {
         push("--camera", camera_arg(&state.camera));
         push("--width", extent[0].to_string());
         push("--height", extent[1].to_string());
+        // The viewer draws one sample per pixel.
+        push("--supersample", "1".into());
         push("--radiance", a.scene.radiance.clone());
         push("--exposure", a.scene.exposure.to_string());
         push("--scheme", a.scheme.clone());
