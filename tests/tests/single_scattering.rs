@@ -5,7 +5,9 @@
 //! every light kind. The pass is recorded only when it is on.
 
 use glam::DVec3;
-use translucent::frame::{ScatterMode, ScatterParams, PASS_SINGLE_SCATTERING};
+use translucent::frame::{
+    ScatterMode, ScatterParams, SkipReason, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
+};
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, TriMesh};
@@ -134,6 +136,7 @@ fn gpu_march_matches_the_f64_reference_on_a_back_lit_sphere() {
         let params = ScatterParams {
             samples: 8,
             mode: ScatterMode::Difference,
+            skip_front_lit: false,
         };
         let (x, passes, _) = march(&gpu, &mesh, &field, &scene, eye, Some(params));
         assert!(passes.contains(&PASS_SINGLE_SCATTERING), "{passes:?}");
@@ -206,7 +209,11 @@ fn march_on_a_flat_lit_face_is_the_closed_form() {
         (ScatterMode::Full, FLAT_CLOSED_FORM),
         (ScatterMode::Difference, FLAT_DIFFERENCE),
     ] {
-        let params = ScatterParams { samples: 16, mode };
+        let params = ScatterParams {
+            samples: 16,
+            mode,
+            skip_front_lit: false,
+        };
         let (x, _, _) = march(&gpu, &mesh, &field, &scene, eye, Some(params));
         let err = match mode {
             ScatterMode::Full => rel_rms(&x, &expected, on_top),
@@ -273,5 +280,68 @@ fn grazing_light_and_view_stay_finite_with_every_light_kind() {
     let (x, passes, _) = march(&gpu, &mesh, &field(1.0), &scene, eye, None);
     assert!(!passes.contains(&PASS_SINGLE_SCATTERING), "{passes:?}");
     assert!(x.iter().flatten().all(|&v| v == 0.0));
+    gpu.finish();
+}
+
+#[test]
+fn a_front_lit_view_skips_the_march_and_clears_its_last_output() {
+    let gpu = GpuTest::new();
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(12);
+    let eye = DVec3::new(0.0, 20.0, 60.0);
+    let scene = |light: &str| Scene {
+        lights: vec![light.parse().unwrap()],
+        environment: Environment::None,
+    };
+    // The references' front light (cosine 0.65 to the eye) and back light (-0.78).
+    let front = scene("dir:0.5,-1,-0.5:4,4,4");
+    let back = scene("dir:0.2,-0.35,1:5,5,5");
+    let mut object = TranslucentObject::with_method(
+        &gpu.ctx,
+        MethodDesc::Exitance {
+            mesh: mesh.clone(),
+            exitance: vec![[0.0; 3]; mesh.positions.len()],
+        },
+        &field(1.0),
+        &front,
+        &ObjectParams {
+            single_scattering: Some(ScatterParams::default()),
+            specular: false,
+            ..ObjectParams::default()
+        },
+    )
+    .expect("object");
+    object
+        .set_camera(Some(Camera {
+            eye,
+            target: DVec3::ZERO,
+            fovy_deg: 30.0,
+        }))
+        .expect("camera");
+    let read = |object: &TranslucentObject| object.single_scattering().read(&gpu.ctx).unwrap();
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert_eq!(
+        report.skipped.get(PASS_SINGLE_SCATTERING),
+        Some(&SkipReason::FrontLit),
+        "{:?}",
+        report.passes
+    );
+    assert!(read(&object).iter().flatten().all(|&v| v == 0.0));
+    object.set_lights(&back).expect("lights");
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert!(report.passes.contains(&PASS_SINGLE_SCATTERING));
+    assert!(report.passes.contains(&PASS_SCATTER_DEPTHS));
+    assert!(read(&object).iter().flatten().any(|&v| v != 0.0));
+    // Front-lit again: the march's last output must not stand (one clearing dispatch), then
+    // nothing at all.
+    object.set_lights(&front).expect("lights");
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert!(!report.passes.contains(&PASS_SCATTER_DEPTHS));
+    assert!(read(&object).iter().flatten().all(|&v| v == 0.0));
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert_eq!(
+        report.skipped.get(PASS_SINGLE_SCATTERING),
+        Some(&SkipReason::FrontLit)
+    );
+    gpu.assert_no_messages();
     gpu.finish();
 }

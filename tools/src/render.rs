@@ -127,7 +127,7 @@ pub struct RenderArgs {
     /// difference to the flat-surface closed form. `off` (the default: it costs front-lit scenes
     /// 0.1-0.6 points, gains back- and side-lit ones 1.4-4.2; benches/RESULTS.md): the pass is not
     /// recorded.
-    #[arg(long, value_name = "on|off", default_value = "off", value_parser = ["on", "off"])]
+    #[arg(long, value_name = "on|off|always", default_value = "off", value_parser = ["on", "off", "always"])]
     pub single_scattering: String,
     /// Depths per view ray of `--single-scattering on` (4..=16).
     #[arg(long, value_name = "N", default_value_t = 8)]
@@ -317,7 +317,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.iterations == Some(0) {
         bail!("--iterations 0: give at least one iteration per level");
     }
-    if args.solver != "gpu" && args.single_scattering == "on" {
+    if args.solver != "gpu" && args.single_scattering != "off" {
         // why: the CPU path shades the f64 solution through the fixed-exitance renderer, which
         // has no material for the march (the CPU reference's own is solver::single_scattering).
         eprintln!("note: --solver cpu renders without single scattering (GPU pass only)");
@@ -894,8 +894,9 @@ impl RenderArgs {
             );
         }
         Ok(
-            (self.single_scattering == "on").then_some(translucent::frame::ScatterParams {
+            (self.single_scattering != "off").then_some(translucent::frame::ScatterParams {
                 samples: self.scatter_samples,
+                skip_front_lit: self.single_scattering == "on",
                 ..translucent::frame::ScatterParams::default()
             }),
         )

@@ -38,6 +38,6 @@ pub use plan::{FramePlan, PASS_SHADING, PASS_SHADOW};
 pub use quadgraph::{solve_headless, QuadGraphMethod, QuadGraphReport, SINGLE_LEVEL_NODES};
 pub use report::{CompletedSolve, FrameReport, SkipReason};
 pub use single_scattering::{
-    ScatterMode, ScatterParams, SingleScatteringPass, PASS_SINGLE_SCATTERING,
+    ScatterMode, ScatterParams, SingleScatteringPass, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
 };
 pub use voxel::VoxelMethod;

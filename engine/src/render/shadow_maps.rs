@@ -401,6 +401,16 @@ impl ShadowMaps {
         self.light_views = light_views;
     }
 
+    /// Texels across one view's square tile.
+    pub fn tile_resolution(&self) -> u32 {
+        self.tile
+    }
+
+    /// Tiles the atlas holds ([`ShadowMapsDesc::max_views`]).
+    pub fn max_views(&self) -> u32 {
+        self.max_views
+    }
+
     /// The views of the current lights, in atlas order.
     pub fn views(&self) -> &[ShadowView] {
         &self.views
