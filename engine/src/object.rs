@@ -834,6 +834,8 @@ impl TranslucentObject {
                     // `bind`; `self` outlives the frame (the record contract).
                     unsafe { scatter.record_depths(p.ctx, p.cb, mesh) }
                 });
+        }
+        if scattering {
             graph
                 .pass(PASS_SINGLE_SCATTERING)
                 .uses(scatter.uses(mesh, shadows))

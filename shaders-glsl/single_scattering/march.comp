@@ -244,8 +244,23 @@ bool before_far_face(vec3 x) {
         return false;
     }
     float size = exit_view.tile.z;
-    ivec2 t = clamp(ivec2(floor((ndc.xy * 0.5 + 0.5) * size)), ivec2(0), ivec2(size) - 1);
-    float back = texelFetch(depths, ivec2(exit_view.tile.xy) + t, 0).r;
+    ivec2 origin = ivec2(exit_view.tile.xy);
+    vec2 f = (ndc.xy * 0.5 + 0.5) * size;
+    ivec2 t = clamp(ivec2(floor(f)), ivec2(0), ivec2(size) - 1);
+    float back = texelFetch(depths, origin + t, 0).r;
+    // Between four drawn texel centres the depth of a plane is bilinear in the tile (NDC depth is
+    // affine in screen space): near the silhouette the far face is steep, and a texel's one
+    // depth is off by many texels of distance.
+    vec2 g = f - 0.5;
+    ivec2 c = clamp(ivec2(floor(g)), ivec2(0), ivec2(size) - 2);
+    vec2 a = clamp(g - vec2(c), 0.0, 1.0);
+    float d00 = texelFetch(depths, origin + c, 0).r;
+    float d10 = texelFetch(depths, origin + c + ivec2(1, 0), 0).r;
+    float d01 = texelFetch(depths, origin + c + ivec2(0, 1), 0).r;
+    float d11 = texelFetch(depths, origin + c + ivec2(1, 1), 0).r;
+    if (max(max(d00, d10), max(d01, d11)) < 1.0) {
+        back = mix(mix(d00, d10, a.x), mix(d01, d11, a.x), a.y);
+    }
     // Depth is monotonic along the eye's rays: compare it directly.
     return back < 1.0 && ndc.z < back;
 }
