@@ -11,7 +11,7 @@
 //! The depths come from the pass `single_scattering_depths` ([`PASS_SCATTER_DEPTHS`]) before the
 //! march, into an atlas of its own: tile 0 the nearest back faces the eye sees (the far face:
 //! where the refracted view ray leaves, exact at eta = 1), tile 1 + i shadow view i's projection
-//! rendered without the shadow pass's slope bias (the bias that keeps acne off shadow lookups
+//! of the faces facing the light, rendered without the shadow pass's slope bias (the bias that keeps acne off shadow lookups
 //! moves the entry point by up to 1.5 texels x tan(theta_i), which decides the terminator). The
 //! flat-closed-form visibility still reads the shared (biased) shadow atlas, as the gather does.
 //!
@@ -149,7 +149,7 @@ pub struct SingleScatteringPass {
     scene: Buffer,
     /// The eye's nearest back faces (culls the faces the eye sees).
     back_faces: GraphicsPipeline<ShadowPush>,
-    /// The light views' nearest faces, no bias.
+    /// The light views' nearest faces facing the light, no bias.
     front_faces: GraphicsPipeline<ShadowPush>,
     /// Tile 0: the eye's back faces; tile 1 + i: shadow view i. Allocated by the first `bind`.
     depths: Option<Image>,
@@ -245,10 +245,12 @@ impl SingleScatteringPass {
             )
         };
         // Outward counter-clockwise faces project clockwise through a y-up projection onto
-        // Vulkan's y-down framebuffer: the faces the eye sees are the pipeline's back faces, so
-        // culling BACK keeps the far side.
+        // Vulkan's y-down framebuffer: the faces a view sees from outside are the pipeline's
+        // back faces. The eye's view culls BACK (keeps the far side); the light views cull
+        // FRONT (keep the faces the light enters through: a light inside the object, or seeing
+        // into a hole, enters nowhere there, as the f64 march's ray casts).
         let back_faces = depth_pipeline("scatter back faces", vk::CullModeFlags::BACK)?;
-        let front_faces = depth_pipeline("scatter light depths", vk::CullModeFlags::NONE)?;
+        let front_faces = depth_pipeline("scatter light depths", vk::CullModeFlags::FRONT)?;
         let exit_buffer = Buffer::new(
             ctx,
             &BufferDesc {
