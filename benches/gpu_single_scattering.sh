@@ -1,14 +1,16 @@
 #!/bin/sh
 # benches/gpu_single_scattering.sh: run from the repository root after cargo build --release -p translucent-tools.
-# GPU frame (real-time default, boundary flux) with --single-scattering off and on (DESIGN 2.8, the
-# shared pass), 96 px, against tests/reference/pt/. Writes target/gpu-ss/*.exr and prints
-# tools/compare_exr.py's line and the pass's GPU ms per render.
+# GPU frame (real-time default, boundary flux) with --single-scattering off, always (the march on
+# every view) and on (the march unless every light is in front: the front-lit skip rule), DESIGN
+# 2.8, the shared pass, 96 px, against tests/reference/pt/. Writes target/gpu-ss/*.exr and prints
+# tools/compare_exr.py's line and the passes' GPU ms per render (march + depth pre-pass).
+# SS_MODES="off always" limits the modes.
 C=0,20,60:0,0,0:30; S="--size-mm 20 --camera $C --width 96 --height 96 --no-specular"; R=tests/reference/pt; O=target/gpu-ss; mkdir -p $O
 T=target/release/translucent
 run() { name=$1; ref=$2; shift 2
-  for v in off on; do
+  for v in ${SS_MODES:-off always on}; do
     $T render "$@" $S --single-scattering $v --profile --out $O/$name-$v.exr > $O/$name-$v.log 2>&1
-    ms=$(grep -E "^ *single_scattering " $O/$name-$v.log | awk '{print $2}')
+    ms=$(grep -E "^ *single_scattering(_depths)? " $O/$name-$v.log | awk '{print $2}' | paste -sd+)
     total=$(grep -E "^ *total " $O/$name-$v.log | awk '{print $2}')
     echo "$name $v (pass ${ms:-absent} ms of $total ms): $(python3 tools/compare_exr.py $O/$name-$v.exr $R/$ref 2>&1 | tail -1)"
   done

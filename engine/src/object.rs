@@ -71,7 +71,7 @@ use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHAD
 use crate::frame::quadgraph::QuadGraphParams;
 use crate::frame::{
     FixedExitance, FrameReport, Method, QuadGraphMethod, ScatterParams, SingleScatteringPass,
-    VoxelMethod, PASS_SINGLE_SCATTERING, SINGLE_LEVEL_NODES,
+    VoxelMethod, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING, SINGLE_LEVEL_NODES,
 };
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh};
@@ -367,8 +367,9 @@ impl TranslucentObject {
             ctx,
             mesh.vertex_count(),
             &params.single_scattering.unwrap_or_default(),
+            &shadows,
         )?;
-        scatter.set_lights(scene, &shadows, shadow_bounds.1)?;
+        scatter.set_lights(scene, &shadows, shadow_bounds)?;
         scatter.set_material(field, &rest_positions);
         Ok(TranslucentObject {
             method,
@@ -416,7 +417,7 @@ impl TranslucentObject {
             return Err(e);
         }
         self.scatter
-            .set_lights(scene, &self.shadows, self.shadow_bounds.1)?;
+            .set_lights(scene, &self.shadows, self.shadow_bounds)?;
         self.scene = scene.clone();
         self.env_sh = environment_sh(&scene.environment);
         self.lights = scene.lights.clone();
@@ -440,7 +441,7 @@ impl TranslucentObject {
         let bounds = self.method.deform(ctx, deformation)?;
         self.shadows.set_lights(&self.lights, bounds, true)?;
         self.scatter
-            .set_lights(&self.scene, &self.shadows, bounds.1)?;
+            .set_lights(&self.scene, &self.shadows, bounds)?;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
         Ok(())
@@ -461,7 +462,7 @@ impl TranslucentObject {
         self.shadows.set_lights(&self.lights, bounds, true)?;
         self.scatter.resize(ctx, display.vertex_count())?;
         self.scatter
-            .set_lights(&self.scene, &self.shadows, bounds.1)?;
+            .set_lights(&self.scene, &self.shadows, bounds)?;
         self.mesh = display;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
@@ -776,9 +777,19 @@ impl TranslucentObject {
             specular: u32::from(specular),
         };
 
-        let scattering = self.params.single_scattering.is_some() && scatter_stale;
+        let eye = glam::Vec3::from_slice(&uniforms.camera_pos[..3]);
+        // DESIGN 2.8's error budget: a front-lit view skips the march (zeros written once, when
+        // the last output held a march).
+        let below_budget = self
+            .params
+            .single_scattering
+            .and_then(|_| self.scatter.skip_reason(eye.as_dvec3()));
+        let clear = below_budget.is_some() && self.scatter.live();
+        let scattering = self.params.single_scattering.is_some()
+            && (clear || (scatter_stale && below_budget.is_none()));
         if scattering {
-            self.scatter.bind(ctx, &self.mesh, &self.shadows)?;
+            self.scatter.bind(ctx, &self.mesh, &self.shadows, eye)?;
+            self.scatter.set_live(!clear);
         }
         let mut graph = FrameGraph::new(ctx);
         let after = |t: &TargetImage| (!targets.host_barriers).then_some(t.after);
@@ -791,8 +802,12 @@ impl TranslucentObject {
         for &(pass, why) in plan.skipped.iter().chain(&method.skipped) {
             graph.skip(pass, why);
         }
-        if self.params.single_scattering.is_some() && !scattering {
-            graph.skip(PASS_SINGLE_SCATTERING, crate::frame::SkipReason::Unchanged);
+        if self.params.single_scattering.is_some() && (!scattering || clear) {
+            let why = below_budget.unwrap_or(crate::frame::SkipReason::Unchanged);
+            graph.skip(PASS_SCATTER_DEPTHS, why);
+            if !scattering {
+                graph.skip(PASS_SINGLE_SCATTERING, why);
+            }
         }
         self.method.add_edit_passes(&mut graph);
         let mesh = &*self.mesh;
@@ -810,15 +825,24 @@ impl TranslucentObject {
         }
         self.method.add_passes(&mut graph, shadows)?;
         let scatter = &self.scatter;
+        if scattering && !clear {
+            graph
+                .pass(PASS_SCATTER_DEPTHS)
+                .uses(scatter.depth_uses(mesh))
+                .record(move |p| {
+                    // SAFETY: inside the graph's pass declaring the depth pre-pass's uses, after
+                    // `bind`; `self` outlives the frame (the record contract).
+                    unsafe { scatter.record_depths(p.ctx, p.cb, mesh) }
+                });
+        }
         if scattering {
-            let eye = glam::Vec3::from_slice(&uniforms.camera_pos[..3]);
             graph
                 .pass(PASS_SINGLE_SCATTERING)
                 .uses(scatter.uses(mesh, shadows))
                 .record(move |p| {
                     // SAFETY: inside the graph's pass declaring the march's uses, after `bind`;
                     // `self` outlives the frame (the record contract).
-                    unsafe { scatter.record(p.ctx, p.cb, eye) }
+                    unsafe { scatter.record(p.ctx, p.cb, eye, clear) }
                 });
         }
         let own_depth = self.own_depth.as_ref().filter(|_| targets.depth.is_none());

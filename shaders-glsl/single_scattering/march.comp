@@ -2,16 +2,21 @@
 // Single scattering (DESIGN 2.8), per display vertex, for the frame's eye: the mirror of the f64
 // `solver::single_scattering::vertex_single_scattering`. The view ray is refracted at the vertex
 // (w_o', cosine mu_o' inside) and sampled at `samples` depths t_k stratified in the exponential of
-// sigma_t'; at each x_k every light's beam enters where the light's shadow view sees the object
-// first (the entry point unprojected from the stored depth, its normal n_i from the depth's
-// gradient), refracts (T_i, mu_t), travels to x_k with Jensen's correction s mu_i / mu_t, is
-// scattered with p = 1 / (4 pi) (reduced coefficients) and leaves with T_o / eta^2 (the shading
-// multiplies by F_t / (pi eta^2), so X = pi S is written, S the sum of 2.8):
+// sigma_t' truncated at the far face: the exit distance t_max along the refracted ray is where the
+// ray first passes behind the nearest back face the eye sees (the pass's own back-face depth
+// view, tile 0 of `depths`; exact at eta = 1, where the refracted ray is the eye's). At each x_k
+// every light's beam enters where the light's view sees the object first (an unbiased depth
+// view of the same projection as the shadow view, tile 1 + view of `depths`; the entry's normal
+// n_i from the depth's gradient), refracts (T_i, mu_t), travels to x_k with Jensen's correction
+// s mu_i / mu_t, is scattered with p = 1 / (4 pi) (reduced coefficients) and leaves with
+// T_o / eta^2 (the shading multiplies by F_t / (pi eta^2), so X = pi S is written, S the sum of
+// 2.8):
 //   S = sum_k w_k sigma_s' p (E T_i mu_i / mu_t) exp(-tau_L - tau_V).
-// A sample the light's view sees in front of the first surface is outside the object (the ray
-// left it on the light's side): it contributes nothing. Difference mode (`mode` 1) subtracts the
+// A sample the light's view sees more than a texel in front of the first surface is outside the
+// object (on the light's side): it contributes nothing. Difference mode (`mode` 1) subtracts the
 // flat-surface closed form alpha p E mu_i T_i / (mu_t + mu_o') of each light that lights the
-// vertex directly (visibility by 3x3 PCF, as the gather), which the diffusion source carries.
+// vertex directly (visibility by 3x3 PCF of the biased shadow atlas, as the gather), which the
+// diffusion source carries.
 #include "optics.glsl"
 
 layout(local_size_x = 64) in;
@@ -52,6 +57,15 @@ layout(std430, set = 0, binding = 3) readonly buffer GatherScene {
     GatherLight lights[MAX_LIGHTS];
     ShadowView views[MAX_VIEWS];
 } scene;
+// Unbiased depths: tile 0 the eye's back faces, tile 1 + i the front of shadow view i.
+layout(set = 0, binding = 4) uniform sampler2D depths;
+// The eye's back-face view: its projection, tile (xy origin, z size; z = 0: none, the march is
+// not truncated) and the object's bounding sphere (xyz centre, w radius, mm).
+layout(std430, set = 0, binding = 5) readonly buffer ExitView {
+    mat4 view_proj;
+    vec4 tile;
+    vec4 bounds;
+} exit_view;
 
 layout(push_constant) uniform ScatterPush {
     vec4 eye;       // xyz: the camera's eye (object frame, mm)
@@ -59,13 +73,15 @@ layout(push_constant) uniform ScatterPush {
     vec4 sigma_a;   // rgb: sigma_a (1/mm); w: offset (mm) of the march's start below the vertex
     uint vertex_count;
     uint samples;
-    uint mode;      // 1: difference to the flat closed form; 2: whole
+    uint mode;      // 0: zeros (the march is skipped); 1: difference to the flat closed form; 2: whole
     float normal_offset; // shadow-map texels, for the vertex's own visibility
-    float depth_bias_slope; // the shadow pass's slope-scaled depth bias (texels of depth per texel)
+    uint columns;   // tiles per row of `depths`
 } pc;
 
-// The slope bias grows as tan(theta_i); beyond this (a silhouette texel) it is held.
-const float MAX_BIAS_TAN = 8.0;
+// Steps of the search for the far face (quadratically spaced: fine near the start, where
+// silhouette chords are short) and bisections of the step that leaves.
+const int EXIT_STEPS = 24;
+const int EXIT_BISECTIONS = 10;
 // Below this cosine the tangent plane's crossing is ill-conditioned: the distance along the
 // light to the stored point is used instead.
 const float MIN_PLANE_COSINE = 0.05;
@@ -88,10 +104,10 @@ vec3 vertex_vec3(uint v, uint offset) {
 }
 
 // The world point of texel t of view `v` at its stored depth; w = 0 where nothing was drawn.
-vec4 stored_point(ShadowView v, mat4 inv, ivec2 t) {
+vec4 stored_point(ShadowView v, ivec2 origin, mat4 inv, ivec2 t) {
     ivec2 size = ivec2(v.tile.z);
     t = clamp(t, ivec2(0), size - 1);
-    float depth = texelFetch(shadow_atlas, ivec2(v.tile.xy) + t, 0).r;
+    float depth = texelFetch(depths, origin + t, 0).r;
     if (depth >= 1.0) {
         return vec4(0.0);
     }
@@ -100,12 +116,17 @@ vec4 stored_point(ShadowView v, mat4 inv, ivec2 t) {
     return vec4(p.xyz / p.w, 1.0);
 }
 
-// Where the light's beam towards x enters the object, as stored (xyz; w: the view's texel size in
-// mm there; w = 0: nothing drawn there, or outside the view) and the entry's normal from the
-// depth's gradient. The stored depth carries the shadow pass's slope-scaled bias (the caller
-// adds it back along the light).
+// The top-left texel of tile `tile` of `depths` (tiles of `size` texels, `pc.columns` a row).
+ivec2 tile_origin(uint tile, float size) {
+    return ivec2(int(tile % pc.columns), int(tile / pc.columns)) * int(size);
+}
+
+// Where the light's beam towards x enters the object, as stored unbiased (xyz; w: the view's
+// texel size in mm there; w = 0: nothing drawn there, or outside the view) and the entry's
+// normal from the depth's gradient.
 vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
     ShadowView v = scene.views[index];
+    ivec2 origin = tile_origin(index + 1u, v.tile.z);
     n_entry = vec3(0.0);
     vec4 clip = v.view_proj * vec4(x, 1.0);
     if (clip.w <= 0.0) {
@@ -117,13 +138,13 @@ vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
     }
     mat4 inv = inverse(v.view_proj);
     ivec2 t = ivec2(floor((ndc.xy * 0.5 + 0.5) * v.tile.z));
-    vec4 c = stored_point(v, inv, t);
+    vec4 c = stored_point(v, origin, inv, t);
     // x's own texel is empty within a texel of the light's silhouette: a neighbour's surface
     // (the caller intersects its plane with the ray, so the texel's offset does not matter).
     const ivec2 NEIGHBOURS[4] = ivec2[](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
     for (int k = 0; k < 4 && c.w == 0.0; ++k) {
         t += NEIGHBOURS[k];
-        c = stored_point(v, inv, t);
+        c = stored_point(v, origin, inv, t);
         if (c.w == 0.0) {
             t -= NEIGHBOURS[k];
         }
@@ -132,10 +153,10 @@ vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
         return vec4(0.0);
     }
     // The gradient from the one-sided differences with the smaller depth step (silhouettes jump).
-    vec4 px = stored_point(v, inv, t + ivec2(1, 0));
-    vec4 mx = stored_point(v, inv, t - ivec2(1, 0));
-    vec4 py = stored_point(v, inv, t + ivec2(0, 1));
-    vec4 my = stored_point(v, inv, t - ivec2(0, 1));
+    vec4 px = stored_point(v, origin, inv, t + ivec2(1, 0));
+    vec4 mx = stored_point(v, origin, inv, t - ivec2(1, 0));
+    vec4 py = stored_point(v, origin, inv, t + ivec2(0, 1));
+    vec4 my = stored_point(v, origin, inv, t - ivec2(0, 1));
     vec3 dx = vec3(0.0);
     vec3 dy = vec3(0.0);
     if (px.w > 0.0 && (mx.w == 0.0 || distance(px.xyz, c.xyz) <= distance(mx.xyz, c.xyz))) {
@@ -210,6 +231,65 @@ uint view_of(GatherLight light, vec3 l) {
     return light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
 }
 
+// Whether x lies in front of the nearest back face the eye sees along its pixel (inside the
+// object's first layer, for a point behind the front surface); a pixel with no back face is
+// outside the silhouette.
+bool before_far_face(vec3 x) {
+    vec4 clip = exit_view.view_proj * vec4(x, 1.0);
+    if (clip.w <= 0.0) {
+        return false;
+    }
+    vec3 ndc = clip.xyz / clip.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) {
+        return false;
+    }
+    float size = exit_view.tile.z;
+    ivec2 origin = ivec2(exit_view.tile.xy);
+    vec2 f = (ndc.xy * 0.5 + 0.5) * size;
+    ivec2 t = clamp(ivec2(floor(f)), ivec2(0), ivec2(size) - 1);
+    float back = texelFetch(depths, origin + t, 0).r;
+    // Between four drawn texel centres the depth of a plane is bilinear in the tile (NDC depth is
+    // affine in screen space): near the silhouette the far face is steep, and a texel's one
+    // depth is off by many texels of distance.
+    vec2 g = f - 0.5;
+    ivec2 c = clamp(ivec2(floor(g)), ivec2(0), ivec2(size) - 2);
+    vec2 a = clamp(g - vec2(c), 0.0, 1.0);
+    float d00 = texelFetch(depths, origin + c, 0).r;
+    float d10 = texelFetch(depths, origin + c + ivec2(1, 0), 0).r;
+    float d01 = texelFetch(depths, origin + c + ivec2(0, 1), 0).r;
+    float d11 = texelFetch(depths, origin + c + ivec2(1, 1), 0).r;
+    if (max(max(d00, d10), max(d01, d11)) < 1.0) {
+        back = mix(mix(d00, d10, a.x), mix(d01, d11, a.x), a.y);
+    }
+    // Depth is monotonic along the eye's rays: compare it directly.
+    return back < 1.0 && ndc.z < back;
+}
+
+// The distance along the refracted view ray (from `start`, direction w) to the far face: the
+// first step of EXIT_STEPS (up to `far`, the bounding sphere's chord) whose point has left,
+// refined by bisection; `far` if none leaves.
+float exit_distance(vec3 start, vec3 w, float far) {
+    float inside = 0.0;
+    for (int j = 1; j <= EXIT_STEPS; ++j) {
+        float f = float(j) / float(EXIT_STEPS);
+        float t = far * f * f;
+        if (!before_far_face(start + w * t)) {
+            float outside = t;
+            for (int b = 0; b < EXIT_BISECTIONS; ++b) {
+                float mid = 0.5 * (inside + outside);
+                if (before_far_face(start + w * mid)) {
+                    inside = mid;
+                } else {
+                    outside = mid;
+                }
+            }
+            return 0.5 * (inside + outside);
+        }
+        inside = t;
+    }
+    return far;
+}
+
 float refracted_cosine(float eta, float mu) {
     return sqrt(max(1.0 - (1.0 - mu * mu) / (eta * eta), 0.0));
 }
@@ -227,7 +307,7 @@ void main() {
     n = length(n) > 0.0 ? normalize(n) : vec3(0.0);
     to_eye = length(to_eye) > 0.0 ? normalize(to_eye) : vec3(0.0);
     float mu_o = dot(n, to_eye);
-    if (mu_o <= 0.0 || pc.samples == 0u) {
+    if (mu_o <= 0.0 || pc.samples == 0u || pc.mode == 0u) {
         scattered.x[v] = vec4(0.0);
         return;
     }
@@ -241,12 +321,26 @@ void main() {
     vec3 sigma_t = sigma_s + pc.sigma_a.rgb;
     float sigma_ref = (sigma_t.r + sigma_t.g + sigma_t.b) / 3.0;
     uint count = min(scene.counts.x, MAX_LIGHTS);
-    for (uint k = 0u; k < pc.samples; ++k) {
-        // Stratified in the exponential's cumulative distribution on [0, infinity): samples past
-        // the far face see no light (outside the object) or a long optical path.
+    // The far face (DESIGN 2.8): the march stops there. Without an eye view (the eye inside the
+    // bounding sphere) it runs on [0, infinity) and samples past the far face see a long
+    // optical path or no light.
+    float t_max = 1.0 / 0.0;
+    vec4 bounds = exit_view.bounds;
+    if (exit_view.tile.z > 0.0) {
+        // The chord of the bounding sphere along w from start bounds the search.
+        vec3 oc = start - bounds.xyz;
+        float b = dot(oc, w);
+        float c = dot(oc, oc) - bounds.w * bounds.w;
+        float far = -b + sqrt(max(b * b - c, 0.0));
+        t_max = exit_distance(start, w, max(far, 0.0));
+    }
+    // Stratified in the exponential's cumulative distribution truncated at t_max (mass of the
+    // untruncated exponential below t_max).
+    float mass = isinf(t_max) ? 1.0 : 1.0 - exp(-sigma_ref * t_max);
+    for (uint k = 0u; k < pc.samples && mass > 0.0; ++k) {
         float u = (float(k) + 0.5) / float(pc.samples);
-        float t = -log(1.0 - u) / sigma_ref;
-        float weight = 1.0 / (float(pc.samples) * sigma_ref * (1.0 - u)); // 1 / (N pdf)
+        float t = -log(1.0 - u * mass) / sigma_ref;
+        float weight = mass / (float(pc.samples) * sigma_ref * (1.0 - u * mass)); // 1 / (N pdf)
         vec3 xk = start + w * t;
         vec3 tau_v = sigma_t * t;
         if (all(greaterThan(tau_v, vec3(MAX_OPTICAL_DEPTH)))) {
@@ -275,18 +369,15 @@ void main() {
             float mu_t = max(refracted_cosine(eta, mu_i), MIN_MU_T);
             float t_i = fresnel_transmittance(eta, mu_i);
             // The distance to the entry along the light's ray (a texel centre is up to half a
-            // texel off the ray), the stored depth's slope bias added back: depth_bias_slope
-            // texels of depth per texel, tan(theta_i) mm of depth per mm across.
-            float tan_i = min(sqrt(max(1.0 - mu_i * mu_i, 0.0)) / max(mu_i, 1e-6), MAX_BIAS_TAN);
-            // The ray's crossing of the entry's tangent plane: a texel centre on a steep
+            // texel off the ray): the ray's crossing of the entry's tangent plane: a texel centre on a steep
             // (grazing) surface lies far off the ray in depth; its plane does not.
             float along = length(n_i) > 0.0 && mu_i > MIN_PLANE_COSINE
                 ? dot(entry.xyz - xk, n_i) / mu_i
                 : dot(entry.xyz - xk, l);
-            float s = along + pc.depth_bias_slope * entry.w * tan_i;
-            if (s < 0.0) {
+            if (along < -entry.w) {
                 continue; // in front of the first surface: outside, on the light's side
             }
+            float s = max(along, 0.0); // within a texel of the entry: the depth's resolution
             // Jensen's refraction correction of the light-side distance s_i' = s_i mu_i / mu_t.
             float s_i = s * mu_i / mu_t;
             vec3 tau = sigma_t * s_i + tau_v;

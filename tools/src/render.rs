@@ -134,12 +134,14 @@ pub struct RenderArgs {
     pub surface: String,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
     /// every method): per display vertex the refracted view ray is marched at exponentially
-    /// stratified depths, lit through the shadow maps, added to the method's exitance as the
-    /// difference to the flat-surface closed form. `off` (the default: it costs front-lit scenes
-    /// 0.1-0.6 points, gains back- and side-lit ones 1.4-4.2; benches/RESULTS.md): the pass is not
-    /// recorded.
-    #[arg(long, value_name = "on|off", default_value = "off", value_parser = ["on", "off"])]
-    pub single_scattering: String,
+    /// stratified depths up to the far face (a back-face depth pre-pass from the eye), lit through
+    /// unbiased depth views of the shadow maps' projections, added to the method's exitance as
+    /// the difference to the flat-surface closed form. `on` (the default): marched unless every
+    /// light is in front of the object as the eye sees it (the error budget's rule, skipped with
+    /// the reason "front-lit"); `always`: marched on every view; `off`: the pass is not recorded
+    /// (benches/RESULTS.md, "Single scattering: far-face stop"). Not applied with `--solver cpu`.
+    #[arg(long, value_name = "on|off|always", value_parser = ["on", "off", "always"])]
+    pub single_scattering: Option<String>,
     /// Depths per view ray of `--single-scattering on` (4..=16).
     #[arg(long, value_name = "N", default_value_t = 8)]
     pub scatter_samples: u32,
@@ -521,7 +523,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.iterations == Some(0) {
         bail!("--iterations 0: give at least one iteration per level");
     }
-    if args.solver != "gpu" && args.single_scattering == "on" {
+    if args.solver != "gpu"
+        && args
+            .single_scattering
+            .as_deref()
+            .is_some_and(|v| v != "off")
+    {
         // why: the CPU path shades the f64 solution through the fixed-exitance renderer, which
         // has no material for the march (the CPU reference's own is solver::single_scattering).
         eprintln!("note: --solver cpu renders without single scattering (GPU pass only)");
@@ -1129,9 +1136,12 @@ impl RenderArgs {
                 range.end()
             );
         }
+        // Default `on`: the march with the front-lit skip rule.
+        let mode = self.single_scattering.as_deref().unwrap_or("on");
         Ok(
-            (self.single_scattering == "on").then_some(translucent::frame::ScatterParams {
+            (mode != "off").then_some(translucent::frame::ScatterParams {
                 samples: self.scatter_samples,
+                skip_front_lit: mode == "on",
                 ..translucent::frame::ScatterParams::default()
             }),
         )

@@ -13,8 +13,8 @@
 //!   method's (every method gets it; `ObjectParams::single_scattering`).
 //!
 //! [`crate::TranslucentObject::record`] is the one composition: changes -> [`FramePlan`] ->
-//! the method's edit passes -> shadow maps -> the method's passes -> single scattering (when on)
-//! -> shading, into the host's
+//! the method's edit passes -> shadow maps -> the method's passes -> single scattering's depth
+//! pre-pass and march (when on and not skipped as front-lit) -> shading, into the host's
 //! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
 //! `translucent bench`, the example host and the viewer all record frames through it.
 
@@ -38,6 +38,6 @@ pub use plan::{FramePlan, PASS_SHADING, PASS_SHADOW};
 pub use quadgraph::{solve_headless, QuadGraphMethod, QuadGraphReport, SINGLE_LEVEL_NODES};
 pub use report::{CompletedSolve, FrameReport, SkipReason};
 pub use single_scattering::{
-    ScatterMode, ScatterParams, SingleScatteringPass, PASS_SINGLE_SCATTERING,
+    ScatterMode, ScatterParams, SingleScatteringPass, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
 };
 pub use voxel::VoxelMethod;

@@ -26,6 +26,10 @@ pub enum SkipReason {
     /// The method's exitance is given (precomputed), not solved.
     Precomputed,
     NotRead,
+    /// Single scattering: every light is in front of the object as the eye sees it, where the
+    /// march minus the flat closed form is below the error budget
+    /// ([`crate::frame::single_scattering::FRONT_LIT_COSINE`]).
+    FrontLit,
 }
 
 impl std::fmt::Display for SkipReason {
@@ -40,6 +44,7 @@ impl std::fmt::Display for SkipReason {
             SkipReason::NoEdits => "no edits",
             SkipReason::Precomputed => "exitance precomputed",
             SkipReason::NotRead => "no pass reads it",
+            SkipReason::FrontLit => "front-lit: below the error budget",
         })
     }
 }

@@ -3,10 +3,17 @@
 //! exitance) gets it. Per display vertex (as the f64 reference
 //! [`crate::solver::single_scattering::vertex_single_scattering`], so the two compare vertex by
 //! vertex), `single_scattering/march.comp` refracts the view ray, marches it at exponentially
-//! stratified depths, reads each light's entry point (and its normal, from the depth's gradient)
-//! from the shared shadow atlas and writes X = pi S per vertex into [`SingleScatteringPass::buffer`],
+//! stratified depths truncated at the far face, reads each light's entry point (and its normal,
+//! from the depth's gradient) and writes X = pi S per vertex into [`SingleScatteringPass::buffer`],
 //! which the shading reads as a second vertex stream and adds to the method's exitance
 //! (`F_t (J+ + X) / (pi eta^2)`, never below zero).
+//!
+//! The depths come from the pass `single_scattering_depths` ([`PASS_SCATTER_DEPTHS`]) before the
+//! march, into an atlas of its own: tile 0 the nearest back faces the eye sees (the far face:
+//! where the refracted view ray leaves, exact at eta = 1), tile 1 + i shadow view i's projection
+//! of the faces facing the light, rendered without the shadow pass's slope bias (the bias that keeps acne off shadow lookups
+//! moves the entry point by up to 1.5 texels x tan(theta_i), which decides the terminator). The
+//! flat-closed-form visibility still reads the shared (biased) shadow atlas, as the gather does.
 //!
 //! Why per vertex and a pass of its own, not in the fragment shader: the march needs the whole
 //! scene's lights and shadow views (a storage buffer the shading does not have), costs
@@ -21,26 +28,43 @@
 //!
 //! ```no_run
 //! # use translucent::frame::single_scattering::{ScatterParams, SingleScatteringPass};
+//! # use translucent::render::{ShadowMaps, ShadowMapsDesc};
 //! # fn f(ctx: &translucent::vk::Context, mesh: &translucent::mesh::GpuMesh) -> Result<(), translucent::Error> {
-//! let pass = SingleScatteringPass::new(ctx, mesh.vertex_count(), &ScatterParams::default())?;
+//! let shadows = ShadowMaps::new(ctx, &ShadowMapsDesc::default())?;
+//! let pass = SingleScatteringPass::new(ctx, mesh.vertex_count(), &ScatterParams::default(), &shadows)?;
 //! assert_eq!(pass.buffer().size, 16 * mesh.vertex_count() as u64);
 //! # Ok(()) }
 //! ```
 
 use ash::vk;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Mat4, Vec3};
 
+use crate::frame::SkipReason;
 use crate::material::{Coefficients, MaterialField};
-use crate::mesh::GpuMesh;
-use crate::render::{GatherScene, RenderError, ShadowMaps};
-use crate::scene::Scene;
-use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::mesh::{GpuMesh, Vertex};
+use crate::render::{GatherScene, RenderError, ShadowMaps, ShadowPush, ShadowView};
+use crate::scene::{Light, Scene};
+use crate::shader::{
+    ComputePipeline, ComputePipelineDesc, DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc,
+    VertexAttribute,
+};
 use crate::vk::barrier::Use;
-use crate::vk::{barrier, Access, Buffer, BufferDesc, Context, MemoryUse, Sampler};
+use crate::vk::{
+    barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, MemoryUse, Sampler,
+};
 use crate::Error;
 
 /// The pass's name (graph pass, debug label, profiler scope).
 pub const PASS_SINGLE_SCATTERING: &str = "single_scattering";
+/// The depth pre-pass's name: the eye's back faces and the unbiased light views.
+pub const PASS_SCATTER_DEPTHS: &str = "single_scattering_depths";
+/// Format of the pass's depth atlas.
+const DEPTHS_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+/// Beyond this half-angle from the eye the bounding sphere needs a view too wide for one tile
+/// (the eye is close to or inside the object): no far-face view, the march runs untruncated.
+const MAX_EYE_HALF_ANGLE_DEG: f64 = 60.0;
+/// The eye view's margin around the bounding sphere (as the shadow views').
+const EYE_VIEW_MARGIN: f64 = 1.02;
 /// Depths per view ray: DESIGN 2.8 asks for 4-16.
 pub const SAMPLE_RANGE: std::ops::RangeInclusive<u32> = 4..=16;
 /// The march starts this far below the vertex, relative to the object's bounding radius (as the
@@ -59,12 +83,21 @@ pub enum ScatterMode {
     Full,
 }
 
+/// The error budget's rule (DESIGN 2.8, "skip below the error budget"): when every light's
+/// direction from the object's centre is within acos(FRONT_LIT_COSINE) of the eye's, the
+/// difference to the flat closed form lives only in a thin terminator band the eye sees at a
+/// grazing angle, and the march is skipped ([`SkipReason::FrontLit`]). Measured in
+/// benches/RESULTS.md ("Single scattering: far-face stop").
+pub const FRONT_LIT_COSINE: f64 = 0.5;
+
 /// How [`SingleScatteringPass`] marches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ScatterParams {
     /// Depths per view ray, in [`SAMPLE_RANGE`].
     pub samples: u32,
     pub mode: ScatterMode,
+    /// Skip the march for front-lit views ([`FRONT_LIT_COSINE`]); `false`: march every frame.
+    pub skip_front_lit: bool,
 }
 
 impl Default for ScatterParams {
@@ -72,6 +105,7 @@ impl Default for ScatterParams {
         ScatterParams {
             samples: 8,
             mode: ScatterMode::Difference,
+            skip_front_lit: true,
         }
     }
 }
@@ -88,11 +122,23 @@ pub struct ScatterPush {
     pub sigma_a: [f32; 4],
     pub vertex_count: u32,
     pub samples: u32,
-    /// 1: difference to the flat closed form; 2: whole.
+    /// 0: zeros (a skipped march clears its last output); 1: difference to the flat closed
+    /// form; 2: whole.
     pub mode: u32,
     pub normal_offset: f32,
-    /// [`crate::render::SHADOW_SLOPE_BIAS`]: added back to the stored depths.
-    pub depth_bias_slope: f32,
+    /// Tiles per row of the pass's depth atlas.
+    pub columns: u32,
+}
+
+/// The `ExitView` storage buffer of `march.comp`: the eye's back-face view.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ExitView {
+    pub view_proj: [f32; 16],
+    /// xy: atlas origin (texels), z: tile size (0: no view, the march is not truncated).
+    pub tile: [f32; 4],
+    /// xyz: the object's bounding centre, w: its radius (mm).
+    pub bounds: [f32; 4],
 }
 
 /// The march's pipeline, its output per vertex and its copy of the lights and shadow views.
@@ -101,6 +147,21 @@ pub struct SingleScatteringPass {
     #[allow(dead_code, reason = "owned here: the descriptor set refers to it")]
     sampler: Sampler,
     scene: Buffer,
+    /// The eye's nearest back faces (culls the faces the eye sees).
+    back_faces: GraphicsPipeline<ShadowPush>,
+    /// The light views' nearest faces facing the light, no bias.
+    front_faces: GraphicsPipeline<ShadowPush>,
+    /// Tile 0: the eye's back faces; tile 1 + i: shadow view i. Allocated by the first `bind`.
+    depths: Option<Image>,
+    exit_buffer: Buffer,
+    exit_view: ExitView,
+    tile: u32,
+    columns: u32,
+    views: Vec<ShadowView>,
+    bounds: (DVec3, f64),
+    lights: Vec<Light>,
+    /// Whether the output holds a march (not zeros): a skipped frame must clear it first.
+    live: bool,
     output: Buffer,
     vertex_count: usize,
     set: Option<vk::DescriptorSet>,
@@ -124,12 +185,14 @@ fn invalid(what: &str, problem: String) -> Error {
 const MAX_SETS: u32 = 16;
 
 impl SingleScatteringPass {
-    /// The pass for a display mesh of `vertex_count` vertices; samples outside [`SAMPLE_RANGE`]
-    /// are a typed error. The output starts at zero (what the shading adds when the pass is off).
+    /// The pass for a display mesh of `vertex_count` vertices, its depth atlas sized for
+    /// `shadows`' views plus the eye's; samples outside [`SAMPLE_RANGE`] are a typed error. The
+    /// output starts at zero (what the shading adds when the pass is off).
     pub fn new(
         ctx: &Context,
         vertex_count: usize,
         params: &ScatterParams,
+        shadows: &ShadowMaps,
     ) -> Result<SingleScatteringPass, Error> {
         if !SAMPLE_RANGE.contains(&params.samples) {
             return Err(invalid(
@@ -147,10 +210,58 @@ impl SingleScatteringPass {
             &ComputePipelineDesc {
                 name: "single scattering",
                 shader: "single_scattering/march.comp",
-                bindings: &["vertices", "scattered", "shadow_atlas", "scene"],
+                bindings: &[
+                    "vertices",
+                    "scattered",
+                    "shadow_atlas",
+                    "scene",
+                    "depths",
+                    "exit_view",
+                ],
                 max_sets: MAX_SETS,
             },
         )?;
+        let depth_pipeline = |name, cull_mode| {
+            GraphicsPipeline::new(
+                ctx,
+                &GraphicsPipelineDesc {
+                    name,
+                    vertex: "shadow_map/depth_only.vert",
+                    fragment: None,
+                    vertex_stride: std::mem::size_of::<Vertex>() as u32,
+                    vertex_attributes: &[VertexAttribute {
+                        location: 0,
+                        format: vk::Format::R32G32B32_SFLOAT,
+                        offset: 0,
+                    }],
+                    second_stream: None,
+                    color_formats: &[],
+                    depth_format: Some(DEPTHS_FORMAT),
+                    depth_bias: None,
+                    cull_mode,
+                    bindings: &[],
+                    max_sets: 1,
+                },
+            )
+        };
+        // Outward counter-clockwise faces project clockwise through a y-up projection onto
+        // Vulkan's y-down framebuffer: the faces a view sees from outside are the pipeline's
+        // back faces. The eye's view culls BACK (keeps the far side); the light views cull
+        // FRONT (keep the faces the light enters through: a light inside the object, or seeing
+        // into a hole, enters nowhere there, as the f64 march's ray casts).
+        let back_faces = depth_pipeline("scatter back faces", vk::CullModeFlags::BACK)?;
+        let front_faces = depth_pipeline("scatter light depths", vk::CullModeFlags::FRONT)?;
+        let exit_buffer = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "single scattering exit view",
+                size: std::mem::size_of::<ExitView>() as u64,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                memory: MemoryUse::GpuOnly,
+            },
+        )?;
+        let tiles = shadows.max_views() + 1;
+        let columns = (f64::from(tiles).sqrt().ceil() as u32).max(1);
         // texelFetch of raw depths (no compare), as the gather's.
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
@@ -173,6 +284,17 @@ impl SingleScatteringPass {
             pipeline,
             sampler,
             scene,
+            back_faces,
+            front_faces,
+            depths: None,
+            exit_buffer,
+            exit_view: bytemuck::Zeroable::zeroed(),
+            tile: shadows.tile_resolution(),
+            columns,
+            views: Vec::new(),
+            bounds: (DVec3::ZERO, 1.0),
+            lights: Vec::new(),
+            live: false,
             output: Self::zeroed_output(ctx, vertex_count)?,
             vertex_count,
             set: None,
@@ -243,6 +365,41 @@ impl SingleScatteringPass {
             .collect())
     }
 
+    /// Why this frame's march may be skipped for the eye at `eye` (object frame, mm): the
+    /// lights are all in front of the object ([`FRONT_LIT_COSINE`]), with
+    /// [`ScatterParams::skip_front_lit`]. A point or spot light inside the bounding sphere has no
+    /// one direction: never skipped.
+    pub fn skip_reason(&self, eye: DVec3) -> Option<SkipReason> {
+        let centre = self.bounds.0;
+        let to_eye = (eye - centre).normalize_or_zero();
+        if !self.params.skip_front_lit || self.lights.is_empty() || to_eye == DVec3::ZERO {
+            return None;
+        }
+        let front = self.lights.iter().all(|light| {
+            let to_light = match *light {
+                Light::Directional { direction, .. } => -direction.normalize_or_zero(),
+                Light::Point { position, .. } | Light::Spot { position, .. } => {
+                    if position.distance(centre) <= self.bounds.1 {
+                        return false;
+                    }
+                    (position - centre).normalize_or_zero()
+                }
+            };
+            to_light.dot(to_eye) >= FRONT_LIT_COSINE
+        });
+        front.then_some(SkipReason::FrontLit)
+    }
+
+    /// Whether the output holds a march (a skipped frame must clear it: [`Self::record_clear`]).
+    pub fn live(&self) -> bool {
+        self.live
+    }
+
+    /// Notes what the frame just recorded wrote: a march (`true`) or zeros.
+    pub fn set_live(&mut self, live: bool) {
+        self.live = live;
+    }
+
     /// The march's parameters.
     pub fn params(&self) -> ScatterParams {
         self.params
@@ -259,15 +416,18 @@ impl SingleScatteringPass {
     }
 
     /// The lights and shadow views (`shadows` fitted to `scene`'s lights), the object's bounding
-    /// radius (mm; sets the march's start offset).
+    /// sphere (centre, radius in mm: the eye's view and the march's start offset).
     pub fn set_lights(
         &mut self,
         scene: &Scene,
         shadows: &ShadowMaps,
-        radius: f64,
+        bounds: (DVec3, f64),
     ) -> Result<(), Error> {
         *self.scene_data = GatherScene::new(scene, shadows)?;
-        self.radius = radius;
+        self.views = shadows.views().to_vec();
+        self.lights = scene.lights.clone();
+        self.radius = bounds.1;
+        self.bounds = bounds;
         Ok(())
     }
 
@@ -295,21 +455,64 @@ impl SingleScatteringPass {
     }
 
     /// What [`Self::record`] uses: the display mesh's vertices (positions, normals), the shadow
-    /// atlas, its own output (written).
-    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh, shadows: &'a ShadowMaps) -> [Use<'a>; 3] {
-        [
+    /// atlas, the depth atlas, its own output (written). Only after [`Self::bind`].
+    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh, shadows: &'a ShadowMaps) -> Vec<Use<'a>> {
+        let mut uses = vec![
             Use::buffer(mesh.vertex_buffer(), Access::ComputeRead),
             Use::image(&shadows.atlas, Access::DepthSampledShaders),
             Use::buffer(&self.output, Access::ComputeWrite),
-        ]
+        ];
+        if let Some(depths) = &self.depths {
+            uses.push(Use::image(depths, Access::DepthSampledShaders));
+        }
+        uses
     }
 
-    /// Binds `mesh` and `shadows` (a new descriptor set when the vertex buffer changed).
+    /// What [`Self::record_depths`] uses: the depth atlas as attachment, `mesh`'s vertices.
+    /// Only after [`Self::bind`].
+    pub fn depth_uses<'a>(&'a self, mesh: &'a GpuMesh) -> Vec<Use<'a>> {
+        let mut uses = vec![Use::buffer(mesh.vertex_buffer(), Access::VertexInput)];
+        if let Some(depths) = &self.depths {
+            uses.push(Use::image(depths, Access::DepthAttachmentWrite));
+        }
+        uses
+    }
+
+    /// The eye's view of the bounding sphere (a perspective view fitted to it, as a shadow
+    /// view of a point light): `None` when the eye is too close for one tile.
+    fn eye_view(&self, eye: DVec3) -> Option<Mat4> {
+        let (centre, radius) = (self.bounds.0, self.bounds.1 * EYE_VIEW_MARGIN);
+        let to_centre = centre - eye;
+        let distance = to_centre.length();
+        if !(distance > radius && radius > 0.0 && distance.is_finite()) {
+            return None;
+        }
+        let half = (radius / distance).asin();
+        if half > MAX_EYE_HALF_ANGLE_DEG.to_radians() {
+            return None;
+        }
+        let axis = to_centre / distance;
+        let far = distance + radius;
+        // Depth precision falls with far/near; 1e-3 keeps D32F's steps far below a texel.
+        let near = (distance - radius).max(far * 1e-3);
+        let up = if axis.cross(DVec3::Y).length() < 1e-3 {
+            DVec3::Z
+        } else {
+            DVec3::Y
+        };
+        let view = Mat4::look_at_rh(eye.as_vec3(), centre.as_vec3(), up.as_vec3());
+        let proj = Mat4::perspective_rh((2.0 * half) as f32, 1.0, near as f32, far as f32);
+        Some(proj * view)
+    }
+
+    /// Binds `mesh` and `shadows` (a new descriptor set when the vertex buffer changed) for the
+    /// eye at `eye` (object frame, mm); the first call allocates the depth atlas.
     pub fn bind(
         &mut self,
         ctx: &Context,
         mesh: &GpuMesh,
         shadows: &ShadowMaps,
+        eye: Vec3,
     ) -> Result<(), Error> {
         if mesh.vertex_count() != self.vertex_count {
             return Err(invalid(
@@ -321,6 +524,37 @@ impl SingleScatteringPass {
                 ),
             ));
         }
+        if self.depths.is_none() {
+            let rows = (shadows.max_views() + 1).div_ceil(self.columns);
+            self.depths = Some(Image::new(
+                ctx,
+                &ImageDesc {
+                    name: "single scattering depths",
+                    width: self.columns * self.tile,
+                    height: rows * self.tile,
+                    format: DEPTHS_FORMAT,
+                    usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                        | vk::ImageUsageFlags::SAMPLED,
+                },
+            )?);
+            self.set = None;
+        }
+        self.exit_view = match self.eye_view(eye.as_dvec3()) {
+            Some(view_proj) => ExitView {
+                view_proj: view_proj.to_cols_array(),
+                tile: [0.0, 0.0, self.tile as f32, 0.0],
+                bounds: [
+                    self.bounds.0.x as f32,
+                    self.bounds.0.y as f32,
+                    self.bounds.0.z as f32,
+                    (self.bounds.1 * EYE_VIEW_MARGIN) as f32,
+                ],
+            },
+            None => bytemuck::Zeroable::zeroed(),
+        };
+        let Some(depths) = &self.depths else {
+            return Err(invalid("single scattering", "no depth atlas".into()));
+        };
         if self.set.is_none() || self.bound_vertices != mesh.vertex_buffer().raw {
             self.set = Some(self.pipeline.allocate_set(
                 ctx,
@@ -343,6 +577,16 @@ impl SingleScatteringPass {
                         name: "scene",
                         buffer: &self.scene,
                     },
+                    DescriptorWrite::SampledImage {
+                        name: "depths",
+                        image: depths,
+                        sampler: self.sampler.raw,
+                        layout: vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    },
+                    DescriptorWrite::StorageBuffer {
+                        name: "exit_view",
+                        buffer: &self.exit_buffer,
+                    },
                 ],
             )?);
             self.bound_vertices = mesh.vertex_buffer().raw;
@@ -350,7 +594,103 @@ impl SingleScatteringPass {
         Ok(())
     }
 
-    /// Records the march for the eye at `eye` (object frame, mm).
+    /// Records the depth pre-pass: the eye's back faces into tile 0 (when the eye has a view),
+    /// the shadow views without bias into tiles 1 + i.
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::depth_uses`], after [`Self::bind`]; `mesh` and `self` must outlive it.
+    pub unsafe fn record_depths(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        mesh: &GpuMesh,
+    ) -> Result<(), Error> {
+        let Some(depths) = &self.depths else {
+            return Err(invalid(
+                "single scattering",
+                "depths recorded before bind".into(),
+            ));
+        };
+        let extent = depths.extent();
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(depths.view)
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 1.0,
+                    stencil: 0,
+                },
+            });
+        let rendering = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D::default(),
+                extent,
+            })
+            .layer_count(1)
+            .depth_attachment(&depth);
+        let eye = (self.exit_view.tile[2] > 0.0).then(|| {
+            (
+                &self.back_faces,
+                Mat4::from_cols_array(&self.exit_view.view_proj),
+                0,
+            )
+        });
+        let lights = self
+            .views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (&self.front_faces, v.view_proj, i as u32 + 1));
+        // SAFETY: the caller's contract; the pipelines' formats match the rendering scope.
+        unsafe {
+            ctx.raw().cmd_begin_rendering(cb, &rendering);
+            for (pipeline, view_proj, tile) in eye.into_iter().chain(lights) {
+                let push = ShadowPush {
+                    view_proj: view_proj.to_cols_array(),
+                };
+                pipeline.bind(ctx, cb, vk::DescriptorSet::null(), &push, extent);
+                let origin = [
+                    (tile % self.columns) * self.tile,
+                    (tile / self.columns) * self.tile,
+                ];
+                ctx.raw().cmd_set_viewport(
+                    cb,
+                    0,
+                    &[vk::Viewport {
+                        x: origin[0] as f32,
+                        y: origin[1] as f32,
+                        width: self.tile as f32,
+                        height: self.tile as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
+                );
+                // The scissor keeps geometry clipped to this tile out of its neighbours.
+                ctx.raw().cmd_set_scissor(
+                    cb,
+                    0,
+                    &[vk::Rect2D {
+                        offset: vk::Offset2D {
+                            x: origin[0] as i32,
+                            y: origin[1] as i32,
+                        },
+                        extent: vk::Extent2D {
+                            width: self.tile,
+                            height: self.tile,
+                        },
+                    }],
+                );
+                mesh.draw(ctx, cb);
+            }
+            ctx.raw().cmd_end_rendering(cb);
+        }
+        Ok(())
+    }
+
+    /// Records the march for the eye at `eye` (object frame, mm); `clear`: write zeros instead
+    /// (the frame skips the march, and its last output must not stand).
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
@@ -361,6 +701,7 @@ impl SingleScatteringPass {
         ctx: &Context,
         cb: vk::CommandBuffer,
         eye: Vec3,
+        clear: bool,
     ) -> Result<(), Error> {
         let Some(set) = self.set else {
             return Err(invalid("single scattering", "recorded before bind".into()));
@@ -373,12 +714,13 @@ impl SingleScatteringPass {
             sigma_a: f(c.sigma_a, (START_OFFSET * self.radius) as f32),
             vertex_count: self.vertex_count as u32,
             samples: self.params.samples,
-            mode: match self.params.mode {
-                ScatterMode::Difference => 1,
-                ScatterMode::Full => 2,
+            mode: match (clear, self.params.mode) {
+                (true, _) => 0,
+                (false, ScatterMode::Difference) => 1,
+                (false, ScatterMode::Full) => 2,
             },
             normal_offset: NORMAL_OFFSET_TEXELS,
-            depth_bias_slope: crate::render::SHADOW_SLOPE_BIAS,
+            columns: self.columns,
         };
         // SAFETY: the caller's contract; the scene buffer is under vkCmdUpdateBuffer's 65536 bytes.
         unsafe {
@@ -389,6 +731,12 @@ impl SingleScatteringPass {
                 self.scene.raw,
                 0,
                 bytemuck::bytes_of(&*self.scene_data),
+            );
+            ctx.raw().cmd_update_buffer(
+                cb,
+                self.exit_buffer.raw,
+                0,
+                bytemuck::bytes_of(&self.exit_view),
             );
             // why: the march reads the scene just written (RAW).
             barrier::memory(ctx, cb, Access::TransferDst, Access::ComputeRead);

@@ -46,7 +46,7 @@ use crate::vk::{barrier, Access, Context, Image, ImageDesc};
 /// Depth format of the atlas.
 pub const SHADOW_ATLAS_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 /// The shadow pass's slope-scaled depth bias (depth texels per texel of slope): against acne at
-/// grazing angles. Readers of the stored depth as a surface (single scattering) add it back.
+/// grazing angles. Single scattering reads surfaces from its own unbiased depth views instead.
 pub const SHADOW_SLOPE_BIAS: f32 = 1.5;
 /// Lights one [`ShadowMaps`] (and one irradiance gather) handles.
 pub const MAX_LIGHTS: usize = 8;
@@ -399,6 +399,16 @@ impl ShadowMaps {
     pub fn restore(&mut self, (views, light_views): (Vec<ShadowView>, Vec<(u32, u32)>)) {
         self.views = views;
         self.light_views = light_views;
+    }
+
+    /// Texels across one view's square tile.
+    pub fn tile_resolution(&self) -> u32 {
+        self.tile
+    }
+
+    /// Tiles the atlas holds ([`ShadowMapsDesc::max_views`]).
+    pub fn max_views(&self) -> u32 {
+        self.max_views
     }
 
     /// The views of the current lights, in atlas order.

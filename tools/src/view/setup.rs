@@ -284,6 +284,11 @@ impl Setup {
         if a.scene.no_specular {
             out.push("--no-specular".into());
         }
+        // render's default is `on`; the viewer's state decides.
+        out.push(format!(
+            "--single-scattering={}",
+            if state.single_scattering { "on" } else { "off" }
+        ));
         if !state.skip {
             out.push("--no-skip".into());
         }
