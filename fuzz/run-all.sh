@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Runs every cargo-fuzz target for SECONDS each (default 120), one after the other, niced (10), with
-# AddressSanitizer (cargo-fuzz's default), a 10 s per-input timeout and a 2 GB memory limit (the
-# issue's hang and out-of-memory bounds), seeded from the regression corpus. Writes
+# Runs every cargo-fuzz target for SECONDS each (default 120), one after the other, niced (10, or
+# $FUZZ_NICE), with AddressSanitizer (cargo-fuzz's default), a 10 s per-input timeout and a 2 GB
+# memory limit (the hang and out-of-memory bounds), seeded from the regression corpus. Writes
 # fuzz/logs/TARGET.log and prints one summary line per target (executions, time, edges, crashes).
 #   cd fuzz && ./run-all.sh 300            # or: ./run-all.sh 60 obj vol
 set -u
@@ -13,7 +13,7 @@ mkdir -p logs
 for t in $targets; do
     mkdir -p "corpus/$t" "artifacts/$t"
     # One thread for the bake and solver inside a target: the machine is shared.
-    RAYON_NUM_THREADS=1 nice -n 10 cargo +nightly fuzz run -O "$t" "corpus/$t" "../tests/fuzz-corpus/$t" -- \
+    RAYON_NUM_THREADS=1 nice -n ${FUZZ_NICE:-10} cargo +nightly fuzz run -O "$t" "corpus/$t" "../tests/fuzz-corpus/$t" -- \
         -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
         >"logs/$t.log" 2>&1
     rc=$?
