@@ -78,8 +78,9 @@ pub struct MethodFrame {
     pub moves_mesh: bool,
 }
 
-/// One way of computing the surface exitance (see the module doc).
-pub trait Method {
+/// One way of computing the surface exitance (see the module doc). `Send`, so that a host may keep
+/// a [`crate::TranslucentObject`] in state another thread owns (Bevy's render world does).
+pub trait Method: Send {
     /// The `--method` name, for reports.
     fn name(&self) -> &'static str;
 

@@ -127,12 +127,6 @@ struct Objects {
     ctx: WgpuContext,
 }
 
-// SAFETY: `Objects` is `!Send` only because `TranslucentObject` boxes its method as
-// `Box<dyn Method>` (the method seam's trait has no `Send` bound); every implementation holds
-// Vulkan handles (usable from any thread, externally synchronized: the `RenderState` mutex gives
-// exclusive access), `Arc`s, and plain data (the multigrid's `Cell<bool>` is `Send`), all `Send`.
-unsafe impl Send for Objects {}
-
 /// The render world's state: created on the first frame that draws (Bevy's device exists then).
 #[derive(Resource, Default)]
 pub struct RenderState {
