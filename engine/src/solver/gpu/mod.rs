@@ -54,6 +54,7 @@
 //! ```
 
 pub mod edit;
+mod interior;
 pub mod multigrid;
 mod params;
 mod ping_pong;
@@ -65,6 +66,7 @@ pub mod textures;
 mod upload;
 
 pub use edit::Deformation;
+pub(crate) use interior::InteriorSamples;
 pub use params::{GpuSolveParams, Precision};
 pub use ping_pong::PingPong;
 pub use push::*;
@@ -220,16 +222,6 @@ pub(crate) struct Pipelines {
     vertex: ComputePipeline<VertexPush>,
     /// The display vertices' exitance from the interior solution (`vertex_interior*.comp`).
     interior: ComputePipeline<InteriorPush>,
-}
-
-/// Per display vertex, where the interior reconstruction reads phi (see
-/// [`GpuSolveParams::surface`]), and its descriptor sets: index `2 * mesh + heterogeneous`
-/// (our own J+ buffer or the bound mesh's vertex buffer; push-constant or per-node material).
-pub(crate) struct InteriorSamples {
-    nodes: Buffer,
-    weights: Buffer,
-    cells: Buffer,
-    sets: [Option<vk::DescriptorSet>; 4],
 }
 
 /// The GPU solve of one QuadGraph with one material (see the module doc).
@@ -676,138 +668,6 @@ impl GpuDiffusion {
         // GPU by the first record), so a fresh solve and an edited one are the same computation.
         out.set_material(ctx, graph, material)?;
         Ok(out)
-    }
-
-    /// The interior samples of `graph`'s display vertices in the finest level's texel layout;
-    /// `None` when the graph has none (built by hand, not baked).
-    fn interior_samples(
-        ctx: &Context,
-        graph: &QuadGraph,
-        finest: &GpuLevel,
-    ) -> Result<Option<InteriorSamples>, Error> {
-        let samples = &graph.samples;
-        let vertices = graph.surface.positions.len();
-        if vertices == 0 || samples.depth.len() != vertices {
-            return Ok(None);
-        }
-        let bad = |v: usize, what: &str| {
-            Error::from(SolverError::BadGraph {
-                level: graph.levels.len() - 1,
-                problem: format!("vertex {v}'s interior sample: {what}"),
-            })
-        };
-        let mut nodes: Vec<[u32; 4]> = Vec::with_capacity(4 * vertices);
-        let mut weights: Vec<[f32; 4]> = Vec::with_capacity(4 * vertices);
-        let mut cells: Vec<[u32; 4]> = Vec::with_capacity(vertices);
-        for v in 0..vertices {
-            let (ids, w) = (&samples.nodes[v], &samples.weights[v]);
-            for g in 0..4 {
-                let mut n = [0u32; 4];
-                let mut wt = [0f32; 4];
-                for k in 0..4 {
-                    let (id, wk) = (ids[4 * g + k], w[4 * g + k]);
-                    if id == NO_NODE {
-                        continue;
-                    }
-                    if id as usize >= finest.inner_count || !wk.is_finite() {
-                        return Err(bad(v, "an inner node out of range or a weight not finite"));
-                    }
-                    n[k] = finest.packing.linear_index(id);
-                    wt[k] = wk as f32;
-                }
-                nodes.push(n);
-                weights.push(wt);
-            }
-            let cell = samples.cell[v];
-            let depth = samples.depth[v];
-            if cell as usize >= finest.inner_count || !(depth.is_finite() && depth >= 0.0) {
-                return Err(bad(v, "its cell out of range or its depth not finite"));
-            }
-            cells.push([
-                finest.packing.linear_index(cell),
-                (depth as f32).to_bits(),
-                0,
-                0,
-            ]);
-        }
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        Ok(Some(InteriorSamples {
-            nodes: Buffer::with_data(ctx, "diffusion sample nodes", storage, &nodes)?,
-            weights: Buffer::with_data(ctx, "diffusion sample weights", storage, &weights)?,
-            cells: Buffer::with_data(ctx, "diffusion sample cells", storage, &cells)?,
-            sets: [None; 4],
-        }))
-    }
-
-    /// Allocates the interior pass's descriptor sets that the current state needs (our buffer
-    /// and the bound mesh's; push-constant material always, per-node material once its
-    /// textures exist). Called after every material change and mesh binding.
-    pub(crate) fn ensure_interior_sets(&mut self, ctx: &Context) -> Result<(), Error> {
-        let Some(interior) = &mut self.interior else {
-            return Ok(());
-        };
-        let finest = &self.levels[self.levels.len() - 1];
-        for slot in 0..4 {
-            let (mesh, heterogeneous) = (slot / 2 == 1, slot % 2 == 1);
-            if interior.sets[slot].is_some() {
-                continue;
-            }
-            let out = match (&self.mesh, mesh) {
-                (_, false) => &self.vertex_j_plus,
-                (Some((m, _)), true) => m.vertex_buffer(),
-                (None, true) => continue,
-            };
-            let (kappa, mu) = match (&finest.material, heterogeneous) {
-                (_, false) => (&self.poison, &self.poison),
-                (Some([k, m]), true) => (k, m),
-                (None, true) => continue,
-            };
-            interior.sets[slot] = Some(self.pipelines.interior.allocate_set(
-                ctx,
-                &[
-                    DescriptorWrite::storage_image("phi", finest.result()),
-                    DescriptorWrite::storage_image("q", &finest.q),
-                    DescriptorWrite::storage_image("particular", &finest.particular),
-                    DescriptorWrite::storage_image("kappa", kappa),
-                    DescriptorWrite::storage_image("mu", mu),
-                    DescriptorWrite::StorageBuffer {
-                        name: "vertex_links",
-                        buffer: &self.vertex_links,
-                    },
-                    DescriptorWrite::StorageBuffer {
-                        name: "vertex_weights",
-                        buffer: &self.vertex_weights,
-                    },
-                    DescriptorWrite::StorageBuffer {
-                        name: "sample_nodes",
-                        buffer: &interior.nodes,
-                    },
-                    DescriptorWrite::StorageBuffer {
-                        name: "sample_weights",
-                        buffer: &interior.weights,
-                    },
-                    DescriptorWrite::StorageBuffer {
-                        name: "sample_cells",
-                        buffer: &interior.cells,
-                    },
-                    DescriptorWrite::StorageBuffer {
-                        name: "vertex_j_plus",
-                        buffer: out,
-                    },
-                ],
-            )?);
-        }
-        Ok(())
-    }
-
-    /// How the display vertices get their exitance in this solve: `Interior` or `Shepard`
-    /// (asked for, or a graph without interior samples).
-    pub fn surface_reconstruction(&self) -> SurfaceReconstruction {
-        if self.interior.is_some() {
-            SurfaceReconstruction::Interior
-        } else {
-            SurfaceReconstruction::Shepard
-        }
     }
 
     /// The boundary model (A, flux gain, exit query) the solve and its J+ pass use.
