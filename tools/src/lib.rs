@@ -24,8 +24,6 @@ pub mod material_args;
 pub mod object_args;
 pub mod progress;
 pub mod render;
-pub mod render_dipole;
-pub mod render_voxel;
 pub mod scene_args;
 #[cfg(feature = "window")]
 pub mod view;

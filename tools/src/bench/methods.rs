@@ -299,7 +299,7 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
                 }
                 MethodKind::Voxel => MethodDesc::Voxel {
                     mesh: object.surface.clone(),
-                    params: crate::render_voxel::voxel_params(None, None, None)?,
+                    params: crate::render::voxel::voxel_params(None, None, None)?,
                 },
                 MethodKind::Dipole => {
                     let key = dipole_cache::cache_key(&object.surface);

@@ -180,7 +180,7 @@ impl Setup {
                 ctx,
                 MethodDesc::Voxel {
                     mesh: self.graph.surface.clone(),
-                    params: crate::render_voxel::voxel_params(None, None, None)?,
+                    params: crate::render::voxel::voxel_params(None, None, None)?,
                 },
                 &self.field(state)?,
                 &self.scene(state),

@@ -13,7 +13,7 @@
 //! (frames after the first run no shadow, gather or solve unless `--orbit-light` moves the lights),
 //! and `--json` lists per frame the passes run, the iterations and the skipped passes with reasons.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{bail, Context as _};
@@ -30,13 +30,21 @@ use translucent::scene::Light;
 use translucent::solver::gpu::{GpuSolveParams, Precision};
 use translucent::solver::multigrid::MultigridParams;
 use translucent::solver::{self, CpuSolveParams, Schedule, Scheme};
-use translucent::vk::capture::write_atomically;
 use translucent::vk::{Context, ContextDesc, FrameTimings};
 use translucent::{ObjectParams, TranslucentObject};
 
 use crate::material_args::MaterialArgs;
 use crate::object_args::ObjectArgs;
 use crate::scene_args::SceneArgs;
+
+pub mod dipole;
+mod graph_file;
+mod output;
+pub mod voxel;
+
+pub use graph_file::{load_graph_file, GraphFileError};
+pub(crate) use output::{check_writable, write_trace};
+use output::{gpu_multigrid_json, lit_pixels, profile_in_order};
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -282,65 +290,6 @@ pub(crate) fn write_output(
     Ok(image)
 }
 
-/// Why `render --graph FILE` cannot use FILE.
-#[derive(Debug, thiserror::Error)]
-pub enum GraphFileError {
-    /// Not a readable QuadGraph file of this format version (the library's error says which).
-    #[error("--graph: {source}")]
-    Load {
-        path: PathBuf,
-        #[source]
-        source: translucent::quadgraph::BakeError,
-    },
-    /// A graph baked from another surface than the one the object options describe.
-    #[error(
-        "--graph {path}: baked from another surface ({graph_vertices} vertices, {graph_triangles} triangles) than {object} ({vertices} vertices, {triangles} triangles); give the --mesh or --shape, --size-mm and --up that `translucent bake` was given"
-    )]
-    OtherSurface {
-        path: PathBuf,
-        object: String,
-        graph_vertices: usize,
-        graph_triangles: usize,
-        vertices: usize,
-        triangles: usize,
-    },
-    /// A method that does not read a QuadGraph.
-    #[error(
-        "--graph {path}: a QuadGraph is read by --method quadgraph only (--method {method} {why})"
-    )]
-    Method {
-        path: PathBuf,
-        method: String,
-        why: &'static str,
-    },
-}
-
-/// Loads `path` (`render --graph`) and checks that it is a bake of `object`'s surface: the
-/// graph keeps the surface it was baked from, compared exactly (the cache file stores the f64
-/// coordinates as they were).
-pub fn load_graph_file(
-    path: &Path,
-    object: &crate::object_args::Object,
-) -> Result<translucent::QuadGraph, GraphFileError> {
-    let graph =
-        translucent::QuadGraph::load(path, None).map_err(|source| GraphFileError::Load {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    let (ours, theirs) = (&object.surface, &graph.surface);
-    if ours.positions != theirs.positions || ours.indices != theirs.indices {
-        return Err(GraphFileError::OtherSurface {
-            path: path.to_path_buf(),
-            object: object.name.clone(),
-            graph_vertices: theirs.positions.len(),
-            graph_triangles: theirs.indices.len(),
-            vertices: ours.positions.len(),
-            triangles: ours.indices.len(),
-        });
-    }
-    Ok(graph)
-}
-
 /// The default scene: a torus of skim milk, back lit (see `scene_args::default_lights`), so the
 /// light passing through its tube shows.
 const DEFAULT_SHAPE: &str = "torus";
@@ -480,7 +429,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     match args.method.as_str() {
         "quadgraph" | "dipole" => {}
-        "voxel" => return crate::render_voxel::run(args),
+        "voxel" => return crate::render::voxel::run(args),
         other => bail!("--method {other}: unknown (quadgraph, voxel, dipole)"),
     }
     let on_gpu = args.solver == "gpu";
@@ -562,7 +511,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let cache_dir = args.cache_dir.clone().unwrap_or_else(default_cache_dir);
         std::fs::create_dir_all(&cache_dir)
             .with_context(|| format!("creating the cache directory {}", cache_dir.display()))?;
-        return crate::render_dipole::run(crate::render_dipole::DipoleRender {
+        return crate::render::dipole::run(crate::render::dipole::DipoleRender {
             args,
             object,
             field,
@@ -998,85 +947,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One step of an 8-bit PNG channel: a pixel whose tone-mapped sRGB value is below it shows as
-/// black.
-const PNG_STEP: f32 = 1.0 / 255.0;
-
-/// Pixels of the object (coverage > 0) with radiance: for a PNG (`Some(exposure)`) those it shows
-/// brighter than black (the PNG writer's tone map: Narkowicz's ACES fit, then the sRGB curve), for
-/// an EXR (`None`) any above 0.
-fn lit_pixels(image: &translucent::vk::LinearImage, png_exposure: Option<f32>) -> usize {
-    let lit = |v: f32| {
-        let Some(exposure) = png_exposure else {
-            return v > 0.0;
-        };
-        let x = (v * exposure).clamp(0.0, 1e6);
-        let t = ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
-        let shown = if t <= 0.003_130_8 {
-            12.92 * t
-        } else {
-            1.055 * t.powf(1.0 / 2.4) - 0.055
-        };
-        shown >= PNG_STEP
-    };
-    image
-        .pixels
-        .iter()
-        .filter(|p| p[3] > 0.0 && p[..3].iter().any(|&v| v.is_finite() && lit(v)))
-        .count()
-}
-
-/// A frame's GPU scopes in execution order as (name, depth, ms), scopes of the same name and
-/// depth summed at their first place, and the total of the top-level scopes.
-fn profile_in_order(t: &FrameTimings) -> (Vec<(String, u32, f64)>, f64) {
-    let mut scopes: Vec<(String, u32, f64)> = Vec::new();
-    let mut total = 0.0;
-    for s in &t.scopes {
-        if s.depth == 0 {
-            total += s.duration_ms;
-        }
-        match scopes
-            .iter_mut()
-            .find(|(n, d, _)| *n == s.name && *d == s.depth)
-        {
-            Some((_, _, ms)) => *ms += s.duration_ms,
-            None => scopes.push((s.name.clone(), s.depth, s.duration_ms)),
-        }
-    }
-    (scopes, total)
-}
-
-/// Fails unless a file can be created next to `out` (its folder exists and is writable), so a
-/// bad `--out` is reported before the bake and the solve. Leaves nothing behind.
-pub(crate) fn check_writable(out: &Path) -> anyhow::Result<()> {
-    let dir = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        bail!(
-            "--out {}: the folder {} does not exist",
-            out.display(),
-            dir.display()
-        );
-    }
-    if out.is_dir() {
-        bail!("--out {}: is a folder", out.display());
-    }
-    let probe = dir.join(format!(".translucent-write-probe-{}", std::process::id()));
-    match std::fs::File::create(&probe) {
-        Ok(_) => {
-            let _ = std::fs::remove_file(&probe);
-            Ok(())
-        }
-        Err(e) => bail!(
-            "--out {}: cannot write in {}: {e}",
-            out.display(),
-            dir.display()
-        ),
-    }
-}
-
 /// `lights` rotated about +Y by `degrees` (directions and positions).
 pub(crate) fn orbit_lights(lights: &[Light], degrees: f64) -> Vec<Light> {
     let q = DQuat::from_rotation_y(degrees.to_radians());
@@ -1091,37 +961,6 @@ pub(crate) fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
         eye: camera.target + q * offset,
         ..camera
     }
-}
-
-pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
-    write_atomically(path, |tmp| {
-        std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
-    })
-    .with_context(|| format!("--trace {}", path.display()))
-}
-
-/// `--json`'s "multigrid" of a GPU multigrid solve (the CPU one's fields where they exist).
-fn gpu_multigrid_json(
-    m: &translucent::solver::gpu::multigrid::GpuMultigridReport,
-) -> serde_json::Value {
-    let mut json = serde_json::json!({
-        "solver": "gpu",
-        "warm": m.warm,
-        "cycles": m.cycles.len(),
-        "work_units": m.work_units,
-        "converged": m.converged,
-        "state": m.state,
-        "start_residual": m.start_residual,
-        "residual": m.residual,
-        "factor_per_cycle": m.cycles.iter().map(|c| c.factor).collect::<Vec<_>>(),
-        "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
-        "coarse_steps": m.coarse_steps,
-    });
-    // Present from two cycles on: a `null` in frames reads as NaN to the checks.
-    if let Some(mean) = m.mean_factor {
-        json["mean_factor"] = mean.into();
-    }
-    json
 }
 
 impl RenderArgs {

@@ -1,0 +1,118 @@
+//! What `render` writes besides the image: the lit-pixel check of a PNG or EXR, the `--out`
+//! probe, `--trace`, and the `--profile` / `--json` views of a frame's GPU scopes and multigrid.
+
+use std::path::Path;
+
+use anyhow::{bail, Context as _};
+use translucent::vk::capture::write_atomically;
+use translucent::vk::FrameTimings;
+
+/// One step of an 8-bit PNG channel: a pixel whose tone-mapped sRGB value is below it shows as
+/// black.
+const PNG_STEP: f32 = 1.0 / 255.0;
+
+/// Pixels of the object (coverage > 0) with radiance: for a PNG (`Some(exposure)`) those it shows
+/// brighter than black (the PNG writer's tone map: Narkowicz's ACES fit, then the sRGB curve), for
+/// an EXR (`None`) any above 0.
+pub(super) fn lit_pixels(image: &translucent::vk::LinearImage, png_exposure: Option<f32>) -> usize {
+    let lit = |v: f32| {
+        let Some(exposure) = png_exposure else {
+            return v > 0.0;
+        };
+        let x = (v * exposure).clamp(0.0, 1e6);
+        let t = ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
+        let shown = if t <= 0.003_130_8 {
+            12.92 * t
+        } else {
+            1.055 * t.powf(1.0 / 2.4) - 0.055
+        };
+        shown >= PNG_STEP
+    };
+    image
+        .pixels
+        .iter()
+        .filter(|p| p[3] > 0.0 && p[..3].iter().any(|&v| v.is_finite() && lit(v)))
+        .count()
+}
+
+/// A frame's GPU scopes in execution order as (name, depth, ms), scopes of the same name and
+/// depth summed at their first place, and the total of the top-level scopes.
+pub(super) fn profile_in_order(t: &FrameTimings) -> (Vec<(String, u32, f64)>, f64) {
+    let mut scopes: Vec<(String, u32, f64)> = Vec::new();
+    let mut total = 0.0;
+    for s in &t.scopes {
+        if s.depth == 0 {
+            total += s.duration_ms;
+        }
+        match scopes
+            .iter_mut()
+            .find(|(n, d, _)| *n == s.name && *d == s.depth)
+        {
+            Some((_, _, ms)) => *ms += s.duration_ms,
+            None => scopes.push((s.name.clone(), s.depth, s.duration_ms)),
+        }
+    }
+    (scopes, total)
+}
+
+/// Fails unless a file can be created next to `out` (its folder exists and is writable), so a
+/// bad `--out` is reported before the bake and the solve. Leaves nothing behind.
+pub(crate) fn check_writable(out: &Path) -> anyhow::Result<()> {
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "--out {}: the folder {} does not exist",
+            out.display(),
+            dir.display()
+        );
+    }
+    if out.is_dir() {
+        bail!("--out {}: is a folder", out.display());
+    }
+    let probe = dir.join(format!(".translucent-write-probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!(
+            "--out {}: cannot write in {}: {e}",
+            out.display(),
+            dir.display()
+        ),
+    }
+}
+
+pub(crate) fn write_trace(path: &Path, trace: &str) -> anyhow::Result<()> {
+    write_atomically(path, |tmp| {
+        std::fs::write(tmp, trace.as_bytes()).map_err(|e| e.to_string())
+    })
+    .with_context(|| format!("--trace {}", path.display()))
+}
+
+/// `--json`'s "multigrid" of a GPU multigrid solve (the CPU one's fields where they exist).
+pub(super) fn gpu_multigrid_json(
+    m: &translucent::solver::gpu::multigrid::GpuMultigridReport,
+) -> serde_json::Value {
+    let mut json = serde_json::json!({
+        "solver": "gpu",
+        "warm": m.warm,
+        "cycles": m.cycles.len(),
+        "work_units": m.work_units,
+        "converged": m.converged,
+        "state": m.state,
+        "start_residual": m.start_residual,
+        "residual": m.residual,
+        "factor_per_cycle": m.cycles.iter().map(|c| c.factor).collect::<Vec<_>>(),
+        "residual_per_cycle": m.cycles.iter().map(|c| c.residual).collect::<Vec<_>>(),
+        "coarse_steps": m.coarse_steps,
+    });
+    // Present from two cycles on: a `null` in frames reads as NaN to the checks.
+    if let Some(mean) = m.mean_factor {
+        json["mean_factor"] = mean.into();
+    }
+    json
+}
