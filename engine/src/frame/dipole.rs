@@ -22,9 +22,10 @@
 //! gather. The links and weights live in host-visible buffers the frames read: a deformation
 //! while frames are in flight waits for them first.
 //!
-//! What it does not do yet: the on-the-fly and incremental modes inside a frame (they run on the
-//! CPU: [`crate::solver::dipole::links::on_the_fly`], [`crate::solver::dipole::IncrementalLinks`],
-//! `benches/src/bin/dipole.rs`).
+//! Incremental mode (paper section 5.5) runs in the frame: `Relink::Incremental` drains
+//! [`crate::solver::dipole::IncrementalLinks`] a bounded number of form factors per frame after a
+//! deformation or a material change. On-the-fly mode (no links stored) runs on the CPU only:
+//! [`crate::solver::dipole::links::on_the_fly`], measured by `benches/src/bin/dipole.rs modes`.
 //!
 //! ```no_run
 //! use std::sync::Arc;
