@@ -38,6 +38,28 @@ pub fn test_mesh(name: &str) -> Option<PathBuf> {
     None
 }
 
+/// Test mesh `name` loaded, validated, normalized to 50 mm (as `translucent render --mesh` does)
+/// and baked at `resolution` cells with `levels` levels, or `None` where [`test_mesh`] skips.
+pub fn bake_test_mesh(name: &str, resolution: u32, levels: u32) -> Option<translucent::QuadGraph> {
+    use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
+    use translucent::quadgraph::BakeParams;
+    let path = test_mesh(name)?;
+    let mut mesh = TriMesh::load_obj(&path).expect("load the test mesh");
+    mesh.validate(&ValidateOptions::default())
+        .expect("a valid test mesh");
+    let (mut mesh, _) = mesh.normalized(50.0).expect("normalize the test mesh");
+    mesh.compute_normals();
+    let solid = MeshSolid::new(mesh.clone()).expect("a closed test mesh");
+    let params = BakeParams {
+        resolution,
+        levels,
+        ..Default::default()
+    };
+    let (graph, _) =
+        translucent::QuadGraph::bake(&mesh, &solid, &params, &mut |_| {}).expect("bake");
+    Some(graph)
+}
+
 /// Where tests write their outputs (`target/test-output/`), created on demand.
 pub fn test_output_dir() -> PathBuf {
     let dir = workspace_root().join("target").join("test-output");

@@ -437,23 +437,9 @@ fn mesh_pass_draws_the_gpu_written_exitance() {
 
 #[test]
 fn gpu_matches_the_cpu_reference_on_a_baked_spot() {
-    use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
-    let Some(path) = translucent_tests::test_mesh("spot.obj") else {
+    let Some(graph) = translucent_tests::bake_test_mesh("spot.obj", 16, 2) else {
         return;
     };
-    let mut mesh = TriMesh::load_obj(&path).unwrap();
-    mesh.validate(&ValidateOptions::default()).unwrap();
-    let (mut mesh, _) = mesh.normalized(50.0).unwrap();
-    mesh.compute_normals();
-    let solid = MeshSolid::new(mesh.clone()).unwrap();
-    let params = BakeParams {
-        resolution: 16,
-        levels: 2,
-        ..Default::default()
-    };
-    let graph = QuadGraph::bake(&mesh, &solid, &params, &mut |_| {})
-        .unwrap()
-        .0;
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     for preset in ["marble", "skimmilk", "ketchup"] {

@@ -304,23 +304,9 @@ fn gpu_multigrid_warm_start_at_the_solution_runs_no_cycle_and_keeps_it() {
 /// the default tolerance and cycle cap: the default multigrid (CG) reaches the exact solve.
 #[test]
 fn gpu_multigrid_reaches_the_exact_solve_on_the_spot_mesh() {
-    use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
-    let Some(path) = translucent_tests::test_mesh("spot.obj") else {
+    let Some(graph) = translucent_tests::bake_test_mesh("spot.obj", 16, 3) else {
         return;
     };
-    let mut mesh = TriMesh::load_obj(&path).unwrap();
-    mesh.validate(&ValidateOptions::default()).unwrap();
-    let (mut mesh, _) = mesh.normalized(50.0).unwrap();
-    mesh.compute_normals();
-    let solid = MeshSolid::new(mesh.clone()).unwrap();
-    let bake = BakeParams {
-        resolution: 16,
-        levels: 3,
-        ..Default::default()
-    };
-    let graph = QuadGraph::bake(&mesh, &solid, &bake, &mut |_| {})
-        .unwrap()
-        .0;
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());

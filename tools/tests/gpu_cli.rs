@@ -9,27 +9,29 @@ use std::process::Output;
 
 use common::{json_of, rgb, scratch, translucent};
 
+/// The small marble sphere most tests here render (64 x 64 pixels, a 16-cell two-level bake).
+const TEST_SPHERE: [&str; 15] = [
+    "render",
+    "--shape",
+    "sphere",
+    "--material",
+    "marble",
+    "--resolution",
+    "16",
+    "--levels",
+    "2",
+    "--width",
+    "64",
+    "--height",
+    "64",
+    "--size-mm",
+    "20",
+];
+
 fn render(dir: &Path, extra: &[&str]) -> Output {
     let png = dir.join("out.png");
-    let mut args = vec![
-        "render",
-        "--shape",
-        "sphere",
-        "--material",
-        "marble",
-        "--resolution",
-        "16",
-        "--levels",
-        "2",
-        "--width",
-        "64",
-        "--height",
-        "64",
-        "--size-mm",
-        "20",
-        "--json",
-        "--out",
-    ];
+    let mut args = TEST_SPHERE.to_vec();
+    args.extend(["--json", "--out"]);
     args.push(png.to_str().expect("utf-8 path"));
     args.extend(extra);
     translucent(&args, dir)
@@ -535,25 +537,8 @@ fn gpu_multigrid_schedule_reports_its_cycles_and_matches_the_cascade() {
 /// an EXR) of a render of the test sphere to `name`.exr, and how many there are.
 fn lit_mean(dir: &Path, name: &str, extra: &[&str]) -> (f64, usize) {
     let exr = dir.join(format!("{name}.exr"));
-    let mut args = vec![
-        "render",
-        "--shape",
-        "sphere",
-        "--material",
-        "marble",
-        "--resolution",
-        "16",
-        "--levels",
-        "2",
-        "--width",
-        "64",
-        "--height",
-        "64",
-        "--size-mm",
-        "20",
-        "--allow-black",
-        "--out",
-    ];
+    let mut args = TEST_SPHERE.to_vec();
+    args.extend(["--allow-black", "--out"]);
     args.push(exr.to_str().expect("utf-8 path"));
     args.extend(extra);
     let out = translucent(&args, dir);
