@@ -535,6 +535,38 @@ fn gpu_multigrid_schedule_reports_its_cycles_and_matches_the_cascade() {
 
 /// The mean luminance of the object's pixels (any radiance above 0: the background is black in
 /// an EXR) of a render of the test sphere to `name`.exr, and how many there are.
+#[test]
+fn a_box_renders_with_the_default_multigrid_schedule() {
+    // A box's coarse corner nodes are nobody's Shepard neighbour: their Galerkin rows were empty
+    // and `render --shape box` stopped with "a multigrid operator's diagonal (must be > 0) is
+    // not finite" (resolution 20 reproduced it; the default 29 too).
+    let dir = scratch("box_multigrid");
+    let png = dir.join("box.png");
+    let args = [
+        "render",
+        "--shape",
+        "box",
+        "--resolution",
+        "20",
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "--json",
+        "--out",
+        png.to_str().expect("utf-8 path"),
+    ];
+    let out = translucent(&args, &dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json = json_of(&out);
+    assert_eq!(json["schedule"], "multigrid", "{json}");
+    assert_eq!(json["multigrid"]["state"], "Converged", "{json}");
+}
+
 fn lit_mean(dir: &Path, name: &str, extra: &[&str]) -> (f64, usize) {
     let exr = dir.join(format!("{name}.exr"));
     let mut args = TEST_SPHERE.to_vec();

@@ -118,7 +118,11 @@ impl Prolongation {
                         }
                     }
                 };
-                push(i, k.diag[i]);
+                // A decoupled row of a coarser Galerkin level (below) is not part of the
+                // operator: its unit diagonal must not leak into the next coarser level.
+                if !is_decoupled(k, i) {
+                    push(i, k.diag[i]);
+                }
                 for e in k.row_start[i]..k.row_start[i + 1] {
                     push(k.cols[e] as usize, k.values[e]);
                 }
@@ -136,6 +140,14 @@ impl Prolongation {
                     }
                 }
                 let merged = merge_columns(row);
+                if merged.iter().all(|(_, v)| *v == [0.0; 3]) {
+                    // why: no fine node interpolates from this coarse node (the Shepard links
+                    // pick the nearest coarse nodes, and a box's coarse corner nodes can be
+                    // nobody's nearest), so its row and column of P^T K P are empty. It gets a
+                    // unit diagonal: its restricted residual is always 0, so its correction
+                    // stays 0 and nothing reads it, and the smoothers never divide by 0.
+                    return (Vec::new(), DECOUPLED_DIAGONAL);
+                }
                 let diag = merged
                     .iter()
                     .find(|(col, _)| *col as usize == c)
@@ -162,6 +174,15 @@ impl Prolongation {
         }
         out
     }
+}
+
+/// The diagonal of a Galerkin row no fine node interpolates from ([`Prolongation::galerkin`]).
+const DECOUPLED_DIAGONAL: [f64; 3] = [1.0; 3];
+
+/// Whether row `i` of `k` is a decoupled Galerkin row: no off-diagonal entry and the unit diagonal
+/// (an assembled level's rows always have neighbours).
+fn is_decoupled(k: &SparseOperator, i: usize) -> bool {
+    k.row_start[i] == k.row_start[i + 1] && k.diag[i] == DECOUPLED_DIAGONAL
 }
 
 /// Shepard links in which inner nodes link to the 8 nearest coarse nodes of either kind
@@ -259,4 +280,74 @@ fn linear_weights(
         total += out[k].abs();
     }
     (total.is_finite() && total <= 3.0).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 1D chain of 3 fine nodes, K = tridiag(-1, 2, -1) per channel.
+    fn chain() -> SparseOperator {
+        SparseOperator {
+            row_start: vec![0, 1, 3, 4],
+            cols: vec![1, 0, 2, 1],
+            values: vec![[-1.0; 3]; 4],
+            diag: vec![[2.0; 3]; 3],
+            ..SparseOperator::default()
+        }
+    }
+
+    fn link(to: &[(u32, f64)]) -> ([u32; 8], [f64; 8]) {
+        let mut l = [NO_NODE; 8];
+        let mut w = [0.0; 8];
+        for (k, &(c, wc)) in to.iter().enumerate() {
+            l[k] = c;
+            w[k] = wc;
+        }
+        (l, w)
+    }
+
+    #[test]
+    fn a_coarse_node_no_fine_node_links_to_is_decoupled_not_singular() {
+        // Coarse node 1 is nobody's Shepard neighbour (a box's coarse corner was): before, its
+        // Galerkin diagonal was 0 and `render --shape box` stopped with "diagonal not finite".
+        let (l, w): (Vec<_>, Vec<_>) = [
+            link(&[(0, 1.0)]),
+            link(&[(0, 0.5), (2, 0.5)]),
+            link(&[(2, 1.0)]),
+        ]
+        .into_iter()
+        .unzip();
+        let p = Prolongation::new(
+            &ShepardLinks {
+                links: l,
+                weights: w,
+            },
+            3,
+            3,
+        )
+        .unwrap();
+        let coarse = p.galerkin(&chain());
+        assert_eq!(coarse.diag[1], DECOUPLED_DIAGONAL);
+        assert!(is_decoupled(&coarse, 1));
+        // The coupled rows are the true P^T K P: diag = p0^T K p0 with p0 = (1, 0.5, 0).
+        assert_eq!(coarse.diag[0], [2.0 - 2.0 * 0.5 + 0.5; 3]);
+        assert!(coarse.diag.iter().flatten().all(|&d| d > 0.0));
+        // One level further, the decoupled row leaves no trace: a prolongation onto the coupled
+        // node 0 alone gives exactly coarse.diag[0], not coarse.diag[0] + 1.
+        let (l2, w2): (Vec<_>, Vec<_>) = [link(&[(0, 1.0)]), link(&[(0, 1.0)]), link(&[])]
+            .into_iter()
+            .unzip();
+        let p2 = Prolongation::new(
+            &ShepardLinks {
+                links: l2,
+                weights: w2,
+            },
+            3,
+            1,
+        )
+        .unwrap();
+        let coarser = p2.galerkin(&coarse);
+        assert_eq!(coarser.diag[0], coarse.diag[0]);
+    }
 }
