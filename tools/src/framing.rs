@@ -236,9 +236,7 @@ pub fn detail_centroid(mesh: &TriMesh) -> Option<DVec3> {
         .iter()
         .map(|p| {
             let next = welded.len() as u32;
-            *welded
-                .entry(p.to_array().map(f64::to_bits))
-                .or_insert(next)
+            *welded.entry(p.to_array().map(f64::to_bits)).or_insert(next)
         })
         .collect();
     // Per edge: the first face's normal, the second's once seen, and the edge's midpoint and length.
@@ -396,17 +394,24 @@ mod tests {
         names.sort();
         for path in names {
             let mesh = TriMesh::load_obj(&path).expect("obj");
+            let start = std::time::Instant::now();
             let areas = planar_areas(&mesh);
             let up = up_from_areas(&areas);
             let mut turned = mesh.clone();
             crate::object_args::turn_up(&mut turned, up.axis);
             let front = choose_front(&turned);
+            let ms = start.elapsed().as_secs_f64() * 1e3;
             println!(
-                "{:?}: up {} | base% {:?} planar% {:?} | front {}",
+                "{:?} ({} triangles, {ms:.0} ms): up {} | base% {:?} planar% {:?} | front {}",
+                mesh.indices.len(),
                 path.file_stem().unwrap_or_default(),
                 up.describe(),
-                areas.base.map(|a| (1000.0 * a / areas.total).round() / 10.0),
-                areas.planar.map(|a| (1000.0 * a / areas.total).round() / 10.0),
+                areas
+                    .base
+                    .map(|a| (1000.0 * a / areas.total).round() / 10.0),
+                areas
+                    .planar
+                    .map(|a| (1000.0 * a / areas.total).round() / 10.0),
                 front.describe(),
             );
         }

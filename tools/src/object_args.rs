@@ -365,7 +365,10 @@ impl ObjectArgs {
 
     /// `--up` for `mesh` as loaded: the given axis, or `auto`'s choice.
     pub fn up_choice(&self, mesh: &TriMesh) -> UpChoice {
-        match crate::framing::AXES.iter().find(|(name, _)| *name == self.up) {
+        match crate::framing::AXES
+            .iter()
+            .find(|(name, _)| *name == self.up)
+        {
             Some((axis, _)) => UpChoice {
                 axis,
                 reason: UpReason::Given,

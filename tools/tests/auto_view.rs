@@ -15,7 +15,9 @@ fn mesh_path(name: &str) -> Option<PathBuf> {
         .map_or_else(|| PathBuf::from("../shared/meshes"), PathBuf::from);
     // Tests run from the crate directory; the meshes are beside the repository root.
     let dir = if dir.is_relative() {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join(dir)
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(dir)
     } else {
         dir
     };

@@ -587,7 +587,10 @@ mod tests {
         // the fixed default key (what bench used before).
         assert!(key_direction(&lights).dot(to_eye) > 0.5);
         let fixed = key_direction(&crate::scene_args::default_lights());
-        assert!((key_direction(&lights) - fixed).length() > TURNED_MIN, "{lights:?}");
+        assert!(
+            (key_direction(&lights) - fixed).length() > TURNED_MIN,
+            "{lights:?}"
+        );
 
         // Without --camera: the automatic view, lit by the defaults placed for it.
         let args = bench_args(&[]);
@@ -613,7 +616,10 @@ mod tests {
             let mut frame_desc = args.scene.frame_desc().expect("frame");
             let given = frame_desc.camera;
             let lights = view(&args.scene, &object, &mut frame_desc).expect("view");
-            assert!(given.is_some(), "{name}: a reference scene gives its camera");
+            assert!(
+                given.is_some(),
+                "{name}: a reference scene gives its camera"
+            );
             assert_eq!(frame_desc.camera, given, "{name}");
             assert_eq!(lights, args.scene.lights().expect("lights"), "{name}");
             assert!(!args.scene.lights.is_empty(), "{name}: gives its lights");
