@@ -172,7 +172,8 @@ pub fn up_from_areas(areas: &PlanarAreas) -> UpChoice {
     else {
         return no_base;
     };
-    if !(areas.total > 0.0) || base < MIN_BASE_FRACTION * areas.total {
+    // why: the total sums finite areas only, so it is never NaN.
+    if areas.total <= 0.0 || base < MIN_BASE_FRACTION * areas.total {
         return no_base;
     }
     let other_planar = (0..3)
@@ -225,6 +226,15 @@ impl FrontChoice {
     }
 }
 
+/// An edge of [`detail_centroid`]: the first face's normal, the second's once seen, its midpoint
+/// and length.
+struct Edge {
+    first: DVec3,
+    second: Option<DVec3>,
+    midpoint: DVec3,
+    length: f64,
+}
+
 /// The detail centroid of `mesh`: the mean of its edge midpoints weighted by `|theta_e| l_e` (the
 /// dihedral angle times the length: the integrated mean curvature along the edge), over the
 /// edges shared by two faces (positions welded by value, so seams split for texture
@@ -239,8 +249,7 @@ pub fn detail_centroid(mesh: &TriMesh) -> Option<DVec3> {
             *welded.entry(p.to_array().map(f64::to_bits)).or_insert(next)
         })
         .collect();
-    // Per edge: the first face's normal, the second's once seen, and the edge's midpoint and length.
-    let mut edges: HashMap<(u32, u32), (DVec3, Option<DVec3>, DVec3, f64)> = HashMap::new();
+    let mut edges: HashMap<(u32, u32), Edge> = HashMap::new();
     for tri in &mesh.indices {
         let Some(corners) = face(mesh, tri) else {
             continue;
@@ -256,18 +265,23 @@ pub fn detail_centroid(mesh: &TriMesh) -> Option<DVec3> {
             edges
                 .entry((u.min(v), u.max(v)))
                 .and_modify(|e| {
-                    e.1.get_or_insert(n);
+                    e.second.get_or_insert(n);
                 })
-                .or_insert((n, None, 0.5 * (p + q), p.distance(q)));
+                .or_insert(Edge {
+                    first: n,
+                    second: None,
+                    midpoint: 0.5 * (p + q),
+                    length: p.distance(q),
+                });
         }
     }
     let (mut sum, mut weight) = (DVec3::ZERO, 0.0);
-    for (n0, n1, midpoint, length) in edges.values() {
-        let Some(n1) = n1 else { continue };
+    for edge in edges.values() {
+        let Some(second) = edge.second else { continue };
         // Unsigned: a fold either way (a pair wound apart by an open mesh's patching flips the sign).
-        let angle = n0.dot(*n1).abs().clamp(0.0, 1.0).acos();
-        sum += *midpoint * angle * length;
-        weight += angle * length;
+        let angle = edge.first.dot(second).abs().clamp(0.0, 1.0).acos();
+        sum += edge.midpoint * angle * edge.length;
+        weight += angle * edge.length;
     }
     (weight > 0.0 && sum.is_finite()).then(|| sum / weight)
 }
@@ -403,8 +417,8 @@ mod tests {
             let ms = start.elapsed().as_secs_f64() * 1e3;
             println!(
                 "{:?} ({} triangles, {ms:.0} ms): up {} | base% {:?} planar% {:?} | front {}",
-                mesh.indices.len(),
                 path.file_stem().unwrap_or_default(),
+                mesh.indices.len(),
                 up.describe(),
                 areas
                     .base
