@@ -95,6 +95,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             "cache": out,
             "cache_outcome": match &outcome { CacheOutcome::Loaded => "loaded".to_string(), CacheOutcome::Baked => "baked".to_string(), CacheOutcome::Rebuilt(e) => format!("rebuilt: {e}") },
             "validation": validation,
+            "up": object.up.describe(),
             "resolution": resolution.json(stats.levels.last().map(|l| l.surface_nodes + l.inner_nodes)),
             "params": { "resolution": params.resolution, "K": params.k, "levels": params.levels, "relax": params.relax, "block": params.block },
             "surface_vertices": surface.positions.len(),
@@ -111,6 +112,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
             serde_json::to_string_pretty(&value)?
         );
     } else {
+        eprintln!("up: {}", object.up.describe());
         eprintln!(
             "{}",
             resolution.line(

@@ -18,6 +18,7 @@ pub mod backdrop;
 pub mod bake;
 pub mod bench;
 pub mod cache;
+pub mod framing;
 pub mod hostile;
 pub mod info;
 pub mod material_args;

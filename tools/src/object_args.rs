@@ -13,6 +13,8 @@ use translucent::quadgraph::resolution::{self, ResolutionChoice};
 use translucent::quadgraph::BakeParams;
 use translucent::scene::Camera;
 
+use crate::framing::{choose_front, choose_up, FrontChoice, UpChoice, UpReason};
+
 #[derive(clap::Args, Debug, Clone)]
 pub struct ObjectArgs {
     /// OBJ file (validated, then normalized to --size-mm).
@@ -39,9 +41,12 @@ pub struct ObjectArgs {
     /// Relax inner node positions (for the `paper` scheme only).
     #[arg(long)]
     pub relax: bool,
-    /// The mesh's up axis (x, y, z, -x, -y, -z): the mesh is turned so that this axis points
-    /// along +Y, the renderer's up (scans are often z-up). Procedural shapes are built +Y up.
-    #[arg(long, value_name = "AXIS", default_value = "y", value_parser = ["x", "y", "z", "-x", "-y", "-z"], allow_hyphen_values = true)]
+    /// The mesh's up axis (auto, x, y, z, -x, -y, -z): the mesh is turned so that this axis
+    /// points along +Y, the renderer's up (scans are often z-up). `auto` (the default): the axis
+    /// opposite a large flat base (a clear majority of the planar area), else +Y, the OBJ
+    /// convention (`framing::choose_up`; the choice is printed and in `--json`). Procedural
+    /// shapes are built +Y up.
+    #[arg(long, value_name = "AXIS", default_value = "auto", value_parser = ["auto", "x", "y", "z", "-x", "-y", "-z"], allow_hyphen_values = true)]
     pub up: String,
     /// Accept meshes that fail validation (open sheets, non-manifold edges) as the solid their
     /// generalized winding number describes.
@@ -131,9 +136,42 @@ pub struct Object {
     pub validation: Option<String>,
     /// Edges used by one face only (0 for shapes and closed meshes).
     pub boundary_edges: usize,
+    /// The up axis the surface was turned to +Y from, and why.
+    pub up: UpChoice,
+    /// The side the automatic three-quarter view looks from.
+    pub front: FrontChoice,
 }
 
 impl Object {
+    /// The automatic camera: the three-quarter view of the surface's bounding sphere from its
+    /// front side ([`crate::scene_args::default_camera`]).
+    pub fn default_camera(&self, aspect: f64) -> Camera {
+        let (centre, radius) = translucent::mesh::bounding_sphere(&self.surface.positions);
+        crate::scene_args::default_camera(centre, radius, aspect, self.front.side)
+    }
+
+    /// One line for stderr: `view: up z (auto: flat base ...), front +z side (...)`.
+    pub fn view_line(&self) -> String {
+        format!(
+            "view: up {}, seen from the {}",
+            self.up.describe(),
+            self.front.describe()
+        )
+    }
+
+    /// The `--json` entry: `{"up": "z (auto: flat base ...)", "front": "-z side (...)"}`.
+    pub fn view_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "up": self.up.describe(),
+            "up_axis": self.up.axis,
+            "front": self.front.describe(),
+            "front_side": match self.front.side {
+                crate::framing::Side::Front => "+z",
+                crate::framing::Side::Back => "-z",
+            },
+        })
+    }
+
     /// The display surface's bounding box (mm).
     pub fn bounds(&self) -> (DVec3, DVec3) {
         self.surface.positions.iter().fold(
@@ -264,19 +302,25 @@ impl ObjectArgs {
         match (&self.mesh, self.shape.as_deref().or(default_shape)) {
             (Some(path), _) => self.load_mesh(path),
             (None, Some(shape)) => {
-                if self.up != "y" {
+                if self.up != "y" && self.up != "auto" {
                     anyhow::bail!(
                         "--up {}: applies to --mesh (procedural shapes are built +Y up)",
                         self.up
                     );
                 }
                 let s = shape_by_name(shape, self.size_mm)?;
+                let surface = s.triangulate(96);
                 Ok(Object {
                     name: format!("shape-{shape}"),
-                    surface: s.triangulate(96),
+                    front: choose_front(&surface),
+                    surface,
                     solid: Box::new(s),
                     validation: None,
                     boundary_edges: 0,
+                    up: UpChoice {
+                        axis: "y",
+                        reason: UpReason::Shape,
+                    },
                 })
             }
             (None, None) => anyhow::bail!("give --mesh FILE.obj or --shape NAME"),
@@ -285,7 +329,8 @@ impl ObjectArgs {
 
     fn load_mesh(&self, path: &Path) -> anyhow::Result<Object> {
         let mut mesh = TriMesh::load_obj(path)?;
-        turn_up(&mut mesh, &self.up);
+        let up = self.up_choice(&mesh);
+        turn_up(&mut mesh, up.axis);
         let options = if self.force {
             ValidateOptions::forced()
         } else {
@@ -309,11 +354,27 @@ impl ObjectArgs {
             .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
         Ok(Object {
             name,
+            front: choose_front(&surface),
             surface,
             solid: Box::new(solid),
             validation: Some(report.summary()),
             boundary_edges: report.boundary_edges,
+            up,
         })
+    }
+
+    /// `--up` for `mesh` as loaded: the given axis, or `auto`'s choice.
+    pub fn up_choice(&self, mesh: &TriMesh) -> UpChoice {
+        match crate::framing::AXES
+            .iter()
+            .find(|(name, _)| *name == self.up)
+        {
+            Some((axis, _)) => UpChoice {
+                axis,
+                reason: UpReason::Given,
+            },
+            None => choose_up(mesh),
+        }
     }
 }
 

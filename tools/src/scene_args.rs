@@ -7,6 +7,8 @@ use glam::{DQuat, DVec3};
 use translucent::headless::FrameDesc;
 use translucent::scene::{Camera, Light, RadianceMode};
 
+use crate::framing::Side;
+
 #[derive(clap::Args, Debug, Clone)]
 pub struct SceneArgs {
     /// `dir:X,Y,Z:R,G,B` (direction the light travels, irradiance), `point:X,Y,Z:R,G,B`
@@ -92,7 +94,7 @@ fn camera_frame(camera: &Camera) -> DQuat {
 /// (slightly above and to the right of the view direction) and the fill in front above-left,
 /// whichever side the camera looks from. For the default camera they are [`default_lights`].
 pub fn default_lights_for(camera: &Camera) -> Vec<Light> {
-    let reference = default_camera(DVec3::ZERO, 1.0, 1.0);
+    let reference = default_camera(DVec3::ZERO, 1.0, 1.0, Side::Front);
     let turn = camera_frame(camera) * camera_frame(&reference).inverse();
     default_lights()
         .iter()
@@ -108,15 +110,17 @@ pub const DEFAULT_VIEW_ELEVATION_DEG: f64 = 25.0;
 
 /// The commands' camera without `--camera`: the library's framing distance and field of view
 /// (`Camera::framing`: the bounding sphere inside the view with a margin), seen in three-quarter
-/// view.
-pub fn default_camera(centre: DVec3, radius: f64, aspect: f64) -> Camera {
+/// view from the object's front `side` (`framing::choose_front`: from +Z's side, or its mirror
+/// through the centre from -Z's side).
+pub fn default_camera(centre: DVec3, radius: f64, aspect: f64, side: Side) -> Camera {
     let framed = Camera::framing(centre, radius, aspect);
     let distance = (framed.eye - framed.target).length();
-    let (az, el) = (
-        DEFAULT_VIEW_AZIMUTH_DEG.to_radians(),
-        DEFAULT_VIEW_ELEVATION_DEG.to_radians(),
-    );
-    let direction = DVec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos());
+    let [front, back] =
+        crate::framing::view_directions(DEFAULT_VIEW_AZIMUTH_DEG, DEFAULT_VIEW_ELEVATION_DEG);
+    let direction = match side {
+        Side::Front => front,
+        Side::Back => back,
+    };
     Camera {
         eye: centre + direction * distance,
         ..framed
@@ -203,7 +207,7 @@ mod tests {
     fn the_default_camera_is_a_three_quarter_view_at_the_framing_distance() {
         let centre = DVec3::new(1.0, 2.0, 3.0);
         let framed = Camera::framing(centre, 10.0, 1.0);
-        let camera = default_camera(centre, 10.0, 1.0);
+        let camera = default_camera(centre, 10.0, 1.0, Side::Front);
         camera.validate().expect("valid");
         let d = camera.eye - centre;
         // Same distance and field of view: the object fits as it does in Camera::framing.
@@ -230,7 +234,7 @@ mod tests {
     fn default_lights_follow_the_camera() {
         let centre = DVec3::new(5.0, -2.0, 1.0);
         // The default camera (any centre, radius, aspect) keeps the documented directions.
-        let home = default_camera(centre, 30.0, 1.5);
+        let home = default_camera(centre, 30.0, 1.5, Side::Front);
         for (a, b) in directions(&default_lights_for(&home))
             .iter()
             .zip(directions(&default_lights()))

@@ -248,6 +248,22 @@ struct Baked {
     graph: QuadGraph,
 }
 
+/// The camera and lights a bench renders with, as `translucent render` chooses them: the
+/// `--camera`, or the automatic three-quarter view of `object` (set in `frame_desc`); the
+/// `--light` values, or the default lights placed relative to that camera
+/// (`scene_args::default_lights_for`). The path-traced reference scenes give both.
+fn view(
+    scene: &SceneArgs,
+    object: &crate::object_args::Object,
+    frame_desc: &mut translucent::headless::FrameDesc,
+) -> anyhow::Result<Vec<scene::Light>> {
+    let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
+    let camera = *frame_desc
+        .camera
+        .get_or_insert_with(|| object.default_camera(aspect));
+    scene.lights_for(&camera)
+}
+
 fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
     if args.replot {
         return replot(&args.out);
@@ -262,7 +278,8 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         .into());
     }
     let configs = sweep.configs();
-    let lights = args.scene.lights()?;
+    // Checked before any work; the lights used are placed by `view` below.
+    args.scene.lights()?;
     let mut frame_desc = args.scene.frame_desc()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
@@ -283,10 +300,16 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         levels: sweep.levels[0],
         resolution: crate::object_args::ResolutionArg::Cells(sweep.resolution[0]),
         relax: args.relax,
-        up: "y".into(),
+        up: "auto".into(),
         force: args.force,
     };
     let object = object_args.load(Some("torus"))?;
+    // The render's view: without --camera its automatic three-quarter view, without --light its
+    // default lights placed relative to the camera (the given one or the automatic one).
+    let lights = view(&args.scene, &object, &mut frame_desc)?;
+    if !args.json {
+        eprintln!("{}", object.view_line());
+    }
     let scene = scene::Scene {
         lights: lights.clone(),
         environment,
@@ -507,6 +530,100 @@ mod tests {
             list("--levels", "1, 2,3", uint(1, 8)).expect("ok"),
             [1, 2, 3]
         );
+    }
+
+    /// Directions equal to rounding (rotations of normalised f64 vectors).
+    const DIRECTION_TOL: f64 = 1e-9;
+    /// The far camera's key light is turned by well over 30 degrees from the fixed one (a chord
+    /// of 0.5 is 29 degrees).
+    const TURNED_MIN: f64 = 0.5;
+
+    fn sphere() -> crate::object_args::Object {
+        ObjectArgs {
+            mesh: None,
+            shape: Some("sphere".into()),
+            size_mm: 20.0,
+            k: 1.0,
+            levels: 1,
+            resolution: crate::object_args::ResolutionArg::Cells(8),
+            relax: false,
+            up: "auto".into(),
+            force: false,
+        }
+        .load(None)
+        .expect("sphere")
+    }
+
+    fn bench_args(extra: &[&str]) -> BenchArgs {
+        let mut argv = vec!["translucent bench", "--shape", "sphere", "--out", "x"];
+        argv.extend(extra);
+        SuiteCli::try_parse_from(&argv).expect("bench args").args
+    }
+
+    fn key_direction(lights: &[Light]) -> DVec3 {
+        match lights[0] {
+            Light::Directional { direction, .. } => direction,
+            ref other => panic!("the default key light is directional, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_bench_camera_without_lights_gets_the_camera_relative_defaults() {
+        let object = sphere();
+        // From below, behind and to the left: the fixed defaults would light the far side.
+        let args = bench_args(&["--camera=-36,-42,24:0,0,0:30"]);
+        let mut frame_desc = args.scene.frame_desc().expect("frame");
+        let camera = frame_desc.camera.expect("--camera given");
+        let lights = view(&args.scene, &object, &mut frame_desc).expect("view");
+        assert_eq!(frame_desc.camera, Some(camera), "the given camera is kept");
+        let want = crate::scene_args::default_lights_for(&camera);
+        assert_eq!(lights.len(), want.len());
+        let to_eye = (camera.eye - camera.target).normalize();
+        assert!(
+            (key_direction(&lights) - key_direction(&want)).length() < DIRECTION_TOL,
+            "{lights:?}"
+        );
+        // The key is a back light for this camera (travels towards its eye), turned far from
+        // the fixed default key (what bench used before).
+        assert!(key_direction(&lights).dot(to_eye) > 0.5);
+        let fixed = key_direction(&crate::scene_args::default_lights());
+        assert!(
+            (key_direction(&lights) - fixed).length() > TURNED_MIN,
+            "{lights:?}"
+        );
+
+        // Without --camera: the automatic view, lit by the defaults placed for it.
+        let args = bench_args(&[]);
+        let mut frame_desc = args.scene.frame_desc().expect("frame");
+        let lights = view(&args.scene, &object, &mut frame_desc).expect("view");
+        assert_eq!(frame_desc.camera, Some(object.default_camera(1.0)));
+        let want = crate::scene_args::default_lights_for(&object.default_camera(1.0));
+        assert!((key_direction(&lights) - key_direction(&want)).length() < DIRECTION_TOL);
+    }
+
+    #[test]
+    fn the_reference_suites_keep_their_own_lights_and_camera() {
+        for (name, _) in suites() {
+            let mut argv = vec!["translucent bench".to_string()];
+            argv.extend(suite_args(name).expect("suite"));
+            argv.extend(["--out".into(), "x".into()]);
+            let args = SuiteCli::try_parse_from(&argv).expect("suite").args;
+            if args.reference.is_none() {
+                continue;
+            }
+            // The camera and lights do not depend on the object when both are given.
+            let object = sphere();
+            let mut frame_desc = args.scene.frame_desc().expect("frame");
+            let given = frame_desc.camera;
+            let lights = view(&args.scene, &object, &mut frame_desc).expect("view");
+            assert!(
+                given.is_some(),
+                "{name}: a reference scene gives its camera"
+            );
+            assert_eq!(frame_desc.camera, given, "{name}");
+            assert_eq!(lights, args.scene.lights().expect("lights"), "{name}");
+            assert!(!args.scene.lights.is_empty(), "{name}: gives its lights");
+        }
     }
 
     #[test]

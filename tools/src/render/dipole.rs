@@ -218,6 +218,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
             "height": r.frame_desc.height,
             "method": "dipole",
             "method_choice": crate::render::choice_json(method_choice),
+            "view": r.object.view_json(),
             "solver": "gpu",
             "hierarchy": {
                 "triangles": hierarchy_stats.triangles,

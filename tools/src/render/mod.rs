@@ -496,9 +496,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
     // Without --camera: the three-quarter view of the object's bounding sphere.
     if frame_desc.camera.is_none() {
-        let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-        frame_desc.camera = Some(crate::scene_args::default_camera(centre, radius, aspect));
+        frame_desc.camera = Some(object.default_camera(aspect));
+    }
+    let object_view = object.view_json();
+    if !args.json {
+        eprintln!("{}", object.view_line());
     }
     // Without --light: the default lights placed relative to the camera (`--camera` or the
     // automatic framing), so a custom view is lit as the default one is.
@@ -901,6 +904,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "scheme": args.scheme,
             "levels": levels,
             "resolution": resolution.json(Some(finest_nodes)),
+            "view": object_view,
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "schedule": schedule,

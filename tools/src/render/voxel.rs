@@ -99,10 +99,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
     let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
-    let (centre, radius) = translucent::mesh::bounding_sphere(&object.surface.positions);
     let base_camera = frame_desc
         .camera
-        .unwrap_or_else(|| crate::scene_args::default_camera(centre, radius, aspect));
+        .unwrap_or_else(|| object.default_camera(aspect));
+    if !args.json {
+        eprintln!("{}", object.view_line());
+    }
     // Without --light: the default lights placed relative to this camera.
     let lights = args.scene.lights_for(&base_camera)?;
     let base_scene = scene::Scene {
@@ -234,6 +236,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "height": frame_desc.height,
             "method": "voxel",
             "method_choice": crate::render::choice_json(method_choice),
+            "view": object.view_json(),
             "voxel_model": format!("{:?}", params.model).to_lowercase(),
             "voxels": grid.voxels,
             "dims": grid.dims,

@@ -446,10 +446,9 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
     let setup = Setup::new(args)?;
     let aspect = f64::from(setup.frame.width) / f64::from(setup.frame.height.max(1));
     let bounds = setup.graph.finest().bounding_sphere();
-    let camera = setup
-        .frame
-        .camera
-        .unwrap_or_else(|| crate::scene_args::default_camera(bounds.0, bounds.1, aspect));
+    let camera = setup.frame.camera.unwrap_or_else(|| {
+        crate::scene_args::default_camera(bounds.0, bounds.1, aspect, setup.front)
+    });
     // Without --light: the default lights placed relative to the starting camera. They stay in
     // the world while the camera orbits (see the module page: an orbit only re-shades), and the
     // right mouse button turns the key light from there.

@@ -161,6 +161,10 @@ struct Setup {
     script: Script,
     /// The finest lattice's cells across (`--resolution`, or what `auto` chose).
     resolution: u32,
+    /// The mesh's up axis (`--up`, or what `auto` chose): passed on to the equivalent render.
+    up: &'static str,
+    /// The side the starting camera looks from without `--camera` (`framing::choose_front`).
+    front: crate::framing::Side,
     /// The dipole method's face-cluster hierarchy of the display mesh, built on first use.
     dipole_hierarchy: std::sync::OnceLock<Arc<translucent::solver::dipole::FaceClusterHierarchy>>,
 }

@@ -93,6 +93,7 @@ impl Setup {
                     .map_or(0, |l| l.surface_nodes + l.inner_nodes)
             )
         );
+        eprintln!("{}", object.view_line());
         eprintln!(
             "{} {} in {:.1} s ({})",
             match outcome {
@@ -112,6 +113,8 @@ impl Setup {
             frame,
             script,
             resolution: resolution.cells,
+            up: object.up.axis,
+            front: object.front.side,
             dipole_hierarchy: std::sync::OnceLock::new(),
         })
     }
@@ -232,6 +235,9 @@ impl Setup {
         match (&a.object.mesh, &a.object.shape) {
             (Some(m), _) => push("--mesh", m.display().to_string()),
             (None, s) => push("--shape", s.clone().unwrap_or(DEFAULT_SHAPE.into())),
+        }
+        if a.object.mesh.is_some() {
+            push("--up", self.up.to_string());
         }
         push("--size-mm", a.object.size_mm.to_string());
         push("-K", a.object.k.to_string());
