@@ -417,7 +417,10 @@ fn the_method_key_switches_to_voxel_and_matches_render() {
 /// Copies `from` into `to` recursively.
 fn copy_tree(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).expect("mkdir");
-    for entry in std::fs::read_dir(from).expect("read_dir").filter_map(Result::ok) {
+    for entry in std::fs::read_dir(from)
+        .expect("read_dir")
+        .filter_map(Result::ok)
+    {
         let (src, dst) = (entry.path(), to.join(entry.file_name()));
         if src.is_dir() {
             copy_tree(&src, &dst);
@@ -519,7 +522,10 @@ fn hot_reload_uses_an_edited_shader_from_the_shader_directory() {
         |shaders| {
             let frag = shaders.join("mesh/shade_mesh.frag");
             let text = std::fs::read_to_string(&frag).expect("read");
-            assert!(text.contains(SHADE_OUTPUT), "the shader's output line moved");
+            assert!(
+                text.contains(SHADE_OUTPUT),
+                "the shader's output line moved"
+            );
             let edited = text.replace(SHADE_OUTPUT, "out_radiance = vec4(0.5 * radiance, 1.0);");
             std::fs::write(&frag, edited).expect("write");
             let present = shaders.join("viewer/present.frag");

@@ -265,7 +265,10 @@ impl ShaderTree {
             let Some(rest) = line.trim_start().strip_prefix("#include") else {
                 continue;
             };
-            let Some(included) = rest.trim().strip_prefix('"').and_then(|r| r.split('"').next())
+            let Some(included) = rest
+                .trim()
+                .strip_prefix('"')
+                .and_then(|r| r.split('"').next())
             else {
                 continue;
             };
@@ -299,7 +302,10 @@ mod tests {
 
     /// Copies `from` into `to` recursively.
     fn copy_tree(from: &Path, to: &Path) {
-        for entry in std::fs::read_dir(from).expect("read_dir").filter_map(Result::ok) {
+        for entry in std::fs::read_dir(from)
+            .expect("read_dir")
+            .filter_map(Result::ok)
+        {
             let (src, dst) = (entry.path(), to.join(entry.file_name()));
             if src.is_dir() {
                 std::fs::create_dir_all(&dst).expect("mkdir");
@@ -316,7 +322,11 @@ mod tests {
         let tree = source_tree();
         let sources = tree.scan().expect("scan");
         let names: Vec<&str> = embedded_names().collect();
-        assert_eq!(sources.len(), names.len(), "every embedded shader's source is in the tree");
+        assert_eq!(
+            sources.len(),
+            names.len(),
+            "every embedded shader's source is in the tree"
+        );
         // The build compiled these very files.
         assert!(sources.iter().all(|s| !s.differs), "{sources:?}");
         let workers = std::thread::available_parallelism().map_or(2, |n| n.get());

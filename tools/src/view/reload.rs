@@ -143,7 +143,10 @@ mod tests {
     use super::*;
 
     fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
-        for entry in std::fs::read_dir(from).expect("read_dir").filter_map(Result::ok) {
+        for entry in std::fs::read_dir(from)
+            .expect("read_dir")
+            .filter_map(Result::ok)
+        {
             let (src, dst) = (entry.path(), to.join(entry.file_name()));
             if src.is_dir() {
                 std::fs::create_dir_all(&dst).expect("mkdir");
@@ -193,7 +196,11 @@ mod tests {
         std::fs::write(&frag, original).expect("revert");
         let reverted = watch.compile().expect("compile");
         assert!(reverted.overrides.is_empty());
-        assert_eq!(reverted.changed, ["viewer/present.frag"], "back to built-in");
+        assert_eq!(
+            reverted.changed,
+            ["viewer/present.frag"],
+            "back to built-in"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
