@@ -580,3 +580,73 @@ fn hot_reload_of_a_broken_shader_keeps_the_old_pipeline_and_reports_the_line() {
     assert!(stderr.contains("shade_mesh.frag:3:"), "{stderr}");
     assert!(rms <= RELOAD_RELATIVE_RMS, "relative RMS {rms}\n{stderr}");
 }
+
+/// The README's hot-reload command runs as written (readme_commands.rs skips `view` commands:
+/// they need a window), with a script, a frame count and CI sizes added: after the README's
+/// `cp -r shaders-glsl my-shaders` and an edit, `reload-shaders` uses the edited shader.
+#[test]
+fn the_readme_hot_reload_command_runs_as_written() {
+    let Some(xvfb) = start_xvfb() else { return };
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
+        .expect("README.md");
+    let command = readme
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("translucent view") && l.contains("--shader-dir my-shaders"))
+        .expect("the README's hot-reload command");
+    let readme_args: Vec<&str> = command
+        .split(" #")
+        .next()
+        .unwrap_or(command)
+        .split_whitespace()
+        .skip(2)
+        .collect();
+    let dir = scratch("view-reload-readme");
+    let shaders = dir.join("my-shaders");
+    copy_tree(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders-glsl"),
+        &shaders,
+    );
+    let frag = shaders.join("mesh/shade_mesh.frag");
+    let text = std::fs::read_to_string(&frag).expect("read");
+    std::fs::write(
+        &frag,
+        text.replace(SHADE_OUTPUT, "out_radiance = vec4(0.5 * radiance, 1.0);"),
+    )
+    .expect("write");
+    std::fs::write(dir.join("r.script"), "wait 1\nreload-shaders\n").expect("script");
+    let mut args = readme_args;
+    args.extend([
+        "--resolution",
+        "16",
+        "--levels",
+        "2",
+        "--width",
+        "96",
+        "--height",
+        "72",
+        "--frames",
+        "2",
+        "--script",
+        "r.script",
+        "--report",
+        "report.json",
+    ]);
+    let out = view(&xvfb.display, &dir, &args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "{args:?}: exit {:?}\n{stderr}",
+        out.status
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
+            .expect("report is JSON");
+    assert_eq!(report["validation_messages"], 0, "{stderr}");
+    assert_eq!(report["shader_reloads"][0]["ok"], true, "{stderr}");
+    assert_eq!(
+        report["shader_reloads"][0]["changed"],
+        serde_json::json!(["mesh/shade_mesh.frag"])
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
