@@ -1,12 +1,21 @@
 //! Compiles every `shaders-glsl/**/*.{comp,vert,frag}` to SPIR-V with `glslc` and embeds the
 //! results: `$OUT_DIR/shaders.rs` holds `EMBEDDED: &[(&str, &[u8])]`, keyed by the path relative
-//! to `shaders-glsl/` (e.g. `"laplace/jacobi_step.comp"`). Missing glslc fails the build with the
-//! Debian package to install.
+//! to `shaders-glsl/` (e.g. `"laplace/jacobi_step.comp"`), and `SOURCE_HASHES: &[(&str, u64)]`,
+//! the FNV-1a hash of every file under `shaders-glsl/` (includes too), so that hot reload
+//! (`translucent::shader::runtime`) can tell which sources on disk differ from the embedded ones.
+//! Missing glslc fails the build with the Debian package to install.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+/// FNV-1a, 64 bits (`translucent::shader::runtime::source_hash` is the same function).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+fn collect(dir: &Path, out: &mut Vec<PathBuf>, all: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
@@ -15,8 +24,11 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
     for path in entries {
         println!("cargo:rerun-if-changed={}", path.display());
         if path.is_dir() {
-            collect(&path, out);
-        } else if matches!(
+            collect(&path, out, all);
+            continue;
+        }
+        all.push(path.clone());
+        if matches!(
             path.extension().and_then(|e| e.to_str()),
             Some("comp" | "vert" | "frag")
         ) {
@@ -43,7 +55,8 @@ fn main() {
     println!("cargo:rerun-if-env-changed=GLSLC");
 
     let mut sources = Vec::new();
-    collect(&root, &mut sources);
+    let mut files = Vec::new();
+    collect(&root, &mut sources, &mut files);
     let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
     let mut table = String::from("/// Embedded SPIR-V, keyed by path under `shaders-glsl/`.\npub static EMBEDDED: &[(&str, &[u8])] = &[\n");
     for source in &sources {
@@ -81,6 +94,18 @@ fn main() {
             "    ({rel:?}, include_bytes!({:?})),\n",
             spv.to_string_lossy()
         ));
+    }
+    table.push_str("];\n");
+    table.push_str("/// FNV-1a hash of every file under `shaders-glsl/` the SPIR-V was compiled from.\npub static SOURCE_HASHES: &[(&str, u64)] = &[\n");
+    for file in &files {
+        let rel = file
+            .strip_prefix(&root)
+            .unwrap_or(file)
+            .to_string_lossy()
+            .replace('\\', "/");
+        let bytes = std::fs::read(file)
+            .unwrap_or_else(|e| fail(&format!("reading {}: {e}", file.display())));
+        table.push_str(&format!("    ({rel:?}, {:#x}),\n", fnv1a(&bytes)));
     }
     table.push_str("];\n");
     std::fs::write(out_dir.join("shaders.rs"), table)

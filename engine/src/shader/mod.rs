@@ -29,8 +29,7 @@
 mod pipeline;
 mod reflect;
 
-#[cfg(feature = "hot-reload")]
-pub mod hot_reload;
+pub mod runtime;
 
 pub use pipeline::{
     ComputePipeline, ComputePipelineDesc, DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc,
@@ -86,6 +85,18 @@ pub enum ShaderError {
         pipeline: &'static str,
         message: String,
     },
+    #[error("shader compiler {program:?} cannot run ({message}): install the Debian package `glslc` (apt-get install glslc) or name it in TRANSLUCENT_GLSLC")]
+    NoCompiler { program: String, message: String },
+    #[error("glslc failed on {shader}:\n{message}")]
+    Compile {
+        shader: String,
+        /// The line of glslc's first error (in the shader or a file it includes).
+        line: Option<u32>,
+        /// glslc's message.
+        message: String,
+    },
+    #[error("shader source {path}: {message}")]
+    Source { path: String, message: String },
     #[error(transparent)]
     Vk(#[from] crate::vk::VkError),
 }
@@ -110,6 +121,18 @@ pub fn embedded(name: &str) -> Result<Spirv, ShaderError> {
         .map(|(_, b)| *b)
         .ok_or_else(|| ShaderError::NotEmbedded { name: name.into() })?;
     Spirv::from_bytes(name, bytes)
+}
+
+/// The shader `name` for pipelines made with `ctx`: the SPIR-V the host installed for it with
+/// [`crate::vk::Context::set_shader_overrides`] (hot reload, [`runtime`]), else the embedded one.
+pub fn load(ctx: &crate::vk::Context, name: &str) -> Result<Spirv, ShaderError> {
+    match ctx.shader_override(name) {
+        Some(words) => Ok(Spirv {
+            name: name.into(),
+            words: words.to_vec(),
+        }),
+        None => embedded(name),
+    }
 }
 
 impl Spirv {

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{embedded, BindingInfo, Reflection, ShaderError};
+use super::{BindingInfo, Reflection, ShaderError};
 use crate::vk::{Buffer, Context, Image, VkError};
 
 /// For pipelines without push constants.
@@ -479,7 +479,7 @@ impl<P: bytemuck::Pod> ComputePipeline<P> {
         desc: &ComputePipelineDesc<'_>,
         constants: &[SpecConstant],
     ) -> Result<Self, ShaderError> {
-        let spirv = embedded(desc.shader)?;
+        let spirv = super::load(ctx, desc.shader)?;
         let reflection = Reflection::new(&spirv)?;
         for c in constants {
             if !reflection.spec_constants.iter().any(|(_, id)| *id == c.id) {
@@ -692,9 +692,9 @@ pub struct GraphicsPipeline<P> {
 
 impl<P: bytemuck::Pod> GraphicsPipeline<P> {
     pub fn new(ctx: &Context, desc: &GraphicsPipelineDesc<'_>) -> Result<Self, ShaderError> {
-        let mut spirvs = vec![embedded(desc.vertex)?];
+        let mut spirvs = vec![super::load(ctx, desc.vertex)?];
         if let Some(f) = desc.fragment {
-            spirvs.push(embedded(f)?);
+            spirvs.push(super::load(ctx, f)?);
         }
         let reflections = spirvs
             .iter()

@@ -95,6 +95,9 @@ pub struct Context {
     /// A host context whose host lent its queue for setup work ([`Context::lend_queue_for_setup`]):
     /// those submissions leave the host's frame counters alone.
     lent_queue: bool,
+    /// SPIR-V words by shader name that pipelines use instead of the embedded shaders (hot
+    /// reload: `shader::load`).
+    shader_overrides: std::collections::HashMap<String, Vec<u32>>,
 }
 
 fn version_string(v: u32) -> String {
@@ -584,7 +587,24 @@ impl Context {
             info,
             frames_in_flight: frames_in_flight.max(1),
             lent_queue: false,
+            shader_overrides: std::collections::HashMap::new(),
         })
+    }
+
+    /// Replaces the SPIR-V (words by shader name, as `shader::embedded` names them) that
+    /// pipelines created from now on use instead of the embedded shaders; returns the previous
+    /// set. Pipelines that exist keep theirs: the host rebuilds what should change (hot reload,
+    /// `shader::runtime`). An empty map goes back to the embedded shaders.
+    pub fn set_shader_overrides(
+        &mut self,
+        overrides: std::collections::HashMap<String, Vec<u32>>,
+    ) -> std::collections::HashMap<String, Vec<u32>> {
+        std::mem::replace(&mut self.shader_overrides, overrides)
+    }
+
+    /// The SPIR-V installed for shader `name` with [`Context::set_shader_overrides`].
+    pub fn shader_override(&self, name: &str) -> Option<&[u32]> {
+        self.shader_overrides.get(name).map(Vec::as_slice)
     }
 
     /// The raw ash device, for recording commands.

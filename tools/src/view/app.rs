@@ -38,8 +38,7 @@ struct Start {
 impl Start {
     fn renderer(self) -> Renderer {
         Renderer {
-            #[cfg(feature = "hot-reload")]
-            shaders: reload::ShaderWatch::new(),
+            shaders: reload::ShaderWatch::new(self.setup.args.shader_dir.clone()),
             setup: self.setup,
             state: self.state,
             viewer: None,
@@ -78,7 +77,7 @@ struct Renderer {
     stall: Arc<std::sync::Mutex<(f64, u64)>>,
     /// Frames drawn, for the window's thread.
     drawn: Arc<std::sync::atomic::AtomicU64>,
-    #[cfg(feature = "hot-reload")]
+    /// Hot reload: the shader directory and what was compiled from it.
     shaders: reload::ShaderWatch,
 }
 
@@ -191,12 +190,10 @@ impl Renderer {
             }
         }
         viewer.object.set_camera(Some(self.state.camera))?;
-        if reload {
-            self.reload_shaders();
-        }
-        #[cfg(feature = "hot-reload")]
-        if self.shaders.changed() {
-            self.reload_shaders();
+        // A file saved in the shader directory reloads as F5 does.
+        let saved = self.shaders.changed();
+        if reload || saved {
+            self.reload_shaders(if reload { "key" } else { "file" });
         }
         let Some(viewer) = self.viewer.as_mut() else {
             return Ok(false);
@@ -228,27 +225,62 @@ impl Renderer {
         Ok(quit)
     }
 
-    /// Recompiles the viewer's shaders and rebuilds its pipeline (feature `hot-reload`).
-    fn reload_shaders(&mut self) {
-        #[cfg(feature = "hot-reload")]
-        {
-            let Some(viewer) = self.viewer.as_mut() else {
-                return;
-            };
-            let result = self.shaders.compile().and_then(|(v, f)| {
-                viewer.idle()?;
-                viewer.present.reload(&v, &f)
-            });
-            self.state.note = Some(match result {
-                Ok(()) => "shaders reloaded".into(),
-                Err(e) => format!("shader reload failed (old shaders kept): {e:#}"),
-            });
-        }
-        #[cfg(not(feature = "hot-reload"))]
-        {
-            self.state.note =
-                Some("built without the hot-reload feature: shaders are embedded".into());
-        }
+    /// Hot reload (`trigger`: "key" for F5 or the script, "file" for a saved file): compiles
+    /// the shaders of the shader directory that differ from the built-in ones and rebuilds what
+    /// uses a changed one. A failure keeps the old pipelines; the overlay (the state's note),
+    /// stderr and the report's `shader_reloads` say what happened.
+    fn reload_shaders(&mut self, trigger: &str) {
+        let Some(viewer) = self.viewer.as_mut() else {
+            return;
+        };
+        let began = Instant::now();
+        let compiled = self.shaders.compile();
+        let compile_ms = began.elapsed().as_secs_f64() * 1e3;
+        let failed = |e: String| format!("shader reload failed (old shaders kept): {e}");
+        let (ok, note, changed, glslc_runs) = match compiled {
+            Err(e) => (false, failed(e.to_string()), Vec::new(), 0),
+            Ok(c) if c.changed.is_empty() => (
+                true,
+                format!(
+                    "shader reload: no shader in {} changed",
+                    self.shaders.root().display()
+                ),
+                Vec::new(),
+                c.compiled,
+            ),
+            Ok(c) => {
+                let installed = viewer.install_shaders(
+                    &self.setup,
+                    &self.state,
+                    c.overrides.clone(),
+                    &c.changed,
+                );
+                match installed {
+                    Ok(()) => {
+                        self.shaders.installed(&c);
+                        let note = format!("shaders reloaded: {}", c.changed.join(", "));
+                        (true, note, c.changed, c.compiled)
+                    }
+                    Err(e) => (false, failed(format!("{e:#}")), c.changed, c.compiled),
+                }
+            }
+        };
+        let reload_ms = began.elapsed().as_secs_f64() * 1e3;
+        eprintln!(
+            "{note} (frame {}, compile {compile_ms:.0} ms, total {reload_ms:.0} ms)",
+            self.index
+        );
+        viewer.log.shader_reloads.push(serde_json::json!({
+            "frame": self.index,
+            "trigger": trigger,
+            "ok": ok,
+            "changed": changed,
+            "compiled": glslc_runs,
+            "compile_ms": compile_ms,
+            "reload_ms": reload_ms,
+            "message": note,
+        }));
+        self.state.note = Some(note);
     }
 
     /// Waits for the last frames, writes the report.
@@ -294,6 +326,49 @@ impl Renderer {
                 final_scene,
                 host::validation_messages(),
             )?;
+        }
+        Ok(())
+    }
+}
+
+impl Viewer {
+    /// Installs `overrides` in the context and rebuilds what uses a `changed` shader: the
+    /// present pass (`viewer/`) and/or the object (its pipelines; the solution is solved
+    /// again). On any error the old shaders and pipelines stay.
+    fn install_shaders(
+        &mut self,
+        setup: &Setup,
+        state: &ViewState,
+        overrides: std::collections::HashMap<String, Vec<u32>>,
+        changed: &[String],
+    ) -> anyhow::Result<()> {
+        self.idle()?;
+        let previous = self.ctx.set_shader_overrides(overrides);
+        let rebuilt = self.rebuild_with_shaders(setup, state, changed);
+        if rebuilt.is_err() {
+            self.ctx.set_shader_overrides(previous);
+        }
+        rebuilt
+    }
+
+    fn rebuild_with_shaders(
+        &mut self,
+        setup: &Setup,
+        state: &ViewState,
+        changed: &[String],
+    ) -> anyhow::Result<()> {
+        let object = if changed.iter().any(|n| !n.starts_with("viewer/")) {
+            let mut object = setup.object(&self.ctx, state)?;
+            object.set_camera(Some(state.camera))?;
+            Some(object)
+        } else {
+            None
+        };
+        if changed.iter().any(|n| n.starts_with("viewer/")) {
+            self.present.reload(&self.ctx)?;
+        }
+        if let Some(object) = object {
+            self.object = object;
         }
         Ok(())
     }

@@ -64,7 +64,7 @@ pub enum Action {
     },
     /// Write the current frame: PNG and EXR next to each other (`None`: a numbered name).
     Screenshot(Option<PathBuf>),
-    /// Recompile the viewer's shaders now (feature `hot-reload`).
+    /// Compile the shaders that changed in the shader directory and use them (hot reload).
     ReloadShaders,
     Quit,
 }
@@ -89,7 +89,7 @@ pub const BINDINGS: &[(&str, &str)] = &[
     ("c or f12", "screenshot (PNG + EXR)"),
     ("h", "this help"),
     ("o", "overlay on/off"),
-    ("f5", "reload shaders (hot-reload builds)"),
+    ("f5", "reload changed shaders (--shader-dir)"),
     ("escape or q", "quit"),
 ];
 

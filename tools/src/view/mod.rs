@@ -38,7 +38,6 @@ mod controls;
 mod host;
 mod overlay;
 mod present;
-#[cfg(feature = "hot-reload")]
 mod reload;
 mod report;
 mod script;
@@ -147,6 +146,12 @@ pub struct ViewArgs {
     /// Where baked QuadGraphs are cached (as `render`).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
+    /// Shader hot reload: GLSL sources with the layout of `shaders-glsl/` (default: env
+    /// TRANSLUCENT_SHADER_DIR, else the source tree this binary was built from). On F5, the
+    /// script's `reload-shaders`, or a file saved there, every shader that differs from the
+    /// built-in one is compiled with glslc and used; a broken one keeps the old pipelines.
+    #[arg(long, value_name = "DIR")]
+    pub shader_dir: Option<PathBuf>,
 }
 
 /// Everything that does not need a window: the baked graph, the material and the scene.
@@ -827,7 +832,10 @@ impl Viewer {
             lines.push(("no GPU timestamps on this device".into(), Colour::Dim));
         }
         if let Some(note) = &state.note {
-            lines.push((note.clone(), Colour::Warning));
+            // A compile error is glslc's message, several lines.
+            for line in note.lines() {
+                lines.push((line.to_string(), Colour::Warning));
+            }
         }
         if state.help {
             lines.push(("keys:".into(), Colour::Heading));

@@ -1,8 +1,8 @@
 //! The viewer's own pass after the object: the HDR image -> exposure, tone map, sRGB -> the
 //! swapchain image, with a backdrop and the text overlay (`shaders-glsl/viewer/present.*`).
 //! It is a host's pass, built on raw ash like `engine/examples/host_graph.rs`'s tone map, so its
-//! pipeline can be rebuilt from recompiled SPIR-V (feature `hot-reload`); the push constants
-//! and bindings are still checked against the shaders' reflection.
+//! pipeline can be rebuilt from recompiled SPIR-V (hot reload, [`super::reload`]); the push
+//! constants and bindings are still checked against the shaders' reflection.
 
 use anyhow::{bail, Context as _};
 use ash::vk;
@@ -83,16 +83,16 @@ fn check_interface(vertex: &Spirv, fragment: &Spirv) -> anyhow::Result<()> {
 }
 
 impl PresentPass {
-    /// The pass for `color_format` targets with `slots` frames in flight, from the embedded
-    /// shaders.
+    /// The pass for `color_format` targets with `slots` frames in flight, from the context's
+    /// shaders (the embedded ones unless hot reload installed others).
     pub fn new(
         ctx: &Context,
         device: &ash::Device,
         color_format: vk::Format,
         slots: usize,
     ) -> anyhow::Result<PresentPass> {
-        let vertex = translucent::shader::embedded(VERTEX_SHADER)?;
-        let fragment = translucent::shader::embedded(FRAGMENT_SHADER)?;
+        let vertex = translucent::shader::load(ctx, VERTEX_SHADER)?;
+        let fragment = translucent::shader::load(ctx, FRAGMENT_SHADER)?;
         check_interface(&vertex, &fragment)?;
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = BINDINGS
             .iter()
@@ -200,7 +200,7 @@ impl PresentPass {
 
     fn build_pipeline(&self, vertex: &Spirv, fragment: &Spirv) -> anyhow::Result<vk::Pipeline> {
         let device = &self.device;
-        // SAFETY: the SPIR-V words come from glslc or shaderc (a module the device can reject
+        // SAFETY: the SPIR-V words come from glslc (build time or hot reload: a module the device can reject
         // with an error, not crash on); the modules are destroyed right after pipeline creation.
         unsafe {
             let vs = device
@@ -273,13 +273,15 @@ impl PresentPass {
         }
     }
 
-    /// Rebuilds the pipeline from new SPIR-V (hot reload). On any error the old pipeline stays.
+    /// Rebuilds the pipeline from the context's shaders (after hot reload installed new ones).
+    /// On any error the old pipeline stays.
     ///
     /// The GPU must be done with the old pipeline (the viewer waits for idle first).
-    #[cfg(feature = "hot-reload")]
-    pub fn reload(&mut self, vertex: &Spirv, fragment: &Spirv) -> anyhow::Result<()> {
-        check_interface(vertex, fragment)?;
-        let pipeline = self.build_pipeline(vertex, fragment)?;
+    pub fn reload(&mut self, ctx: &Context) -> anyhow::Result<()> {
+        let vertex = translucent::shader::load(ctx, VERTEX_SHADER)?;
+        let fragment = translucent::shader::load(ctx, FRAGMENT_SHADER)?;
+        check_interface(&vertex, &fragment)?;
+        let pipeline = self.build_pipeline(&vertex, &fragment)?;
         // SAFETY: the caller's contract: no pending frame uses the old pipeline.
         unsafe { self.device.destroy_pipeline(self.pipeline, None) };
         self.pipeline = pipeline;

@@ -79,6 +79,8 @@ pub struct FrameLog {
     /// How responsive the window stayed: the longest gap between two event-loop iterations
     /// after the first frame, and how often a frame waited for the GPU (set at exit).
     pub event_loop: Option<Value>,
+    /// Each shader hot reload: frame, trigger, outcome, changed shaders, times.
+    pub shader_reloads: Vec<Value>,
 }
 
 impl FrameLog {
@@ -101,8 +103,8 @@ impl FrameLog {
         }
     }
 
-    /// Writes the report: `device`, `frames`, `final` (the scene), `event_loop` and
-    /// `validation_messages`.
+    /// Writes the report: `device`, `frames`, `final` (the scene), `event_loop`,
+    /// `shader_reloads` and `validation_messages`.
     pub fn write(
         &self,
         path: &Path,
@@ -115,6 +117,7 @@ impl FrameLog {
             "frames": self.frames.values().map(FrameEntry::json).collect::<Vec<_>>(),
             "final": final_scene,
             "event_loop": self.event_loop,
+            "shader_reloads": self.shader_reloads,
             "validation_messages": validation_messages,
         });
         let text = serde_json::to_string_pretty(&report)?;

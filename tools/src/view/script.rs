@@ -18,7 +18,8 @@
 //! FACTOR), `camera X,Y,Z:TX,TY,TZ:FOVY_DEG`, `reset-camera`, `material NAME`, `method NAME`,
 //! `precision mixed|fp32|fp16`, `single-scattering on|off|toggle`, `skip on|off|toggle`,
 //! `overlay on|off|toggle`, `help on|off|toggle`, `resize WIDTH HEIGHT`, `screenshot FILE`,
-//! `key NAME` (a key of [`super::controls::BINDINGS`]: `m`, `M`, `f12`, ...), `quit`.
+//! `key NAME` (a key of [`super::controls::BINDINGS`]: `m`, `M`, `f12`, ...), `reload-shaders`
+//! (what `F5` does: shader hot reload), `quit`.
 //! Timing: a line runs at the current frame (0 at the start); `@N COMMAND` moves the current
 //! frame to N; `wait N` moves it N frames on; `repeat N COMMAND` runs the command in each of
 //! the N frames from the current one and moves the current frame past them.
@@ -215,6 +216,7 @@ fn command(words: &[&str]) -> Result<Action, String> {
             let key = one_word()?;
             key_action(key).ok_or_else(|| format!("key {key:?} does nothing"))?
         }
+        "reload-shaders" => Action::ReloadShaders,
         "quit" => Action::Quit,
         other => return Err(format!("unknown command {other:?}")),
     })

@@ -49,6 +49,9 @@ impl Setup {
         if args.iterations == 0 {
             bail!("--iterations 0: give at least one iteration per level");
         }
+        if let Some(dir) = &args.shader_dir {
+            translucent::shader::runtime::ShaderTree::new(dir).context("--shader-dir")?;
+        }
         if let Some(m) = METHODS.iter().find(|m| m.name == args.method && !m.built) {
             bail!("--method {}: not built yet (only quadgraph is)", m.name);
         }
