@@ -15,7 +15,9 @@ Object pixels (`--mask`): `alpha` (default; reference alpha >= 0.999, i.e. pixel
 covers fully, so anti-aliased silhouette pixels, where a rasterizer and a path tracer differ by
 construction, are left out; falls back to `nonblack` when the reference has no alpha),
 `coverage` (alpha > 0) or `nonblack` (any reference channel > 0). Both images must have the same
-size. Reads EXR through Mitsuba's Bitmap, in the venv tools/pt_reference.py makes.
+size. `--mask-from OTHER.exr` takes the alpha mask from another render of the same geometry and
+camera: a material so thin that camera rays cross it unscattered (ketchup's red, mean free path
+4 mm, on a 20 mm sphere at eta 1) has alpha < 0.999 in every pixel of its own reference. Reads EXR through Mitsuba's Bitmap, in the venv tools/pt_reference.py makes.
 """
 
 from __future__ import annotations
@@ -163,6 +165,9 @@ def main() -> int:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--sphere-reflection", metavar="CAMERA:RADIUS:ETA:R,G,B")
     parser.add_argument("--diff", type=Path, help="write ours - reference (RGB) to this EXR")
+    parser.add_argument(
+        "--mask-from", type=Path, help="the alpha mask of this EXR (same size) instead"
+    )
     args = parser.parse_args()
     ensure_mitsuba()
     if args.self_check:
@@ -183,6 +188,10 @@ def main() -> int:
     if args.sphere_reflection:
         h, w = reference.shape[:2]
         reference = reference - sphere_reflection(args.sphere_reflection, w, h)
+    if args.mask_from:
+        other, alpha = load(args.mask_from)
+        if alpha is None or other.shape != reference.shape:
+            raise SystemExit(f"error: --mask-from {args.mask_from}: needs alpha and the same size")
     mask_kind = args.mask if alpha is not None else "nonblack"
     if mask_kind == "alpha":
         mask = alpha >= 0.999
@@ -192,6 +201,8 @@ def main() -> int:
         mask = (reference > 0).any(axis=-1)
     if not mask.any():
         raise SystemExit("error: the reference has no object pixels under this mask")
+    if args.mask_from:
+        mask_kind += f" of {args.mask_from}"
     result = {"ours": str(args.ours), "reference": str(args.reference), "mask": mask_kind}
     result.update(relative_rms(ours, reference, mask))
     if args.diff:

@@ -393,3 +393,108 @@ fn committed_references_have_their_commands() {
         }
     }
 }
+
+/// Relative RMS of an absorbing sphere at the CI bake (`--resolution 24`, GPU frame, boundary
+/// flux, no single scattering: front-lit, render's rule skips it there), measured: skin1 Shepard
+/// 20.8%, interior 16.0%; ketchup Shepard 42.4%, interior 36.5% (the default bake, benches/
+/// RESULTS.md "All references, term by term": 20.0, 16.6, 42.9, 39.3). The model's error, not
+/// an accuracy target (issue 12 wants far less): bounds about one reference-noise level
+/// (1.1-1.6%) above, so a regression of the chain for absorbing channels (the presets, the
+/// clamping of negative J+, the interior profile) fails while noise does not.
+const SKIN1_SHEPARD: f64 = 0.225;
+const SKIN1_INTERIOR: f64 = 0.175;
+const KETCHUP_SHEPARD: f64 = 0.44;
+const KETCHUP_INTERIOR: f64 = 0.38;
+/// Skin1's image against ketchup's reference: far above any bound (measured below).
+const WRONG_MATERIAL: f64 = 0.5;
+
+/// Relative RMS over the pixels `mask`'s alpha covers fully (the ketchup reference's own alpha is
+/// below 0.999 everywhere: camera rays cross it unscattered; the skin1 file is the same sphere).
+fn relative_rms_masked(
+    ours: &LinearImage,
+    reference: &[([f32; 3], f32)],
+    mask: &[([f32; 3], f32)],
+) -> ([f64; 3], f64) {
+    let masked: Vec<_> = reference
+        .iter()
+        .zip(mask)
+        .map(|((rgb, _), (_, a))| (*rgb, *a))
+        .collect();
+    relative_rms(ours, &masked)
+}
+
+/// The GPU frame on the skin1 and ketchup spheres (issue 12 item 6), both surface queries,
+/// against `skin1-sphere-dir-eta1.exr` and `ketchup-sphere-dir-eta1.exr`.
+#[test]
+fn gpu_frame_against_the_path_traced_skin1_and_ketchup_spheres() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let (graph, _) = sphere_graph();
+    let graph = std::sync::Arc::new(graph);
+    let scene = scene::Scene {
+        lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
+        environment: Environment::None,
+    };
+    let mask = reference("skin1-sphere-dir-eta1.exr");
+    let mut errors = Vec::new();
+    let mut skin1_image = None;
+    for (name, bounds) in [
+        ("skin1", [SKIN1_SHEPARD, SKIN1_INTERIOR]),
+        ("ketchup", [KETCHUP_SHEPARD, KETCHUP_INTERIOR]),
+    ] {
+        let preset = Material::preset(name).unwrap();
+        let field =
+            MaterialField::Homogeneous(Material::new(preset.sigma_s, preset.sigma_a, 1.0).unwrap());
+        let reference = reference(&format!("{name}-sphere-dir-eta1.exr"));
+        for (surface, bound) in [
+            (solver::transport::SurfaceReconstruction::Shepard, bounds[0]),
+            (
+                solver::transport::SurfaceReconstruction::Interior,
+                bounds[1],
+            ),
+        ] {
+            let mut object = TranslucentObject::new(
+                ctx,
+                graph.clone(),
+                &field,
+                &scene,
+                &ObjectParams {
+                    solve: GpuSolveParams {
+                        surface,
+                        ..GpuSolveParams::default()
+                    },
+                    specular: false,
+                    single_level_nodes: 0,
+                    ..ObjectParams::default()
+                },
+            )
+            .unwrap();
+            object.set_camera(Some(camera())).unwrap();
+            let image = render_once(ctx, &mut object, SIZE, SIZE).0.image;
+            let error = relative_rms_masked(&image, &reference, &mask);
+            if skin1_image.is_none() {
+                skin1_image = Some(image.clone());
+            }
+            println!("{name} {surface:?}: {error:?}");
+            errors.push((name, surface, error, bound));
+        }
+    }
+    for (name, surface, (per, all), bound) in &errors {
+        assert!(
+            all < bound,
+            "{name} {surface:?}: {per:?} ({all}) >= {bound}"
+        );
+    }
+    // What it must not pass: skin1's image against ketchup's reference (green and blue differ
+    // by a factor of 10-60) is far outside the bounds.
+    assert!(
+        relative_rms_masked(
+            &skin1_image.unwrap(),
+            &reference("ketchup-sphere-dir-eta1.exr"),
+            &mask
+        )
+        .1 > WRONG_MATERIAL,
+        "the metric does not see the material"
+    );
+    gpu.finish();
+}
