@@ -73,6 +73,13 @@ impl GpuDiffusion {
         level: &GpuLevel,
         scale: f32,
     ) -> Result<Vec<[f32; 3]>, Error> {
+        if (img.width, img.height) != (level.packing.width, level.packing.height) {
+            // A placeholder (`upload.rs`): the multigrid schedule keeps phi of the finest level only.
+            return Err(bad_param(
+                "level",
+                format!("{} holds no per-node values under this schedule", img.name),
+            ));
+        }
         let linear = ImageReadback::capture(ctx, img, Access::ComputeReadWrite)?;
         Ok(level
             .packing

@@ -185,7 +185,6 @@ impl GpuDiffusion {
                 .chain(l.material.iter().flatten())
                 .chain(l.weights.iter().flatten())
                 .chain(&l.links)
-                .chain(&l.link_weights)
             {
                 uses.push(Use::image(img, Access::ComputeRead));
             }
