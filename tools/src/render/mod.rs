@@ -1009,14 +1009,14 @@ fn gpu_bytes_json(
     serde_json::json!({
         "textures": b.textures(),
         "multigrid": b.multigrid,
-        "surface_shading": b.surface,
+        "surface_shading": b.surface_shading(),
         "other": b.other(),
         "finest_nodes": finest_nodes,
         "bytes_per_finest_node": {
             "total": per_node(b.total()),
             "textures": per_node(b.textures()),
             "multigrid": per_node(b.multigrid),
-            "surface_shading": per_node(b.surface),
+            "surface_shading": per_node(b.surface_shading()),
             "other": per_node(b.other()),
         },
         "textures_by_kind": {
@@ -1026,6 +1026,8 @@ fn gpu_bytes_json(
             "material": b.material,
             "links": b.links,
         },
+        "surface": b.surface,
+        "shading": b.shading,
         "deform": b.deform,
         "control": b.control,
     })

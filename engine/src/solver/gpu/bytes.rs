@@ -8,7 +8,7 @@
 //! use translucent::solver::gpu::SolveBytes;
 //! let b = SolveBytes { state: 48, rhs: 8, graph: 32, links: 32, ..SolveBytes::default() };
 //! assert_eq!(b.textures(), 120);
-//! assert_eq!(b.total(), b.textures() + b.surface + b.multigrid + b.other());
+//! assert_eq!(b.total(), b.textures() + b.surface_shading() + b.multigrid + b.other());
 //! ```
 
 /// GPU bytes of one solve by what they hold (see the module doc).
@@ -26,10 +26,12 @@ pub struct SolveBytes {
     pub material: u64,
     /// Shepard links between levels (indices and weights).
     pub links: u64,
-    /// Surface and shading: the gather's surface positions and normals, the collimated
-    /// source's particular part, J+, the display vertices' links, weights, exitance and the
-    /// interior reconstruction's samples.
+    /// The gather's surface textures: positions, normals, the collimated source's particular
+    /// part (surface rows of every level).
     pub surface: u64,
+    /// Shading: J+ (finest surface rows), the display vertices' links, weights and exitance, the
+    /// interior reconstruction's samples.
+    pub shading: u64,
     /// The multigrid schedule's hierarchy ([`super::multigrid::GpuMultigrid::bytes`]).
     pub multigrid: u64,
     /// Deformation data (tetrahedron vertices, rest copies; created by the first deformation).
@@ -49,8 +51,13 @@ impl SolveBytes {
         self.deform + self.control
     }
 
+    /// Surface textures and shading (`render --json`'s `surface_shading`).
+    pub fn surface_shading(&self) -> u64 {
+        self.surface + self.shading
+    }
+
     pub fn total(&self) -> u64 {
-        self.textures() + self.surface + self.multigrid + self.other()
+        self.textures() + self.surface_shading() + self.multigrid + self.other()
     }
 }
 
@@ -62,6 +69,7 @@ impl std::ops::AddAssign for SolveBytes {
         self.material += o.material;
         self.links += o.links;
         self.surface += o.surface;
+        self.shading += o.shading;
         self.multigrid += o.multigrid;
         self.deform += o.deform;
         self.control += o.control;

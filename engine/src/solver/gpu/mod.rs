@@ -480,10 +480,11 @@ impl GpuDiffusion {
             &[(&poison, bytes_of(&[f32::NAN; 4]))],
         )?;
         let finest = levels.last().ok_or(SolverError::EmptyGraph)?;
+        // Surface rows only: J+ is a surface node's (the pass runs over those rows).
         let j_plus = image(
             ctx,
             "diffusion j+",
-            &finest.packing,
+            &surface_packing(&finest.packing),
             vk::Format::R32G32B32A32_SFLOAT,
         )?;
         let control = Buffer::new(
@@ -827,7 +828,7 @@ impl GpuDiffusion {
         for l in &self.levels {
             out += l.bytes();
         }
-        out.surface += image_bytes(&self.j_plus)
+        out.shading = image_bytes(&self.j_plus)
             + self.vertex_links.size
             + self.vertex_weights.size
             + self.vertex_j_plus.size
