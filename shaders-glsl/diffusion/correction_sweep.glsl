@@ -20,7 +20,7 @@ void main() {
     bool surface = is_surface_row(p);
     vec3 w[4];
     vec3 gain;
-    node_weights(p, surface, w, gain);
+    node_weights(p, nb, surface, w, gain);
     vec3 acc = imageLoad(residual, p).rgb;
     ADD_NEIGHBOUR_SUM(acc, src, nb, w, surface);
     imageStore(dst, p, vec4(acc, 0.0));

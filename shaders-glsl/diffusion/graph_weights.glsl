@@ -10,18 +10,71 @@
 //   a_ss = 1 + a_s0 (paper Eq. 6 over d_sk), gain = q_gain / a_ss.
 //   16 bytes read per texel instead of 48, and no per-node material. The per-channel bindings stay
 //   declared (one module), bound by the host to a NaN-filled 1x1 image: a read would poison phi.
+// - HOMOGENEOUS = false, DERIVED = true (constant_id 1; `HeterogeneousWeights::Derived`): no stored
+//   weights; the three per-channel bindings hold the fv fractions (weight_r), per-node kappa
+//   (weight_g) and mu (weight_b), and the weights are derived here in every sweep exactly as
+//   edit/derive_weights.comp derives the stored ones (same operations, same order): 48 bytes per
+//   texel less, 8 texel reads per node instead of 3. PAPER (constant_id 2) selects the paper
+//   scheme's form there.
 // Include after graph_common.glsl.
 #ifndef GRAPH_WEIGHTS_GLSL
 #define GRAPH_WEIGHTS_GLSL
 
 layout(constant_id = 0) const bool HOMOGENEOUS = false;
+layout(constant_id = 1) const bool DERIVED = false;
+layout(constant_id = 2) const bool PAPER = false;
 
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D weight_geo;
 layout(set = 0, binding = 11, rgba32f) uniform readonly image2D weight_r;
 layout(set = 0, binding = 12, rgba32f) uniform readonly image2D weight_g;
 layout(set = 0, binding = 13, rgba32f) uniform readonly image2D weight_b;
 
-void node_weights(ivec2 p, bool surface, out vec3 w[4], out vec3 gain) {
+// Heterogeneous, DERIVED: edit/derive_weights.comp's formulas, read from the fractions, kappa and mu.
+void derived_weights(ivec2 p, uvec4 nb, bool surface, out vec3 w[4], out vec3 gain) {
+    for (int k = 0; k < 4; ++k) {
+        w[k] = vec3(0.0);
+    }
+    gain = vec3(0.0);
+    // Padding texels point to themselves (no node is its own neighbour): weights stay 0.
+    if (nb.x == uint(p.y) * pc.width + uint(p.x)) {
+        return;
+    }
+    vec4 g = imageLoad(weight_geo, p);
+    vec3 k_i = imageLoad(weight_g, p).rgb;
+    if (surface) {
+        vec3 k = PAPER ? k_i : imageLoad(weight_g, texel_of(nb.x)).rgb;
+        vec3 off = pc.kappa.a * g[0] * k;
+        vec3 diag = 1.0 + off;
+        w[0] = off / diag;
+        gain = pc.mu_gain.a / diag;
+        return;
+    }
+    vec4 t = imageLoad(weight_r, p);
+    vec3 off[4];
+    vec3 diag = imageLoad(weight_b, p).rgb;
+    for (int k = 0; k < 4; ++k) {
+        vec3 k_j = imageLoad(weight_g, texel_of(nb[k])).rgb;
+        vec3 k_ij;
+        if (PAPER) {
+            k_ij = k_j;
+            diag += k_i * g[k];
+        } else {
+            k_ij = t[k] >= 1.0 ? k_i : 1.0 / (t[k] / k_i + (1.0 - t[k]) / k_j);
+        }
+        off[k] = g[k] * k_ij;
+        // (No `!PAPER`: an operation on a specialization constant is a spec-constant op, which
+        // the reflection cannot evaluate.)
+        if (PAPER) {
+        } else {
+            diag += off[k];
+        }
+    }
+    for (int k = 0; k < 4; ++k) {
+        w[k] = off[k] / diag;
+    }
+}
+
+void node_weights(ivec2 p, uvec4 nb, bool surface, out vec3 w[4], out vec3 gain) {
     if (HOMOGENEOUS) {
         vec4 g = imageLoad(weight_geo, p);
         vec3 kappa = pc.kappa.rgb;
@@ -35,6 +88,8 @@ void node_weights(ivec2 p, bool surface, out vec3 w[4], out vec3 gain) {
             w[k] = (surface && k > 0) ? vec3(0.0) : kappa * g[k] * inv;
         }
         gain = surface ? pc.mu_gain.a * inv : vec3(0.0);
+    } else if (DERIVED) {
+        derived_weights(p, nb, surface, w, gain);
     } else {
         vec4 wr = imageLoad(weight_r, p);
         vec4 wg = imageLoad(weight_g, p);

@@ -21,7 +21,7 @@ void main() {
     bool surface = is_surface_row(p);
     vec3 w[4];
     vec3 gain;
-    node_weights(p, surface, w, gain);
+    node_weights(p, nb, surface, w, gain);
     // Eq. 9's source term on surface rows (zero weights on padding).
     vec3 acc = surface ? gain * imageLoad(q, p).rgb : vec3(0.0);
     ADD_NEIGHBOUR_SUM(acc, src, nb, w, surface);

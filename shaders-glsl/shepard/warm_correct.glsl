@@ -1,6 +1,6 @@
 // Warm start of a level with the coarser level's CHANGE carried up (a full-approximation step on
 // the nested levels of paper section 4.3): phi_h += P(phi_{h-1,new} - phi_{h-1,prev}), where P is
-// the Shepard prolongation of paper Eq. 10 (weights renormalized here, as in init_phi.glsl) and
+// the Shepard prolongation of paper Eq. 10 (packed links, weights renormalized here, as in init_phi.glsl) and
 // phi_{h-1,prev} the coarser level's solution of the previous solve, saved by this same pass when
 // the coarser level was warm-started. A moving light changes phi on the scale of the object; the
 // finer level's own Jacobi damps such smooth error slowest, the coarser level cheaply, so only the
@@ -17,8 +17,8 @@ layout(set = 0, binding = 2, PHI_FORMAT) uniform readonly image2D coarse_new;
 layout(set = 0, binding = 3, PHI_FORMAT) uniform readonly image2D coarse_prev;
 layout(set = 0, binding = 4, rgba32ui) uniform readonly uimage2D links_lo;
 layout(set = 0, binding = 5, rgba32ui) uniform readonly uimage2D links_hi;
-layout(set = 0, binding = 6, rgba16f) uniform readonly image2D link_weights_lo;
-layout(set = 0, binding = 7, rgba16f) uniform readonly image2D link_weights_hi;
+
+#include "links.glsl"
 
 layout(push_constant) uniform WarmPush {
     ivec2 size;
@@ -42,15 +42,15 @@ void main() {
         return;
     }
     uvec4 l[2] = uvec4[2](imageLoad(links_lo, p), imageLoad(links_hi, p));
-    vec4 w[2] = vec4[2](imageLoad(link_weights_lo, p), imageLoad(link_weights_hi, p));
     vec3 change = vec3(0.0);
     float total = 0.0;
     for (int h = 0; h < 2; ++h) {
         for (int k = 0; k < 4; ++k) {
-            uint c = l[h][k];
+            uint c = link_texel(l[h][k]);
+            float w = link_weight(l[h][k]);
             ivec2 t = ivec2(int(c % pc.coarse_width), int(c / pc.coarse_width));
-            change += w[h][k] * (imageLoad(coarse_new, t).rgb - imageLoad(coarse_prev, t).rgb);
-            total += w[h][k];
+            change += w * (imageLoad(coarse_new, t).rgb - imageLoad(coarse_prev, t).rgb);
+            total += w;
         }
     }
     // Padding and unlinked texels have all weights 0: they keep their phi.

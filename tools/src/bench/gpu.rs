@@ -218,6 +218,7 @@ pub(super) fn run_gpu(
             multigrid: config
                 .multigrid
                 .then(translucent::solver::multigrid::MultigridParams::default),
+            heterogeneous_weights: config.weights,
             ..GpuSolveParams::default()
         },
         specular: frame_desc.specular,

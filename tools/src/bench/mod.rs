@@ -142,6 +142,11 @@ pub struct BenchArgs {
     /// solution, with the lights turned by --warm-degrees about +Y since that frame).
     #[arg(long, value_name = "cold,warm", default_value = "cold")]
     pub start: String,
+    /// Heterogeneous materials on the cascade: `derived` (the default, weights computed in every
+    /// sweep from per-node kappa and mu) or `stored` (three weight textures), as `render`'s
+    /// option of the same name; one value for the whole sweep.
+    #[arg(long, value_name = "derived|stored", default_value = "derived", value_parser = ["derived", "stored"])]
+    pub heterogeneous_weights: String,
     /// Schedules to sweep (DESIGN 5.1): cascade (the paper's Jacobi per level, --iterations
     /// caps it), multigrid (full multigrid / V-cycles to the relative residual --tolerance).
     #[arg(long, value_name = "S,..", default_value = "cascade")]

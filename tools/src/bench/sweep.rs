@@ -2,7 +2,7 @@
 
 use glam::DQuat;
 use translucent::scene::Light;
-use translucent::solver::gpu::Precision;
+use translucent::solver::gpu::{HeterogeneousWeights, Precision};
 use translucent::solver::Scheme;
 
 use super::*;
@@ -16,6 +16,7 @@ pub(super) struct Config {
     pub(super) multigrid: bool,
     pub(super) cap: u32,
     pub(super) tolerance: f32,
+    pub(super) weights: HeterogeneousWeights,
 }
 
 /// The lists, parsed and checked before anything runs.
@@ -30,6 +31,7 @@ pub(super) struct Sweep {
     pub(super) schedules: Vec<bool>,
     pub(super) iterations: Vec<u32>,
     pub(super) tolerances: Vec<f32>,
+    pub(super) weights: HeterogeneousWeights,
 }
 
 pub(super) fn list<T>(
@@ -103,6 +105,13 @@ impl Sweep {
             tolerances: list("--tolerance", &args.tolerance, |s| {
                 non_negative(s).map(|v| v as f32)
             })?,
+            weights: args
+                .heterogeneous_weights
+                .parse()
+                .map_err(|_| BenchError::BadOption {
+                    option: "--heterogeneous-weights",
+                    problem: format!("'{}' (derived or stored)", args.heterogeneous_weights),
+                })?,
         };
         // The headless frame's profiler must hold every scope of the largest frame, or the
         // timings would silently leave out the last blocks.
@@ -158,6 +167,7 @@ impl Sweep {
                                     multigrid,
                                     cap,
                                     tolerance,
+                                    weights: self.weights,
                                 });
                             }
                         }

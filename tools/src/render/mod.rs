@@ -140,6 +140,12 @@ pub struct RenderArgs {
     /// bunny and the back-lit scenes so far, benches/RESULTS.md "Smooth surfaces").
     #[arg(long, value_name = "interior|shepard", default_value = "shepard", value_parser = ["interior", "shepard"])]
     pub surface: String,
+    /// Heterogeneous materials on the GPU cascade: `derived` (the default) computes the Jacobi
+    /// weights in every sweep from the per-node kappa and mu by the harmonic face mean (48 bytes
+    /// per node less, 8 texel reads per node and sweep); `stored` keeps three RGBA32F weight
+    /// textures derived once per edit (3 reads). benches/RESULTS.md, "Bytes per node (wave 5)".
+    #[arg(long, value_name = "derived|stored", default_value = "derived", value_parser = ["derived", "stored"])]
+    pub heterogeneous_weights: String,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
     /// every method): per display vertex the refracted view ray is marched at exponentially
     /// stratified depths up to the far face (a back-face depth pre-pass from the eye), lit through
@@ -647,6 +653,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         },
         collimated: args.beam_source,
         surface,
+        heterogeneous_weights: args.heterogeneous_weights.parse()?,
         multigrid: multigrid.then(|| MultigridParams {
             tolerance: args.tolerance,
             ..MultigridParams::default()
@@ -660,6 +667,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut last = None;
     let mut gpu_report = None;
     let mut gpu_bytes = None;
+    let mut gpu_bytes_split = None;
     let mut last_gpu_multigrid = None;
     let mut report_scene = solver_scene.clone();
     let mut method_choice = None;
@@ -788,6 +796,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         gpu_report =
             Some(quadgraph.report(&ctx, &field, &report_scene, Some(object.solid.as_ref()))?);
         gpu_bytes = Some(translucent.gpu_bytes());
+        let solve = quadgraph.solve();
+        let finest_nodes = solve.node_count(solve.level_count() - 1);
+        gpu_bytes_split = Some(gpu_bytes_json(&solve.bytes_breakdown(), finest_nodes));
         drop(host);
         drop(translucent);
     } else {
@@ -925,6 +936,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             },
             "precision": on_gpu.then(|| format!("{:?}", gpu_params.precision).to_lowercase()),
             "gpu_bytes": gpu_bytes,
+            "gpu_bytes_split": gpu_bytes_split,
             "residual": residual,
             "energy": {
                 "transmitted_input": energy.transmitted_input,
@@ -989,4 +1001,38 @@ impl RenderArgs {
             }),
         )
     }
+}
+
+/// `--json`'s `gpu_bytes_split`: where the solve's GPU memory goes (issue 13 item 4), each part
+/// in bytes and per finest-level node, beside the paper's ~90 bytes per node.
+fn gpu_bytes_json(
+    b: &translucent::solver::gpu::SolveBytes,
+    finest_nodes: usize,
+) -> serde_json::Value {
+    let per_node = |v: u64| v as f64 / finest_nodes.max(1) as f64;
+    serde_json::json!({
+        "textures": b.textures(),
+        "multigrid": b.multigrid,
+        "surface_shading": b.surface_shading(),
+        "other": b.other(),
+        "finest_nodes": finest_nodes,
+        "bytes_per_finest_node": {
+            "total": per_node(b.total()),
+            "textures": per_node(b.textures()),
+            "multigrid": per_node(b.multigrid),
+            "surface_shading": per_node(b.surface_shading()),
+            "other": per_node(b.other()),
+        },
+        "textures_by_kind": {
+            "state": b.state,
+            "rhs": b.rhs,
+            "graph": b.graph,
+            "material": b.material,
+            "links": b.links,
+        },
+        "surface": b.surface,
+        "shading": b.shading,
+        "deform": b.deform,
+        "control": b.control,
+    })
 }

@@ -53,6 +53,7 @@
 //! # Ok(()) }
 //! ```
 
+mod bytes;
 pub mod edit;
 mod interior;
 pub mod multigrid;
@@ -65,9 +66,10 @@ pub mod record;
 pub mod textures;
 mod upload;
 
+pub use bytes::SolveBytes;
 pub use edit::Deformation;
 pub(crate) use interior::InteriorSamples;
-pub use params::{GpuSolveParams, Precision};
+pub use params::{GpuSolveParams, HeterogeneousWeights, Precision};
 pub use ping_pong::PingPong;
 pub use push::*;
 pub use record::{SolvePlan, PASS_EXITANCE, PASS_SOLVE};
@@ -127,7 +129,6 @@ pub struct GpuLevel {
     /// Heterogeneous only: per-channel Jacobi weights derived on the GPU.
     pub(crate) weights: Option<[Image; 3]>,
     links: [Image; 2],
-    link_weights: [Image; 2],
     pub(crate) surface_position: Image,
     pub(crate) surface_normal: Image,
     /// The collimated source's part of the exit query per surface node (surface rows only).
@@ -172,31 +173,39 @@ impl GpuLevel {
     pub(crate) fn extent(&self) -> [u32; 3] {
         [self.packing.width, self.packing.height, 1]
     }
-    /// GPU bytes of this level's textures and buffers.
-    fn bytes(&self) -> u64 {
-        let images = self
-            .state
-            .iter()
-            .chain(&self.phi)
-            .chain(&self.residual)
-            .chain(&self.saved)
-            .chain([
-                &self.q,
-                &self.connectivity,
-                &self.geo,
+    /// GPU bytes of this level's textures and buffers, by kind ([`SolveBytes`]).
+    fn bytes(&self) -> SolveBytes {
+        let sum = |images: &mut dyn Iterator<Item = &Image>| images.map(image_bytes).sum::<u64>();
+        SolveBytes {
+            state: sum(&mut self
+                .state
+                .iter()
+                .chain(&self.phi)
+                .chain(&self.residual)
+                .chain(&self.saved)),
+            rhs: image_bytes(&self.q),
+            graph: image_bytes(&self.connectivity) + image_bytes(&self.geo),
+            material: sum(&mut self
+                .frac
+                .iter()
+                .chain(self.material.iter().flatten())
+                .chain(self.weights.iter().flatten())),
+            links: sum(&mut self.links.iter()),
+            surface: sum(&mut [
                 &self.surface_position,
                 &self.surface_normal,
-            ])
-            .chain(&self.frac)
-            .chain(self.material.iter().flatten())
-            .chain(self.weights.iter().flatten())
-            .chain(&self.links)
-            .chain(&self.link_weights);
-        images
-            .map(|i| u64::from(i.width) * u64::from(i.height) * texel_bytes(i.format))
-            .sum::<u64>()
-            + self.deform.as_ref().map_or(0, edit::LevelDeform::bytes)
+                &self.particular,
+            ]
+            .into_iter()),
+            deform: self.deform.as_ref().map_or(0, edit::LevelDeform::bytes),
+            ..SolveBytes::default()
+        }
     }
+}
+
+/// Allocated bytes of a 2D image.
+fn image_bytes(i: &Image) -> u64 {
+    u64::from(i.width) * u64::from(i.height) * texel_bytes(i.format)
 }
 
 /// The pipelines that read weights, specialized for one material kind (`HOMOGENEOUS`).
@@ -451,6 +460,7 @@ impl GpuDiffusion {
                 texels,
                 levels.last(),
                 finest,
+                params.multigrid.is_some(),
             )?;
             levels.push(gpu);
         }
@@ -470,10 +480,11 @@ impl GpuDiffusion {
             &[(&poison, bytes_of(&[f32::NAN; 4]))],
         )?;
         let finest = levels.last().ok_or(SolverError::EmptyGraph)?;
+        // Surface rows only: J+ is a surface node's (the pass runs over those rows).
         let j_plus = image(
             ctx,
             "diffusion j+",
-            &finest.packing,
+            &surface_packing(&finest.packing),
             vk::Format::R32G32B32A32_SFLOAT,
         )?;
         let control = Buffer::new(
@@ -697,6 +708,8 @@ impl GpuDiffusion {
                 ctx,
                 self.params.precision,
                 homogeneous,
+                self.derives_weights(),
+                self.params.scheme == Scheme::Paper,
                 self.levels.len() as u32,
             )?);
         }
@@ -707,10 +720,13 @@ impl GpuDiffusion {
             if !l.iterate_sets[v].is_empty() {
                 continue;
             }
-            let weights: [&Image; 3] = match (&l.weights, homogeneous) {
-                (_, true) => [&self.poison; 3],
-                (Some(w), false) => [&w[0], &w[1], &w[2]],
-                (None, false) => {
+            let derived = self.params.heterogeneous_weights == HeterogeneousWeights::Derived;
+            let weights: [&Image; 3] = match (&l.weights, homogeneous, &l.frac, &l.material) {
+                (_, true, _, _) => [&self.poison; 3],
+                // graph_weights.glsl's DERIVED bindings: fractions, kappa, mu.
+                (_, false, Some(frac), Some([kappa, mu])) if derived => [frac, kappa, mu],
+                (Some(w), false, _, _) if !derived => [&w[0], &w[1], &w[2]],
+                _ => {
                     return Err(bad_param(
                         "material",
                         "heterogeneous variant without per-channel weights".into(),
@@ -754,6 +770,11 @@ impl GpuDiffusion {
         Ok(())
     }
 
+    /// Whether the heterogeneous sweeps derive their weights ([`HeterogeneousWeights::Derived`]).
+    pub(crate) fn derives_weights(&self) -> bool {
+        self.params.heterogeneous_weights == HeterogeneousWeights::Derived
+    }
+
     /// The per-level control records ([`LevelControl`]; indirect arguments of the iterations).
     pub fn control_buffer(&self) -> &Buffer {
         &self.control
@@ -788,20 +809,40 @@ impl GpuDiffusion {
         self.levels.len()
     }
 
-    /// GPU bytes of level `level`'s textures (state, q, graph, links, surface geometry).
+    /// GPU bytes of level `level`'s textures (state, q, graph, material, links, surface geometry).
     pub fn level_bytes(&self, level: usize) -> u64 {
-        self.levels.get(level).map_or(0, GpuLevel::bytes)
+        self.levels.get(level).map_or(0, |l| l.bytes().total())
     }
 
     /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
+    /// Per node counts the nodes of every level ([`Self::bytes_breakdown`] has the parts).
     pub fn bytes(&self) -> (u64, f64) {
-        let total: u64 = self.levels.iter().map(GpuLevel::bytes).sum::<u64>()
-            + self
-                .multigrid
-                .as_ref()
-                .map_or(0, multigrid::GpuMultigrid::bytes);
+        let total = self.bytes_breakdown().total();
         let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
         (total, total as f64 / nodes.max(1) as f64)
+    }
+
+    /// Every GPU byte of this solve, by kind (the fields add up to [`Self::bytes`]'s total).
+    pub fn bytes_breakdown(&self) -> SolveBytes {
+        let mut out = SolveBytes::default();
+        for l in &self.levels {
+            out += l.bytes();
+        }
+        out.shading = image_bytes(&self.j_plus)
+            + self.vertex_links.size
+            + self.vertex_weights.size
+            + self.vertex_j_plus.size
+            + self
+                .interior
+                .as_ref()
+                .map_or(0, |i| i.nodes.size + i.weights.size + i.cells.size);
+        out.multigrid = self
+            .multigrid
+            .as_ref()
+            .map_or(0, multigrid::GpuMultigrid::bytes);
+        out.deform += self.edits.mesh_bytes();
+        out.control = self.control.size + self.clamp_counts.size + image_bytes(&self.poison);
+        out
     }
 
     /// Nodes per level.

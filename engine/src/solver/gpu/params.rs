@@ -30,6 +30,33 @@ impl std::str::FromStr for Precision {
     }
 }
 
+/// Where a heterogeneous material's per-channel Jacobi weights come from (issue 13 item 4: speed
+/// against memory; `--heterogeneous-weights`). Homogeneous materials use neither (push constants).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HeterogeneousWeights {
+    /// Three RGBA32F textures of weights `a_ik / a_ii`, derived once per edit
+    /// (`edit/derive_weights.comp`): 3 weight reads per node and sweep, 48 bytes per texel more.
+    Stored,
+    /// Derived in every sweep from the fv fractions and per-node kappa and mu (the harmonic face
+    /// kappa, `diffusion/graph_weights.glsl`): 8 texel reads per node and sweep, no weight textures.
+    #[default]
+    Derived,
+}
+
+impl std::str::FromStr for HeterogeneousWeights {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "stored" => Ok(Self::Stored),
+            "derived" => Ok(Self::Derived),
+            _ => Err(SolverError::BadParameter {
+                name: "heterogeneous_weights",
+                problem: format!("'{s}' (expected stored or derived)"),
+            }),
+        }
+    }
+}
+
 /// Parameters of [`GpuDiffusion`].
 #[derive(Clone, Debug)]
 pub struct GpuSolveParams {
@@ -62,6 +89,9 @@ pub struct GpuSolveParams {
     /// reference's `Transport::default()`: closer to the path-traced references so far). A graph without surface samples
     /// (built by hand, not baked) uses `Shepard`. `DepthSample` is CPU only.
     pub surface: SurfaceReconstruction,
+    /// Stored or per-sweep derived weights of a heterogeneous material (cascade schedule; the
+    /// multigrid schedule builds its operator on the CPU and reads neither).
+    pub heterogeneous_weights: HeterogeneousWeights,
 }
 
 impl Default for GpuSolveParams {
@@ -76,6 +106,7 @@ impl Default for GpuSolveParams {
             collimated: false,
             multigrid: None,
             surface: SurfaceReconstruction::Shepard,
+            heterogeneous_weights: HeterogeneousWeights::default(),
         }
     }
 }

@@ -7,10 +7,17 @@ impl GpuDiffusion {
         ctx: &Context,
         precision: Precision,
         homogeneous: bool,
+        derived: bool,
+        paper: bool,
         levels: u32,
     ) -> Result<Variant, Error> {
         let sets = 2 * levels + 2;
-        let spec = [SpecConstant::bool(0, homogeneous)];
+        // graph_weights.glsl: HOMOGENEOUS, DERIVED, PAPER.
+        let spec = [
+            SpecConstant::bool(0, homogeneous),
+            SpecConstant::bool(1, derived),
+            SpecConstant::bool(2, paper),
+        ];
         let iterate = match precision {
             Precision::Mixed => "diffusion/correction_sweep_mixed.comp",
             Precision::Fp32 => "diffusion/jacobi_fp32.comp",
@@ -103,14 +110,7 @@ impl GpuDiffusion {
                 &ComputePipelineDesc {
                     name: PASS_INIT,
                     shader: init,
-                    bindings: &[
-                        "coarse",
-                        "dst",
-                        "links_lo",
-                        "links_hi",
-                        "link_weights_lo",
-                        "link_weights_hi",
-                    ],
+                    bindings: &["coarse", "dst", "links_lo", "links_hi"],
                     max_sets: sets,
                 },
             )?,
@@ -126,8 +126,6 @@ impl GpuDiffusion {
                         "coarse_prev",
                         "links_lo",
                         "links_hi",
-                        "link_weights_lo",
-                        "link_weights_hi",
                     ],
                     max_sets: sets,
                 },

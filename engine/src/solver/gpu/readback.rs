@@ -73,6 +73,13 @@ impl GpuDiffusion {
         level: &GpuLevel,
         scale: f32,
     ) -> Result<Vec<[f32; 3]>, Error> {
+        if (img.width, img.height) != (level.packing.width, level.packing.height) {
+            // A placeholder (`upload.rs`): the multigrid schedule keeps phi of the finest level only.
+            return Err(bad_param(
+                "level",
+                format!("{} holds no per-node values under this schedule", img.name),
+            ));
+        }
         let linear = ImageReadback::capture(ctx, img, Access::ComputeReadWrite)?;
         Ok(level
             .packing
@@ -99,7 +106,14 @@ impl GpuDiffusion {
     /// Headless: clamped J+ per surface node of the finest level (surface index order).
     pub fn read_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
         let l = &self.levels[self.levels.len() - 1];
-        let all = self.read_nodes(ctx, &self.j_plus, l, 1.0)?;
-        Ok(all[l.inner_count..].to_vec())
+        // The J+ image holds the surface rows only.
+        let linear = ImageReadback::capture(ctx, &self.j_plus, Access::ComputeReadWrite)?;
+        Ok(l.packing.texels[l.inner_count..]
+            .iter()
+            .map(|&[u, v]| {
+                let p = linear.pixel(u, v);
+                [p[0], p[1], p[2]]
+            })
+            .collect())
     }
 }

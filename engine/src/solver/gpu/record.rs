@@ -185,7 +185,6 @@ impl GpuDiffusion {
                 .chain(l.material.iter().flatten())
                 .chain(l.weights.iter().flatten())
                 .chain(&l.links)
-                .chain(&l.link_weights)
             {
                 uses.push(Use::image(img, Access::ComputeRead));
             }
@@ -497,7 +496,11 @@ impl GpuDiffusion {
                 cb,
                 self.j_plus_set,
                 &JPlusPush {
-                    size: finest.push().size,
+                    // The surface rows: the J+ image has no others.
+                    size: [
+                        finest.packing.width as i32,
+                        finest.packing.surface_rows.max(1) as i32,
+                    ],
                     surface_rows: finest.packing.surface_rows,
                     inv_q_scale: 1.0 / self.q_scale,
                     phi_factor: phi_factor as f32,
@@ -509,7 +512,7 @@ impl GpuDiffusion {
                     },
                     pad: 0.0,
                 },
-                finest.extent(),
+                [finest.packing.width, finest.packing.surface_rows.max(1), 1],
             );
             scope(&mut profiler, ctx, cb, None);
             scope(&mut profiler, ctx, cb, Some(PASS_VERTEX_J_PLUS));

@@ -10,18 +10,18 @@
 //! | `weight_geo` | RGBA32F | per slot the geometric factor `g_ik` (`A_f / (V_i d_ij)` for fv, `1 / d_ij^2` for the paper scheme, `1 / d_sk` in slot 0 of surface rows): the material-free half of the weights, recomputed on the GPU by a deformation |
 //! | `weight_frac` | RGBA32F | heterogeneous or deformed only, fv: per slot `t_ij = delta_i / (delta_i + delta_j)` (1 towards a surface node), which turns the two kappas into the harmonic face kappa |
 //! | `kappa`, `mu` | RGBA32F | heterogeneous only ([`MaterialTexels`]): per node kappa and mu (rgb) |
-//! | `weight_r/g/b` | RGBA32F | heterogeneous only: per channel, the Jacobi weights `a_ik / a_ii` of the 4 neighbours, derived on the GPU from the rows above (`edit/derive_weights.comp`); a surface node has one neighbour (slot 0) and keeps its source gain `q_gain / a_ss` (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9) in slot 1 |
-//! | `links_lo/hi` | RGBA32UI | 8 linear texel indices into the coarser level (paper Eq. 10) |
-//! | `link_weights_lo/hi` | RGBA16F | their Shepard weights (renormalized on the GPU) |
-//! | `surface_position` | RGBA32F | rgb: surface node position (mm), a: 1 on surface nodes |
-//! | `surface_normal` | RGBA16F | rgb: outward unit normal of surface nodes |
+//! | `weight_r/g/b` | RGBA32F | heterogeneous with [`super::HeterogeneousWeights::Stored`] only: per channel, the Jacobi weights `a_ik / a_ii` of the 4 neighbours, derived on the GPU from the rows above (`edit/derive_weights.comp`); a surface node has one neighbour (slot 0) and keeps its source gain `q_gain / a_ss` (`4/(1 - F_dr)` over the Robin diagonal, DESIGN's corrected Eq. 9) in slot 1 |
+//! | `links_lo/hi` | RGBA32UI | 8 Shepard links into the coarser level (paper Eq. 10), each packed in one u32 ([`pack_link`]): the coarse linear texel index << 8 and the weight in 1/255 (renormalized on the GPU); the coarsest level has none |
+//! | `q` | RGBA16F | surface rows only: the gather's irradiance term (pre-scaled by the exposure) |
+//! | `surface_position` | RGBA32F | surface rows only; rgb: surface node position (mm), a: 1 on surface nodes |
+//! | `surface_normal` | RGBA16F | surface rows only; rgb: outward unit normal of surface nodes |
 //!
-//! Why the weights are derived on the GPU and still stored per channel for a heterogeneous
-//! material: a material edit or a deformation then costs one pass over the level (no f64 re-bake,
-//! no upload of weights), while the Jacobi iteration, which runs hundreds of times per edit, keeps
-//! one multiply-add per neighbour and three weight reads per node. Computing the harmonic kappa
-//! inside the iteration instead would read 8 texels per node and iteration for its weights (see
-//! README, "Live edits"). A homogeneous material reads `weight_geo` only, with kappa and mu in push constants.
+//! A heterogeneous material's weights are, by default, derived in every sweep from the fractions,
+//! kappa and mu ([`super::HeterogeneousWeights::Derived`], `diffusion/graph_weights.glsl`): 8
+//! texel reads per node and sweep instead of 3, 48 bytes per texel less; measured not slower on
+//! lavapipe (benches/RESULTS.md, "Bytes per node (wave 5)"). Either way a material edit or a
+//! deformation costs no f64 re-bake and no upload of weights. A homogeneous material reads
+//! `weight_geo` only, with kappa and mu in push constants.
 //! kappa and mu are fp32, not the paper's fp16: kappa = 1/(3 sigma_t') of a dense medium (3e-5 mm
 //! at sigma_t' = 1e4/mm) is below fp16's normal range (6.1e-5).
 //!
@@ -87,8 +87,8 @@ pub struct LevelTexels {
     pub geo: Vec<[f32; 4]>,
     /// fv harmonic-mean fractions `t_ik` (module table; 0 for the paper scheme).
     pub frac: Vec<[f32; 4]>,
+    /// Packed Shepard links ([`pack_link`]), all 0 on the coarsest level.
     pub links: [Vec<[u32; 4]>; 2],
-    pub link_weights: [Vec<[f16; 4]>; 2],
     pub surface_position: Vec<[f32; 4]>,
     pub surface_normal: Vec<[f16; 4]>,
 }
@@ -207,6 +207,28 @@ pub fn geometric_factors(
     Ok(out)
 }
 
+/// Largest coarse texel index a packed link holds (24 bits).
+pub const MAX_LINK_TEXEL: u32 = (1 << 24) - 1;
+
+/// One Shepard link as the GPU reads it (`shaders-glsl/shepard/links.glsl`): `texel << 8 | round(255
+/// weight)`, `weight` in [0, 1] (normalized over the node's links). `None` when the texel needs
+/// more than 24 bits. A weight rounding to 0 drops the link (the reader renormalizes).
+///
+/// ```
+/// use translucent::solver::gpu::textures::{pack_link, unpack_link};
+/// let link = pack_link(1234, 0.5).unwrap();
+/// assert_eq!(unpack_link(link), (1234, 128.0 / 255.0)); // 8 bits: within 1/510
+/// assert!(pack_link(1 << 24, 1.0).is_none());
+/// ```
+pub fn pack_link(texel: u32, weight: f64) -> Option<u32> {
+    (texel <= MAX_LINK_TEXEL).then(|| texel << 8 | (weight.clamp(0.0, 1.0) * 255.0).round() as u32)
+}
+
+/// The (texel, weight) of a packed link ([`pack_link`]).
+pub fn unpack_link(link: u32) -> (u32, f32) {
+    (link >> 8, (link & 255) as f32 / 255.0)
+}
+
 impl LevelTexels {
     /// Builds the texels of `level`; `coarse` is the coarser level's packing (for the Shepard
     /// links), `None` on the coarsest level.
@@ -240,7 +262,6 @@ impl LevelTexels {
             geo: vec![[0.0; 4]; texels],
             frac: vec![[0.0; 4]; texels],
             links: std::array::from_fn(|_| vec![[0; 4]; texels]),
-            link_weights: std::array::from_fn(|_| vec![[f16::ZERO; 4]; texels]),
             surface_position: vec![[0.0; 4]; texels],
             surface_normal: vec![[f16::ZERO; 4]; texels],
             packing,
@@ -284,6 +305,8 @@ impl LevelTexels {
             }
             for (node, (l, wt)) in links.links.iter().zip(&links.weights).enumerate() {
                 let t = linear[node] as usize;
+                // Normalized before the 8-bit rounding, so the largest weight keeps 1/255 steps.
+                let sum: f64 = wt.iter().filter(|w| w.is_finite() && **w > 0.0).sum();
                 for (slot, (&c, &wc)) in l.iter().zip(wt).enumerate() {
                     if c == NO_NODE || wc == 0.0 {
                         continue;
@@ -294,8 +317,12 @@ impl LevelTexels {
                             "Shepard link {slot} of node {node} ({c}, weight {wc}) is invalid"
                         )));
                     }
-                    out.links[slot / 4][t][slot % 4] = ct;
-                    out.link_weights[slot / 4][t][slot % 4] = f16::from_f64(wc);
+                    out.links[slot / 4][t][slot % 4] =
+                        pack_link(ct, wc / sum).ok_or_else(|| {
+                            bad(format!(
+                            "coarse texel {ct} of node {node} does not fit a packed link (< 2^24)"
+                        ))
+                        })?;
                 }
             }
         }

@@ -1,4 +1,10 @@
 //! Builds one level's GPU textures from the baked graph (state, connectivity, material, surface).
+//!
+//! Under the multigrid schedule ([`GpuSolveParams::multigrid`]) the cascade's iteration never
+//! runs: its state, residual, saved phi, links and (on coarse levels) graph are then 1x1
+//! placeholders ([`placeholder`]), bound in the descriptor sets but never dispatched over. What
+//! that schedule reads stays full size: q on every level (the gather writes it), and on the
+//! finest level phi (the multigrid's output) and the connectivity (the J+ pass).
 
 use super::*;
 
@@ -10,35 +16,64 @@ impl GpuDiffusion {
         t: LevelTexels,
         coarser: Option<&GpuLevel>,
         finest: bool,
+        multigrid: bool,
     ) -> Result<GpuLevel, Error> {
         use vk::Format as F;
         let p = &t.packing;
+        let one = placeholder();
+        // The cascade's resources: full size unless the multigrid schedule never reads them.
+        let cascade = if multigrid { &one } else { p };
+        let result_state = if multigrid && !(finest && precision != Precision::Mixed) {
+            &one
+        } else {
+            p
+        };
         let state_format = match precision {
             Precision::Fp32 => F::R32G32B32A32_SFLOAT,
             Precision::Mixed | Precision::Fp16 => F::R16G16B16A16_SFLOAT,
         };
         let state = [
-            image(ctx, "diffusion ping", p, state_format)?,
-            image(ctx, "diffusion pong", p, state_format)?,
+            image(ctx, "diffusion ping", result_state, state_format)?,
+            image(ctx, "diffusion pong", cascade, state_format)?,
         ];
         let (phi, residual) = if precision == Precision::Mixed {
             (
-                Some(image(ctx, "diffusion phi", p, F::R32G32B32A32_SFLOAT)?),
-                Some(image(ctx, "diffusion residual", p, F::R32G32B32A32_SFLOAT)?),
+                Some(image(
+                    ctx,
+                    "diffusion phi",
+                    if finest { p } else { cascade },
+                    F::R32G32B32A32_SFLOAT,
+                )?),
+                Some(image(
+                    ctx,
+                    "diffusion residual",
+                    cascade,
+                    F::R32G32B32A32_SFLOAT,
+                )?),
             )
         } else {
             (None, None)
         };
-        let q = image(ctx, "diffusion q", p, F::R16G16B16A16_SFLOAT)?;
-        let connectivity = image(ctx, "diffusion connectivity", p, F::R32G32B32A32_UINT)?;
-        let geo = image(ctx, "diffusion weight geo", p, F::R32G32B32A32_SFLOAT)?;
+        // Only the surface rows: q is a surface node's source; every reader (the iterations,
+        // J+, the vertices, the multigrid's right-hand side) reads it on surface rows only.
+        let q = image(
+            ctx,
+            "diffusion q",
+            &surface_packing(p),
+            F::R16G16B16A16_SFLOAT,
+        )?;
+        let connectivity = image(
+            ctx,
+            "diffusion connectivity",
+            if finest { p } else { cascade },
+            F::R32G32B32A32_UINT,
+        )?;
+        let geo = image(ctx, "diffusion weight geo", cascade, F::R32G32B32A32_SFLOAT)?;
+        // The coarsest level links to nothing (its init is zero, its warm start corrects nothing).
+        let linked = if coarser.is_some() { cascade } else { &one };
         let links = [
-            image(ctx, "diffusion links lo", p, F::R32G32B32A32_UINT)?,
-            image(ctx, "diffusion links hi", p, F::R32G32B32A32_UINT)?,
-        ];
-        let link_weights = [
-            image(ctx, "diffusion link weights lo", p, F::R16G16B16A16_SFLOAT)?,
-            image(ctx, "diffusion link weights hi", p, F::R16G16B16A16_SFLOAT)?,
+            image(ctx, "diffusion links lo", linked, F::R32G32B32A32_UINT)?,
+            image(ctx, "diffusion links hi", linked, F::R32G32B32A32_UINT)?,
         ];
         // Only the surface rows: the gather writes nothing below them (saves 24 bytes per inner
         // texel; the gather accepts images with at least `surface_rows` rows).
@@ -62,7 +97,7 @@ impl GpuDiffusion {
         let saved = if finest {
             None
         } else {
-            Some(image(ctx, "diffusion saved phi", p, phi_format)?)
+            Some(image(ctx, "diffusion saved phi", cascade, phi_format)?)
         };
         let n = t.texel_count();
         let zeros16 = vec![0u8; n * 8];
@@ -75,8 +110,6 @@ impl GpuDiffusion {
             (&geo, bytes_of(&t.geo)),
             (&links[0], bytes_of(&t.links[0])),
             (&links[1], bytes_of(&t.links[1])),
-            (&link_weights[0], bytes_of(&t.link_weights[0])),
-            (&link_weights[1], bytes_of(&t.link_weights[1])),
             (
                 &surface_position,
                 bytes_of(&t.surface_position[..surface_texels.min(n)]),
@@ -92,6 +125,10 @@ impl GpuDiffusion {
         }
         if let Some(img) = &saved {
             items.push((img, vec![0u8; n * texel_bytes(phi_format) as usize]));
+        }
+        // Placeholders take the first texels (their contents are never read).
+        for (img, bytes) in &mut items {
+            bytes.truncate(image_bytes(img) as usize);
         }
         upload_images(ctx, "diffusion level upload", &items)?;
         drop(items);
@@ -131,8 +168,6 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("coarse_prev", coarse_prev),
                 DescriptorWrite::storage_image("links_lo", &links[0]),
                 DescriptorWrite::storage_image("links_hi", &links[1]),
-                DescriptorWrite::storage_image("link_weights_lo", &link_weights[0]),
-                DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
             ],
         )?;
         let init_set = pipelines.init.allocate_set(
@@ -142,8 +177,6 @@ impl GpuDiffusion {
                 DescriptorWrite::storage_image("dst", dst),
                 DescriptorWrite::storage_image("links_lo", &links[0]),
                 DescriptorWrite::storage_image("links_hi", &links[1]),
-                DescriptorWrite::storage_image("link_weights_lo", &link_weights[0]),
-                DescriptorWrite::storage_image("link_weights_hi", &link_weights[1]),
             ],
         )?;
         Ok(GpuLevel {
@@ -165,7 +198,6 @@ impl GpuDiffusion {
             material: None,
             weights: None,
             links,
-            link_weights,
             surface_position,
             surface_normal,
             particular,
@@ -179,5 +211,14 @@ impl GpuDiffusion {
             rest: t,
             deform: None,
         })
+    }
+}
+
+/// A 1x1 texture's packing: the size of a resource the chosen schedule never reads.
+pub(crate) fn placeholder() -> Packing {
+    Packing {
+        width: 1,
+        height: 1,
+        ..Packing::default()
     }
 }

@@ -173,7 +173,7 @@ impl LevelDeform {
 
 /// The display meshes' deformation data (finest level).
 pub(crate) struct MeshDeform {
-    #[allow(dead_code)] // owned here: the descriptor set refers to it
+    /// Vertex anchors (the descriptor set refers to it; counted by `EditState::mesh_bytes`).
     pub(super) anchors: Buffer,
     /// Rest vertices in the `Vertex` layout (restores `Identity` exactly).
     pub(super) rest: Buffer,

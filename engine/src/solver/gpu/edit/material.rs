@@ -20,14 +20,16 @@ impl GpuDiffusion {
             if self.levels[h].frac.is_some() {
                 continue;
             }
+            let cascade = self.cascade_packing(h);
             let l = &mut self.levels[h];
             l.frac = Some(image(
                 ctx,
                 "diffusion weight frac",
-                &l.packing,
+                &cascade,
                 vk::Format::R32G32B32A32_SFLOAT,
             )?);
-            let bytes = bytes_of(&l.rest.frac);
+            let mut bytes = bytes_of(&l.rest.frac);
+            bytes.truncate((cascade.width * cascade.height) as usize * 16);
             self.stage(ctx, h, Target::Frac, &bytes, true)?;
         }
         Ok(())
@@ -37,7 +39,9 @@ impl GpuDiffusion {
     /// three weight textures, the derivation's set) and its pipeline variant.
     pub(crate) fn ensure_heterogeneous(&mut self, ctx: &Context) -> Result<(), Error> {
         self.ensure_frac(ctx)?;
-        if self.pipelines.derive.is_none() {
+        // Derived in the sweep (`HeterogeneousWeights::Derived`): no weight textures, no pass.
+        let stored = !self.derives_weights();
+        if stored && self.pipelines.derive.is_none() {
             self.pipelines.derive = Some(ComputePipeline::new(
                 ctx,
                 &ComputePipelineDesc {
@@ -58,32 +62,44 @@ impl GpuDiffusion {
             )?);
         }
         for h in 0..self.levels.len() {
-            if self.levels[h].weights.is_some() {
+            if self.levels[h].material.is_some() {
                 continue;
             }
             let f32x4 = vk::Format::R32G32B32A32_SFLOAT;
+            // Under the multigrid schedule the weights are placeholders (`upload.rs`): its
+            // hierarchy is built on the CPU, and nothing derives or reads them.
+            let cascade = self.cascade_packing(h);
             let l = &mut self.levels[h];
             let p = &l.packing;
             l.material = Some([
                 image(ctx, "diffusion kappa", p, f32x4)?,
                 image(ctx, "diffusion mu", p, f32x4)?,
             ]);
-            l.weights = Some([
-                image(ctx, "diffusion weight r", p, f32x4)?,
-                image(ctx, "diffusion weight g", p, f32x4)?,
-                image(ctx, "diffusion weight b", p, f32x4)?,
-            ]);
+            if stored {
+                l.weights = Some([
+                    image(ctx, "diffusion weight r", &cascade, f32x4)?,
+                    image(ctx, "diffusion weight g", &cascade, f32x4)?,
+                    image(ctx, "diffusion weight b", &cascade, f32x4)?,
+                ]);
+            }
             // Every new texture gets a first (fresh) upload, which also moves it out of
             // UNDEFINED; set_material's kappa and mu replace these zeros before any record.
             let zeros = vec![0u8; l.rest.texel_count() * 16];
-            for target in [
-                Target::Kappa,
-                Target::Mu,
-                Target::Weight(0),
-                Target::Weight(1),
-                Target::Weight(2),
-            ] {
-                self.stage(ctx, h, target, &zeros, true)?;
+            let weight_zeros = vec![0u8; (cascade.width * cascade.height) as usize * 16];
+            let weights = [Target::Weight(0), Target::Weight(1), Target::Weight(2)];
+            for (target, bytes) in [(Target::Kappa, &zeros), (Target::Mu, &zeros)]
+                .into_iter()
+                .chain(
+                    weights
+                        .into_iter()
+                        .map(|t| (t, &weight_zeros))
+                        .filter(|_| stored),
+                )
+            {
+                self.stage(ctx, h, target, bytes, true)?;
+            }
+            if self.params.multigrid.is_some() {
+                continue; // no derivation set: nothing to derive into
             }
             let l = &mut self.levels[h];
             let (Some(derive), Some(frac), Some([kappa, mu]), Some([r, g, b])) =
@@ -106,6 +122,16 @@ impl GpuDiffusion {
             )?);
         }
         self.ensure_variant(ctx, false)
+    }
+
+    /// The packing of level `h`'s cascade-only textures: a 1x1 placeholder under the multigrid
+    /// schedule (`upload.rs`).
+    pub(crate) fn cascade_packing(&self, h: usize) -> crate::quadgraph::graph::Packing {
+        if self.params.multigrid.is_some() {
+            crate::solver::gpu::upload::placeholder()
+        } else {
+            self.levels[h].packing.clone()
+        }
     }
 
     /// Stages a new material for every level (see the module doc). The graph must be the one the

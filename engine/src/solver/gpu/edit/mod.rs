@@ -137,6 +137,13 @@ pub(crate) struct EditState {
 }
 
 impl EditState {
+    /// GPU bytes of the display meshes' deformation data (anchors, rest and deformed vertices).
+    pub(crate) fn mesh_bytes(&self) -> u64 {
+        self.mesh
+            .as_ref()
+            .map_or(0, |m| m.anchors.size + m.rest.size + m.out.size)
+    }
+
     fn is_empty(&self) -> bool {
         !self.derive
             && self.uploads.is_empty()
