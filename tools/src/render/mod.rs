@@ -646,7 +646,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         surface,
         multigrid: multigrid.then(|| MultigridParams {
             tolerance: args.tolerance,
-            ..MultigridParams::default()
+            ..MultigridParams::gpu()
         }),
         ..GpuSolveParams::default()
     };
