@@ -241,11 +241,21 @@ mod tests {
         };
         let row_sums = |k: &SparseOperator| -> Vec<f64> {
             (0..k.node_count())
-                .map(|i| k.diag[i][0] + k.values[k.row_start[i]..k.row_start[i + 1]].iter().map(|v| v[0]).sum::<f64>())
+                .map(|i| {
+                    k.diag[i][0]
+                        + k.values[k.row_start[i]..k.row_start[i + 1]]
+                            .iter()
+                            .map(|v| v[0])
+                            .sum::<f64>()
+                })
                 .collect()
         };
         let s = k.sparsified(0.1);
-        assert_eq!(s.cols, vec![1, 0], "the weak 1-2 link dropped, the strong 0-1 kept");
+        assert_eq!(
+            s.cols,
+            vec![1, 0],
+            "the weak 1-2 link dropped, the strong 0-1 kept"
+        );
         assert_eq!(row_sums(&s), row_sums(&k));
         assert_eq!(s.symmetry_defect(), 0.0);
         // Node 2's only entry is weak but its diagonal 0.011 would fall below half: kept.
@@ -254,6 +264,9 @@ mod tests {
             ..k.clone()
         };
         let s = small.sparsified(0.5);
-        assert_eq!(s.cols, small.cols, "a row that would lose half its diagonal keeps all");
+        assert_eq!(
+            s.cols, small.cols,
+            "a row that would lose half its diagonal keeps all"
+        );
     }
 }
