@@ -250,7 +250,7 @@ impl MultigridParams {
             );
         }
         if let Some(theta) = self.sparsify {
-            if !(theta >= 0.0 && theta < 1.0) {
+            if !(0.0..1.0).contains(&theta) {
                 return bad("sparsify", format!("{theta} must lie in [0, 1)"));
             }
         }

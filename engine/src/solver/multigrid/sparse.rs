@@ -64,8 +64,8 @@ impl SparseOperator {
                 let mut d = self.diag[i];
                 for e in self.row_start[i]..self.row_start[i + 1] {
                     if weak(i, e) {
-                        for c in 0..3 {
-                            d[c] += self.values[e][c];
+                        for (dc, vc) in d.iter_mut().zip(self.values[e]) {
+                            *dc += vc;
                         }
                     }
                 }
@@ -86,8 +86,8 @@ impl SparseOperator {
                     out.cols.push(self.cols[e]);
                     out.values.push(v);
                 } else {
-                    for c in 0..3 {
-                        out.diag[i][c] += v[c];
+                    for (dc, vc) in out.diag[i].iter_mut().zip(v) {
+                        *dc += vc;
                     }
                 }
             }
