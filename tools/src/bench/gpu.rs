@@ -217,7 +217,7 @@ pub(super) fn run_gpu(
             tolerance: config.tolerance,
             multigrid: config
                 .multigrid
-                .then(translucent::solver::multigrid::MultigridParams::default),
+                .then(translucent::solver::multigrid::MultigridParams::gpu),
             heterogeneous_weights: config.weights,
             ..GpuSolveParams::default()
         },

@@ -656,7 +656,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         heterogeneous_weights: args.heterogeneous_weights.parse()?,
         multigrid: multigrid.then(|| MultigridParams {
             tolerance: args.tolerance,
-            ..MultigridParams::default()
+            ..MultigridParams::gpu()
         }),
         ..GpuSolveParams::default()
     };

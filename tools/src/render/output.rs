@@ -102,6 +102,7 @@ pub(super) fn gpu_multigrid_json(
         "warm": m.warm,
         "cycles": m.cycles.len(),
         "work_units": m.work_units,
+        "matvec_units": m.matvec_units,
         "converged": m.converged,
         "state": m.state,
         "start_residual": m.start_residual,

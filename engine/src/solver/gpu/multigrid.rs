@@ -37,7 +37,7 @@
 //! # use translucent::solver::multigrid::MultigridParams;
 //! # fn f(ctx: &translucent::vk::Context, graph: &translucent::QuadGraph,
 //! #      field: &translucent::material::MaterialField, q: &[[f32; 3]]) -> Result<(), translucent::Error> {
-//! let params = GpuSolveParams { multigrid: Some(MultigridParams::default()), ..Default::default() };
+//! let params = GpuSolveParams { multigrid: Some(MultigridParams::gpu()), ..Default::default() };
 //! let mut solve = GpuDiffusion::new(ctx, graph, field, &params)?;
 //! solve.set_q_scale(GpuDiffusion::exposure_for(q.iter()));
 //! solve.upload_q(ctx, graph.levels.len() - 1, q)?; // the finest level's q is the right-hand side
@@ -138,6 +138,10 @@ pub struct GpuMultigridReport {
     /// Node updates / finest nodes (as the CPU [`Hierarchy::solve`] counts them; a CG iteration
     /// also counts its four passes over the finest level: dots, direction, K p, update).
     pub work_units: f64,
+    /// Matrix entries read (operator rows with their diagonal, prolongation and restriction
+    /// links) / the entries of one finest-level operator application: the work unit that
+    /// weighs the coarse levels' wider rows (a Galerkin row holds ~10x a finest row's entries).
+    pub matvec_units: f64,
     /// Geometric mean of the V-cycles' factors; `None` before two.
     pub mean_factor: Option<f64>,
     /// Chebyshev steps of every coarsest-level solve.
@@ -149,6 +153,10 @@ struct Level {
     count: u32,
     /// Chebyshev interval of `B^-1 K` per channel.
     bounds: [(f64, f64); 3],
+    /// Matrix entries of one operator application (off-diagonals plus the diagonal).
+    entries: u64,
+    /// Links of one prolongation or restriction from the coarser level (0 on the coarsest).
+    links: u64,
 }
 
 /// The GPU multigrid of one graph and material (see the module doc).
@@ -516,8 +524,34 @@ impl GpuMultigrid {
             let set = pipeline.allocate_set(ctx, &writes)?;
             pipelines.push((pipeline, set));
         }
-        // Chebyshev intervals: the smoother's on every level but the coarsest, the Lanczos
-        // interval (its smallest Ritz value) on the coarsest, whose polynomial is the solve.
+        let (levels, coarse_steps) = Self::intervals(hierarchy, params, &offsets);
+        Ok(Self {
+            params: params.clone(),
+            levels,
+            coarse_steps,
+            width: packing.width,
+            partials,
+            buffers,
+            control,
+            pipelines,
+            warm: Cell::new(false),
+            bytes,
+        })
+    }
+
+    /// Pre- and post-smoothing steps on level `l` ([`MultigridParams::sweeps_at`]).
+    fn sweeps(&self, l: usize) -> (u32, u32) {
+        self.params.sweeps_at(l, self.levels.len() - 1)
+    }
+
+    /// Chebyshev intervals: the smoother's on every level but the coarsest, the Lanczos
+    /// interval (its smallest Ritz value) on the coarsest, whose polynomial is the solve; and the
+    /// coarsest solve's steps.
+    fn intervals(
+        hierarchy: &Hierarchy,
+        params: &MultigridParams,
+        offsets: &[usize],
+    ) -> (Vec<Level>, u32) {
         let lower = match params.smoother {
             Smoother::Chebyshev { lower } => lower,
             Smoother::Jacobi { .. } => 0.0,
@@ -543,6 +577,8 @@ impl GpuMultigrid {
                     offset: offsets[l] as u32,
                     count: level.node_count() as u32,
                     bounds,
+                    entries: level.operator_entries(),
+                    links: level.link_entries(),
                 }
             })
             .collect();
@@ -550,18 +586,7 @@ impl GpuMultigrid {
         // k = hi / lo: m = ln(2 / tol) sqrt(k) / 2 steps reach the coarse tolerance.
         let steps = (2.0 / params.coarse_tolerance).ln() * worst_condition.sqrt() * 0.5;
         let coarse_steps = (steps.ceil() as u32).clamp(4, MAX_COARSE_STEPS);
-        Ok(Self {
-            params: params.clone(),
-            levels,
-            coarse_steps,
-            width: packing.width,
-            partials,
-            buffers,
-            control,
-            pipelines,
-            warm: Cell::new(false),
-            bytes,
-        })
+        (levels, coarse_steps)
     }
 
     /// GPU bytes of the buffers.
@@ -701,8 +726,20 @@ impl GpuMultigrid {
             return u64::from(self.coarse_steps + 1) * u64::from(self.levels[0].count);
         }
         let n = u64::from(self.levels[l].count);
-        let sweeps = u64::from(self.params.pre_sweeps + self.params.post_sweeps);
+        let sweeps = u64::from(self.sweeps(l).0 + self.sweeps(l).1);
         n * (sweeps + 3) + self.v_cycle_updates(l - 1)
+    }
+
+    /// Matrix entries one V-cycle from level `l` reads (see [`GpuMultigridReport::matvec_units`]).
+    fn v_cycle_entries(&self, l: usize) -> u64 {
+        let level = &self.levels[l];
+        if l == 0 {
+            return u64::from(self.coarse_steps) * level.entries;
+        }
+        let (pre, post) = self.sweeps(l);
+        // A residual per smoothing step and one before the restriction; restriction and
+        // prolongation read the links once each.
+        u64::from(pre + post + 1) * level.entries + 2 * level.links + self.v_cycle_entries(l - 1)
     }
 
     /// What the last solve did, from its control record.
@@ -771,6 +808,21 @@ impl GpuMultigrid {
         let residual = log.last().copied().unwrap_or(f64::NAN);
         let v_cycles = log.len().saturating_sub(1) as u64;
         let work_units = per(start + v_cycles * v_updates);
+        // The same passes in matrix entries: the finest residual or K p once per cycle (plus
+        // the start's), full multigrid's restrictions, coarsest solve, prolongations, V-cycles.
+        let top_entries = self.levels[top].entries;
+        let v_entries = self.v_cycle_entries(top) + top_entries;
+        let start_entries = top_entries
+            + if warm {
+                0
+            } else {
+                (1..=top)
+                    .map(|l| 2 * self.levels[l].links + self.v_cycle_entries(l))
+                    .sum::<u64>()
+                    + self.v_cycle_entries(0)
+            };
+        let matvec_units =
+            (start_entries + v_cycles * v_entries) as f64 / top_entries.max(1) as f64;
         Ok(GpuMultigridReport {
             warm,
             start_residual: log.first().copied().unwrap_or(f64::NAN),
@@ -779,6 +831,7 @@ impl GpuMultigrid {
             state,
             cycles,
             work_units,
+            matvec_units,
             mean_factor,
             coarse_steps: self.coarse_steps,
         })
@@ -910,13 +963,13 @@ impl Recorder<'_> {
                 self.coarse();
                 return;
             }
-            let p = &self.mg.params;
-            self.smooth(l, p.pre_sweeps);
+            let (pre, post) = self.mg.sweeps(l);
+            self.smooth(l, pre);
             self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
             self.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
             self.v_cycle(l - 1);
             self.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]);
-            self.smooth(l, p.post_sweeps);
+            self.smooth(l, post);
         }
     }
 

@@ -138,6 +138,9 @@ pub struct MultigridParams {
     /// Pre- and post-smoothing sweeps (nu1, nu2) per level and cycle.
     pub pre_sweeps: u32,
     pub post_sweeps: u32,
+    /// Pre- and post-smoothing sweeps on the levels between the finest and the coarsest (the
+    /// Galerkin levels, whose rows are the widest); `None`: `pre_sweeps` / `post_sweeps` there too.
+    pub coarse_sweeps: Option<u32>,
     pub coarse: CoarseOperator,
     pub interpolation: Interpolation,
     /// Smooth each surface node together with its cell (a 2x2 block per pair; every tetrahedron
@@ -146,6 +149,10 @@ pub struct MultigridParams {
     /// Smoothed prolongation `P_s = (I - (s / lambda_max) B^-1 K) P` with this `s` (and its
     /// transpose as the restriction); `None`: plain P.
     pub smoothed_prolongation: Option<f64>,
+    /// Galerkin coarse operators with their weak entries lumped into the diagonal
+    /// ([`SparseOperator::sparsified`] with this threshold): fewer entries per coarse row, a
+    /// slightly weaker coarse correction. `None`: the exact Galerkin product.
+    pub sparsify: Option<f64>,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -166,6 +173,7 @@ impl Default for MultigridParams {
             smoother: Smoother::Chebyshev { lower: 0.25 },
             pre_sweeps: 2,
             post_sweeps: 2,
+            coarse_sweeps: None,
             // why Galerkin + CG (benches/RESULTS.md, "Multigrid (CPU)"): on a 1e4 material
             // contrast the re-discretized coarse operator makes the V-cycle diverge; Galerkin
             // converges at 0.56 per V-cycle, 0.27 with CG, and is also the faster on the default
@@ -174,6 +182,7 @@ impl Default for MultigridParams {
             interpolation: Interpolation::Shepard,
             surface_blocks: true,
             smoothed_prolongation: None,
+            sparsify: None,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,
@@ -184,6 +193,27 @@ impl Default for MultigridParams {
 }
 
 impl MultigridParams {
+    /// The GPU cycle's defaults (`solver::gpu::multigrid`, `translucent render`): [`Self::default`]
+    /// with one pre- and one post-sweep on the Galerkin levels between the finest and the
+    /// coarsest, and the coarsest level solved to 0.3 (6 Chebyshev steps instead of 21 on the
+    /// default scene). Measured in benches/RESULTS.md, "Multigrid time per work unit (wave 5)":
+    /// the same 6 CG entries to 1e-4 on the default scene for 41% fewer matrix entries read.
+    pub fn gpu() -> Self {
+        Self {
+            coarse_sweeps: Some(1),
+            coarse_tolerance: 0.3,
+            ..Self::default()
+        }
+    }
+
+    /// Pre- and post-smoothing sweeps on `level` of a hierarchy whose finest level is `finest`.
+    pub fn sweeps_at(&self, level: usize, finest: usize) -> (u32, u32) {
+        match self.coarse_sweeps {
+            Some(n) if level > 0 && level < finest => (n, n),
+            _ => (self.pre_sweeps, self.post_sweeps),
+        }
+    }
+
     pub fn validate(&self) -> Result<(), SolverError> {
         let bad = |name, problem: String| Err(SolverError::BadParameter { name, problem });
         match self.smoother {
@@ -204,6 +234,12 @@ impl MultigridParams {
                 ),
             );
         }
+        if self.coarse_sweeps.is_some_and(|n| n == 0 || n > 64) {
+            return bad(
+                "coarse_sweeps",
+                format!("{:?}: 1 to 64", self.coarse_sweeps),
+            );
+        }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return bad("tolerance", format!("{} must be >= 0", self.tolerance));
         }
@@ -212,6 +248,11 @@ impl MultigridParams {
                 "coarse_tolerance",
                 format!("{} must lie in (0, 1)", self.coarse_tolerance),
             );
+        }
+        if let Some(theta) = self.sparsify {
+            if !(0.0..1.0).contains(&theta) {
+                return bad("sparsify", format!("{theta} must lie in [0, 1)"));
+            }
         }
         if !(1..=1000).contains(&self.power_iterations) {
             return bad(
@@ -368,7 +409,10 @@ impl Hierarchy {
                 let mut k = SparseOperator::from_level(&finest);
                 let mut down = Vec::with_capacity(graph.levels.len());
                 for p in prolongations.iter().skip(1).rev().flatten() {
-                    let coarse = p.galerkin(&k);
+                    let coarse = match params.sparsify {
+                        Some(theta) => p.galerkin(&k).sparsified(theta),
+                        None => p.galerkin(&k),
+                    };
                     down.push(std::mem::replace(&mut k, coarse));
                 }
                 down.push(k);
@@ -635,7 +679,8 @@ impl Hierarchy {
         }
         let level = &self.levels[l];
         let n = level.node_count();
-        self.smooth(l, x, f, params.pre_sweeps, params, work);
+        let (pre, post) = params.sweeps_at(l, self.levels.len() - 1);
+        self.smooth(l, x, f, pre, params, work);
         let mut r = vec![[0.0; 3]; n];
         level.operator.residual(x, f, &mut r);
         let Some(p) = level.prolongation.as_ref() else {
@@ -686,7 +731,7 @@ impl Hierarchy {
         }
         work.updates += n as u64;
         work.entries += level.link_entries();
-        self.smooth(l, x, f, params.post_sweeps, params, work);
+        self.smooth(l, x, f, post, params, work);
     }
 
     /// `sweeps` smoothing sweeps on level `l` (damped Jacobi, or one Chebyshev polynomial of that

@@ -45,6 +45,57 @@ impl SparseOperator {
         out
     }
 
+    /// The operator with its weak off-diagonal entries lumped into the diagonal (a non-Galerkin
+    /// coarse operator, Falgout & Schroder 2014): `K_ij` is dropped when
+    /// `max_c |K_ij| / sqrt(K_ii K_jj) < theta` (a symmetric test, so both `K_ij` and `K_ji` go)
+    /// and added to `K_ii`. Each drop adds `K_ij (e_i - e_j)(e_i - e_j)^T`, so row sums,
+    /// symmetry and (for a diagonally dominant K) positive definiteness are kept.
+    pub fn sparsified(&self, theta: f64) -> SparseOperator {
+        let n = self.node_count();
+        let weak = |i: usize, e: usize| {
+            let j = self.cols[e] as usize;
+            let v = self.values[e];
+            (0..3).all(|c| v[c].abs() < theta * (self.diag[i][c] * self.diag[j][c]).abs().sqrt())
+        };
+        // A row whose diagonal would lose more than half to the lumping keeps its entries, and
+        // its neighbours keep theirs to it (symmetry): the diagonal stays well positive.
+        let keeps_all: Vec<bool> = (0..n)
+            .map(|i| {
+                let mut d = self.diag[i];
+                for e in self.row_start[i]..self.row_start[i + 1] {
+                    if weak(i, e) {
+                        for (dc, vc) in d.iter_mut().zip(self.values[e]) {
+                            *dc += vc;
+                        }
+                    }
+                }
+                (0..3).any(|c| d[c] < 0.5 * self.diag[i][c])
+            })
+            .collect();
+        let mut out = SparseOperator {
+            row_start: Vec::with_capacity(n + 1),
+            diag: self.diag.clone(),
+            ..SparseOperator::default()
+        };
+        out.row_start.push(0);
+        for i in 0..n {
+            for e in self.row_start[i]..self.row_start[i + 1] {
+                let j = self.cols[e] as usize;
+                let v = self.values[e];
+                if keeps_all[i] || keeps_all[j] || !weak(i, e) {
+                    out.cols.push(self.cols[e]);
+                    out.values.push(v);
+                } else {
+                    for (dc, vc) in out.diag[i].iter_mut().zip(v) {
+                        *dc += vc;
+                    }
+                }
+            }
+            out.row_start.push(out.cols.len());
+        }
+        out
+    }
+
     /// Pairs each surface node of `level` with its cell as one block of the smoother.
     pub fn pair_surface_nodes(&mut self, level: &GraphLevel) {
         let n = self.node_count();
@@ -171,4 +222,51 @@ pub(super) fn merge_columns(mut row: Vec<(u32, [f64; 3])>) -> Vec<(u32, [f64; 3]
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3-node chain with one weak link (1 - 2): the weak entry goes into both diagonals (row
+    /// sums and symmetry kept), the strong ones stay; a node whose diagonal would halve keeps all.
+    #[test]
+    fn sparsified_lumps_weak_entries_and_keeps_row_sums() {
+        let k = SparseOperator {
+            row_start: vec![0, 1, 3, 4],
+            cols: vec![1, 0, 2, 1],
+            values: vec![[-1.0; 3], [-1.0; 3], [-0.01; 3], [-0.01; 3]],
+            diag: vec![[2.0; 3], [2.0; 3], [1.0; 3]],
+            ..SparseOperator::default()
+        };
+        let row_sums = |k: &SparseOperator| -> Vec<f64> {
+            (0..k.node_count())
+                .map(|i| {
+                    k.diag[i][0]
+                        + k.values[k.row_start[i]..k.row_start[i + 1]]
+                            .iter()
+                            .map(|v| v[0])
+                            .sum::<f64>()
+                })
+                .collect()
+        };
+        let s = k.sparsified(0.1);
+        assert_eq!(
+            s.cols,
+            vec![1, 0],
+            "the weak 1-2 link dropped, the strong 0-1 kept"
+        );
+        assert_eq!(row_sums(&s), row_sums(&k));
+        assert_eq!(s.symmetry_defect(), 0.0);
+        // Node 2's only entry is weak but its diagonal 0.011 would fall below half: kept.
+        let small = SparseOperator {
+            diag: vec![[2.0; 3], [2.0; 3], [0.011; 3]],
+            ..k.clone()
+        };
+        let s = small.sparsified(0.5);
+        assert_eq!(
+            s.cols, small.cols,
+            "a row that would lose half its diagonal keeps all"
+        );
+    }
 }
