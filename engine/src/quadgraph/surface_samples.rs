@@ -46,8 +46,8 @@ pub const DEPTH_WALL_SHARE: f64 = 0.4;
 /// spacings around the vertex (weights (1 - (d / R)^2)^2, only normals within 90 degrees of
 /// the vertex's own), so that geometric detail finer than the lattice (a scanned mesh's bumps)
 /// does not move the sample points about (diffusion does not resolve it either). Measured on
-/// the front-lit bunny against path tracing: 16.1% with the raw normals, 16.3% with these (the
-/// bunny's remaining bump texture under `--surface interior` has another cause, not found yet).
+/// the front-lit bunny against path tracing: 16.1% with the raw normals, 16.3% with these; the
+/// bump texture came from the sources (see [`SOURCE_SPACINGS`]: 15.4% -> 11.6%).
 pub const NORMAL_SPACINGS: f64 = 1.5;
 
 /// The surface the samples hang from: the display surface smoothed over this many finest
@@ -244,10 +244,11 @@ fn solve_small<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<
         }
         a.swap(col, pivot);
         b.swap(col, pivot);
+        let pivot_row = a[col];
         for row in col + 1..N {
-            let f = a[row][col] / a[col][col];
-            for k in col..N {
-                a[row][k] -= f * a[col][k];
+            let f = a[row][col] / pivot_row[col];
+            for (x, p) in a[row][col..].iter_mut().zip(&pivot_row[col..]) {
+                *x -= f * p;
             }
             b[row] -= f * b[col];
         }
