@@ -249,7 +249,7 @@ fn interior_albedo_matches_the_sphere_closed_form() {
     let mut worst: f64 = 0.0;
     for preset in ["marble", "skin1", "ketchup"] {
         let m = Material::preset(preset).unwrap();
-        let field = MaterialField::Homogeneous(m.clone());
+        let field = MaterialField::Homogeneous(m);
         let solution = cpu(
             &graph,
             &field,
