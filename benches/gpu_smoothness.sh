@@ -26,8 +26,8 @@ smooth spot-skin1 --mesh ../shared/meshes/spot.obj --material skin1 --width 128 
 smooth spot-ketchup --mesh ../shared/meshes/spot.obj --material ketchup --width 128 --height 128 --no-specular
 smooth bunny-skin1 --mesh ../shared/meshes/stanford-bunny.obj --material skin1 --width 128 --height 128 --no-specular
 smooth bunny-ketchup --mesh ../shared/meshes/stanford-bunny.obj --material ketchup --width 128 --height 128 --no-specular
-smooth skin1-env --shape sphere --material skin1 --eta 1 --env-constant 1,1,1 --width 128 --height 128 --no-specular
-smooth ketchup-env --shape sphere --material ketchup --eta 1 --env-constant 1,1,1 --width 128 --height 128 --no-specular
+smooth skin1-env --shape sphere --material skin1 --eta 1 --env-constant 1,1,1 --light dir:0,-1,0:0,0,0 --width 128 --height 128 --no-specular
+smooth ketchup-env --shape sphere --material ketchup --eta 1 --env-constant 1,1,1 --light dir:0,-1,0:0,0,0 --width 128 --height 128 --no-specular
 accuracy milk-sphere skimmilk-sphere-dir-eta1.exr --shape sphere --material skimmilk --eta 1 --light dir:0.5,-1,-0.5:4,4,4
 accuracy marble-sphere marble-sphere-dir-eta1.exr --shape sphere --material marble --eta 1 --light dir:0.5,-1,-0.5:4,4,4
 accuracy bunny-front bunny-marble-dir-eta1.exr --mesh ../shared/meshes/stanford-bunny.obj --material marble --eta 1 --light dir:0.5,-1,-0.5:4,4,4

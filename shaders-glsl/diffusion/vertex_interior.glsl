@@ -2,8 +2,10 @@
 // item 4), the GPU twin of `solver::cpu::interior_vertices` (same formulas, f32):
 //   p      = sum_k w_k phi(node_k): phi at the vertex's sample point a fixed depth inside along
 //            its normal (the bake's `SurfaceSamples`: moving least squares over 16 inner nodes);
-//   q, P   = the surface nodes' q and collimated exit part through the vertex's Shepard weights
-//            (smooth sources; the lattice is in phi_s - phi_k, which is no longer read);
+//   q, P   = the surface nodes' q and collimated exit part averaged with the vertex's source
+//            weights (the bake's `SurfaceSamples::sources`: up to 16 surface nodes within 1.5
+//            finest spacings, so a scan's bumps do not show through the nodes' cosines; the
+//            lattice is in phi_s - phi_k, which is no longer read);
 //   phi0, dphi0 = the local 1D profile phi'' = s^2 phi through p at `depth` with the Robin
 //            condition phi - h dphi/dz_in = rhs = flux_gain q at z = 0 (h = 2 A D, s = sqrt(mu / D),
 //            D and mu of the tetrahedron holding the sample: `solver::transport::profile_from_sample`);
@@ -21,8 +23,9 @@ layout(set = 0, binding = 2, rgba16f) uniform readonly image2D particular;
 // Heterogeneous materials only (push flag): per-node kappa and mu of the finest level.
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D kappa;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D mu;
-layout(set = 0, binding = 5, std430) readonly buffer VertexLinks { uvec4 links[]; } vertex_links;
-layout(set = 0, binding = 6, std430) readonly buffer VertexWeights { vec4 weights[]; } vertex_weights;
+// Per vertex 4 uvec4: 16 linear texel indices of surface nodes; 4 vec4: their source weights.
+layout(set = 0, binding = 5, std430) readonly buffer SourceNodes { uvec4 nodes[]; } source_nodes;
+layout(set = 0, binding = 6, std430) readonly buffer SourceWeights { vec4 weights[]; } source_weights;
 // Per vertex 4 uvec4: 16 linear texel indices of the sample's inner nodes; 4 vec4: their weights.
 layout(set = 0, binding = 7, std430) readonly buffer SampleNodes { uvec4 nodes[]; } sample_nodes;
 layout(set = 0, binding = 8, std430) readonly buffer SampleWeights { vec4 weights[]; } sample_weights;
@@ -62,15 +65,19 @@ void main() {
         }
     }
     // The sources at the vertex.
-    uvec4 l = vertex_links.links[v];
-    vec4 sw = vertex_weights.weights[v];
     vec3 qv = vec3(0.0);
     vec3 part = vec3(0.0);
-    for (int k = 0; k < 4; ++k) {
-        ivec2 t = texel(l[k]);
-        qv += sw[k] * imageLoad(q, t).rgb;
-        if (pc.scale.z > 0.5) {
-            part += sw[k] * imageLoad(particular, t).rgb;
+    for (uint g = 0u; g < 4u; ++g) {
+        uvec4 l = source_nodes.nodes[4u * v + g];
+        vec4 sw = source_weights.weights[4u * v + g];
+        for (int k = 0; k < 4; ++k) {
+            if (sw[k] != 0.0) {
+                ivec2 t = texel(l[k]);
+                qv += sw[k] * imageLoad(q, t).rgb;
+                if (pc.scale.z > 0.5) {
+                    part += sw[k] * imageLoad(particular, t).rgb;
+                }
+            }
         }
     }
     uvec4 cell = sample_cells.cells[v];

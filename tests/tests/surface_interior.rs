@@ -227,3 +227,57 @@ fn interior_reconstruction_is_flat_where_the_exact_exitance_is() {
     }
     gpu.finish();
 }
+
+/// Albedo of the interior reconstruction on a marble sphere (R = 10 mm) under a constant
+/// environment against the closed form of DESIGN 2 (the issue's bound: 1%). Marble only: the
+/// planar 1D profile ignores the sphere's curvature (the closed form's -1/R), which costs the
+/// short-diffusion-length materials 2-11% (printed, benches/RESULTS.md "Interior surface, wave 5").
+const ALBEDO: f64 = 0.01;
+
+#[test]
+#[ignore = "fails today (issue 12): the planar profile ignores the sphere's curvature: marble \
+            -0.6/-1.1/-1.7% at 16 cells; run with --ignored"]
+fn interior_albedo_matches_the_sphere_closed_form() {
+    use translucent::material::fresnel;
+    use translucent::solver::analytic::Homogeneous;
+    let graph = sphere(16);
+    let env = 0.5;
+    let scene = Scene {
+        lights: Vec::new(),
+        environment: Environment::Constant([env; 3]),
+    };
+    let mut worst: f64 = 0.0;
+    for preset in ["marble", "skin1", "ketchup"] {
+        let m = Material::preset(preset).unwrap();
+        let field = MaterialField::Homogeneous(m);
+        let solution = cpu(
+            &graph,
+            &field,
+            &scene,
+            ExitQuery::Classic,
+            SurfaceReconstruction::Interior,
+        );
+        let f_ext = 1.0 - m.eta * m.eta * (1.0 - fresnel::diffuse_reflectance(m.eta));
+        let q = std::f64::consts::PI * env * (1.0 - f_ext);
+        let n = solution.vertex_exitance.len() as f64;
+        for c in 0..3 {
+            let exact = Homogeneous::channel(&m, c).sphere_albedo(10.0);
+            if exact <= 0.0 {
+                continue; // the model's negative J+ (ketchup green, blue): clamped, no albedo
+            }
+            let albedo = solution.vertex_exitance.iter().map(|v| v[c]).sum::<f64>() / n / q;
+            let err = albedo / exact - 1.0;
+            println!(
+                "{preset} channel {c}: albedo {albedo:.4}, closed form {exact:.4} ({:+.2}%)",
+                100.0 * err
+            );
+            if preset == "marble" {
+                worst = worst.max(err.abs());
+            }
+        }
+    }
+    assert!(
+        worst <= ALBEDO,
+        "marble: albedo off the closed form by {worst}"
+    );
+}

@@ -32,7 +32,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -385,6 +385,8 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
     w.u32s(&g.samples.nodes);
     w.f64s(&g.samples.weights);
     w.u32s(&g.samples.cell.iter().map(|&c| [c]).collect::<Vec<_>>());
+    w.u32s(&g.samples.sources);
+    w.f64s(&g.samples.source_weights);
     w.len(g.levels.len());
     for l in &g.levels {
         w.f64(l.spacing);
@@ -429,11 +431,15 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     let nodes = r.u32s()?;
     let weights = r.f64s()?;
     let cell: Vec<[u32; 1]> = r.u32s()?;
+    let sources = r.u32s()?;
+    let source_weights = r.f64s()?;
     let samples = SurfaceSamples {
         depth: depth.into_iter().map(|[d]| d).collect(),
         nodes,
         weights,
         cell: cell.into_iter().map(|[c]| c).collect(),
+        sources,
+        source_weights,
     };
     let n = r.len(1)?;
     let mut levels = Vec::with_capacity(n);
@@ -577,7 +583,9 @@ fn check(g: &QuadGraph) -> Result<(), String> {
         && (sampled != nv
             || samples.nodes.len() != nv
             || samples.weights.len() != nv
-            || samples.cell.len() != nv)
+            || samples.cell.len() != nv
+            || samples.sources.len() != nv
+            || samples.source_weights.len() != nv)
     {
         return Err("surface samples do not match the surface's vertices".into());
     }
@@ -590,10 +598,20 @@ fn check(g: &QuadGraph) -> Result<(), String> {
     }
     if samples.depth.iter().any(|d| !(d.is_finite() && *d >= 0.0))
         || samples.weights.iter().flatten().any(|w| !w.is_finite())
+        || samples
+            .source_weights
+            .iter()
+            .flatten()
+            .any(|w| !w.is_finite())
     {
         return Err("surface sample depths or weights are not finite".into());
     }
     let finest_surface = g.finest().surface_count();
+    for sources in &samples.sources {
+        sources
+            .iter()
+            .try_for_each(|&i| in_range("surface sample source", i, finest_surface))?;
+    }
     for l in &g.shading.links {
         l.iter()
             .try_for_each(|&i| in_range("shading link", i, finest_surface))?;

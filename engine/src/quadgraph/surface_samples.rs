@@ -46,9 +46,33 @@ pub const DEPTH_WALL_SHARE: f64 = 0.4;
 /// spacings around the vertex (weights (1 - (d / R)^2)^2, only normals within 90 degrees of
 /// the vertex's own), so that geometric detail finer than the lattice (a scanned mesh's bumps)
 /// does not move the sample points about (diffusion does not resolve it either). Measured on
-/// the front-lit bunny against path tracing: 16.1% with the raw normals, 16.3% with these (the
-/// bunny's remaining bump texture under `--surface interior` has another cause, not found yet).
+/// the front-lit bunny against path tracing: 16.1% with the raw normals, 16.3% with these; the
+/// bump texture came from the sources (see [`SOURCE_SPACINGS`]: 15.4% -> 11.6%).
 pub const NORMAL_SPACINGS: f64 = 1.5;
+
+/// The surface the samples hang from: the display surface smoothed over this many finest
+/// spacings ([`smoothed_positions`]): a vertex on a scanned bump sits up to a few tenths of a
+/// millimetre off the surface the lattice resolves, and near a lit surface phi changes by
+/// several percent over that (measured on the front-lit bunny against path tracing: see
+/// benches/RESULTS.md, "Interior surface, wave 5").
+pub const SURFACE_SPACINGS: f64 = 1.5;
+
+/// Vertices (the vertex included) within the smoothing radius that a quadric fit needs; with
+/// fewer the vertex stays where it is.
+const QUADRIC_POINTS: usize = 10;
+
+/// Surface nodes per vertex whose sources the profile averages.
+pub const SOURCE_NODES: usize = 16;
+
+/// The sources q (and the collimated exit part) that the vertex's 1D profile reads: the surface
+/// nodes within this many finest spacings of the smoothed surface point, weighted by their face
+/// area times (1 - (d / R)^2)^2 (only nodes whose normal is within 90 degrees of the smoothed
+/// normal), at most [`SOURCE_NODES`] nearest. Why: the profile passes its boundary source to the
+/// exitance with a weight of about d / (d + h) (0.8 for marble at the default depth), so the
+/// irradiance of each surface node (its cosine taken with the scan's own face normal there)
+/// would show the scan's bumps as a Lambertian texture; the diffusion solution at the sample
+/// depth averages the sources over about that depth, and so must the profile's boundary.
+pub const SOURCE_SPACINGS: f64 = 1.5;
 
 /// Graph rings searched around the sample's tetrahedron for candidates.
 const RINGS: usize = 3;
@@ -65,9 +89,27 @@ pub struct SurfaceSamples {
     /// The finest-level tetrahedron (inner node) containing the sample point, or the nearest one
     /// where the point lies outside the tetrahedral mesh: where the local material is read.
     pub cell: Vec<u32>,
+    /// Finest-level surface nodes (surface index `s`, [`NO_NODE`] in unused slots) whose sources
+    /// the vertex's 1D profile reads...
+    pub sources: Vec<[u32; SOURCE_NODES]>,
+    /// ...and their weights (summing to 1): see [`SOURCE_SPACINGS`].
+    pub source_weights: Vec<[f64; SOURCE_NODES]>,
 }
 
 impl SurfaceSamples {
+    /// Per-surface-node values averaged with vertex `v`'s source weights.
+    pub fn source_average(&self, v: usize, per_node: &[[f64; 3]]) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for (&s, &w) in self.sources[v].iter().zip(&self.source_weights[v]) {
+            if s != NO_NODE {
+                for c in 0..3 {
+                    out[c] += w * per_node[s as usize][c];
+                }
+            }
+        }
+        out
+    }
+
     /// phi interpolated at vertex `v`'s sample point from per-node values.
     pub fn interpolate(&self, v: usize, phi: &[[f64; 3]]) -> [f64; 3] {
         let mut out = [0.0; 3];
@@ -161,12 +203,15 @@ fn mls_weights(points: &[DVec3], p: DVec3) -> Vec<f64> {
 }
 
 /// Per vertex, the unit normals of the vertices within `radius` averaged (see [`NORMAL_SPACINGS`]).
-fn smoothed_normals(positions: &[DVec3], normals: &[DVec3], radius: f64) -> Vec<DVec3> {
+fn smoothed_normals(
+    tree: &ImmutableKdTree<f64, u32, 3, 32>,
+    positions: &[DVec3],
+    normals: &[DVec3],
+    radius: f64,
+) -> Vec<DVec3> {
     if positions.is_empty() || radius.is_nan() || radius <= 0.0 {
         return normals.to_vec();
     }
-    let coords: Vec<[f64; 3]> = positions.iter().map(|p| p.to_array()).collect();
-    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
     positions
         .par_iter()
         .zip(normals)
@@ -183,6 +228,185 @@ fn smoothed_normals(positions: &[DVec3], normals: &[DVec3], radius: f64) -> Vec<
             sum.normalize_or(n)
         })
         .collect()
+}
+
+/// Solves the `N` x `N` system `a x = b` by Gaussian elimination with partial pivoting; `None`
+/// when a pivot is below `1e-12` of the largest diagonal entry (the points do not determine it).
+fn solve_small<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
+    let scale = (0..N).map(|i| a[i][i].abs()).fold(0.0, f64::max);
+    if !(scale > 0.0 && scale.is_finite()) {
+        return None;
+    }
+    for col in 0..N {
+        let pivot = (col..N).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-12 * scale {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        let pivot_row = a[col];
+        for row in col + 1..N {
+            let f = a[row][col] / pivot_row[col];
+            for (x, p) in a[row][col..].iter_mut().zip(&pivot_row[col..]) {
+                *x -= f * p;
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; N];
+    for row in (0..N).rev() {
+        let rest: f64 = (row + 1..N).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - rest) / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// The weighted least-squares height at the origin of the points `(u, v, w)` (weights `k`), w
+/// fitted by a quadric in (u, v); 0 (the vertex itself) where too few points determine one
+/// (a display mesh coarser than the lattice has no bumps finer than it to smooth away, and a
+/// plane fit would pull a curved surface's vertex inwards).
+fn fitted_height(points: &[(f64, f64, f64, f64)]) -> f64 {
+    if points.len() < QUADRIC_POINTS {
+        return 0.0;
+    }
+    let mut a = [[0.0; 6]; 6];
+    let mut b = [0.0; 6];
+    for &(u, v, w, k) in points {
+        let q = [1.0, u, v, u * u, u * v, v * v];
+        for i in 0..6 {
+            for j in 0..6 {
+                a[i][j] += k * q[i] * q[j];
+            }
+            b[i] += k * q[i] * w;
+        }
+    }
+    solve_small(a, b).map_or(0.0, |x| x[0])
+}
+
+/// Per vertex, the point of the display surface smoothed over `radius` (see
+/// [`SURFACE_SPACINGS`]): the vertex moved along its smoothed normal `normals[v]` to the height
+/// of a weighted least-squares quadric through the vertices within `radius` (weights
+/// (1 - (d / R)^2)^2, only vertices whose own normal is within 90 degrees), so that a scanned
+/// mesh's bumps finer than the lattice do not move the sample points (exact for a smooth
+/// surface sampled finely: a quadric through its own vertices has height 0).
+fn smoothed_positions(
+    tree: &ImmutableKdTree<f64, u32, 3, 32>,
+    positions: &[DVec3],
+    raw_normals: &[DVec3],
+    normals: &[DVec3],
+    radius: f64,
+) -> Vec<DVec3> {
+    if positions.is_empty() || radius.is_nan() || radius <= 0.0 {
+        return positions.to_vec();
+    }
+    positions
+        .par_iter()
+        .zip(normals)
+        .map(|(&x, &n)| {
+            let (t, b) = crate::solver::transport::tangent_frame(n);
+            let mut points = Vec::new();
+            for nb in tree.within_unsorted::<SquaredEuclidean>(&x.to_array(), radius * radius) {
+                let j = nb.item as usize;
+                if raw_normals[j].dot(n) <= 0.0 {
+                    continue; // the other side of a thin wall
+                }
+                let d = (positions[j] - x) / radius;
+                let r = nb.distance / (radius * radius);
+                points.push((d.dot(t), d.dot(b), d.dot(n), (1.0 - r).powi(2)));
+            }
+            let height = fitted_height(&points) * radius;
+            let moved = x + n * height;
+            if moved.is_finite() {
+                moved
+            } else {
+                x
+            }
+        })
+        .collect()
+}
+
+/// Per vertex (smoothed point `anchors[v]`, smoothed normal `normals[v]`), the surface nodes of
+/// `finest` whose sources it reads and their weights (see [`SOURCE_SPACINGS`]); the nearest
+/// surface node alone where none lies within `radius`.
+fn source_weights(
+    finest: &GraphLevel,
+    anchors: &[DVec3],
+    normals: &[DVec3],
+    radius: f64,
+) -> Vec<([u32; SOURCE_NODES], [f64; SOURCE_NODES])> {
+    let inner = finest.inner_count();
+    let surface = finest.surface_count();
+    let mut out = vec![([NO_NODE; SOURCE_NODES], [0.0; SOURCE_NODES]); anchors.len()];
+    if surface == 0 || radius.is_nan() || radius <= 0.0 {
+        return out;
+    }
+    let coords: Vec<[f64; 3]> = finest.positions[inner..]
+        .iter()
+        .map(|p| p.to_array())
+        .collect();
+    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
+    let areas: Vec<f64> = finest
+        .surface_faces
+        .iter()
+        .map(|&(t, f)| {
+            let tet = finest.tets.tets[t as usize];
+            let [a, b, c] =
+                super::graph::TET_FACES[f as usize].map(|k| finest.tets.vertices[tet[k] as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .collect();
+    out.par_iter_mut()
+        .zip(anchors.par_iter().zip(normals))
+        .for_each(|(slot, (&x, &n))| {
+            let mut near: Vec<(f64, u32)> = tree
+                .within_unsorted::<SquaredEuclidean>(&x.to_array(), radius * radius)
+                .into_iter()
+                .filter(|nb| finest.surface_normals[nb.item as usize].dot(n) > 0.0)
+                .map(|nb| (nb.distance, nb.item))
+                .collect();
+            near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            near.truncate(SOURCE_NODES);
+            let weights: Vec<f64> = near
+                .iter()
+                .map(|&(d2, s)| (1.0 - d2 / (radius * radius)).powi(2) * areas[s as usize])
+                .collect();
+            let total: f64 = weights.iter().sum();
+            if near.is_empty() || !(total > 0.0 && total.is_finite()) {
+                let nearest = tree.nearest_one::<SquaredEuclidean>(&x.to_array()).item;
+                slot.0[0] = nearest;
+                slot.1[0] = 1.0;
+                return;
+            }
+            for (k, (&(_, s), w)) in near.iter().zip(&weights).enumerate() {
+                slot.0[k] = s;
+                slot.1[k] = w / total;
+            }
+        });
+    out
+}
+
+/// The distance from `x` along `-n` to where the ray first leaves `solid` (a crossing whose
+/// outward normal faces along the ray), up to `reach`; crossings into the solid on the way (the
+/// smoothed surface point `x` may lie just outside a scan's dimple) are stepped over.
+fn wall_thickness(solid: &dyn Solid, x: DVec3, n: DVec3, reach: f64, spacing: f64) -> f64 {
+    let step = 1e-4 * spacing;
+    let mut travelled = 0.0;
+    for _ in 0..8 {
+        let origin = x - n * (travelled + step);
+        match solid.ray_hit(origin, -n, reach - travelled) {
+            None => return f64::INFINITY,
+            Some((t, normal)) => {
+                travelled += step + t;
+                if normal.dot(-n) > 0.0 {
+                    return travelled;
+                }
+            }
+        }
+        if travelled >= reach {
+            break;
+        }
+    }
+    f64::INFINITY
 }
 
 /// The sample points of `surface`'s vertices (outward unit normals in `surface.normals`, or
@@ -206,17 +430,30 @@ pub fn surface_samples(
         .collect();
     let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
     let h = finest.spacing;
-    let normals = smoothed_normals(&surface.positions, &normals, NORMAL_SPACINGS * h);
-    let per_vertex: Vec<(f64, [u32; SAMPLE_NODES], [f64; SAMPLE_NODES], u32)> = surface
-        .positions
+    let vertex_coords: Vec<[f64; 3]> = surface.positions.iter().map(|p| p.to_array()).collect();
+    let vertex_tree: ImmutableKdTree<f64, u32, 3, 32> =
+        ImmutableKdTree::new_from_slice(&vertex_coords);
+    let raw_normals: Vec<DVec3> = normals.iter().map(|n| n.normalize_or(DVec3::Y)).collect();
+    let normals = smoothed_normals(
+        &vertex_tree,
+        &surface.positions,
+        &raw_normals,
+        NORMAL_SPACINGS * h,
+    );
+    let anchors = smoothed_positions(
+        &vertex_tree,
+        &surface.positions,
+        &raw_normals,
+        &normals,
+        SURFACE_SPACINGS * h,
+    );
+    let sources = source_weights(finest, &anchors, &normals, SOURCE_SPACINGS * h);
+    let per_vertex: Vec<(f64, [u32; SAMPLE_NODES], [f64; SAMPLE_NODES], u32)> = anchors
         .par_iter()
         .zip(&normals)
         .map(|(&x, &n)| {
             let n = n.normalize_or(DVec3::Y);
-            let offset = 1e-4 * h;
-            let thickness = solid
-                .ray_hit(x - n * offset, -n, 4.0 * DEPTH_SPACINGS * h)
-                .map_or(f64::INFINITY, |(t, _)| t);
+            let thickness = wall_thickness(solid, x, n, 4.0 * DEPTH_SPACINGS * h, h);
             let depth = (DEPTH_SPACINGS * h).min(DEPTH_WALL_SHARE * thickness);
             let p = x - n * depth;
             let nearest = tree.nearest_one::<SquaredEuclidean>(&p.to_array()).item as usize;
@@ -257,6 +494,10 @@ pub fn surface_samples(
         })
         .collect();
     let mut out = SurfaceSamples::default();
+    for (ids, w) in sources {
+        out.sources.push(ids);
+        out.source_weights.push(w);
+    }
     for (depth, ids, w, cell) in per_vertex {
         out.depth.push(depth);
         out.nodes.push(ids);

@@ -685,7 +685,8 @@ pub fn reconstruct_vertices(
 /// Per display vertex, the exitance M reconstructed from the interior solution (issue 12 item 4,
 /// [`SurfaceReconstruction::Interior`]), the f64 twin of the GPU's `diffusion/vertex_interior`:
 /// phi at the vertex's sample point (`QuadGraph::samples`, a fixed depth inside along the
-/// normal), the sources q and the collimated exit part P through the shading weights, the local
+/// normal), the sources q and the collimated exit part P averaged with the vertex's source
+/// weights (`SurfaceSamples::source_average`), the local
 /// 1D profile through the sample ([`profile_from_sample`], h = 2 A D and s of the tetrahedron
 /// holding the sample) for phi(0) and dphi/dz_in(0), then the exit query plus P. Unclamped.
 pub fn interior_vertices(
@@ -713,11 +714,9 @@ pub fn interior_vertices(
             })
         })
         .collect();
-    let q_v = shade_vertices(graph, &q)?;
-    let part_v = shade_vertices(graph, &part)?;
     let samples = &graph.samples;
     let vertices = graph.surface.positions.len();
-    if samples.depth.len() != vertices {
+    if samples.depth.len() != vertices || samples.sources.len() != vertices {
         return Err(SolverError::BadParameter {
             name: "surface",
             problem: format!(
@@ -732,13 +731,17 @@ pub fn interior_vertices(
             let cell = (samples.cell[v] as usize).min(inner.saturating_sub(1));
             let here = material.sample(level.positions[cell]);
             let p = samples.interpolate(v, phi_h);
+            let (q_v, part_v) = (
+                samples.source_average(v, &q),
+                samples.source_average(v, &part),
+            );
             std::array::from_fn(|c| {
                 let (d, h) = (here.kappa()[c], 2.0 * boundary.a * here.kappa()[c]);
                 let s = (here.mu()[c] / d).sqrt();
-                let qv = f64::from(q_v[v][c]);
+                let qv = q_v[c];
                 let (phi0, dphi0) =
                     profile_from_sample(s, h, samples.depth[v], p[c], boundary.flux_gain * qv);
-                boundary.exitance(d, phi0, dphi0, qv) + f64::from(part_v[v][c])
+                boundary.exitance(d, phi0, dphi0, qv) + part_v[c]
             })
         })
         .collect())

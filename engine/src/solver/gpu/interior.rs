@@ -16,6 +16,8 @@ use crate::Error;
 /// [`super::GpuSolveParams::surface`]), and its descriptor sets: index `2 * mesh + heterogeneous`
 /// (our own J+ buffer or the bound mesh's vertex buffer; push-constant or per-node material).
 pub(crate) struct InteriorSamples {
+    pub(super) sources: Buffer,
+    pub(super) source_weights: Buffer,
     pub(super) nodes: Buffer,
     pub(super) weights: Buffer,
     pub(super) cells: Buffer,
@@ -32,7 +34,7 @@ impl GpuDiffusion {
     ) -> Result<Option<InteriorSamples>, Error> {
         let samples = &graph.samples;
         let vertices = graph.surface.positions.len();
-        if vertices == 0 || samples.depth.len() != vertices {
+        if vertices == 0 || samples.depth.len() != vertices || samples.sources.len() != vertices {
             return Ok(None);
         }
         let bad = |v: usize, what: &str| {
@@ -44,7 +46,30 @@ impl GpuDiffusion {
         let mut nodes: Vec<[u32; 4]> = Vec::with_capacity(4 * vertices);
         let mut weights: Vec<[f32; 4]> = Vec::with_capacity(4 * vertices);
         let mut cells: Vec<[u32; 4]> = Vec::with_capacity(vertices);
+        let mut sources: Vec<[u32; 4]> = Vec::with_capacity(4 * vertices);
+        let mut source_weights: Vec<[f32; 4]> = Vec::with_capacity(4 * vertices);
+        let surface = graph.finest().surface_count();
         for v in 0..vertices {
+            let (ids, w) = (&samples.sources[v], &samples.source_weights[v]);
+            for g in 0..4 {
+                let mut n = [0u32; 4];
+                let mut wt = [0f32; 4];
+                for k in 0..4 {
+                    let (s, wk) = (ids[4 * g + k], w[4 * g + k]);
+                    if s == NO_NODE {
+                        continue;
+                    }
+                    if s as usize >= surface || !wk.is_finite() {
+                        return Err(bad(v, "a source node out of range or a weight not finite"));
+                    }
+                    n[k] = finest
+                        .packing
+                        .linear_index((finest.inner_count + s as usize) as u32);
+                    wt[k] = wk as f32;
+                }
+                sources.push(n);
+                source_weights.push(wt);
+            }
             let (ids, w) = (&samples.nodes[v], &samples.weights[v]);
             for g in 0..4 {
                 let mut n = [0u32; 4];
@@ -77,6 +102,13 @@ impl GpuDiffusion {
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         Ok(Some(InteriorSamples {
+            sources: Buffer::with_data(ctx, "diffusion source nodes", storage, &sources)?,
+            source_weights: Buffer::with_data(
+                ctx,
+                "diffusion source weights",
+                storage,
+                &source_weights,
+            )?,
             nodes: Buffer::with_data(ctx, "diffusion sample nodes", storage, &nodes)?,
             weights: Buffer::with_data(ctx, "diffusion sample weights", storage, &weights)?,
             cells: Buffer::with_data(ctx, "diffusion sample cells", storage, &cells)?,
@@ -116,12 +148,12 @@ impl GpuDiffusion {
                     DescriptorWrite::storage_image("kappa", kappa),
                     DescriptorWrite::storage_image("mu", mu),
                     DescriptorWrite::StorageBuffer {
-                        name: "vertex_links",
-                        buffer: &self.vertex_links,
+                        name: "source_nodes",
+                        buffer: &interior.sources,
                     },
                     DescriptorWrite::StorageBuffer {
-                        name: "vertex_weights",
-                        buffer: &self.vertex_weights,
+                        name: "source_weights",
+                        buffer: &interior.source_weights,
                     },
                     DescriptorWrite::StorageBuffer {
                         name: "sample_nodes",
