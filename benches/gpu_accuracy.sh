@@ -5,7 +5,7 @@ C=0,20,60:0,0,0:30; S="--size-mm 20 --camera $C --width 96 --height 96 --no-spec
 T=target/release/translucent
 run() { name=$1; ref=$2; shift 2
   for v in flux beam; do
-    extra=""; [ $v = beam ] && extra="--beam-source"
+    extra="--source flux"; [ $v = beam ] && extra="--source beam"
     start=$(date +%s)
     $T render "$@" $S $extra --out $O/$name-$v.exr > $O/$name-$v.log 2>&1
     end=$(date +%s)

@@ -4,8 +4,8 @@
 # every view) and on (the march unless every light is in front: the front-lit skip rule), DESIGN
 # 2.8, the shared pass, 96 px, against tests/reference/pt/. Writes target/gpu-ss/*.exr and prints
 # tools/compare_exr.py's line and the passes' GPU ms per render (march + depth pre-pass).
-# SS_MODES="off always" limits the modes.
-C=0,20,60:0,0,0:30; S="--size-mm 20 --camera $C --width 96 --height 96 --no-specular"; R=tests/reference/pt; O=target/gpu-ss; mkdir -p $O
+# SS_MODES="off always" limits the modes; SOURCE=beam measures the beam source (default flux, as measured).
+C=0,20,60:0,0,0:30; S="--size-mm 20 --camera $C --width 96 --height 96 --no-specular --source ${SOURCE:-flux}"; R=tests/reference/pt; O=target/gpu-ss; mkdir -p $O
 T=target/release/translucent
 run() { name=$1; ref=$2; shift 2
   for v in ${SS_MODES:-off always on}; do

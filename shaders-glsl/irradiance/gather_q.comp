@@ -11,6 +11,12 @@
 // Robin right-hand side -K (1 + 2 A D beta) is written into q divided by the flux gain (so the
 // solve is unchanged), and the exit query's part of it, a_phi K - a_d D beta K, into `particular`
 // (added back by the J+ pass: DESIGN 2.6 with phi = phi_h + K, dphi/dz_in = phi_h' - beta K).
+// Heterogeneous materials (beam_local = 1): the node's own coefficients from the level's kappa and
+// mu images (sigma_t' = 1 / (3 kappa), sigma_a = mu). Second-collision source (beam_exit.w = 1,
+// DESIGN 2.8's second option): Q0 times the share of once-scattered light that collides again
+// (solver::transport::second_collision_ratio), single scattering then added whole. Shadow-edge
+// fallback (beam_edge = 1): a light the node's 3x3 PCF sees partly occluded enters as the boundary
+// flux (the flat half-space of the particular solution fails within a mean free path of the edge).
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -43,6 +49,9 @@ layout(set = 0, binding = 1, rgba16f) uniform readonly image2D surface_normal;
 layout(set = 0, binding = 2, rgba16f) uniform writeonly image2D q;
 layout(set = 0, binding = 5, rgba16f) uniform writeonly image2D particular;
 layout(set = 0, binding = 3) uniform sampler2D shadow_atlas;
+// Heterogeneous levels: per node kappa and mu (rgb); a homogeneous material binds a stand-in.
+layout(set = 0, binding = 6, rgba32f) uniform readonly image2D kappa;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D mu;
 layout(std430, set = 0, binding = 4) readonly buffer GatherScene {
     uvec4 counts;   // x: lights, y: environment kind
     vec4 sh[9];     // rgb: SH radiance coefficients, or sh[0].rgb the constant radiance
@@ -56,16 +65,44 @@ layout(push_constant) uniform GatherPush {
     float eta;
     float normal_offset; // in shadow-map texels
     float env_transmittance; // 1 - F_dr,ext (flux-only query) or 1 - 2 C1(1/eta) (moments)
-    vec2 pad;
+    float beam_local; // 1: the beam's coefficients per node from `kappa` and `mu`
+    float beam_edge;  // 1: partly shadowed lights (PCF < 1) enter as the boundary flux
     vec4 beam_sigma_s; // rgb: sigma_s'; w: 1 = collimated source (DESIGN 2.7), 0 = boundary flux
                        // (`particular` zeroed), -1 = boundary flux, no `particular` of its own
     vec4 beam_sigma_a; // rgb: sigma_a; w: the boundary constant A
-    vec4 beam_exit;    // x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain 4 / (1 - 2 C1)
+    vec4 beam_exit;    // x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain 4 / (1 - 2 C1),
+                       // w: 1 = the second-collision source
 } pc;
+
+// Quadrature points of second_collision_ratio's integral over mu (as the f64 reference).
+const int SECOND_COLLISION_POINTS = 64;
+// Smallest refracted cosine of the ratio (as transport::MIN_MU_T).
+const float SECOND_COLLISION_MIN_MU_T = 1e-6;
+
+// The share of the once-scattered light of a beam (refracted cosine mu_t) that collides again,
+// per channel: transport::second_collision_ratio, the same quadrature.
+vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, float mu_t, float eta) {
+    float b = 1.0 / max(mu_t, SECOND_COLLISION_MIN_MU_T);
+    vec3 sigma_t = sigma_s + sigma_a;
+    // s / sigma_t' with s = sqrt(sigma_a / D) = sqrt(3 sigma_a sigma_t').
+    vec3 s = sqrt(3.0 * sigma_a * sigma_t) / sigma_t;
+    vec3 j = vec3(0.0);
+    for (int i = 0; i < SECOND_COLLISION_POINTS; ++i) {
+        float m = (float(i) + 0.5) / float(SECOND_COLLISION_POINTS);
+        float r = fresnel_reflectance(1.0 / eta, m);
+        j += 1.0 / ((s + b) * (1.0 + b * m)) + 1.0 / ((s + b) * (1.0 + s * m))
+            + r * m / ((1.0 + s * m) * (1.0 + b * m));
+    }
+    j /= float(SECOND_COLLISION_POINTS);
+    return sigma_s / sigma_t * (b + s) * 0.5 * j;
+}
 
 // Relative distance kept from the resonance sigma_a mu_t^2 = sigma_t' / 3 (K infinite, phi_h
 // cancelling it): coarser than the f64 reference's 1e-4, f32 keeps ~3 digits of the difference.
 const float BEAM_RESONANCE_GUARD = 1e-3;
+// transport::RESONANCE_FLUX_BELOW / RESONANCE_BEAM_ABOVE: the beam's share near the resonance.
+const float RESONANCE_FLUX_BELOW = 0.25;
+const float RESONANCE_BEAM_ABOVE = 0.5;
 
 // Fraction of the 3x3 texels around p's projection whose depth is behind p: 1 = lit.
 float visibility(uint index, vec3 p, vec3 n, float cos_l) {
@@ -128,6 +165,14 @@ void main() {
     vec3 sum = vec3(0.0);
     vec3 part = vec3(0.0);
     bool beams = pc.beam_sigma_s.w > 0.5;
+    vec3 beam_s = pc.beam_sigma_s.rgb;
+    vec3 beam_a = pc.beam_sigma_a.rgb;
+    if (beams && pc.beam_local > 0.5) {
+        vec3 k = imageLoad(kappa, texel).rgb;
+        vec3 m = imageLoad(mu, texel).rgb;
+        beam_a = m;
+        beam_s = max(1.0 / (3.0 * k) - m, vec3(0.0));
+    }
     for (uint i = 0; i < min(scene.counts.x, MAX_LIGHTS); ++i) {
         GatherLight light = scene.lights[i];
         uint kind = uint(light.position.w);
@@ -167,29 +212,44 @@ void main() {
             vis = visibility(light.views.x + cube_face(-l), p, n, cos_l);
         }
         vec3 transmitted = e * (cos_l * fresnel_transmittance(pc.eta, cos_l) * vis);
-        if (beams) {
-            // DESIGN 2.7 with Q0 = sigma_s' q_l / mu_t (q_l = E mu_i T_i, shadowed); written
-            // as K = sigma_s' q_l mu_t / (sigma_a mu_t^2 - sigma_t' / 3) and beta K =
-            // sigma_s' q_l sigma_t' / (same), finite as mu_t -> 0 (grazing beams at eta = 1).
-            float mu_t = sqrt(max(1.0 - (1.0 - cos_l * cos_l) / (pc.eta * pc.eta), 0.0));
-            vec3 sigma_a = pc.beam_sigma_a.rgb;
-            vec3 sigma_t = pc.beam_sigma_s.rgb + sigma_a;
-            vec3 a = sigma_a * (mu_t * mu_t);
-            vec3 b = sigma_t / 3.0;
-            vec3 denom = a - b;
-            vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
-            denom = mix(denom, -guard, lessThan(abs(denom), guard));
-            vec3 source = pc.beam_sigma_s.rgb * transmitted;
-            vec3 k = source * mu_t / denom;
-            vec3 beta_k = source * sigma_t / denom;
-            vec3 d = 1.0 / (3.0 * sigma_t);
-            // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
-            sum += -(k + 2.0 * pc.beam_sigma_a.w * d * beta_k) / pc.beam_exit.z;
-            part += pc.beam_exit.x * k - pc.beam_exit.y * d * beta_k;
-        } else {
+        if (!beams) {
             // Paper Eq. 3 for a delta light: E (n . w_i) F_t(w_i), shadowed.
             sum += transmitted;
+            continue;
         }
+        // DESIGN 2.7 with Q0 = sigma_s' q_l / mu_t (q_l = E mu_i T_i, shadowed); written
+        // as K = sigma_s' q_l mu_t / (sigma_a mu_t^2 - sigma_t' / 3) and beta K =
+        // sigma_s' q_l sigma_t' / (same), finite as mu_t -> 0 (grazing beams at eta = 1).
+        float mu_t = sqrt(max(1.0 - (1.0 - cos_l * cos_l) / (pc.eta * pc.eta), 0.0));
+        vec3 sigma_a = beam_a;
+        vec3 sigma_t = beam_s + sigma_a;
+        // The second-collision source scales the whole source, its flux fallback included
+        // (the once-scattered light is the march's, added whole).
+        vec3 gain = pc.beam_exit.w > 0.5
+            ? second_collision_ratio(beam_s, sigma_a, mu_t, pc.eta)
+            : vec3(1.0);
+        if (pc.beam_edge > 0.5 && vis < 1.0) {
+            // A shadow edge: the flat half-space fails; the boundary flux.
+            sum += transmitted * gain;
+            continue;
+        }
+        vec3 a = sigma_a * (mu_t * mu_t);
+        vec3 b = sigma_t / 3.0;
+        // Near the resonance the solve cannot cancel a large K: that share of the light
+        // enters as the boundary flux (transport::beam_share, the same smoothstep).
+        vec3 share = smoothstep(vec3(RESONANCE_FLUX_BELOW), vec3(RESONANCE_BEAM_ABOVE),
+                                abs(a - b) / (a + b));
+        sum += transmitted * (1.0 - share) * gain;
+        vec3 denom = a - b;
+        vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
+        denom = mix(denom, -guard, lessThan(abs(denom), guard));
+        vec3 source = beam_s * transmitted * share * gain;
+        vec3 k = source * mu_t / denom;
+        vec3 beta_k = source * sigma_t / denom;
+        vec3 d = 1.0 / (3.0 * sigma_t);
+        // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
+        sum += -(k + 2.0 * pc.beam_sigma_a.w * d * beta_k) / pc.beam_exit.z;
+        part += pc.beam_exit.x * k - pc.beam_exit.y * d * beta_k;
     }
 
     uint env = scene.counts.y;

@@ -45,6 +45,10 @@ fn gpu_solver_renders_with_gpu_counted_iterations_and_matches_the_cpu_energy() {
         &[
             "--solver",
             "gpu",
+            // The solvers are compared on one model: render's GPU default source is the
+            // second-collision beam, the CPU reference's the boundary flux unless named.
+            "--source",
+            "flux",
             "--schedule",
             "cascade",
             "--frames",
@@ -231,6 +235,9 @@ fn gpu_frame_image_matches_the_cpu_reference_image() {
                 // GPU only) is not theirs.
                 "--single-scattering",
                 "off",
+                // One model on both (the GPU's default source is the second-collision beam).
+                "--source",
+                "flux",
                 "--shape",
                 "torus",
                 "--material",

@@ -106,24 +106,35 @@ pub struct QuadGraphMethod {
 }
 
 /// The gather's collimated source (DESIGN 2.7) for the solve's boundary model: on when the solve
-/// asks for it and the material is homogeneous (the gather takes one set of coefficients);
-/// `None` (the boundary flux) otherwise: a heterogeneous field falls back to the boundary flux.
+/// asks for it; a homogeneous material passes its coefficients, a heterogeneous one has the
+/// gather read each node's own (`local`, from the level's kappa and mu images).
 fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource> {
-    let MaterialField::Homogeneous(m) = field else {
-        return None;
-    };
-    if !solve.params().collimated {
+    let params = solve.params();
+    if !params.collimated {
         return None;
     }
+    let (sigma_s, sigma_a, local) = match field {
+        MaterialField::Homogeneous(m) => {
+            let c = m.coefficients();
+            (
+                c.sigma_s.map(|v| v as f32),
+                c.sigma_a.map(|v| v as f32),
+                false,
+            )
+        }
+        _ => ([0.0; 3], [0.0; 3], true),
+    };
     let b = solve.boundary();
-    let c = m.coefficients();
     Some(BeamSource {
-        sigma_s: c.sigma_s.map(|v| v as f32),
-        sigma_a: c.sigma_a.map(|v| v as f32),
+        sigma_s,
+        sigma_a,
         a: b.a as f32,
         exit_phi: (0.25 * (1.0 - 2.0 * b.c1)) as f32,
         exit_flux: (0.5 * (1.0 - 3.0 * b.c2)) as f32,
         flux_gain: b.flux_gain as f32,
+        local,
+        second_collision: params.second_collision,
+        shadow_edge_flux: params.shadow_edge_flux,
     })
 }
 
@@ -169,6 +180,7 @@ impl QuadGraphMethod {
                 solve.surface_normal(h).ok_or_else(missing)?,
                 solve.q_image(h).ok_or_else(missing)?,
                 solve.particular_image(h).ok_or_else(missing)?,
+                solve.material_images(h),
                 solve.surface_rows(h).ok_or_else(missing)?,
             )?);
         }
@@ -284,6 +296,11 @@ impl QuadGraphMethod {
             }
             if let Some(p) = self.solve.particular_image(h) {
                 uses.push(Use::image(p, Access::ComputeWrite));
+            }
+            // A heterogeneous material's beam reads each node's coefficients.
+            if let Some((kappa, mu)) = self.solve.material_images(h) {
+                uses.push(Use::image(kappa, Access::ComputeRead));
+                uses.push(Use::image(mu, Access::ComputeRead));
             }
         }
         uses

@@ -368,11 +368,17 @@ impl SingleScatteringPass {
     /// Why this frame's march may be skipped for the eye at `eye` (object frame, mm): the
     /// lights are all in front of the object ([`FRONT_LIT_COSINE`]), with
     /// [`ScatterParams::skip_front_lit`]. A point or spot light inside the bounding sphere has no
-    /// one direction: never skipped.
+    /// one direction: never skipped. [`ScatterMode::Full`] is never skipped: the rule bounds the
+    /// difference to the flat closed form, while the whole march carries all once-scattered
+    /// light (the second-collision source leaves it out of the diffusion).
     pub fn skip_reason(&self, eye: DVec3) -> Option<SkipReason> {
         let centre = self.bounds.0;
         let to_eye = (eye - centre).normalize_or_zero();
-        if !self.params.skip_front_lit || self.lights.is_empty() || to_eye == DVec3::ZERO {
+        if !self.params.skip_front_lit
+            || self.params.mode == ScatterMode::Full
+            || self.lights.is_empty()
+            || to_eye == DVec3::ZERO
+        {
             return None;
         }
         let front = self.lights.iter().all(|light| {

@@ -88,18 +88,25 @@ pub struct GatherPush {
     /// Fraction of a diffuse environment irradiance transmitted into the object: 1 - F_dr,ext
     /// (the flux-only query) or 1 - 2 C1(1/eta) (the moments query of DESIGN 2.6).
     pub env_transmittance: f32,
-    pub pad: [f32; 2],
+    /// 1: the collimated source reads each node's coefficients from the level's kappa and mu
+    /// images (a heterogeneous material); 0: `beam_sigma_s` and `beam_sigma_a`.
+    pub beam_local: f32,
+    /// 1: a light the node's PCF sees partly occluded enters as the boundary flux
+    /// ([`BeamSource::shadow_edge_flux`]).
+    pub beam_edge: f32,
     /// rgb: sigma_s'; w: 1 for the collimated source (DESIGN 2.7), 0 for the boundary flux.
     pub beam_sigma_s: [f32; 4],
     /// rgb: sigma_a; w: the boundary constant A.
     pub beam_sigma_a: [f32; 4],
-    /// x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain, w: 0.
+    /// x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain, w: 1 for the second-collision
+    /// source.
     pub beam_exit: [f32; 4],
 }
 
-/// The collimated source of DESIGN 2.7 for a homogeneous material (what the gather needs of the
-/// solver's boundary model, DESIGN 2.6): the lights' beams enter as analytic particular
-/// solutions instead of a boundary flux (see `gather_q.comp`).
+/// The collimated source of DESIGN 2.7 (what the gather needs of the solver's boundary model,
+/// DESIGN 2.6): the lights' beams enter as analytic particular solutions instead of a boundary
+/// flux (see `gather_q.comp`). A heterogeneous material takes each node's own coefficients
+/// (`local`, the level bound with its kappa and mu images).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BeamSource {
     /// Reduced scattering sigma_s' and absorption sigma_a per channel (1/mm).
@@ -113,6 +120,16 @@ pub struct BeamSource {
     /// The Robin rows' flux gain 4 / (1 - 2 C1): the beam's right-hand side is written into q
     /// divided by it.
     pub flux_gain: f32,
+    /// The coefficients per node from the level's kappa and mu images (a heterogeneous
+    /// material; `sigma_s`, `sigma_a` unused), where the level was bound with them.
+    pub local: bool,
+    /// The second-collision source (DESIGN 2.8's second option): the first-collision density
+    /// times `transport::second_collision_ratio`; single scattering is then added whole.
+    pub second_collision: bool,
+    /// The shadow-edge fallback of DESIGN 2.7: a light the node's 3x3 PCF sees partly occluded
+    /// (within about a shadow texel and a half of a shadow edge or the terminator) enters as the
+    /// boundary flux.
+    pub shadow_edge_flux: bool,
 }
 
 /// One light as `gather_q.comp` reads it (std430, all vec4).
@@ -291,6 +308,8 @@ pub struct GatherLevel {
     extent: [u32; 2],
     /// A `particular` image of its own is bound (zeroed when the lights are a boundary flux).
     particular: bool,
+    /// The level's per-node kappa and mu images are bound (a heterogeneous material).
+    material: bool,
 }
 
 /// The gather pipeline, its scene buffer and the shadow atlas sampler.
@@ -323,6 +342,8 @@ impl IrradiancePass {
                     "shadow_atlas",
                     "scene",
                     "particular",
+                    "kappa",
+                    "mu",
                 ],
                 max_sets: max_levels.max(1),
             },
@@ -368,11 +389,12 @@ impl IrradiancePass {
         surface_rows: u32,
     ) -> Result<GatherLevel, RenderError> {
         // No collimated source: `particular` is never written, q stands in for the binding.
-        self.bind_level_with(ctx, shadows, position, normal, q, q, surface_rows)
+        self.bind_level_with(ctx, shadows, position, normal, q, q, None, surface_rows)
     }
 
     /// [`Self::bind_level`] with the image the collimated source ([`Self::beam`]) writes its
-    /// exit-query part into (rgba16f, pre-scaled like q, the same texels).
+    /// exit-query part into (rgba16f, pre-scaled like q, the same texels) and, for a
+    /// heterogeneous material, the level's per-node kappa and mu (rgba32f, the same texels).
     #[allow(clippy::too_many_arguments)]
     pub fn bind_level_with(
         &self,
@@ -382,8 +404,27 @@ impl IrradiancePass {
         normal: &Image,
         q: &Image,
         particular: &Image,
+        material: Option<(&Image, &Image)>,
         surface_rows: u32,
     ) -> Result<GatherLevel, RenderError> {
+        // No per-node material: the position image (rgba32f) stands in, never read.
+        let (kappa, mu) = material.unwrap_or((position, position));
+        for (image, role) in [(kappa, "kappa"), (mu, "mu")] {
+            if image.format != SURFACE_POSITION_FORMAT
+                || !image.usage.contains(vk::ImageUsageFlags::STORAGE)
+                || image.width != q.width
+                || image.height < surface_rows
+            {
+                return Err(invalid(
+                    role,
+                    format!(
+                        "image {:?} is {:?} {}x{}; the gather needs a {SURFACE_POSITION_FORMAT:?} \
+                         storage image {} wide with at least {surface_rows} rows",
+                        image.name, image.format, image.width, image.height, q.width
+                    ),
+                ));
+            }
+        }
         for (image, format, role) in [
             (position, SURFACE_POSITION_FORMAT, "surface_position"),
             (normal, SURFACE_NORMAL_FORMAT, "surface_normal"),
@@ -422,6 +463,8 @@ impl IrradiancePass {
                 DescriptorWrite::storage_image("surface_normal", normal),
                 DescriptorWrite::storage_image("q", q),
                 DescriptorWrite::storage_image("particular", particular),
+                DescriptorWrite::storage_image("kappa", kappa),
+                DescriptorWrite::storage_image("mu", mu),
                 DescriptorWrite::SampledImage {
                     name: "shadow_atlas",
                     image: &shadows.atlas,
@@ -438,6 +481,7 @@ impl IrradiancePass {
             set,
             extent: [q.width, surface_rows],
             particular: particular.raw != q.raw,
+            material: material.is_some(),
         })
     }
 
@@ -507,10 +551,19 @@ impl IrradiancePass {
             env_transmittance: self
                 .env_transmittance
                 .unwrap_or((1.0 - fresnel::external_diffuse_reflectance(f64::from(eta))) as f32),
-            pad: [0.0; 2],
+            beam_local: match self.beam {
+                Some(b) if b.local && level.material => 1.0,
+                _ => 0.0,
+            },
+            beam_edge: match self.beam {
+                Some(b) if b.shadow_edge_flux => 1.0,
+                _ => 0.0,
+            },
             // w: 1 beams, 0 a boundary flux (the level's particular image zeroed), -1 a boundary
             // flux with no particular image of its own (q stands in: never written).
             beam_sigma_s: match (self.beam, level.particular) {
+                // A heterogeneous beam on a level bound without its material: the boundary flux.
+                (Some(b), true) if b.local && !level.material => [0.0; 4],
                 (Some(b), true) => [b.sigma_s[0], b.sigma_s[1], b.sigma_s[2], 1.0],
                 (_, true) => [0.0; 4],
                 (_, false) => [0.0, 0.0, 0.0, -1.0],
@@ -518,9 +571,14 @@ impl IrradiancePass {
             beam_sigma_a: self.beam.map_or([0.0; 4], |b| {
                 [b.sigma_a[0], b.sigma_a[1], b.sigma_a[2], b.a]
             }),
-            beam_exit: self
-                .beam
-                .map_or([0.0; 4], |b| [b.exit_phi, b.exit_flux, b.flux_gain, 0.0]),
+            beam_exit: self.beam.map_or([0.0; 4], |b| {
+                [
+                    b.exit_phi,
+                    b.exit_flux,
+                    b.flux_gain,
+                    if b.second_collision { 1.0 } else { 0.0 },
+                ]
+            }),
         };
         // SAFETY: the caller's contract.
         unsafe {

@@ -33,8 +33,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::transport::{
-    beam_particular, diffuse_quadrature, second_collision_ratio, tangent_frame, Boundary,
-    ExitQuery, Optics, Refraction, Source, Transport,
+    beam_particular, beam_share, diffuse_quadrature, second_collision_ratio, tangent_frame,
+    Boundary, ExitQuery, Optics, Refraction, Source, Transport,
 };
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::Solid;
@@ -326,16 +326,15 @@ impl<'a> SourceModel<'a> {
                     for ch in 0..3 {
                         let irr = irradiance[ch] * mu_i;
                         if self.beams() && !thin {
-                            add_beam(
-                                &mut out,
-                                ch,
-                                Optics::channel(here, ch),
-                                r,
-                                irr,
-                                1.0,
-                                1.0,
-                                true,
-                            );
+                            // Near the particular solution's resonance part of the light
+                            // enters as the boundary flux (transport::beam_share).
+                            let o = Optics::channel(here, ch);
+                            let share = beam_share(o, r.mu_t);
+                            add_beam(&mut out, ch, o, r, irr * share, 1.0, 1.0, true);
+                            // The second-collision source scales its flux part too (the
+                            // once-scattered light is single scattering's, added whole).
+                            out.q_flux[ch] += self.gain(o, r.mu_t) * irr * (1.0 - share) * r.t_i;
+                            out.transmitted[ch] += irr * (1.0 - share) * r.t_i;
                         } else {
                             out.q_flux[ch] += irr * r.t_i;
                             out.transmitted[ch] += irr * r.t_i;

@@ -417,6 +417,29 @@ pub fn beam_particular(o: Optics, r: Refraction, irr: f64, gain: f64) -> (f64, f
     (q0 / (o.sigma_a - d * beta * beta), beta)
 }
 
+/// Below this relative distance from the resonance, |sigma_a - D beta^2| / (sigma_a + D beta^2),
+/// none of a beam enters as the particular solution; above [`RESONANCE_BEAM_ABOVE`], all of it;
+/// between, a smoothstep share (the rest as the boundary flux). Near the resonance K is large
+/// and the solve must cancel it with phi_h to a few digits, which a lattice of cells near a mean
+/// free path does not: a strongly absorbing channel (skin1 blue, sigma_a mu_t^2 near sigma_t'/3)
+/// went 3x too bright with blotches on the split sphere (benches/RESULTS.md, "Model terms on
+/// the GPU (wave 5)"). Weakly absorbing media (marble, milk: near 1) are untouched.
+pub const RESONANCE_FLUX_BELOW: f64 = 0.25;
+/// See [`RESONANCE_FLUX_BELOW`].
+pub const RESONANCE_BEAM_ABOVE: f64 = 0.5;
+
+/// The share of a beam (refracted cosine `mu_t`) that enters as the particular solution; the rest
+/// enters as the boundary flux ([`RESONANCE_FLUX_BELOW`]). The GPU gather computes the same.
+pub fn beam_share(o: Optics, mu_t: f64) -> f64 {
+    let mu_t = mu_t.max(MIN_MU_T);
+    let a = o.sigma_a * mu_t * mu_t;
+    let b = o.sigma_t() / 3.0;
+    let x = (a - b).abs() / (a + b);
+    let t = ((x - RESONANCE_FLUX_BELOW) / (RESONANCE_BEAM_ABOVE - RESONANCE_FLUX_BELOW))
+        .clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
 /// The second-collision source relative to the first-collision one, r = I2 / I1 with
 /// I = int Q(z) exp(-s z) dz (the only moment of a source the exitance of a half-space depends
 /// on). Q2 = sigma_s' times the uncollided fluence of once-scattered light, with one Fresnel

@@ -44,7 +44,8 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
     for (name, set) in [
         ("--iterations", args.iterations.is_some()),
         ("--precision", args.precision.is_some()),
-        ("--beam-source", args.beam_source),
+        ("--source beam|second (--beam-source)", args.explicit_beam()),
+        ("--shadow-edge-flux", args.shadow_edge_flux),
         ("--scheme paper", args.scheme != "fv"),
     ] {
         if set {

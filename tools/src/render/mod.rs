@@ -46,6 +46,13 @@ pub use graph_file::{load_graph_file, GraphFileError};
 pub(crate) use output::{check_writable, write_trace};
 use output::{gpu_multigrid_json, lit_pixels, profile_in_order};
 
+/// `render`'s light source on the GPU when none is named (benches/RESULTS.md, "Model terms on the
+/// GPU (wave 5)": against the path-traced references the second-collision source is better than
+/// the boundary flux on six scenes of seven and level on the seventh, and where it loses to the
+/// first-collision beam it does so within that scene's noise).
+pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
+    translucent::solver::transport::Source::SecondCollision;
+
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
     #[command(flatten)]
@@ -120,12 +127,26 @@ pub struct RenderArgs {
     /// projected onto order-2 spherical harmonics.
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
-    /// The lights' transmitted light as the collimated source of DESIGN 2.7 (GPU and CPU, the
-    /// same formulas: solver::transport::Transport::gpu_collimated), read by the moments exit
-    /// query (implied), instead of a boundary flux. Homogeneous materials on the GPU (a
-    /// heterogeneous one falls back to the boundary flux).
+    /// Where the lights' transmitted light enters the diffusion (GPU and CPU, the same
+    /// formulas; `solver::transport::Source`): `flux`, DESIGN section 2's boundary flux (with the
+    /// `flux` exit query unless `--exit-query moments`); `beam`, the collimated source of DESIGN
+    /// 2.7 (per lit surface node the analytic particular solution in the Robin row, read by the
+    /// moments exit query, implied; single scattering added as the difference to the flat closed
+    /// form); `second`, the same with the second-collision density (DESIGN 2.8's second option:
+    /// the beam times the share of once-scattered light that collides again) and single
+    /// scattering added whole, never skipped as front-lit. Heterogeneous materials take each
+    /// surface node's own coefficients. Default: `second` on the GPU (benches/RESULTS.md, "Model
+    /// terms on the GPU (wave 5)"); `flux` with `--exit-query flux`, `--solver cpu` or another
+    /// `--method`.
+    #[arg(long, value_name = "flux|beam|second", value_parser = ["flux", "beam", "second"], conflicts_with = "beam_source")]
+    pub source: Option<String>,
+    /// `--source beam` (kept for scripts).
     #[arg(long)]
     pub beam_source: bool,
+    /// With a beam source on the GPU: a light a surface node's shadow lookup sees partly occluded
+    /// (a shadow edge or the terminator) enters as the boundary flux (DESIGN 2.7's fallback).
+    #[arg(long)]
+    pub shadow_edge_flux: bool,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
     /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).
@@ -439,8 +460,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         other => bail!("--method {other}: unknown (quadgraph, voxel, dipole)"),
     }
     let on_gpu = args.solver == "gpu";
-    if args.beam_source && args.exit_query.as_deref() == Some("flux") {
-        bail!("--beam-source is read by the moments exit query (DESIGN 2.6-2.7): drop --exit-query flux");
+    if args.explicit_beam() && args.exit_query.as_deref() == Some("flux") {
+        bail!("a beam source (--source beam|second, --beam-source) is read by the moments exit query (DESIGN 2.6-2.7): drop --exit-query flux");
+    }
+    if args.shadow_edge_flux && args.light_source() == solver::transport::Source::BoundaryFlux {
+        bail!("--shadow-edge-flux applies to a beam source (--source beam|second)");
     }
     if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");
@@ -582,6 +606,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let exit_query: solver::transport::ExitQuery =
         args.exit_query.as_deref().unwrap_or("flux").parse()?;
     let surface: solver::transport::SurfaceReconstruction = args.surface.parse()?;
+    let source = args.light_source();
+    let beams = source != solver::transport::Source::BoundaryFlux;
     let solve_params = CpuSolveParams {
         scheme,
         iterations: vec![args
@@ -591,8 +617,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         exact: args.iterations.is_none() && !multigrid,
         transport: solver::transport::Transport {
             surface,
-            ..if args.beam_source {
-                solver::transport::Transport::gpu_collimated()
+            ..if beams {
+                solver::transport::Transport {
+                    source,
+                    ..solver::transport::Transport::gpu_collimated()
+                }
             } else {
                 solver::transport::Transport {
                     exit: exit_query,
@@ -646,12 +675,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             u32::try_from(args.iterations.unwrap_or(2000)).context("--iterations: too large")?
         ],
         tolerance: args.tolerance as f32,
-        exit: if args.beam_source {
+        exit: if beams {
             solver::transport::ExitQuery::Moments
         } else {
             exit_query
         },
-        collimated: args.beam_source,
+        collimated: beams,
+        second_collision: source == solver::transport::Source::SecondCollision,
+        shadow_edge_flux: args.shadow_edge_flux,
         surface,
         heterogeneous_weights: args.heterogeneous_weights.parse()?,
         multigrid: multigrid.then(|| MultigridParams {
@@ -980,6 +1011,31 @@ pub(crate) fn orbit_camera(camera: Camera, degrees: f64) -> Camera {
 }
 
 impl RenderArgs {
+    /// A beam source asked for by name (`--source beam|second`, `--beam-source`).
+    pub fn explicit_beam(&self) -> bool {
+        self.beam_source || matches!(self.source.as_deref(), Some("beam" | "second"))
+    }
+
+    /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on
+    /// the GPU unless `--exit-query flux` asks for the boundary-flux model (the default before
+    /// wave 5); the f64 reference (`--solver cpu`) keeps the boundary flux unless named.
+    pub fn light_source(&self) -> translucent::solver::transport::Source {
+        use translucent::solver::transport::Source;
+        match self.source.as_deref() {
+            Some("beam") => Source::Collimated,
+            Some("second") => Source::SecondCollision,
+            Some(_) => Source::BoundaryFlux,
+            None if self.beam_source => Source::Collimated,
+            None if self.method != "quadgraph"
+                || self.solver != "gpu"
+                || self.exit_query.as_deref() == Some("flux") =>
+            {
+                Source::BoundaryFlux
+            }
+            None => DEFAULT_SOURCE,
+        }
+    }
+
     /// `--single-scattering` and `--scatter-samples` as the object's parameters (`None`: off).
     pub fn scatter_params(&self) -> anyhow::Result<Option<translucent::frame::ScatterParams>> {
         let range = translucent::frame::single_scattering::SAMPLE_RANGE;
@@ -997,7 +1053,14 @@ impl RenderArgs {
             (mode != "off").then_some(translucent::frame::ScatterParams {
                 samples: self.scatter_samples,
                 skip_front_lit: mode == "on",
-                ..translucent::frame::ScatterParams::default()
+                // The second-collision source leaves the once-scattered light to the march.
+                mode: if self.light_source()
+                    == translucent::solver::transport::Source::SecondCollision
+                {
+                    translucent::frame::ScatterMode::Full
+                } else {
+                    translucent::frame::ScatterMode::Difference
+                },
             }),
         )
     }

@@ -61,7 +61,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (args.scheme != "fv", "--scheme"),
         (args.precision.is_some(), "--precision"),
         (args.iterations.is_some(), "--iterations"),
-        (args.beam_source, "--beam-source"),
+        (args.explicit_beam(), "--source beam|second (--beam-source)"),
+        (args.shadow_edge_flux, "--shadow-edge-flux"),
     ] {
         if given {
             bail!("{name} applies to the QuadGraph method, not --method voxel");

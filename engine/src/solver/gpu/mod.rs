@@ -868,6 +868,14 @@ impl GpuDiffusion {
     pub fn particular_image(&self, level: usize) -> Option<&Image> {
         self.levels.get(level).map(|l| &l.particular)
     }
+    /// A heterogeneous level's per-node kappa and mu images (RGBA32F; `None` for a homogeneous
+    /// material, which never created them).
+    pub fn material_images(&self, level: usize) -> Option<(&Image, &Image)> {
+        self.levels
+            .get(level)
+            .and_then(|l| l.material.as_ref())
+            .map(|[kappa, mu]| (kappa, mu))
+    }
     /// The exposure every q (and therefore phi) is stored with.
     pub fn q_scale(&self) -> f32 {
         self.q_scale

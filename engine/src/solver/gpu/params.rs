@@ -74,9 +74,19 @@ pub struct GpuSolveParams {
     pub exit: ExitQuery,
     /// The lights as the collimated source of DESIGN 2.7 (needs `exit: Moments`): the gather
     /// writes each lit node's particular solution into its Robin row and the exit query's part
-    /// of it, which the J+ pass adds back. Homogeneous materials only: a heterogeneous field
-    /// falls back to the boundary flux (`frame::QuadGraphMethod`).
+    /// of it, which the J+ pass adds back. A heterogeneous field takes each node's own
+    /// coefficients (when its kappa and mu images existed as the gather was bound: a material
+    /// made heterogeneous by a later edit falls back to the boundary flux).
     pub collimated: bool,
+    /// With `collimated`: the second-collision source (DESIGN 2.8's second option, the f64
+    /// reference's `transport::Source::SecondCollision`): the first-collision density times the
+    /// share of once-scattered light that collides again; pair it with single scattering added
+    /// whole (`frame::ScatterMode::Full`).
+    pub second_collision: bool,
+    /// With `collimated`: lights a node's shadow lookup sees partly occluded (a shadow edge or
+    /// the terminator, within about 1.5 shadow texels) enter as the boundary flux (DESIGN 2.7's
+    /// fallback where the flat half-space fails).
+    pub shadow_edge_flux: bool,
     /// `Some`: multigrid cycles (`--schedule multigrid`, [`super::multigrid`]) with these
     /// parameters (its tolerance is this struct's `tolerance`; `krylov` is not built on the GPU
     /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
@@ -104,6 +114,8 @@ impl Default for GpuSolveParams {
             tolerance: 1e-4,
             exit: ExitQuery::default(),
             collimated: false,
+            second_collision: false,
+            shadow_edge_flux: false,
             multigrid: None,
             surface: SurfaceReconstruction::Shepard,
             heterogeneous_weights: HeterogeneousWeights::default(),
