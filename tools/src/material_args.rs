@@ -92,6 +92,16 @@ fn procedural(name: &str, size_mm: f64) -> anyhow::Result<Procedural> {
 
 impl MaterialArgs {
     /// The material field (`default` when nothing is given).
+    /// Whether the material varies in space (`--volume`, or a procedural `--material`).
+    pub fn is_heterogeneous(&self) -> bool {
+        self.volume.is_some()
+            || (self.sigma_a.is_none()
+                && self
+                    .material
+                    .as_deref()
+                    .is_some_and(|m| PROCEDURAL.contains(&m)))
+    }
+
     pub fn field(&self, size_mm: f64, default: &str) -> anyhow::Result<MaterialField> {
         if let Some(path) = &self.volume {
             let grid = VolGrid::read(path)?;

@@ -950,6 +950,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "schedule": schedule,
+            // Where the lights' transmitted light enters (`--source`, resolved).
+            "source": match source {
+                solver::transport::Source::BoundaryFlux => "flux",
+                solver::transport::Source::Collimated => "beam",
+                solver::transport::Source::SecondCollision => "second",
+            },
             "multigrid": match &last_gpu_multigrid {
                 Some(m) => Some(gpu_multigrid_json(m)),
                 None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
@@ -1018,7 +1024,11 @@ impl RenderArgs {
 
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on
     /// the GPU unless `--exit-query flux` asks for the boundary-flux model (the default before
-    /// wave 5); the f64 reference (`--solver cpu`) keeps the boundary flux unless named.
+    /// wave 5); the f64 reference (`--solver cpu`) keeps the boundary flux unless named, and so
+    /// do heterogeneous materials: near the particular solution's resonance the beam's share is
+    /// sensitive to the coefficients (the agate's blue differs by 22% between its `.vol` grid
+    /// and the procedural field it samples, against 0.8% with the flux: benches/RESULTS.md,
+    /// "Model terms on the GPU (wave 5)"), so a heterogeneous beam is opt-in until that is fixed.
     pub fn light_source(&self) -> translucent::solver::transport::Source {
         use translucent::solver::transport::Source;
         match self.source.as_deref() {
@@ -1028,6 +1038,7 @@ impl RenderArgs {
             None if self.beam_source => Source::Collimated,
             None if self.method != "quadgraph"
                 || self.solver != "gpu"
+                || self.material.is_heterogeneous()
                 || self.exit_query.as_deref() == Some("flux") =>
             {
                 Source::BoundaryFlux
