@@ -69,11 +69,12 @@ fn a_hundred_frames_of_changing_light_material_and_shape_stay_finite_and_flat() 
         let (captured, _report) = host
             .render(ctx, &mut object)
             .unwrap_or_else(|e| panic!("frame {i}: {e:?}"));
-        // Each edit pass shows in the profiler exactly in the frames that need it.
+        // Each edit pass shows in the profiler exactly in the frames that need it. The
+        // heterogeneous materials' weights are derived in the sweep by default
+        // (`HeterogeneousWeights::Derived`): no derivation pass, whatever the material.
         let has = |name: &str| captured.passes.contains_key(name);
-        assert_eq!(
-            has("edit derive weights"),
-            i % 4 == 3,
+        assert!(
+            !has("edit derive weights"),
             "frame {i}: {:?}",
             captured.passes
         );

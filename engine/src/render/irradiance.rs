@@ -407,24 +407,6 @@ impl IrradiancePass {
         material: Option<(&Image, &Image)>,
         surface_rows: u32,
     ) -> Result<GatherLevel, RenderError> {
-        // No per-node material: the position image (rgba32f) stands in, never read.
-        let (kappa, mu) = material.unwrap_or((position, position));
-        for (image, role) in [(kappa, "kappa"), (mu, "mu")] {
-            if image.format != SURFACE_POSITION_FORMAT
-                || !image.usage.contains(vk::ImageUsageFlags::STORAGE)
-                || image.width != q.width
-                || image.height < surface_rows
-            {
-                return Err(invalid(
-                    role,
-                    format!(
-                        "image {:?} is {:?} {}x{}; the gather needs a {SURFACE_POSITION_FORMAT:?} \
-                         storage image {} wide with at least {surface_rows} rows",
-                        image.name, image.format, image.width, image.height, q.width
-                    ),
-                ));
-            }
-        }
         for (image, format, role) in [
             (position, SURFACE_POSITION_FORMAT, "surface_position"),
             (normal, SURFACE_NORMAL_FORMAT, "surface_normal"),
@@ -452,6 +434,25 @@ impl IrradiancePass {
                     format!(
                         "image {:?} is {}x{}; needs width {} and at least {surface_rows} rows",
                         image.name, image.width, image.height, q.width
+                    ),
+                ));
+            }
+        }
+        // No per-node material: the position image (rgba32f, checked above as itself) stands in,
+        // never read.
+        let (kappa, mu) = material.unwrap_or((position, position));
+        for (image, role) in [(kappa, "kappa"), (mu, "mu")] {
+            if image.format != SURFACE_POSITION_FORMAT
+                || !image.usage.contains(vk::ImageUsageFlags::STORAGE)
+                || image.width != q.width
+                || image.height < surface_rows
+            {
+                return Err(invalid(
+                    role,
+                    format!(
+                        "image {:?} is {:?} {}x{}; the gather needs a {SURFACE_POSITION_FORMAT:?} \
+                         storage image {} wide with at least {surface_rows} rows",
+                        image.name, image.format, image.width, image.height, q.width
                     ),
                 ));
             }

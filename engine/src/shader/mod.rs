@@ -210,9 +210,15 @@ mod tests {
             "diffusion/residual_fp32.comp",
         ] {
             let r = Reflection::new(&embedded(name).expect("embedded")).expect("reflects");
+            // constant_id 1 and 2 (graph_weights.glsl): heterogeneous weights derived in the
+            // sweep, and the paper scheme's harmonic means.
             assert_eq!(
                 r.spec_constants,
-                vec![("HOMOGENEOUS".to_string(), 0)],
+                vec![
+                    ("HOMOGENEOUS".to_string(), 0),
+                    ("DERIVED".to_string(), 1),
+                    ("PAPER".to_string(), 2)
+                ],
                 "{name}"
             );
         }

@@ -289,6 +289,9 @@ impl Setup {
             push("--precision", precision_name(state.precision).into());
             push("--iterations", a.iterations.to_string());
             push("--tolerance", a.tolerance.to_string());
+            // The viewer's object takes the boundary flux (the library's default); render's
+            // default on the GPU is the second-collision source.
+            push("--source", "flux".into());
         }
         if a.scene.no_specular {
             out.push("--no-specular".into());
