@@ -117,3 +117,37 @@ pub(super) fn gpu_multigrid_json(
     }
     json
 }
+
+/// `--json`'s `gpu_bytes_split`: where the solve's GPU memory goes (issue 13 item 4), each part
+/// in bytes and per finest-level node, beside the paper's ~90 bytes per node.
+pub(super) fn gpu_bytes_json(
+    b: &translucent::solver::gpu::SolveBytes,
+    finest_nodes: usize,
+) -> serde_json::Value {
+    let per_node = |v: u64| v as f64 / finest_nodes.max(1) as f64;
+    serde_json::json!({
+        "textures": b.textures(),
+        "multigrid": b.multigrid,
+        "surface_shading": b.surface_shading(),
+        "other": b.other(),
+        "finest_nodes": finest_nodes,
+        "bytes_per_finest_node": {
+            "total": per_node(b.total()),
+            "textures": per_node(b.textures()),
+            "multigrid": per_node(b.multigrid),
+            "surface_shading": per_node(b.surface_shading()),
+            "other": per_node(b.other()),
+        },
+        "textures_by_kind": {
+            "state": b.state,
+            "rhs": b.rhs,
+            "graph": b.graph,
+            "material": b.material,
+            "links": b.links,
+        },
+        "surface": b.surface,
+        "shading": b.shading,
+        "deform": b.deform,
+        "control": b.control,
+    })
+}
