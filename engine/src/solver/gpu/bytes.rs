@@ -11,6 +11,11 @@
 //! assert_eq!(b.total(), b.textures() + b.surface_shading() + b.multigrid + b.other());
 //! ```
 
+use ash::vk;
+
+use super::{edit, multigrid, GpuDiffusion, GpuLevel};
+use crate::vk::Image;
+
 /// GPU bytes of one solve by what they hold (see the module doc).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SolveBytes {
@@ -73,5 +78,87 @@ impl std::ops::AddAssign for SolveBytes {
         self.multigrid += o.multigrid;
         self.deform += o.deform;
         self.control += o.control;
+    }
+}
+
+impl GpuLevel {
+    /// GPU bytes of this level's textures and buffers, by kind ([`SolveBytes`]).
+    pub(super) fn bytes(&self) -> SolveBytes {
+        let sum = |images: &mut dyn Iterator<Item = &Image>| images.map(image_bytes).sum::<u64>();
+        SolveBytes {
+            state: sum(&mut self
+                .state
+                .iter()
+                .chain(&self.phi)
+                .chain(&self.residual)
+                .chain(&self.saved)),
+            rhs: image_bytes(&self.q),
+            graph: image_bytes(&self.connectivity) + image_bytes(&self.geo),
+            material: sum(&mut self
+                .frac
+                .iter()
+                .chain(self.material.iter().flatten())
+                .chain(self.weights.iter().flatten())),
+            links: sum(&mut self.links.iter()),
+            surface: sum(&mut [
+                &self.surface_position,
+                &self.surface_normal,
+                &self.particular,
+            ]
+            .into_iter()),
+            deform: self.deform.as_ref().map_or(0, edit::LevelDeform::bytes),
+            ..SolveBytes::default()
+        }
+    }
+}
+
+impl GpuDiffusion {
+    /// GPU bytes of level `level`'s textures (state, q, graph, material, links, surface geometry).
+    pub fn level_bytes(&self, level: usize) -> u64 {
+        self.levels.get(level).map_or(0, |l| l.bytes().total())
+    }
+
+    /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
+    /// Per node counts the nodes of every level ([`Self::bytes_breakdown`] has the parts).
+    pub fn bytes(&self) -> (u64, f64) {
+        let total = self.bytes_breakdown().total();
+        let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
+        (total, total as f64 / nodes.max(1) as f64)
+    }
+
+    /// Every GPU byte of this solve, by kind (the fields add up to [`Self::bytes`]'s total).
+    pub fn bytes_breakdown(&self) -> SolveBytes {
+        let mut out = SolveBytes::default();
+        for l in &self.levels {
+            out += l.bytes();
+        }
+        out.shading = image_bytes(&self.j_plus)
+            + self.vertex_links.size
+            + self.vertex_weights.size
+            + self.vertex_j_plus.size
+            + self
+                .interior
+                .as_ref()
+                .map_or(0, |i| i.nodes.size + i.weights.size + i.cells.size);
+        out.multigrid = self
+            .multigrid
+            .as_ref()
+            .map_or(0, multigrid::GpuMultigrid::bytes);
+        out.deform += self.edits.mesh_bytes();
+        out.control = self.control.size + self.clamp_counts.size + image_bytes(&self.poison);
+        out
+    }
+}
+
+/// Allocated bytes of a 2D image.
+pub(super) fn image_bytes(i: &Image) -> u64 {
+    u64::from(i.width) * u64::from(i.height) * texel_bytes(i.format)
+}
+
+pub(super) fn texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::R16G16B16A16_SFLOAT => 8,
+        vk::Format::R32_UINT | vk::Format::R32_SFLOAT => 4,
+        _ => 16,
     }
 }

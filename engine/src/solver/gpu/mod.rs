@@ -173,39 +173,6 @@ impl GpuLevel {
     pub(crate) fn extent(&self) -> [u32; 3] {
         [self.packing.width, self.packing.height, 1]
     }
-    /// GPU bytes of this level's textures and buffers, by kind ([`SolveBytes`]).
-    fn bytes(&self) -> SolveBytes {
-        let sum = |images: &mut dyn Iterator<Item = &Image>| images.map(image_bytes).sum::<u64>();
-        SolveBytes {
-            state: sum(&mut self
-                .state
-                .iter()
-                .chain(&self.phi)
-                .chain(&self.residual)
-                .chain(&self.saved)),
-            rhs: image_bytes(&self.q),
-            graph: image_bytes(&self.connectivity) + image_bytes(&self.geo),
-            material: sum(&mut self
-                .frac
-                .iter()
-                .chain(self.material.iter().flatten())
-                .chain(self.weights.iter().flatten())),
-            links: sum(&mut self.links.iter()),
-            surface: sum(&mut [
-                &self.surface_position,
-                &self.surface_normal,
-                &self.particular,
-            ]
-            .into_iter()),
-            deform: self.deform.as_ref().map_or(0, edit::LevelDeform::bytes),
-            ..SolveBytes::default()
-        }
-    }
-}
-
-/// Allocated bytes of a 2D image.
-fn image_bytes(i: &Image) -> u64 {
-    u64::from(i.width) * u64::from(i.height) * texel_bytes(i.format)
 }
 
 /// The pipelines that read weights, specialized for one material kind (`HOMOGENEOUS`).
@@ -307,14 +274,6 @@ pub(crate) fn image(
             usage: STORAGE_IMAGE,
         },
     )?)
-}
-
-fn texel_bytes(format: vk::Format) -> u64 {
-    match format {
-        vk::Format::R16G16B16A16_SFLOAT => 8,
-        vk::Format::R32_UINT | vk::Format::R32_SFLOAT => 4,
-        _ => 16,
-    }
 }
 
 /// Uploads every `(image, bytes)` in one submission and leaves the images in GENERAL.
@@ -807,42 +766,6 @@ impl GpuDiffusion {
 
     pub fn level_count(&self) -> usize {
         self.levels.len()
-    }
-
-    /// GPU bytes of level `level`'s textures (state, q, graph, material, links, surface geometry).
-    pub fn level_bytes(&self, level: usize) -> u64 {
-        self.levels.get(level).map_or(0, |l| l.bytes().total())
-    }
-
-    /// (total bytes, bytes per node) over all levels, beside the paper's ~90 bytes per node.
-    /// Per node counts the nodes of every level ([`Self::bytes_breakdown`] has the parts).
-    pub fn bytes(&self) -> (u64, f64) {
-        let total = self.bytes_breakdown().total();
-        let nodes: usize = self.levels.iter().map(|l| l.node_count).sum();
-        (total, total as f64 / nodes.max(1) as f64)
-    }
-
-    /// Every GPU byte of this solve, by kind (the fields add up to [`Self::bytes`]'s total).
-    pub fn bytes_breakdown(&self) -> SolveBytes {
-        let mut out = SolveBytes::default();
-        for l in &self.levels {
-            out += l.bytes();
-        }
-        out.shading = image_bytes(&self.j_plus)
-            + self.vertex_links.size
-            + self.vertex_weights.size
-            + self.vertex_j_plus.size
-            + self
-                .interior
-                .as_ref()
-                .map_or(0, |i| i.nodes.size + i.weights.size + i.cells.size);
-        out.multigrid = self
-            .multigrid
-            .as_ref()
-            .map_or(0, multigrid::GpuMultigrid::bytes);
-        out.deform += self.edits.mesh_bytes();
-        out.control = self.control.size + self.clamp_counts.size + image_bytes(&self.poison);
-        out
     }
 
     /// Nodes per level.

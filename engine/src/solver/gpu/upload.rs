@@ -6,6 +6,7 @@
 //! that schedule reads stays full size: q on every level (the gather writes it), and on the
 //! finest level phi (the multigrid's output) and the connectivity (the J+ pass).
 
+use super::bytes::{image_bytes, texel_bytes};
 use super::*;
 
 impl GpuDiffusion {

@@ -1,0 +1,211 @@
+//! The command recording of one GPU multigrid solve (FMG start, CG-accelerated V-cycles, output).
+
+use super::*;
+
+/// Records the kernels of one solve.
+pub(super) struct Recorder<'a> {
+    pub(super) mg: &'a GpuMultigrid,
+    pub(super) ctx: &'a Context,
+    pub(super) cb: vk::CommandBuffer,
+    pub(super) base: MultigridPush,
+}
+
+impl Recorder<'_> {
+    pub(super) fn push(
+        &self,
+        kernel: usize,
+        level: usize,
+        mode: u32,
+        alpha: [f64; 3],
+        beta: [f64; 3],
+    ) -> MultigridPush {
+        let l = &self.mg.levels[level];
+        let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+        MultigridPush {
+            count: l.count,
+            offset: l.offset,
+            mode,
+            alpha: f(alpha),
+            beta: f(beta),
+            // The krylov kernel's second partial sums start after the first.
+            width: if kernel == KRYLOV {
+                self.mg.partials
+            } else {
+                self.base.width
+            },
+            ..self.base
+        }
+    }
+
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn direct(&self, kernel: usize, level: usize, mode: u32, invocations: u32) {
+        let (pipeline, set) = &self.mg.pipelines[kernel];
+        let push = self.push(kernel, level, mode, [0.0; 3], [0.0; 3]);
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: every kernel reads what the one before wrote (RAW) and overwrites what
+            // earlier ones read (WAR).
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
+            pipeline.dispatch(self.ctx, self.cb, *set, &push, [invocations, 1, 1]);
+        }
+    }
+
+    /// One dispatch over the nodes of `level`, its group count read from the control record
+    /// (zero once the cycles stopped).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn indirect(
+        &self,
+        kernel: usize,
+        level: usize,
+        mode: u32,
+        alpha: [f64; 3],
+        beta: [f64; 3],
+    ) {
+        let (pipeline, set) = &self.mg.pipelines[kernel];
+        let push = self.push(kernel, level, mode, alpha, beta);
+        let offset = (level * std::mem::size_of::<[u32; 4]>()) as u64;
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: every kernel reads what the one before wrote (RAW) and overwrites what
+            // earlier ones read (WAR).
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
+            pipeline.dispatch_indirect(self.ctx, self.cb, *set, &push, &self.mg.control, offset);
+        }
+    }
+
+    /// `steps` steps of the level's Chebyshev polynomial (damped Jacobi: alpha = 0).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn smooth(&self, level: usize, steps: u32) {
+        let bounds = self.mg.levels[level].bounds;
+        for step in 0..steps {
+            let (alpha, beta): ([f64; 3], [f64; 3]) = match self.mg.params.smoother {
+                Smoother::Jacobi { omega } if level > 0 => ([0.0; 3], [omega; 3]),
+                _ => {
+                    let c = chebyshev_coefficients(bounds, step);
+                    (c.map(|(a, _)| a), c.map(|(_, b)| b))
+                }
+            };
+            let alpha = if step == 0 { [0.0; 3] } else { alpha };
+            // SAFETY: the caller's contract.
+            unsafe {
+                self.indirect(RESIDUAL, level, 0, [0.0; 3], [0.0; 3]);
+                self.indirect(SMOOTH, level, 0, alpha, beta);
+            }
+        }
+    }
+
+    /// The coarsest level's solve: the Chebyshev polynomial on its whole interval, from x = 0.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn coarse(&self) {
+        // SAFETY: the caller's contract.
+        unsafe { self.smooth(0, self.mg.coarse_steps) };
+    }
+
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn v_cycle(&self, l: usize) {
+        // SAFETY: the caller's contract.
+        unsafe {
+            if l == 0 {
+                self.coarse();
+                return;
+            }
+            let (pre, post) = self.mg.sweeps(l);
+            self.smooth(l, pre);
+            self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
+            self.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
+            self.v_cycle(l - 1);
+            self.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]);
+            self.smooth(l, post);
+        }
+    }
+
+    /// The finest level's residual, its norm and the convergence check.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn residual_check(&self) {
+        let top = self.mg.top();
+        // SAFETY: the caller's contract.
+        unsafe {
+            self.indirect(RESIDUAL, top, 0, [0.0; 3], [0.0; 3]);
+            self.indirect(NORM, top, 0, [0.0; 3], [0.0; 3]);
+            self.check(CHECK_RESIDUAL);
+        }
+    }
+
+    /// One flexible CG iteration preconditioned by one V-cycle (`krylov.comp`), ending in the
+    /// convergence check of the CG residual.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn krylov_iteration(&self) {
+        let top = self.mg.top();
+        let none = [0.0; 3];
+        // SAFETY: the caller's contract.
+        unsafe {
+            self.v_cycle(top);
+            self.indirect(KRYLOV, top, CG_DOTS, none, none);
+            self.check(CHECK_BETA);
+            self.indirect(KRYLOV, top, CG_DIRECTION, none, none);
+            self.indirect(KRYLOV, top, CG_APPLY, none, none);
+            self.check(CHECK_ALPHA);
+            self.indirect(KRYLOV, top, CG_UPDATE, none, none);
+            self.check(CHECK_RESIDUAL);
+        }
+    }
+
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn check(&self, mode: u32) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        let (pipeline, set) = &self.mg.pipelines[CHECK];
+        let push = MultigridPush {
+            mode,
+            width: self.mg.partials,
+            ..self.base
+        };
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: the check sums the partials the norm or krylov kernel just wrote (RAW).
+            barrier::memory(
+                self.ctx,
+                self.cb,
+                Access::ComputeWrite,
+                Access::ComputeReadWrite,
+            );
+            pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
+            // why: the next cycle's indirect dispatches read the arguments the check may have
+            // zeroed (RAW at DRAW_INDIRECT).
+            barrier::record(
+                self.ctx,
+                self.cb,
+                &[super::super::raw_barrier(
+                    S::COMPUTE_SHADER,
+                    A::SHADER_STORAGE_WRITE,
+                    S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                    A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                )],
+                &[],
+            );
+        }
+    }
+}
