@@ -164,9 +164,10 @@ pub mod plot {
 
     /// Height of the chart part of an [`error_vs_time`] panel (the legend goes below it).
     const CHART_HEIGHT: u32 = 560;
-    /// The legend's columns per panel, and the pixels per column and per line.
+    /// The legend's columns per panel, and the pixels per column and per line: two columns from
+    /// x = 16 end inside the 700-pixel panel (names are cut to their column's width).
     const LEGEND_COLUMNS: usize = 2;
-    const LEGEND_COLUMN_WIDTH: i32 = 340;
+    const LEGEND_COLUMN_WIDTH: i32 = 330;
     const LEGEND_LINE: i32 = 14;
 
     /// What one legend line shows before its name.
@@ -250,7 +251,7 @@ pub mod plot {
         let (charts, legends) = root.split_vertically(CHART_HEIGHT);
         let areas = charts.split_evenly((1, count));
         for (i, (panel, area)) in panels.iter().zip(&areas).enumerate() {
-            draw_legend(&legends, &legend(panel), (700 * i as i32 + 80, 4))?;
+            draw_legend(&legends, &legend(panel), (700 * i as i32 + 16, 4))?;
             let all = panel
                 .series
                 .iter()
