@@ -98,6 +98,28 @@ fn read_exr(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
     image.layer_data.channel_data.pixels
 }
 
+/// The small sphere of the 96 x 72 viewer tests (a 16-cell two-level bake).
+const SMALL_SPHERE: [&str; 12] = [
+    "--shape",
+    "sphere",
+    "--size-mm",
+    "20",
+    "--resolution",
+    "16",
+    "--levels",
+    "2",
+    "--width",
+    "96",
+    "--height",
+    "72",
+];
+
+/// The viewer's `--report` written to `dir/report.json`.
+fn read_report(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
+        .expect("report is JSON")
+}
+
 fn view(display: &str, dir: &Path, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_translucent"))
         .arg("view")
@@ -182,9 +204,7 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
         .count();
     assert_eq!(bakes, 1, "the viewer's own bake stays");
 
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
-            .expect("report is JSON");
+    let report = read_report(&dir);
     assert_eq!(report["validation_messages"], 0);
     let frames = report["frames"].as_array().expect("frames");
     assert_eq!(
@@ -349,33 +369,23 @@ fn the_method_key_switches_to_voxel_and_matches_render() {
         &xvfb.display,
         &dir,
         &[
-            "--shape",
-            "sphere",
-            "--size-mm",
-            "20",
-            "--resolution",
-            "16",
-            "--levels",
-            "2",
-            "--width",
-            "96",
-            "--height",
-            "72",
-            "--frames",
-            "4",
-            "--script",
-            "voxel.script",
-            "--screenshot",
-            "shot.png",
-            "--report",
-            "report.json",
-        ],
+            SMALL_SPHERE.as_slice(),
+            &[
+                "--frames",
+                "4",
+                "--script",
+                "voxel.script",
+                "--screenshot",
+                "shot.png",
+                "--report",
+                "report.json",
+            ],
+        ]
+        .concat(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "exit {:?}\n{stderr}", out.status);
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
-            .expect("report is JSON");
+    let report = read_report(&dir);
     assert_eq!(report["validation_messages"], 0);
     let render_args: Vec<String> = report["final"]["render_args"]
         .as_array()
@@ -464,36 +474,26 @@ fn reload_session(
         &xvfb.display,
         &dir,
         &[
-            "--shape",
-            "sphere",
-            "--size-mm",
-            "20",
-            "--resolution",
-            "16",
-            "--levels",
-            "2",
-            "--width",
-            "96",
-            "--height",
-            "72",
-            "--frames",
-            "5",
-            "--script",
-            "reload.script",
-            "--shader-dir",
-            "shaders",
-            "--screenshot",
-            "after.png",
-            "--report",
-            "report.json",
-        ],
+            SMALL_SPHERE.as_slice(),
+            &[
+                "--frames",
+                "5",
+                "--script",
+                "reload.script",
+                "--shader-dir",
+                "shaders",
+                "--screenshot",
+                "after.png",
+                "--report",
+                "report.json",
+            ],
+        ]
+        .concat(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(out.status.success(), "exit {:?}\n{stderr}", out.status);
     assert!(!stderr.contains("validation"), "{stderr}");
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
-            .expect("report is JSON");
+    let report = read_report(&dir);
     assert_eq!(report["validation_messages"], 0, "{stderr}");
     let (_, _, before) = read_exr(&dir.join("before.exr"));
     let (_, _, after) = read_exr(&dir.join("after.exr"));
@@ -639,9 +639,7 @@ fn the_readme_hot_reload_command_runs_as_written() {
         "{args:?}: exit {:?}\n{stderr}",
         out.status
     );
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report"))
-            .expect("report is JSON");
+    let report = read_report(&dir);
     assert_eq!(report["validation_messages"], 0, "{stderr}");
     assert_eq!(report["shader_reloads"][0]["ok"], true, "{stderr}");
     assert_eq!(
