@@ -112,6 +112,20 @@ fn exact(graph: &QuadGraph, field: &MaterialField, scene: &Scene) -> Vec<[f64; 3
     s.j_plus_clamped
 }
 
+/// A cold GPU multigrid solve of `scene(0.0)` with `p`, [`check`]ed against the exact solve.
+fn cold_solve_matches_exact(
+    ctx: &Context,
+    what: &str,
+    graph: &QuadGraph,
+    field: &MaterialField,
+    p: &GpuSolveParams,
+) {
+    let mut solve = GpuDiffusion::new(ctx, graph, field, p).expect("GpuDiffusion");
+    let (j, report) = run_solve(ctx, &mut solve, graph, field, &scene(0.0), false);
+    assert!(!report.warm, "{what}");
+    check(what, &j, &exact(graph, field, &scene(0.0)), &report);
+}
+
 fn check(what: &str, j: &[[f32; 3]], exact: &[[f64; 3]], report: &GpuMultigridReport) {
     let err = rel_rms(j, exact);
     let factors: Vec<f64> = report.cycles.iter().map(|c| c.factor).collect();
@@ -144,16 +158,7 @@ fn gpu_multigrid_reaches_the_exact_solve_homogeneous() {
     let ctx = &gpu.ctx;
     let graph = bake(&torus());
     let field = MaterialField::Homogeneous(Material::preset("skimmilk").unwrap());
-    let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
-    let (j, report) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
-    assert!(!report.warm);
-    check(
-        "skim milk, cold",
-        &j,
-        &exact(&graph, &field, &scene(0.0)),
-        &report,
-    );
-    drop(solve);
+    cold_solve_matches_exact(ctx, "skim milk, cold", &graph, &field, &params());
     gpu.finish();
 }
 
@@ -170,15 +175,7 @@ fn gpu_multigrid_reaches_the_exact_solve_on_a_1e4_contrast() {
         }),
         ..params()
     };
-    let mut solve = GpuDiffusion::new(ctx, &graph, &field, &p).expect("GpuDiffusion");
-    let (j, report) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
-    check(
-        "1e4 contrast, cold",
-        &j,
-        &exact(&graph, &field, &scene(0.0)),
-        &report,
-    );
-    drop(solve);
+    cold_solve_matches_exact(ctx, "1e4 contrast, cold", &graph, &field, &p);
     gpu.finish();
 }
 
@@ -310,15 +307,7 @@ fn gpu_multigrid_reaches_the_exact_solve_on_the_spot_mesh() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
-    let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params()).expect("GpuDiffusion");
-    let (j, report) = run_solve(ctx, &mut solve, &graph, &field, &scene(0.0), false);
-    check(
-        "spot, marble, cold",
-        &j,
-        &exact(&graph, &field, &scene(0.0)),
-        &report,
-    );
-    drop(solve);
+    cold_solve_matches_exact(ctx, "spot, marble, cold", &graph, &field, &params());
     gpu.finish();
 }
 
