@@ -419,3 +419,26 @@ pub mod tol {
     /// iterations.
     pub const GPU_FP16_VS_EXACT: f64 = 2e-2;
 }
+
+/// Per level of `graph`, the boundary flux q of `scene` as the GPU solve uploads it (f32), with the
+/// environment's diffuse transmittance of `exit`'s boundary.
+pub fn level_irradiance(
+    graph: &translucent::QuadGraph,
+    field: &translucent::material::MaterialField,
+    scene: &translucent::scene::Scene,
+    exit: translucent::solver::transport::ExitQuery,
+) -> Vec<Vec<[f32; 3]>> {
+    let t_env =
+        translucent::solver::transport::Boundary::new(field.eta(), exit).diffuse_transmittance();
+    graph
+        .levels
+        .iter()
+        .map(|l| {
+            scene
+                .surface_irradiance_with(l, field.eta(), None, t_env)
+                .iter()
+                .map(|q| q.map(|v| v as f32))
+                .collect()
+        })
+        .collect()
+}

@@ -13,7 +13,7 @@ use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
 use translucent::solver::rel_rms;
-use translucent::solver::transport::{Boundary, ExitQuery, Transport};
+use translucent::solver::transport::{ExitQuery, Transport};
 use translucent::solver::{self, CpuSolveParams};
 use translucent::QuadGraph;
 use translucent_tests::{multilevel_object, render_once, solve_once, tol, GpuTest};
@@ -73,18 +73,7 @@ fn gpu_exit_queries_match_the_cpu_reference() {
     let mut vertex = Vec::new();
     for exit in [ExitQuery::Classic, ExitQuery::Moments] {
         let reference = cpu(&graph, &field, &scene, exit);
-        let t_env = Boundary::new(field.eta(), exit).diffuse_transmittance();
-        let q: Vec<Vec<[f32; 3]>> = graph
-            .levels
-            .iter()
-            .map(|l| {
-                scene
-                    .surface_irradiance_with(l, field.eta(), None, t_env)
-                    .iter()
-                    .map(|q| q.map(|v| v as f32))
-                    .collect()
-            })
-            .collect();
+        let q = translucent_tests::level_irradiance(&graph, &field, &scene, exit);
         let params = GpuSolveParams {
             iterations: vec![4000],
             tolerance: 1e-6,
