@@ -14,7 +14,7 @@
 # Writes target/bounce/*.{exr,json,trace.json,compare.json} and prints per render: relative RMS
 # R, G, B (all) in %, ratio of means, GPU ms of the frame and of the pass `bounce`, the links
 # (count, bytes per display vertex, bake seconds) and the wall seconds.
-C=0,20,60:0,0,0:30; R=tests/reference/pt; T=target/release/translucent; O=target/bounce; mkdir -p $O
+C=0,20,60:0,0,0:30; R=tests/reference/pt; T=target/release/translucent; O=${BOUNCE_OUT:-target/bounce}; mkdir -p $O
 MODES=${BOUNCE_MODES:-"off local"}
 F=dir:0.5,-1,-0.5:4,4,4; B=dir:0.2,-0.35,1:5,5,5; S="--camera $C --width 96 --height 96"
 MARBLE="--material marble --eta 1"; SPHERE="--shape sphere --size-mm 20"; BUNNY="--mesh ../shared/meshes/stanford-bunny.obj --size-mm 20"

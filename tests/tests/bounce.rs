@@ -249,3 +249,72 @@ fn a_convex_sphere_gets_nothing_and_a_torus_hole_gets_the_f64_bounce() {
     assert!(raised > 0);
     gpu.finish();
 }
+
+/// Form factor from a point to a parallel rectangle at distance `c` whose corner lies on the
+/// point's normal, sides `a` and `b` (the differential-area-to-rectangle closed form).
+fn corner_form_factor(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+/// Stratified cosine-weighted rays: 1024 rays estimate a form factor of ~0.4 to a few 1e-3.
+const FORM_FACTOR_TOL: f64 = 0.01;
+
+#[test]
+fn facing_plates_link_with_the_closed_form_factor() {
+    let mesh = facing_boxes();
+    // The facing squares: half-side 5 mm, 4 mm apart (faces at y = -2 and y = 2).
+    let (half, gap) = (5.0, 4.0);
+    let params = BounceParams {
+        rays: 1024,
+        max_links: 256,
+    };
+    let links = BounceLinks::build(&mesh, &params).expect("links");
+    let centre = DVec3::new(0.0, -0.5 * gap, 0.0);
+    let v = (0..mesh.positions.len())
+        .min_by(|&a, &b| {
+            mesh.positions[a]
+                .distance(centre)
+                .total_cmp(&mesh.positions[b].distance(centre))
+        })
+        .expect("a vertex");
+    assert!(mesh.positions[v].distance(centre) < 1e-9);
+    let expected = 4.0 * corner_form_factor(half, half, gap);
+    let got = links.form_factor(v);
+    assert!(
+        (got - expected).abs() < FORM_FACTOR_TOL,
+        "form factor {got} against the closed form {expected}"
+    );
+    // Every link points at the other box.
+    for &(y, w) in links.incoming(v) {
+        assert!(mesh.positions[y as usize].y > 0.0 && w > 0.0);
+    }
+    // The cap keeps the sum.
+    let capped = BounceLinks::build(
+        &mesh,
+        &BounceParams {
+            rays: 1024,
+            max_links: 8,
+        },
+    )
+    .expect("links");
+    assert!(capped.incoming(v).len() <= 8);
+    assert!((capped.form_factor(v) - got).abs() < 1e-6);
+}
+
+#[test]
+fn a_convex_sphere_has_no_links_and_bad_parameters_are_typed_errors() {
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(16);
+    let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
+    assert_eq!(links.vertex_count(), mesh.positions.len());
+    assert_eq!(links.link_count(), 0);
+    for (rays, max_links) in [(0, 8), (64, 0), (100_000, 8)] {
+        let err = BounceLinks::build(&mesh, &BounceParams { rays, max_links });
+        assert!(
+            matches!(err, Err(translucent::Error::Render(_))),
+            "{rays} {max_links}"
+        );
+    }
+    assert!("solve".parse::<translucent::frame::BounceMode>().is_err());
+}
