@@ -157,6 +157,7 @@ fn facing_boxes_match_the_f64_bounce_once_per_exitance() {
     assert!(!again.passes.contains(&PASS_BOUNCE), "{:?}", again.passes);
     assert_eq!(again.skipped.get(PASS_BOUNCE), Some(&SkipReason::Unchanged));
     assert_eq!(read_exitance(&gpu, &object), got);
+    drop(object);
     gpu.finish();
 }
 
