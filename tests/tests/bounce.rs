@@ -259,7 +259,7 @@ fn corner_form_factor(a: f64, b: f64, c: f64) -> f64 {
     (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
 }
 
-/// Stratified cosine-weighted rays: 1024 rays estimate a form factor of ~0.4 to a few 1e-3.
+/// Stratified cosine-weighted rays: 1024 rays estimate the centre's form factor (0.659) to a few 1e-3.
 const FORM_FACTOR_TOL: f64 = 0.01;
 
 #[test]

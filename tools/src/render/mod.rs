@@ -688,6 +688,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             let build_s = t.elapsed().as_secs_f64();
             translucent.set_bounce(&ctx, Some(&links), &field)?;
             let vertices = links.vertex_count().max(1);
+            if !args.json {
+                eprintln!(
+                    "bounce: {} links over {} display vertices ({:.1} bytes each), built in {build_s:.2} s",
+                    links.link_count(),
+                    links.vertex_count(),
+                    links.bytes() as f64 / vertices as f64
+                );
+            }
             bounce_json = Some(serde_json::json!({
                 "mode": args.bounce,
                 "rays": params.rays,
