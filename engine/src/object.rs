@@ -70,8 +70,9 @@ use crate::frame::graph::FrameGraph;
 use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHADOW};
 use crate::frame::quadgraph::QuadGraphParams;
 use crate::frame::{
-    FixedExitance, FrameReport, Method, QuadGraphMethod, ScatterParams, SingleScatteringPass,
-    VoxelMethod, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING, SINGLE_LEVEL_NODES,
+    BounceLinks, BouncePass, FixedExitance, FrameReport, Method, QuadGraphMethod, ScatterParams,
+    SingleScatteringPass, VoxelMethod, PASS_BOUNCE, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
+    SINGLE_LEVEL_NODES,
 };
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh};
@@ -246,6 +247,8 @@ pub struct TranslucentObject {
     last_frame: Option<u64>,
     /// `--method auto`'s choice, repeated in every [`FrameReport`].
     method_choice: Option<crate::frame::MethodChoice>,
+    /// One bounce of exitance between display vertices ([`Self::set_bounce`]); `None`: off.
+    bounce: Option<BouncePass>,
 }
 
 fn invalid(what: &str, problem: String) -> Error {
@@ -397,6 +400,7 @@ impl TranslucentObject {
             own_depth: None,
             last_frame: None,
             method_choice: None,
+            bounce: None,
         })
     }
 
@@ -428,6 +432,14 @@ impl TranslucentObject {
     /// A new material (homogeneous or heterogeneous): validated and staged now (a typed error
     /// changes nothing), uploaded by the next frame, which warm-starts the solve.
     pub fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
+        if let Some(bounce) = &mut self.bounce {
+            let r = crate::frame::bounce::vertex_reflectance(
+                field,
+                self.params.solve.exit,
+                &self.rest_positions,
+            );
+            bounce.set_reflectance(&r)?;
+        }
         self.method.set_material(ctx, field)?;
         self.scatter.set_material(field, &self.rest_positions);
         self.eta = field.eta() as f32;
@@ -542,6 +554,45 @@ impl TranslucentObject {
         fixed.set_exitance(ctx, exitance)?;
         self.changes.material = true;
         Ok(())
+    }
+
+    /// One bounce of exitance between display vertices ([`crate::frame::bounce`]): `links` built
+    /// on this object's display mesh ([`BounceLinks::build`] of the method's surface), R_d from
+    /// `field` (the material it renders, as given to [`Self::set_material`]) and the solve's exit
+    /// query. Added in place to the exitance the method writes from the next solve on (a
+    /// [`MethodDesc::Exitance`] object: from its next [`Self::set_exitance`]); `None` turns it
+    /// off (from the next solve). The voxel method re-meshes: a typed error there, as are links
+    /// for another vertex count.
+    pub fn set_bounce(
+        &mut self,
+        ctx: &Context,
+        links: Option<&BounceLinks>,
+        field: &MaterialField,
+    ) -> Result<(), Error> {
+        let Some(links) = links else {
+            self.bounce = None;
+            self.changes.material = true;
+            return Ok(());
+        };
+        if self.method.as_any().is::<VoxelMethod>() {
+            return Err(invalid(
+                "bounce",
+                "the voxel method re-meshes: the bounce needs a baked display mesh".into(),
+            ));
+        }
+        let r = crate::frame::bounce::vertex_reflectance(
+            field,
+            self.params.solve.exit,
+            &self.rest_positions,
+        );
+        self.bounce = Some(BouncePass::new(ctx, &self.mesh, links, &r)?);
+        self.changes.material = true;
+        Ok(())
+    }
+
+    /// The bounce pass, when on.
+    pub fn bounce(&self) -> Option<&BouncePass> {
+        self.bounce.as_ref()
     }
 
     fn method_mut<T: 'static>(&mut self) -> Option<&mut T> {
@@ -823,7 +874,25 @@ impl TranslucentObject {
                     Ok(())
                 });
         }
+        let before_method = graph.pass_names().len();
         self.method.add_passes(&mut graph, shadows)?;
+        // The bounce is added in place to the exitance: only on frames whose method wrote a new
+        // one (its passes ran), otherwise the last frame's sum stands.
+        if let Some(bounce) = &self.bounce {
+            if graph.pass_names().len() > before_method {
+                graph
+                    .pass(PASS_BOUNCE)
+                    .uses(bounce.uses(mesh))
+                    .record(move |p| {
+                        // SAFETY: inside the graph's pass declaring the bounce's uses of the mesh
+                        // it was built for; `self` outlives the frame (the record contract).
+                        unsafe { bounce.record(p.ctx, p.cb) };
+                        Ok(())
+                    });
+            } else {
+                graph.skip(PASS_BOUNCE, crate::frame::SkipReason::Unchanged);
+            }
+        }
         let scatter = &self.scatter;
         if scattering && !clear {
             graph

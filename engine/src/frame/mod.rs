@@ -11,6 +11,9 @@
 //! - [`choice`]: `--method auto`'s rule ([`choose_method`]).
 //! - [`single_scattering`]: [`SingleScatteringPass`], DESIGN 2.8 as a shared pass after the
 //!   method's (every method gets it; `ObjectParams::single_scattering`).
+//! - [`bounce`]: [`BouncePass`], one bounce of exitance between display vertices (light leaving
+//!   the surface and entering it again elsewhere), after the method's exitance
+//!   ([`crate::TranslucentObject::set_bounce`]).
 //!
 //! [`crate::TranslucentObject::record`] is the one composition: changes -> [`FramePlan`] ->
 //! the method's edit passes -> shadow maps -> the method's passes -> single scattering's depth
@@ -18,6 +21,7 @@
 //! targets, all through one [`FrameGraph`]. The headless renderer, `translucent render`,
 //! `translucent bench`, the example host and the viewer all record frames through it.
 
+pub mod bounce;
 pub mod choice;
 pub mod dipole;
 pub mod exitance;
@@ -29,6 +33,7 @@ pub mod report;
 pub mod single_scattering;
 pub mod voxel;
 
+pub use bounce::{BounceLinks, BounceMode, BounceParams, BouncePass, PASS_BOUNCE};
 pub use choice::{choose_method, MethodChoice, SceneTraits};
 pub use dipole::{DipoleMethod, DipoleParams};
 pub use exitance::FixedExitance;

@@ -172,6 +172,17 @@ pub struct RenderArgs {
     /// (benches/RESULTS.md, "Single scattering: far-face stop"). Not applied with `--solver cpu`.
     #[arg(long, value_name = "on|off|always", value_parser = ["on", "off", "always"])]
     pub single_scattering: Option<String>,
+    /// One bounce of exitance between display vertices (issue 12 item 5): light leaving the
+    /// surface enters it again elsewhere (concave parts; eta = 1 outside). `local`: at bake time
+    /// cosine-weighted rays per display vertex find the surface it sees (sparse form factors);
+    /// per solve the pass `bounce` gathers E_b = sum F M and adds R_d E_b where it enters (no
+    /// second solve). `off` (the default): no links, no pass. GPU quadgraph only
+    /// (benches/RESULTS.md, "One bounce between surface points").
+    #[arg(long, value_name = "off|local", default_value = "off", value_parser = ["off", "local"])]
+    pub bounce: String,
+    /// Rays per display vertex of `--bounce local`'s links (1..=4096).
+    #[arg(long, value_name = "N", default_value_t = translucent::frame::BounceParams::default().rays)]
+    pub bounce_rays: u32,
     /// Depths per view ray of `--single-scattering on` (4..=16).
     #[arg(long, value_name = "N", default_value_t = 8)]
     pub scatter_samples: u32,
@@ -395,6 +406,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     if args.texture_only && args.method != "dipole" {
         bail!("--texture-only applies to --method dipole");
+    }
+    if args.bounce != "off" && (args.method != "quadgraph" || args.solver != "gpu") {
+        bail!(
+            "--bounce {}: the GPU quadgraph method only (not --method {} --solver {})",
+            args.bounce,
+            args.method,
+            args.solver
+        );
     }
     match args.method.as_str() {
         "quadgraph" | "dipole" => {}
@@ -644,6 +663,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut last_gpu_multigrid = None;
     let mut report_scene = solver_scene.clone();
     let mut method_choice = None;
+    let mut bounce_json = None;
     if on_gpu {
         let object_params = ObjectParams {
             solve: gpu_params.clone(),
@@ -656,6 +676,38 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         };
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
+        if args.bounce.parse::<translucent::frame::BounceMode>()?
+            == translucent::frame::BounceMode::Local
+        {
+            let t = Instant::now();
+            let params = translucent::frame::BounceParams {
+                rays: args.bounce_rays,
+                ..Default::default()
+            };
+            let links = translucent::frame::BounceLinks::build(&graph.surface, &params)?;
+            let build_s = t.elapsed().as_secs_f64();
+            translucent.set_bounce(&ctx, Some(&links), &field)?;
+            let vertices = links.vertex_count().max(1);
+            if !args.json {
+                eprintln!(
+                    "bounce: {} links over {} display vertices ({:.1} bytes each), built in {build_s:.2} s",
+                    links.link_count(),
+                    links.vertex_count(),
+                    links.bytes() as f64 / vertices as f64
+                );
+            }
+            bounce_json = Some(serde_json::json!({
+                "mode": args.bounce,
+                "rays": params.rays,
+                "max_links": params.max_links,
+                "links": links.link_count(),
+                "linked_vertices": (0..links.vertex_count()).filter(|&v| links.offsets[v + 1] > links.offsets[v]).count(),
+                "display_vertices": links.vertex_count(),
+                "bytes": links.bytes(),
+                "bytes_per_vertex": links.bytes() as f64 / vertices as f64,
+                "build_seconds": build_s,
+            }));
+        }
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
         let (centre, radius) = graph.finest().bounding_sphere();
         let base_camera = frame_desc
@@ -916,6 +968,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "precision": on_gpu.then(|| format!("{:?}", gpu_params.precision).to_lowercase()),
             "gpu_bytes": gpu_bytes,
             "gpu_bytes_split": gpu_bytes_split,
+            // `--bounce`: the links' size and bake time (its GPU ms are the pass `bounce`).
+            "bounce": bounce_json,
             "residual": residual,
             "energy": {
                 "transmitted_input": energy.transmitted_input,

@@ -1,0 +1,559 @@
+//! [`BouncePass`]: one bounce of exitance between display vertices (issue 12 item 5, DESIGN 2.5's
+//! fourth cause). Outside the object is air (eta = 1 there): light that leaves a concave surface
+//! crosses the air and enters the object again elsewhere: a U-block's slot, a torus's hole, the
+//! bunny's folds, the base under a back-lit plate. The diffusion model does not carry light
+//! through the air, so without this pass those regions stay too dark.
+//!
+//! Bake ([`BounceLinks::build`], CPU): per display vertex x, `rays` cosine-weighted rays over its
+//! outer hemisphere against the mesh's BVH ([`MeshSolid::closest_hit`]); a ray that hits the
+//! surface at y (from outside) gives 1 / rays of x's view to y's triangle, split over its three
+//! vertices by the hit's barycentrics. So the sum of x's link weights is the form factor from x to
+//! the visible surface (F(x, y) = cos_x cos_y dA_y / (pi r^2) integrated; the cosine-weighted
+//! sampling carries cos_x / pi, the hit's solid angle cos_y dA_y / r^2), with the visibility of a
+//! ray cast. A vertex keeps its [`BounceParams::max_links`] heaviest links, rescaled to the same
+//! sum. A convex object's rays all escape: no links, no cost beyond the dispatch.
+//!
+//! Frame ([`PASS_BOUNCE`], after the method's exitance, before the shading): `bounce/bounce.comp`
+//! gathers E_b(x) = sum_y F(x, y) X(y) from the display vertices' exitance values X (the shading's
+//! J+ scale: the factor between X and the exitance M cancels), then the local model adds
+//! X(x) += R_d(x) E_b(x): the re-entering light leaves near where it entered, with R_d the
+//! half-space's total diffuse reflectance for diffuse incidence ([`diffuse_reflectance`]: the
+//! model's own boundary, exit query and Fresnel transmission in and out; heterogeneous: the
+//! coefficients at the vertex). No second solve. The pass runs on the frames whose method wrote a
+//! new exitance (the bounce is added in place), and is skipped otherwise.
+//!
+//! Links are for the rest pose: a deformed object keeps its rest form factors.
+//!
+//! ```no_run
+//! # use translucent::frame::bounce::{BounceLinks, BounceParams};
+//! # fn f(mesh: &translucent::mesh::TriMesh) -> Result<(), translucent::Error> {
+//! let links = BounceLinks::build(mesh, &BounceParams::default())?;
+//! println!("{} links, {} bytes", links.link_count(), links.bytes());
+//! # Ok(()) }
+//! ```
+
+use std::f64::consts::PI;
+
+use ash::vk;
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::material::MaterialField;
+use crate::mesh::{GpuMesh, MeshSolid, TriMesh, Vertex};
+use crate::render::RenderError;
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::solver::transport::{tangent_frame, Boundary, ExitQuery, Optics};
+use crate::vk::barrier::Use;
+use crate::vk::{barrier, Access, Buffer, Context};
+use crate::Error;
+
+/// The pass's name (graph pass, debug label, profiler scope).
+pub const PASS_BOUNCE: &str = "bounce";
+
+/// The ray's start above the vertex, relative to the mesh's bounding radius (clear of the
+/// vertex's own faces in f64; the BVH also ignores crossings within 1e-9 of the origin).
+const START_OFFSET: f64 = 1e-5;
+/// Rays per vertex accepted by [`BounceLinks::build`].
+pub const RAY_RANGE: std::ops::RangeInclusive<u32> = 1..=4096;
+/// Links per vertex accepted.
+pub const LINK_RANGE: std::ops::RangeInclusive<u32> = 1..=256;
+
+/// `render --bounce`: whether and how light re-enters the object.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BounceMode {
+    /// No bounce (the pass is not recorded).
+    #[default]
+    Off,
+    /// One bounce, re-emitted where it enters (R_d E_b, no second solve).
+    Local,
+}
+
+impl BounceMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            BounceMode::Off => "off",
+            BounceMode::Local => "local",
+        }
+    }
+}
+
+impl std::str::FromStr for BounceMode {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        match s {
+            "off" => Ok(BounceMode::Off),
+            "local" => Ok(BounceMode::Local),
+            _ => Err(invalid(
+                "bounce",
+                format!("unknown bounce {s:?} (off, local)"),
+            )),
+        }
+    }
+}
+
+/// How [`BounceLinks::build`] samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BounceParams {
+    /// Cosine-weighted rays per vertex (rounded up to a square of strata), in [`RAY_RANGE`].
+    pub rays: u32,
+    /// Links kept per vertex (the heaviest), in [`LINK_RANGE`].
+    pub max_links: u32,
+}
+
+impl Default for BounceParams {
+    fn default() -> Self {
+        // Measured in benches/RESULTS.md ("One bounce between surface points").
+        // 64 rays: the same image error as 256 on the U-block, plate, torus and bunny (within
+        // 0.2 points), a quarter of the bake.
+        BounceParams {
+            rays: 64,
+            max_links: 32,
+        }
+    }
+}
+
+/// Sparse form factors between display vertices: vertex v receives from
+/// `links[offsets[v]..offsets[v + 1]]`, each (source vertex, form factor).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BounceLinks {
+    pub offsets: Vec<u32>,
+    pub links: Vec<(u32, f32)>,
+}
+
+fn invalid(what: &str, problem: String) -> Error {
+    Error::Render(RenderError::Invalid {
+        what: what.into(),
+        problem,
+    })
+}
+
+/// A hash of two integers to [0, 1) (deterministic jitter, the same per stratum at every vertex
+/// so neighbouring vertices see correlated, not independent, sampling error: no speckle).
+fn hash01(a: u64, b: u64) -> f64 {
+    let mut z = a
+        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+        .wrapping_add(b.wrapping_mul(0xbf58_476d_1ce4_e5b9));
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+impl BounceLinks {
+    /// The links of `mesh`'s vertices (see the module doc). A mesh that is not a closed solid,
+    /// or parameters outside their ranges, are a typed error.
+    pub fn build(mesh: &TriMesh, params: &BounceParams) -> Result<BounceLinks, Error> {
+        if !RAY_RANGE.contains(&params.rays) || !LINK_RANGE.contains(&params.max_links) {
+            return Err(invalid(
+                "bounce",
+                format!(
+                    "{} rays and {} links per vertex; rays {}..={}, links {}..={}",
+                    params.rays,
+                    params.max_links,
+                    RAY_RANGE.start(),
+                    RAY_RANGE.end(),
+                    LINK_RANGE.start(),
+                    LINK_RANGE.end()
+                ),
+            ));
+        }
+        let solid = MeshSolid::new(mesh.clone())?;
+        let mesh = solid.mesh();
+        let (_, radius) = crate::mesh::bounding_sphere(&mesh.positions);
+        let offset = START_OFFSET * radius;
+        let strata = (f64::from(params.rays).sqrt().ceil() as u32).max(1);
+        let total = f64::from(strata * strata);
+        let jitter: Vec<(f64, f64)> = (0..strata * strata)
+            .map(|k| (hash01(u64::from(k), 1), hash01(u64::from(k), 2)))
+            .collect();
+        let per_vertex: Vec<Vec<(u32, f32)>> = (0..mesh.positions.len())
+            .into_par_iter()
+            .map(|v| {
+                let (x, n) = (mesh.positions[v], mesh.normals[v]);
+                if !x.is_finite() || !n.is_finite() || n.length_squared() < 0.5 {
+                    return Vec::new();
+                }
+                let (t, b) = tangent_frame(n);
+                let mut weights: Vec<(u32, f64)> = Vec::new();
+                for i in 0..strata {
+                    for j in 0..strata {
+                        let (ju, jv) = jitter[(i * strata + j) as usize];
+                        let u1 = (f64::from(i) + ju) / f64::from(strata);
+                        let u2 = (f64::from(j) + jv) / f64::from(strata);
+                        // Cosine-weighted: each ray carries 1 / total of the form factor.
+                        let (r, phi) = (u1.sqrt(), 2.0 * PI * u2);
+                        let dir: DVec3 =
+                            n * (1.0 - u1).max(0.0).sqrt() + (t * phi.cos() + b * phi.sin()) * r;
+                        let Some(hit) = solid.closest_hit(x + n * offset, dir, f64::INFINITY)
+                        else {
+                            continue;
+                        };
+                        // A hit from inside: the start was not outside (a sliver); no light.
+                        if hit.normal.dot(dir) >= 0.0 {
+                            continue;
+                        }
+                        let face = mesh.indices[hit.face as usize];
+                        for (k, &y) in face.iter().enumerate() {
+                            let w = hit.barycentric[k] / total;
+                            if y as usize == v || w <= 0.0 {
+                                continue;
+                            }
+                            match weights.iter_mut().find(|(s, _)| *s == y) {
+                                Some(e) => e.1 += w,
+                                None => weights.push((y, w)),
+                            }
+                        }
+                    }
+                }
+                let sum: f64 = weights.iter().map(|w| w.1).sum();
+                weights.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+                weights.truncate(params.max_links as usize);
+                let kept: f64 = weights.iter().map(|w| w.1).sum();
+                let scale = if kept > 0.0 { sum / kept } else { 0.0 };
+                weights.sort_by_key(|w| w.0);
+                weights
+                    .into_iter()
+                    .map(|(y, w)| (y, (w * scale) as f32))
+                    .collect()
+            })
+            .collect();
+        let mut offsets = Vec::with_capacity(per_vertex.len() + 1);
+        let mut links = Vec::new();
+        offsets.push(0u32);
+        for l in per_vertex {
+            links.extend(l);
+            offsets.push(
+                u32::try_from(links.len())
+                    .map_err(|_| invalid("bounce", "more than 2^32 links".into()))?,
+            );
+        }
+        Ok(BounceLinks { offsets, links })
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    pub fn link_count(&self) -> usize {
+        self.links.len()
+    }
+
+    /// The form factor from vertex `v` to the visible surface (the sum of its links).
+    pub fn form_factor(&self, v: usize) -> f64 {
+        self.incoming(v).iter().map(|&(_, w)| f64::from(w)).sum()
+    }
+
+    /// Vertex `v`'s links.
+    pub fn incoming(&self, v: usize) -> &[(u32, f32)] {
+        let (a, b) = (self.offsets[v] as usize, self.offsets[v + 1] as usize);
+        &self.links[a..b]
+    }
+
+    /// GPU bytes of the links (offsets + links + the pass's per-vertex irradiance and R_d).
+    pub fn bytes(&self) -> u64 {
+        (self.offsets.len() * 4 + self.links.len() * 8 + self.vertex_count() * 32) as u64
+    }
+
+    /// The f64 reference of the pass: X(x) + R_d(x) sum_y F(x, y) X(y), never below zero.
+    pub fn apply(&self, exitance: &[[f32; 3]], reflectance: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        (0..self.vertex_count())
+            .map(|v| {
+                let mut e = [0.0f64; 3];
+                for &(y, w) in self.incoming(v) {
+                    for (c, ec) in e.iter_mut().enumerate() {
+                        *ec += f64::from(w) * f64::from(exitance[y as usize][c].max(0.0));
+                    }
+                }
+                std::array::from_fn(|c| {
+                    (f64::from(exitance[v][c]) + f64::from(reflectance[v][c]) * e[c]).max(0.0)
+                        as f32
+                })
+            })
+            .collect()
+    }
+}
+
+/// Total diffuse reflectance of a half-space of `optics` for diffuse incidence, in the model's
+/// own terms: the transmitted flux q = T_d E (T_d = [`Boundary::diffuse_transmittance`]) drives
+/// the Robin row (rhs = flux gain q), phi = rhs exp(-s z) / (1 + h s), and the exit query gives
+/// the exitance M ([`Boundary::half_space_exitance`]); R_d = M / E. Clamped to [0, 1].
+pub fn diffuse_reflectance(boundary: &Boundary, optics: Optics) -> f64 {
+    let q = boundary.diffuse_transmittance();
+    let m = boundary.half_space_exitance(optics, q, 0.0, 0.0, boundary.flux_gain * q);
+    if m.is_finite() {
+        m.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// R_d per display vertex of `positions` for `field` (the coefficients at each vertex) and the
+/// exit query `exit`.
+pub fn vertex_reflectance(
+    field: &MaterialField,
+    exit: ExitQuery,
+    positions: &[DVec3],
+) -> Vec<[f32; 3]> {
+    let boundary = Boundary::new(field.eta(), exit);
+    let one = |c: &crate::material::Coefficients| -> [f32; 3] {
+        std::array::from_fn(|ch| diffuse_reflectance(&boundary, Optics::channel(c, ch)) as f32)
+    };
+    match field {
+        MaterialField::Homogeneous(m) => vec![one(&m.coefficients()); positions.len()],
+        _ => positions.iter().map(|&p| one(&field.sample(p))).collect(),
+    }
+}
+
+/// Push constants of `bounce/bounce.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BouncePush {
+    pub count: u32,
+    /// Floats per vertex of the exitance buffer, and the exitance's first float.
+    pub stride: u32,
+    pub offset: u32,
+    /// 0: gather E_b; 1: add R_d E_b.
+    pub mode: u32,
+}
+
+/// The pass: its pipeline, the links and R_d on the GPU, the gathered irradiance.
+pub struct BouncePass {
+    pipeline: ComputePipeline<BouncePush>,
+    offsets: Buffer,
+    links: Buffer,
+    reflectance: Buffer,
+    irradiance: Buffer,
+    set: vk::DescriptorSet,
+    vertex_count: u32,
+    link_count: usize,
+    bytes: u64,
+}
+
+impl BouncePass {
+    /// The pass for `mesh` (its vertex buffer is read and written in place) with `links` built
+    /// on its vertices and `reflectance` R_d per vertex.
+    pub fn new(
+        ctx: &Context,
+        mesh: &GpuMesh,
+        links: &BounceLinks,
+        reflectance: &[[f32; 3]],
+    ) -> Result<BouncePass, Error> {
+        let n = mesh.vertex_count();
+        if links.vertex_count() != n || reflectance.len() != n {
+            return Err(invalid(
+                "bounce",
+                format!(
+                    "links for {} vertices and {} reflectances; the mesh has {n} vertices",
+                    links.vertex_count(),
+                    reflectance.len()
+                ),
+            ));
+        }
+        if links
+            .links
+            .iter()
+            .any(|&(y, w)| y as usize >= n || !w.is_finite() || w < 0.0)
+            || links.offsets.windows(2).any(|w| w[0] > w[1])
+            || links
+                .offsets
+                .last()
+                .is_some_and(|&l| l as usize != links.links.len())
+        {
+            return Err(invalid("bounce", "links out of range or not finite".into()));
+        }
+        let pipeline = ComputePipeline::new(
+            ctx,
+            &ComputePipelineDesc {
+                name: "bounce",
+                shader: "bounce/bounce.comp",
+                bindings: &["vertices", "offsets", "links", "reflectance", "irradiance"],
+                max_sets: 1,
+            },
+        )?;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let offsets = Buffer::with_data(ctx, "bounce offsets", storage, &links.offsets)?;
+        let packed: Vec<[u32; 2]> = links.links.iter().map(|&(y, w)| [y, w.to_bits()]).collect();
+        // A zero-length buffer is not allowed: one unused link.
+        let packed = if packed.is_empty() {
+            vec![[0, 0]]
+        } else {
+            packed
+        };
+        let links_buffer = Buffer::with_data(ctx, "bounce links", storage, &packed)?;
+        let reflectance = Buffer::with_data(
+            ctx,
+            "bounce reflectance",
+            storage,
+            &Self::padded(reflectance)?,
+        )?;
+        let irradiance = Buffer::with_data(
+            ctx,
+            "bounce irradiance",
+            storage | vk::BufferUsageFlags::TRANSFER_SRC,
+            &vec![[0.0f32; 4]; n.max(1)],
+        )?;
+        let set = pipeline.allocate_set(
+            ctx,
+            &[
+                DescriptorWrite::StorageBuffer {
+                    name: "vertices",
+                    buffer: mesh.vertex_buffer(),
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "offsets",
+                    buffer: &offsets,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "links",
+                    buffer: &links_buffer,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "reflectance",
+                    buffer: &reflectance,
+                },
+                DescriptorWrite::StorageBuffer {
+                    name: "irradiance",
+                    buffer: &irradiance,
+                },
+            ],
+        )?;
+        Ok(BouncePass {
+            pipeline,
+            offsets,
+            links: links_buffer,
+            reflectance,
+            irradiance,
+            set,
+            vertex_count: n as u32,
+            link_count: links.link_count(),
+            bytes: links.bytes(),
+        })
+    }
+
+    fn padded(reflectance: &[[f32; 3]]) -> Result<Vec<[f32; 4]>, Error> {
+        if reflectance
+            .iter()
+            .flatten()
+            .any(|r| !r.is_finite() || !(0.0..=1.0).contains(r))
+        {
+            return Err(invalid(
+                "bounce",
+                "a reflectance outside [0, 1] or not finite".into(),
+            ));
+        }
+        let mut out: Vec<[f32; 4]> = reflectance
+            .iter()
+            .map(|r| [r[0], r[1], r[2], 0.0])
+            .collect();
+        if out.is_empty() {
+            out.push([0.0; 4]);
+        }
+        Ok(out)
+    }
+
+    /// New R_d per vertex (a material change). Host-visible: call between frames, after the
+    /// last frame that read it completed.
+    pub fn set_reflectance(&mut self, reflectance: &[[f32; 3]]) -> Result<(), Error> {
+        if reflectance.len() != self.vertex_count as usize {
+            return Err(invalid(
+                "bounce",
+                format!(
+                    "{} reflectances for {} vertices",
+                    reflectance.len(),
+                    self.vertex_count
+                ),
+            ));
+        }
+        let padded = Self::padded(reflectance)?;
+        self.reflectance
+            .write_bytes(0, bytemuck::cast_slice(&padded))?;
+        Ok(())
+    }
+
+    pub fn link_count(&self) -> usize {
+        self.link_count
+    }
+
+    /// GPU bytes of the pass's buffers.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// The gathered E_b per vertex (rgb, w unused), for checks.
+    pub fn irradiance(&self) -> &Buffer {
+        &self.irradiance
+    }
+
+    /// What [`Self::record`] uses.
+    pub fn uses<'a>(&'a self, mesh: &'a GpuMesh) -> Vec<Use<'a>> {
+        vec![
+            Use::buffer(mesh.vertex_buffer(), Access::ComputeReadWrite),
+            Use::buffer(&self.offsets, Access::ComputeRead),
+            Use::buffer(&self.links, Access::ComputeRead),
+            Use::buffer(&self.reflectance, Access::ComputeRead),
+            Use::buffer(&self.irradiance, Access::ComputeReadWrite),
+        ]
+    }
+
+    /// Records the gather and the local re-emission.
+    ///
+    /// # Safety
+    /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
+    /// [`Self::uses`] of the mesh given to [`Self::new`]; `self` must outlive its execution.
+    pub unsafe fn record(&self, ctx: &Context, cb: vk::CommandBuffer) {
+        let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
+        let push = |mode| BouncePush {
+            count: self.vertex_count,
+            stride: floats(std::mem::size_of::<Vertex>()),
+            offset: floats(std::mem::offset_of!(Vertex, exitance)),
+            mode,
+        };
+        let groups = [self.vertex_count.max(1), 1, 1];
+        // SAFETY: the caller's contract; the set's buffers live in `self` and the mesh.
+        unsafe {
+            self.pipeline.dispatch(ctx, cb, self.set, &push(0), groups);
+            // why: the re-emission writes the exitance the gather read, and reads the gathered
+            // irradiance (WAR on the vertices, RAW on the irradiance).
+            barrier::memory(ctx, cb, Access::ComputeReadWrite, Access::ComputeReadWrite);
+            self.pipeline.dispatch(ctx, cb, self.set, &push(1), groups);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// F_dr's polynomial is 0.0016 (not 0) at eta = 1: the classic boundary keeps that much.
+    const NO_ABSORPTION_TOL: f64 = 3e-3;
+
+    /// The half-space's R_d at sigma_a = 0 reflects everything.
+    #[test]
+    fn reflectance_without_absorption_is_one() {
+        for exit in [ExitQuery::Classic, ExitQuery::Moments] {
+            let b = Boundary::new(1.0, exit);
+            let r = diffuse_reflectance(
+                &b,
+                Optics {
+                    sigma_s: 2.0,
+                    sigma_a: 0.0,
+                },
+            );
+            assert!((r - 1.0).abs() < NO_ABSORPTION_TOL, "{exit:?}: {r}");
+        }
+    }
+
+    #[test]
+    fn reflectance_falls_with_absorption() {
+        let b = Boundary::new(1.3, ExitQuery::Moments);
+        let r = |a| {
+            diffuse_reflectance(
+                &b,
+                Optics {
+                    sigma_s: 1.0,
+                    sigma_a: a,
+                },
+            )
+        };
+        assert!(r(0.001) > r(0.01) && r(0.01) > r(0.1) && r(0.1) > 0.0);
+    }
+}

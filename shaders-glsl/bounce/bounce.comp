@@ -1,0 +1,56 @@
+#version 460
+// One bounce of exitance between display vertices (issue 12 item 5; engine/src/frame/bounce.rs):
+// light that leaves the surface at y crosses the air (eta = 1 outside) and enters it again at x.
+// mode 0 (gather): E_b(x) = sum_y F(x, y) X(y) over x's sparse links (F the form factor from the
+//   bake's ray casts, X the display vertex's exitance value, floats [v * stride + offset, +3)).
+// mode 1 (local): X(x) += R_d(x) E_b(x), R_d the half-space's total diffuse reflectance for
+//   diffuse incidence (the re-entering light leaves near where it entered). X and the shading's
+//   exitance share one scale, so F and R_d need no unit conversion.
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 0, std430) buffer Vertices { float data[]; } vertices;
+// Links of vertex v: links[offsets[v] .. offsets[v + 1]), x the source vertex, y the form factor's bits.
+layout(set = 0, binding = 1, std430) readonly buffer Offsets { uint data[]; } offsets;
+layout(set = 0, binding = 2, std430) readonly buffer Links { uvec2 data[]; } links;
+layout(set = 0, binding = 3, std430) readonly buffer Reflectance { vec4 data[]; } reflectance;
+layout(set = 0, binding = 4, std430) buffer Irradiance { vec4 data[]; } irradiance;
+
+layout(push_constant) uniform BouncePush {
+    uint count;
+    uint stride;
+    uint offset;
+    uint mode;
+} pc;
+
+vec3 exitance(uint v) {
+    uint base = v * pc.stride + pc.offset;
+    return vec3(vertices.data[base], vertices.data[base + 1u], vertices.data[base + 2u]);
+}
+
+// Never a NaN, an Inf or a negative value out of the pass.
+vec3 clean(vec3 x) {
+    bvec3 bad = bvec3(isnan(x.r) || isinf(x.r), isnan(x.g) || isinf(x.g), isnan(x.b) || isinf(x.b));
+    return max(mix(x, vec3(0.0), bad), vec3(0.0));
+}
+
+void main() {
+    uint v = gl_GlobalInvocationID.x;
+    if (v >= pc.count) {
+        return;
+    }
+    if (pc.mode == 0u) {
+        vec3 e = vec3(0.0);
+        for (uint k = offsets.data[v]; k < offsets.data[v + 1u]; ++k) {
+            uvec2 l = links.data[k];
+            e += uintBitsToFloat(l.y) * max(exitance(l.x), vec3(0.0));
+        }
+        irradiance.data[v] = vec4(clean(e), 0.0);
+    } else {
+        vec3 x = exitance(v) + reflectance.data[v].rgb * irradiance.data[v].rgb;
+        x = clean(x);
+        uint base = v * pc.stride + pc.offset;
+        vertices.data[base] = x.r;
+        vertices.data[base + 1u] = x.g;
+        vertices.data[base + 2u] = x.b;
+    }
+}

@@ -1,0 +1,321 @@
+//! One bounce of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
+//! pass `bounce` against its f64 reference (`BounceLinks::apply`) on two facing boxes, applied
+//! once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
+//! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph.
+
+use glam::DVec3;
+use translucent::frame::bounce::vertex_reflectance;
+use translucent::frame::{BounceLinks, BounceParams, SkipReason, PASS_BOUNCE};
+use translucent::material::{Material, MaterialField};
+use translucent::mesh::shapes::Shape;
+use translucent::mesh::{TriMesh, Vertex};
+use translucent::quadgraph::BakeParams;
+use translucent::scene::{Camera, Environment, Scene};
+use translucent::solver::gpu::GpuSolveParams;
+use translucent::{MethodDesc, ObjectParams, QuadGraph, TranslucentObject};
+use translucent_tests::{quadgraph_object, render_once, GpuTest};
+
+/// f32 sums of up to 32 links against the f64 reference, relative to the value.
+const GPU_VS_F64: f32 = 1e-5;
+
+fn marble() -> MaterialField {
+    MaterialField::Homogeneous(Material::preset("marble").expect("marble"))
+}
+
+/// Two boxes facing each other across a 4 mm gap (10 x 10 mm facing squares, 2 mm thick).
+fn facing_boxes() -> TriMesh {
+    let one = Shape::Box {
+        half_extents: DVec3::new(5.0, 1.0, 5.0),
+    }
+    .triangulate(10);
+    let mut mesh = TriMesh::default();
+    for dy in [-3.0, 3.0] {
+        let base = mesh.positions.len() as u32;
+        mesh.positions
+            .extend(one.positions.iter().map(|p| *p + DVec3::Y * dy));
+        mesh.normals.extend(&one.normals);
+        mesh.indices
+            .extend(one.indices.iter().map(|t| t.map(|i| i + base)));
+    }
+    mesh
+}
+
+fn scene() -> Scene {
+    Scene {
+        lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
+        environment: Environment::None,
+    }
+}
+
+fn read_exitance(gpu: &GpuTest, object: &TranslucentObject) -> Vec<[f32; 3]> {
+    let _ = gpu;
+    let bytes = object
+        .mesh()
+        .vertex_buffer()
+        .read_bytes()
+        .expect("read back");
+    bytes
+        .chunks_exact(std::mem::size_of::<Vertex>())
+        .map(|c| {
+            let at = std::mem::offset_of!(Vertex, exitance);
+            std::array::from_fn(|k| {
+                let b = &c[at + 4 * k..at + 4 * k + 4];
+                f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })
+        })
+        .collect()
+}
+
+fn fixed_object(gpu: &GpuTest, mesh: &TriMesh) -> TranslucentObject {
+    let mut object = TranslucentObject::with_method(
+        &gpu.ctx,
+        MethodDesc::Exitance {
+            mesh: mesh.clone(),
+            exitance: vec![[0.0; 3]; mesh.positions.len()],
+        },
+        &marble(),
+        &scene(),
+        &ObjectParams {
+            specular: false,
+            ..ObjectParams::default()
+        },
+    )
+    .expect("object");
+    object
+        .set_camera(Some(Camera {
+            eye: DVec3::new(30.0, 10.0, 40.0),
+            target: DVec3::ZERO,
+            fovy_deg: 35.0,
+        }))
+        .expect("camera");
+    object
+}
+
+/// A smooth, varied exitance per vertex (a different value per channel).
+fn pattern(mesh: &TriMesh) -> Vec<[f32; 3]> {
+    mesh.positions
+        .iter()
+        .map(|p| {
+            [
+                (1.0 + 0.05 * p.x) as f32,
+                (0.5 + 0.03 * p.z.abs()) as f32,
+                (0.2 + 0.1 * (p.y > 0.0) as u8 as f64) as f32,
+            ]
+        })
+        .collect()
+}
+
+#[test]
+fn facing_boxes_match_the_f64_bounce_once_per_exitance() {
+    let gpu = GpuTest::new();
+    let mesh = facing_boxes();
+    let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
+    assert!(links.link_count() > 0);
+    let field = marble();
+    let r = vertex_reflectance(&field, ObjectParams::default().solve.exit, &mesh.positions);
+    assert!(r.iter().flatten().all(|&x| x > 0.0 && x < 1.0));
+    let mut object = fixed_object(&gpu, &mesh);
+    object
+        .set_bounce(&gpu.ctx, Some(&links), &field)
+        .expect("bounce");
+    let x = pattern(&mesh);
+    object.set_exitance(&gpu.ctx, &x).expect("exitance");
+    let (captured, report) = render_once(&gpu.ctx, &mut object, 48, 48);
+    assert!(report.passes.contains(&PASS_BOUNCE), "{:?}", report.passes);
+    let got = read_exitance(&gpu, &object);
+    let expected = links.apply(&x, &r);
+    let mut raised = 0;
+    for (v, (g, e)) in got.iter().zip(&expected).enumerate() {
+        for c in 0..3 {
+            assert!(g[c].is_finite(), "vertex {v}: {g:?}");
+            assert!(
+                (g[c] - e[c]).abs() <= GPU_VS_F64 * e[c].max(1.0),
+                "vertex {v} channel {c}: GPU {} against f64 {}",
+                g[c],
+                e[c]
+            );
+        }
+        if g[0] > x[v][0] * 1.01 {
+            raised += 1;
+        }
+    }
+    // The facing faces receive; the outer faces do not.
+    assert!(raised > 0);
+    for (v, p) in mesh.positions.iter().enumerate() {
+        if p.y.abs() > 3.9 {
+            assert_eq!(links.incoming(v).len(), 0, "outer face vertex {v}");
+        }
+    }
+    assert!(captured
+        .image
+        .pixels
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite()));
+    // No new exitance: the pass is skipped and the sum is not added twice.
+    let (_, again) = render_once(&gpu.ctx, &mut object, 48, 48);
+    assert!(!again.passes.contains(&PASS_BOUNCE), "{:?}", again.passes);
+    assert_eq!(again.skipped.get(PASS_BOUNCE), Some(&SkipReason::Unchanged));
+    assert_eq!(read_exitance(&gpu, &object), got);
+    drop(object);
+    gpu.finish();
+}
+
+fn bake(shape: &Shape) -> QuadGraph {
+    let params = BakeParams {
+        resolution: 16,
+        levels: 2,
+        ..Default::default()
+    };
+    QuadGraph::bake(&shape.triangulate(24), shape, &params, &mut |_| {})
+        .expect("bake")
+        .0
+}
+
+/// The exitance a QuadGraph object of `graph` writes in one frame, with the bounce `links` or
+/// without, and the frame's passes.
+fn quadgraph_exitance(
+    gpu: &GpuTest,
+    graph: &QuadGraph,
+    links: Option<&BounceLinks>,
+) -> (Vec<[f32; 3]>, Vec<&'static str>) {
+    let field = marble();
+    let mut object = quadgraph_object(&gpu.ctx, graph, &field, &scene(), GpuSolveParams::default());
+    if links.is_some() {
+        object.set_bounce(&gpu.ctx, links, &field).expect("bounce");
+    }
+    let (captured, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert!(captured
+        .image
+        .pixels
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite()));
+    (read_exitance(gpu, &object), report.passes)
+}
+
+/// Two GPU solves of the same graph (deterministic on one device), the bounce applied to one,
+/// against the f64 bounce of the other's exitance.
+const SOLVE_REPEAT: f32 = 1e-4;
+
+#[test]
+fn a_convex_sphere_gets_nothing_and_a_torus_hole_gets_the_f64_bounce() {
+    let gpu = GpuTest::new();
+    let r = |graph: &QuadGraph| {
+        vertex_reflectance(
+            &marble(),
+            GpuSolveParams::default().exit,
+            &graph.surface.positions,
+        )
+    };
+    // Sphere: no links; the pass runs and changes nothing.
+    let sphere = bake(&Shape::Sphere { radius: 8.0 });
+    let links = BounceLinks::build(&sphere.surface, &BounceParams::default()).expect("links");
+    assert_eq!(links.link_count(), 0);
+    let (plain, _) = quadgraph_exitance(&gpu, &sphere, None);
+    let (bounced, passes) = quadgraph_exitance(&gpu, &sphere, Some(&links));
+    assert!(passes.contains(&PASS_BOUNCE), "{passes:?}");
+    for (a, b) in plain.iter().zip(&bounced) {
+        for c in 0..3 {
+            assert!(
+                (a[c] - b[c]).abs() <= SOLVE_REPEAT * a[c].max(1e-3),
+                "{a:?} {b:?}"
+            );
+        }
+    }
+    // Torus: the hole's vertices see the other side of the ring.
+    let torus = bake(&Shape::Torus {
+        major: 8.0,
+        minor: 3.0,
+    });
+    let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
+    assert!(links.link_count() > 0);
+    let (plain, passes) = quadgraph_exitance(&gpu, &torus, None);
+    assert!(!passes.contains(&PASS_BOUNCE), "{passes:?}");
+    let (bounced, _) = quadgraph_exitance(&gpu, &torus, Some(&links));
+    let expected = links.apply(&plain, &r(&torus));
+    let mut raised = 0;
+    for (v, (g, e)) in bounced.iter().zip(&expected).enumerate() {
+        for c in 0..3 {
+            assert!(g[c].is_finite() && g[c] >= 0.0);
+            assert!(
+                (g[c] - e[c]).abs() <= SOLVE_REPEAT * e[c].max(1e-2),
+                "vertex {v} channel {c}: GPU {} against f64 {}",
+                g[c],
+                e[c]
+            );
+        }
+        raised += usize::from(g[0] > plain[v][0] * 1.001);
+    }
+    assert!(raised > 0);
+    gpu.finish();
+}
+
+/// Form factor from a point to a parallel rectangle at distance `c` whose corner lies on the
+/// point's normal, sides `a` and `b` (the differential-area-to-rectangle closed form).
+fn corner_form_factor(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+/// Stratified cosine-weighted rays: 1024 rays estimate the centre's form factor (0.659) to a few 1e-3.
+const FORM_FACTOR_TOL: f64 = 0.01;
+
+#[test]
+fn facing_plates_link_with_the_closed_form_factor() {
+    let mesh = facing_boxes();
+    // The facing squares: half-side 5 mm, 4 mm apart (faces at y = -2 and y = 2).
+    let (half, gap) = (5.0, 4.0);
+    let params = BounceParams {
+        rays: 1024,
+        max_links: 256,
+    };
+    let links = BounceLinks::build(&mesh, &params).expect("links");
+    let centre = DVec3::new(0.0, -0.5 * gap, 0.0);
+    let v = (0..mesh.positions.len())
+        .min_by(|&a, &b| {
+            mesh.positions[a]
+                .distance(centre)
+                .total_cmp(&mesh.positions[b].distance(centre))
+        })
+        .expect("a vertex");
+    assert!(mesh.positions[v].distance(centre) < 1e-9);
+    let expected = 4.0 * corner_form_factor(half, half, gap);
+    let got = links.form_factor(v);
+    assert!(
+        (got - expected).abs() < FORM_FACTOR_TOL,
+        "form factor {got} against the closed form {expected}"
+    );
+    // Every link points at the other box.
+    for &(y, w) in links.incoming(v) {
+        assert!(mesh.positions[y as usize].y > 0.0 && w > 0.0);
+    }
+    // The cap keeps the sum.
+    let capped = BounceLinks::build(
+        &mesh,
+        &BounceParams {
+            rays: 1024,
+            max_links: 8,
+        },
+    )
+    .expect("links");
+    assert!(capped.incoming(v).len() <= 8);
+    assert!((capped.form_factor(v) - got).abs() < 1e-6);
+}
+
+#[test]
+fn a_convex_sphere_has_no_links_and_bad_parameters_are_typed_errors() {
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(16);
+    let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
+    assert_eq!(links.vertex_count(), mesh.positions.len());
+    assert_eq!(links.link_count(), 0);
+    for (rays, max_links) in [(0, 8), (64, 0), (100_000, 8)] {
+        let err = BounceLinks::build(&mesh, &BounceParams { rays, max_links });
+        assert!(
+            matches!(err, Err(translucent::Error::Render(_))),
+            "{rays} {max_links}"
+        );
+    }
+    assert!("solve".parse::<translucent::frame::BounceMode>().is_err());
+}
