@@ -61,6 +61,7 @@ use crate::material::MaterialField;
 use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
 use crate::quadgraph::shepard::ShepardIndex;
 
+mod cycle_spec;
 mod prolongation;
 mod smoothers;
 mod sparse;
@@ -163,6 +164,9 @@ pub struct MultigridParams {
     pub max_cycles: u32,
     /// Relative residual the coarsest level's CG reaches in every visit.
     pub coarse_tolerance: f64,
+    /// V-cycles per level of the cold start's full multigrid pass (after each prolongation):
+    /// the coarse levels are cheap, a second cycle there buys a better start for little work.
+    pub fmg_cycles: u32,
     /// Lanczos (CG) steps for lambda_max of `B^-1 K` (Chebyshev and the smoothed prolongation).
     pub power_iterations: u32,
 }
@@ -187,6 +191,7 @@ impl Default for MultigridParams {
             tolerance: 1e-4,
             max_cycles: 100,
             coarse_tolerance: 1e-3,
+            fmg_cycles: 1,
             power_iterations: 20,
         }
     }
@@ -253,6 +258,9 @@ impl MultigridParams {
             if !(0.0..1.0).contains(&theta) {
                 return bad("sparsify", format!("{theta} must lie in [0, 1)"));
             }
+        }
+        if !(1..=8).contains(&self.fmg_cycles) {
+            return bad("fmg_cycles", format!("{} must be 1 to 8", self.fmg_cycles));
         }
         if !(1..=1000).contains(&self.power_iterations) {
             return bad(
@@ -540,7 +548,9 @@ impl Hierarchy {
                     }
                     work.updates += self.levels[l].node_count() as u64;
                     work.entries += self.levels[l].link_entries();
-                    self.v_cycle(l, &mut up, rhs_l, params, &mut work);
+                    for _ in 0..params.fmg_cycles {
+                        self.v_cycle(l, &mut up, rhs_l, params, &mut work);
+                    }
                     x = up;
                 }
                 residual = max3(self.relative_residual(&x, f));

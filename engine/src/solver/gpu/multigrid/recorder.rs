@@ -151,8 +151,9 @@ impl Recorder<'_> {
         }
     }
 
-    /// One flexible CG iteration preconditioned by one V-cycle (`krylov.comp`), ending in the
-    /// convergence check of the CG residual.
+    /// One flexible CG iteration preconditioned by one V-cycle (`krylov.comp`: two finest-level
+    /// passes, K z with the dot products, then the step), ending in the convergence check of the
+    /// CG residual.
     ///
     /// # Safety
     /// As [`GpuMultigrid::record`].
@@ -162,12 +163,9 @@ impl Recorder<'_> {
         // SAFETY: the caller's contract.
         unsafe {
             self.v_cycle(top);
-            self.indirect(KRYLOV, top, CG_DOTS, none, none);
-            self.check(CHECK_BETA);
-            self.indirect(KRYLOV, top, CG_DIRECTION, none, none);
             self.indirect(KRYLOV, top, CG_APPLY, none, none);
-            self.check(CHECK_ALPHA);
-            self.indirect(KRYLOV, top, CG_UPDATE, none, none);
+            self.check(CHECK_CG);
+            self.indirect(KRYLOV, top, CG_STEP, none, none);
             self.check(CHECK_RESIDUAL);
         }
     }
