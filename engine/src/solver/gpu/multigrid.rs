@@ -219,7 +219,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid smooth",
         "multigrid/smooth.comp",
-        &["x", "d", "r", "diag", "partner", "partner_value"],
+        &["x", "d", "r", "diag", "partner", "partner_value", "f"],
     ),
     (
         "multigrid restrict",
@@ -697,8 +697,8 @@ impl GpuMultigrid {
                 rec.coarse();
                 for l in 1..=top {
                     rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3]);
-                    for _ in 0..self.params.fmg_cycles {
-                        rec.v_cycle(l);
+                    for _ in 0..self.params.fmg_cycles_at(l, top) {
+                        rec.v_cycle(l, false);
                     }
                 }
             }
@@ -714,7 +714,7 @@ impl GpuMultigrid {
                 rec.direct(KRYLOV, top, CG_FINISH, n_top);
             } else {
                 for _ in 1..max_log {
-                    rec.v_cycle(top);
+                    rec.v_cycle(top, false);
                     rec.residual_check();
                 }
             }
@@ -745,15 +745,21 @@ impl GpuMultigrid {
     }
 
     /// Matrix entries one V-cycle from level `l` reads (see [`GpuMultigridReport::matvec_units`]).
-    fn v_cycle_entries(&self, l: usize) -> u64 {
+    /// `from_zero`: the cycle starts from x = 0 (a coarse correction, or the CG's preconditioner),
+    /// so its first smoothing step reads f and no residual.
+    fn v_cycle_entries(&self, l: usize, from_zero: bool) -> u64 {
         let level = &self.levels[l];
         if l == 0 {
-            return u64::from(self.coarse_steps) * level.entries;
+            // The coarsest level always starts from zero (the restriction zeroes it).
+            return u64::from(self.coarse_steps.saturating_sub(1)) * level.entries;
         }
         let (pre, post) = self.sweeps(l);
-        // A residual per smoothing step and one before the restriction; restriction and
-        // prolongation read the links once each.
-        u64::from(pre + post + 1) * level.entries + 2 * level.links + self.v_cycle_entries(l - 1)
+        // A residual per smoothing step (but a first one from zero) and one before the
+        // restriction; restriction and prolongation read the links once each.
+        let skipped = u32::from(from_zero && pre > 0);
+        u64::from(pre + post + 1 - skipped) * level.entries
+            + 2 * level.links
+            + self.v_cycle_entries(l - 1, true)
     }
 
     /// What the last solve did, from its control record.
@@ -782,7 +788,7 @@ impl GpuMultigrid {
                 (1..=top)
                     .map(|l| {
                         2 * u64::from(self.levels[l].count)
-                            + u64::from(self.params.fmg_cycles) * self.v_cycle_updates(l)
+                            + u64::from(self.params.fmg_cycles_at(l, top)) * self.v_cycle_updates(l)
                     })
                     .sum::<u64>()
                     + self.v_cycle_updates(0)
@@ -829,7 +835,7 @@ impl GpuMultigrid {
         // The same passes in matrix entries: the finest residual or K p once per cycle (plus
         // the start's), full multigrid's restrictions, coarsest solve, prolongations, V-cycles.
         let top_entries = self.levels[top].entries;
-        let v_entries = self.v_cycle_entries(top) + top_entries;
+        let v_entries = self.v_cycle_entries(top, self.params.krylov) + top_entries;
         let start_entries = top_entries
             + if warm {
                 0
@@ -837,10 +843,11 @@ impl GpuMultigrid {
                 (1..=top)
                     .map(|l| {
                         2 * self.levels[l].links
-                            + u64::from(self.params.fmg_cycles) * self.v_cycle_entries(l)
+                            + u64::from(self.params.fmg_cycles_at(l, top))
+                                * self.v_cycle_entries(l, false)
                     })
                     .sum::<u64>()
-                    + self.v_cycle_entries(0)
+                    + self.v_cycle_entries(0, true)
             };
         let matvec_units =
             (start_entries + v_cycles * v_entries) as f64 / top_entries.max(1) as f64;
