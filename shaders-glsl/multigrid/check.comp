@@ -5,9 +5,10 @@
 // max_c ||r||_2 / ||f||_2 (absolute where f = 0) and, converged (below the tolerance), diverged
 // (above 1e3 or not finite) or at the cycle cap, zeroes every level's indirect arguments: the
 // cycles recorded after it dispatch nothing. The conjugate gradients' scalars (krylov.comp):
-// mode 2 sums (R . z, R . z_old) (partials and partials[width..]) into rz and
-// beta = (R . z - R . z_old) / rz_old (the flexible CG's, 0 on the first direction: rz_old = 0);
-// mode 3 sums dir . K dir into alpha = rz / (dir . K dir) (0 where not positive).
+// mode 2 sums the apply pass's four blocks (R . z, R . z_old, z . K z, z . K dir_old) into
+// rz, beta = (R . z - R . z_old) / rz_old (the flexible CG's, 0 on the first direction: rz_old =
+// 0), dir . K dir = z.Kz + 2 beta z.Kdir_old + beta^2 (dir_old . K dir_old) and
+// alpha = rz / (dir . K dir) (0 where not positive).
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
@@ -54,33 +55,38 @@ void main() {
     vec3 sum = sum_partials(0u);
     if (pc.mode == 2u) {
         vec3 against_old = sum_partials(pc.width);
+        vec3 zkz = sum_partials(2u * pc.width);
+        vec3 zkd = sum_partials(3u * pc.width);
         if (lid != 0u) {
             return;
         }
         vec3 rz_old = control.c.rz.rgb;
+        vec3 dkd_old = control.c.dkd.rgb;
         vec3 beta = vec3(0.0);
+        vec3 alpha = vec3(0.0);
+        vec3 dkd = vec3(0.0);
         for (int ch = 0; ch < 3; ++ch) {
             float b = (sum[ch] - against_old[ch]) / rz_old[ch];
             beta[ch] = rz_old[ch] > 0.0 && finite(b) ? b : 0.0;
+            // The first direction (beta = 0) reads no stale dir . K dir.
+            float d = zkz[ch];
+            if (beta[ch] != 0.0) {
+                d += beta[ch] * (2.0 * zkd[ch] + beta[ch] * dkd_old[ch]);
+            }
+            dkd[ch] = d;
+            float a = sum[ch] / d;
+            alpha[ch] = d > 0.0 && finite(a) ? a : 0.0;
         }
         control.c.rz = vec4(sum, 0.0);
         control.c.beta = vec4(beta, 0.0);
+        control.c.alpha = vec4(alpha, 0.0);
+        control.c.dkd = vec4(dkd, 0.0);
         return;
     }
     if (lid != 0u) {
         return;
     }
     vec3 total = sum;
-    if (pc.mode == 3u) {
-        vec3 rz = control.c.rz.rgb;
-        vec3 alpha = vec3(0.0);
-        for (int ch = 0; ch < 3; ++ch) {
-            float a = rz[ch] / total[ch];
-            alpha[ch] = total[ch] > 0.0 && finite(a) ? a : 0.0;
-        }
-        control.c.alpha = vec4(alpha, 0.0);
-        return;
-    }
     if (pc.mode == 0u) {
         control.c.reference = vec4(total, 0.0);
         return;

@@ -42,6 +42,8 @@ struct MultigridControl {
     vec4 rz;
     vec4 alpha;
     vec4 beta;
+    // dir . K dir of the current direction (the next iteration's recurrence reads it).
+    vec4 dkd;
     // Relative residual after the start (cold: after full multigrid) and after every V-cycle.
     float residual[MAX_LOG];
 };

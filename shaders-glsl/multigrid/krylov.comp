@@ -1,18 +1,21 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Flexible preconditioned conjugate gradients around the V-cycle (Notay 2000; the CPU's
-// `Hierarchy::solve` with `krylov`), on the finest level, one invocation per node. The CG
-// residual R lives in the finest level's f (the V-cycle's right-hand side), the preconditioned
-// residual z = V(R) in its x (the V-cycle starts from x = 0), the iterate in `sol`, the search
-// direction in `dir`, the last z in `z_old`, K dir in the finest level's r. Scalars (beta, alpha)
-// come from the control record, which the check kernel writes from this kernel's partial sums.
+// `Hierarchy::solve` with `krylov`), on the finest level, one invocation per node, two passes per
+// iteration: K z is formed once and K dir follows from it by the direction's recurrence,
+// K dir = K z + beta K dir_old, and dir . K dir = z.Kz + 2 beta z.Kdir_old + beta^2 dir_old.Kdir_old
+// (so no pass waits for beta before its matrix-vector product). The CG residual R lives in the
+// finest level's f (the V-cycle's right-hand side), the preconditioned residual z = V(R) in its x
+// (the V-cycle starts from x = 0), K z in its r, the iterate in `sol`, the search direction in
+// `dir`, K dir in `kdir`, the last z in `z_old`. Scalars (beta, alpha, dir . K dir) come from
+// the control record, which the check kernel writes from this kernel's partial sums.
 // Modes:
-//   0 start:     sol = x, f = f - K x (= r, the start's residual), x = 0
-//   1 dots:      partials = (R . z, R . z_old) per workgroup (second half at offset `width`)
-//   2 direction: dir = z + beta dir (dir = z where beta = 0), z_old = z, x = 0
-//   3 apply:     r = K dir, partials = dir . K dir
-//   4 update:    sol += alpha dir, R -= alpha K dir, partials = R . R
-//   5 finish:    x = sol (the solution the output pass writes and the next warm start reads)
+//   0 start:  sol = x, f = f - K x (= r, the start's residual), x = 0
+//   1 apply:  r = K z; partials (R . z, R . z_old, z . K z, z . K dir_old), four blocks of
+//             `width` workgroup sums
+//   2 step:   dir = z + beta dir, kdir = K z + beta kdir (dir = z, kdir = K z where beta = 0),
+//             sol += alpha dir, R -= alpha kdir, z_old = z, x = 0; partials = R . R
+//   5 finish: x = sol (the solution the output pass writes and the next warm start reads)
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
@@ -29,12 +32,11 @@ layout(set = 0, binding = 8, std430) readonly buffer Values { vec4 v[]; } values
 layout(set = 0, binding = 9, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 10, std430) writeonly buffer Partials { vec4 v[]; } partials;
 layout(set = 0, binding = 11, std430) readonly buffer Control { MultigridControl c; } control;
+layout(set = 0, binding = 12, std430) buffer KDir { vec4 v[]; } kdir;
 
 #define MODE_START 0u
-#define MODE_DOTS 1u
-#define MODE_DIRECTION 2u
-#define MODE_APPLY 3u
-#define MODE_UPDATE 4u
+#define MODE_APPLY 1u
+#define MODE_STEP 2u
 #define MODE_FINISH 5u
 
 shared vec3 sums[64];
@@ -59,10 +61,11 @@ void reduce(vec3 s, uint slot) {
     barrier();
 }
 
+// (K v)_i of the finest level's operator for v = x (z) of the concatenated vectors.
 vec3 apply_k(uint i) {
-    vec3 acc = diag.v[i].rgb * dir.v[i - pc.offset].rgb;
+    vec3 acc = diag.v[i].rgb * x.v[i].rgb;
     for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
-        acc += values.v[e].rgb * dir.v[cols.v[e] - pc.offset].rgb;
+        acc += values.v[e].rgb * x.v[cols.v[e]].rgb;
     }
     return acc;
 }
@@ -72,34 +75,47 @@ void main() {
     bool inside = node < pc.count;
     uint i = pc.offset + node;
     uint group = gl_WorkGroupID.x;
-    if (pc.mode == MODE_DOTS) {
-        vec3 a = vec3(0.0);
-        vec3 b = vec3(0.0);
-        if (inside) {
-            vec3 rr = f.v[i].rgb;
-            a = rr * x.v[i].rgb;
-            b = rr * z_old.v[node].rgb;
-        }
-        reduce(a, group);
-        reduce(b, pc.width + group);
-        return;
-    }
     if (pc.mode == MODE_APPLY) {
-        vec3 s = vec3(0.0);
+        vec3 rz = vec3(0.0);
+        vec3 rz_old = vec3(0.0);
+        vec3 zkz = vec3(0.0);
+        vec3 zkd = vec3(0.0);
         if (inside) {
-            vec3 kp = apply_k(i);
-            r.v[i] = vec4(kp, 0.0);
-            s = dir.v[node].rgb * kp;
+            vec3 z = x.v[i].rgb;
+            vec3 kz = apply_k(i);
+            r.v[i] = vec4(kz, 0.0);
+            vec3 rr = f.v[i].rgb;
+            rz = rr * z;
+            rz_old = rr * z_old.v[node].rgb;
+            zkz = z * kz;
+            // kdir holds K dir of the last direction (stale before the first: beta = 0 then,
+            // and the check ignores this sum).
+            zkd = z * kdir.v[node].rgb;
         }
-        reduce(s, group);
+        reduce(rz, group);
+        reduce(rz_old, pc.width + group);
+        reduce(zkz, 2u * pc.width + group);
+        reduce(zkd, 3u * pc.width + group);
         return;
     }
-    if (pc.mode == MODE_UPDATE) {
+    if (pc.mode == MODE_STEP) {
         vec3 s = vec3(0.0);
         if (inside) {
+            vec3 z = x.v[i].rgb;
+            vec3 kz = r.v[i].rgb;
+            vec3 beta = control.c.beta.rgb;
             vec3 alpha = control.c.alpha.rgb;
-            sol.v[node] = vec4(sol.v[node].rgb + alpha * dir.v[node].rgb, 0.0);
-            vec3 rr = f.v[i].rgb - alpha * r.v[i].rgb;
+            // beta = 0 (the first direction) must not multiply a stale (possibly non-finite)
+            // dir or kdir.
+            bvec3 first = equal(beta, vec3(0.0));
+            vec3 d = mix(z + beta * dir.v[node].rgb, z, first);
+            vec3 kd = mix(kz + beta * kdir.v[node].rgb, kz, first);
+            dir.v[node] = vec4(d, 0.0);
+            kdir.v[node] = vec4(kd, 0.0);
+            z_old.v[node] = vec4(z, 0.0);
+            x.v[i] = vec4(0.0);
+            sol.v[node] = vec4(sol.v[node].rgb + alpha * d, 0.0);
+            vec3 rr = f.v[i].rgb - alpha * kd;
             f.v[i] = vec4(rr, 0.0);
             s = rr * rr;
         }
@@ -112,14 +128,6 @@ void main() {
     if (pc.mode == MODE_START) {
         sol.v[node] = x.v[i];
         f.v[i] = r.v[i];
-        x.v[i] = vec4(0.0);
-    } else if (pc.mode == MODE_DIRECTION) {
-        vec3 z = x.v[i].rgb;
-        vec3 beta = control.c.beta.rgb;
-        // beta = 0 (the first direction) must not multiply a stale (possibly non-finite) dir.
-        vec3 d = mix(z + beta * dir.v[node].rgb, z, equal(beta, vec3(0.0)));
-        dir.v[node] = vec4(d, 0.0);
-        z_old.v[node] = vec4(z, 0.0);
         x.v[i] = vec4(0.0);
     } else if (pc.mode == MODE_FINISH) {
         x.v[i] = sol.v[node];

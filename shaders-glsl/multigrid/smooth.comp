@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // One Chebyshev (or damped Jacobi: alpha = 0) step on one level, from the residual r = f - K x:
 // d = alpha d + beta B^-1 r, x += d. B is the diagonal, or the 2x2 block of a surface node and its
-// cell (`partner`). No reduction: alpha and beta are constants per step (push).
+// cell (`partner`). No reduction: alpha and beta are constants per step (push). Mode 1: the first
+// step from x = 0, whose residual is f itself (no residual pass before it).
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
@@ -13,6 +14,11 @@ layout(set = 0, binding = 2, std430) readonly buffer Rs { vec4 v[]; } r;
 layout(set = 0, binding = 3, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 4, std430) readonly buffer Partner { uint v[]; } partner;
 layout(set = 0, binding = 5, std430) readonly buffer PartnerValue { vec4 v[]; } partner_value;
+layout(set = 0, binding = 6, std430) readonly buffer Fs { vec4 v[]; } f;
+
+vec3 residual(uint j) {
+    return pc.mode == 1u ? f.v[j].rgb : r.v[j].rgb;
+}
 
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
@@ -20,13 +26,13 @@ void main() {
     }
     uint i = pc.offset + gl_GlobalInvocationID.x;
     vec3 a = diag.v[i].rgb;
-    vec3 ri = r.v[i].rgb;
+    vec3 ri = residual(i);
     vec3 z;
     uint p = partner.v[i];
     if (p != NO_NODE) {
         vec3 b = partner_value.v[i].rgb;
         vec3 dp = diag.v[p].rgb;
-        z = (dp * ri - b * r.v[p].rgb) / (a * dp - b * b);
+        z = (dp * ri - b * residual(p)) / (a * dp - b * b);
     } else {
         z = ri / a;
     }

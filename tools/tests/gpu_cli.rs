@@ -819,3 +819,38 @@ fn silhouettes_are_anti_aliased_by_default() {
         "{jagged}: the check cannot tell"
     );
 }
+
+/// `--multigrid-cycle` replaces the cycle's smoother and schedule: the wave-5 smoother (degree 2
+/// on the finest level, 1 between, on [0.25, 1] lambda_max) needs more CG iterations to the same
+/// tolerance than the default, and a bad item is refused with its key named.
+#[test]
+fn multigrid_cycle_option_changes_the_cycle_and_refuses_bad_items() {
+    let dir = scratch("gpu-multigrid-cycle");
+    let entries = |extra: &[&str]| {
+        let mut args = vec!["--tolerance", "1e-5"];
+        args.extend(extra);
+        let json = json_of(&render(&dir, &args));
+        let report = &json["multigrid"];
+        assert_eq!(report["converged"], true, "{extra:?}: {report}");
+        report["residual_per_cycle"]
+            .as_array()
+            .expect("residual log")
+            .len()
+    };
+    let default = entries(&[]);
+    let old = entries(&["--multigrid-cycle", "nu=2/2,cnu=1,cheb=0.25"]);
+    assert!(
+        old > default,
+        "the wave-5 smoother took {old} log entries, the default {default}"
+    );
+    for (bad, named) in [
+        ("speed=2", "speed"),
+        ("nu=3", "nu"),
+        ("cheb=1.5", "chebyshev"),
+    ] {
+        let out = render(&dir, &["--multigrid-cycle", bad]);
+        assert!(!out.status.success(), "{bad} must be refused");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(named), "{bad}: {stderr}");
+    }
+}

@@ -292,7 +292,8 @@ fn describe(s: &Scenario) {
 }
 
 /// A configuration written `key=value,...` (keys: interp shepard|linear|mixed, coarse re|gal,
-/// smoother jac:OMEGA|cheb:LOWER, nu PRE/POST, blocks 0|1, krylov 0|1, sp S, ctol T).
+/// smoother jac:OMEGA|cheb:LOWER, nu PRE/POST, blocks 0|1, krylov 0|1, sp S, ctol T, cnu N
+/// middle-level sweeps, fmg N V-cycles per level of the cold start, gpu=1 the GPU defaults first).
 fn parse_config(text: &str) -> Result<MultigridParams> {
     let mut p = MultigridParams::default();
     for item in text.split(',').filter(|i| !i.is_empty()) {
@@ -333,6 +334,9 @@ fn parse_config(text: &str) -> Result<MultigridParams> {
             "krylov" => p.krylov = value == "1",
             "sp" => p.smoothed_prolongation = Some(value.parse()?),
             "ctol" => p.coarse_tolerance = value.parse()?,
+            "cnu" => p.coarse_sweeps = Some(value.parse()?),
+            "fmg" => p.fmg_cycles = value.parse()?,
+            "gpu" => p = MultigridParams::gpu(),
             k => return Err(format!("config key {k}").into()),
         }
     }

@@ -215,9 +215,7 @@ pub(super) fn run_gpu(
             iterations: vec![config.cap],
             block: BLOCK,
             tolerance: config.tolerance,
-            multigrid: config
-                .multigrid
-                .then(translucent::solver::multigrid::MultigridParams::gpu),
+            multigrid: config.multigrid.then(|| config.cycle.clone()),
             heterogeneous_weights: config.weights,
             ..GpuSolveParams::default()
         },

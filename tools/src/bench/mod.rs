@@ -151,6 +151,10 @@ pub struct BenchArgs {
     /// caps it), multigrid (full multigrid / V-cycles to the relative residual --tolerance).
     #[arg(long, value_name = "S,..", default_value = "cascade")]
     pub schedule: String,
+    /// The multigrid cycle's smoother and schedule over the defaults, as `render`'s option of the
+    /// same name (`nu=3/3,cheb=0.1,fmg=2,..`); one value for the whole sweep.
+    #[arg(long, value_name = "KEY=VALUE,..")]
+    pub multigrid_cycle: Option<String>,
     /// Jacobi iteration caps per level to sweep.
     #[arg(
         long,

@@ -17,6 +17,8 @@ pub(super) struct Config {
     pub(super) cap: u32,
     pub(super) tolerance: f32,
     pub(super) weights: HeterogeneousWeights,
+    /// The multigrid schedule's parameters (`MultigridParams::gpu` with `--multigrid-cycle`).
+    pub(super) cycle: translucent::solver::multigrid::MultigridParams,
 }
 
 /// The lists, parsed and checked before anything runs.
@@ -32,6 +34,7 @@ pub(super) struct Sweep {
     pub(super) iterations: Vec<u32>,
     pub(super) tolerances: Vec<f32>,
     pub(super) weights: HeterogeneousWeights,
+    pub(super) cycle: translucent::solver::multigrid::MultigridParams,
 }
 
 pub(super) fn list<T>(
@@ -112,6 +115,12 @@ impl Sweep {
                     option: "--heterogeneous-weights",
                     problem: format!("'{}' (derived or stored)", args.heterogeneous_weights),
                 })?,
+            cycle: translucent::solver::multigrid::MultigridParams::gpu()
+                .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))
+                .map_err(|e| BenchError::BadOption {
+                    option: "--multigrid-cycle",
+                    problem: e.to_string(),
+                })?,
         };
         // The headless frame's profiler must hold every scope of the largest frame, or the
         // timings would silently leave out the last blocks.
@@ -168,6 +177,7 @@ impl Sweep {
                                     cap,
                                     tolerance,
                                     weights: self.weights,
+                                    cycle: self.cycle.clone(),
                                 });
                             }
                         }

@@ -112,6 +112,12 @@ pub struct RenderArgs {
     /// cascade (+ the exact PCG) on the CPU solver, the f64 reference.
     #[arg(long, value_parser = ["cascade", "multigrid"])]
     pub schedule: Option<String>,
+    /// The multigrid cycle's smoother and schedule, `key=value,..` over the defaults (keys: nu
+    /// PRE/POST Chebyshev degree on the finest level, cnu on the middle levels, cheb LOWER
+    /// fraction of lambda_max, jacobi OMEGA, ctol coarsest tolerance, fmg V-cycles per level of
+    /// the cold start, krylov 0|1). For measurements: the defaults are the measured best.
+    #[arg(long, value_name = "KEY=VALUE,..")]
+    pub multigrid_cycle: Option<String>,
     /// GPU state precision (mixed, fp16, fp32); applies to the GPU solver only.
     #[arg(long, value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: Option<String>,
@@ -591,10 +597,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             }
         },
         schedule: if multigrid {
-            Schedule::Multigrid(MultigridParams {
-                tolerance: args.tolerance,
-                ..MultigridParams::default()
-            })
+            Schedule::Multigrid(
+                MultigridParams {
+                    tolerance: args.tolerance,
+                    ..MultigridParams::default()
+                }
+                .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?,
+            )
         } else {
             Schedule::Cascade
         },
@@ -646,10 +655,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         shadow_edge_flux: args.shadow_edge_flux,
         surface,
         heterogeneous_weights: args.heterogeneous_weights.parse()?,
-        multigrid: multigrid.then(|| MultigridParams {
-            tolerance: args.tolerance,
-            ..MultigridParams::gpu()
-        }),
+        multigrid: if multigrid {
+            Some(
+                MultigridParams {
+                    tolerance: args.tolerance,
+                    ..MultigridParams::gpu()
+                }
+                .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?,
+            )
+        } else {
+            None
+        },
         ..GpuSolveParams::default()
     };
     let graph = Arc::new(graph);

@@ -22,9 +22,11 @@
 //! dispatch arguments of every level, so the V-cycles recorded after it dispatch nothing.
 //! With [`MultigridParams::krylov`] (the default) the V-cycles precondition a flexible CG
 //! (Notay 2000; `krylov.comp`, as the CPU [`Hierarchy::solve`]): per iteration one V-cycle from
-//! zero on the CG residual, the dot products `R . z`, `R . z_old`, `p . K p` and `R . R` reduced
-//! per workgroup and summed by `check` into the scalars beta and alpha of the control record (no
-//! read-back), and the same convergence check on the CG residual. The CPU reads nothing inside the
+//! zero on the CG residual, then two finest-level passes: K z with the dot products `R . z`,
+//! `R . z_old`, `z . K z`, `z . K dir_old` reduced per workgroup (summed by `check` into beta, alpha
+//! and `dir . K dir` of the control record, K dir following from K z by the direction's
+//! recurrence), and the step (direction, K dir, iterate, residual, `R . R`); no read-back; the same
+//! convergence check on the CG residual. The CPU reads nothing inside the
 //! frame; [`GpuMultigrid::report`] reads the log afterwards. `output` writes x into the finest
 //! level's phi image, which the exitance pass reads as it reads the cascade's.
 //!
@@ -113,6 +115,8 @@ pub struct MultigridControl {
     pub rz: [f32; 4],
     pub alpha: [f32; 4],
     pub beta: [f32; 4],
+    /// `dir . K dir` of the current direction (the next iteration's recurrence reads it).
+    pub dkd: [f32; 4],
     pub residual: [f32; MAX_LOG],
 }
 
@@ -139,7 +143,7 @@ pub struct GpuMultigridReport {
     pub converged: bool,
     pub state: CycleState,
     /// Node updates / finest nodes (as the CPU [`Hierarchy::solve`] counts them; a CG iteration
-    /// also counts its four passes over the finest level: dots, direction, K p, update).
+    /// also counts its two passes over the finest level: K z with the dots, and the step).
     pub work_units: f64,
     /// Matrix entries read (operator rows with their diagonal, prolongation and restriction
     /// links) / the entries of one finest-level operator application: the work unit that
@@ -189,16 +193,16 @@ const KRYLOV: usize = 8;
 
 /// Modes of `multigrid/krylov.comp` (see the shader).
 const CG_START: u32 = 0;
-const CG_DOTS: u32 = 1;
-const CG_DIRECTION: u32 = 2;
-const CG_APPLY: u32 = 3;
-const CG_UPDATE: u32 = 4;
+const CG_APPLY: u32 = 1;
+const CG_STEP: u32 = 2;
 const CG_FINISH: u32 = 5;
 /// Modes of `multigrid/check.comp`.
 const CHECK_REFERENCE: u32 = 0;
 const CHECK_RESIDUAL: u32 = 1;
-const CHECK_BETA: u32 = 2;
-const CHECK_ALPHA: u32 = 3;
+const CHECK_CG: u32 = 2;
+/// Blocks of workgroup sums the CG apply pass writes (`partials` holds this many times the
+/// finest level's workgroups).
+const CG_SUMS: usize = 4;
 
 /// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
 const KERNELS: [(&str, &str, &[&str]); 9] = [
@@ -215,7 +219,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid smooth",
         "multigrid/smooth.comp",
-        &["x", "d", "r", "diag", "partner", "partner_value"],
+        &["x", "d", "r", "diag", "partner", "partner_value", "f"],
     ),
     (
         "multigrid restrict",
@@ -258,12 +262,13 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
             "diag",
             "partials",
             "control",
+            "kdir",
         ],
     ),
 ];
 
 /// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 21] = [
+const BUFFER_NAMES: [&str; 22] = [
     "x",
     "f",
     "r",
@@ -285,10 +290,13 @@ const BUFFER_NAMES: [&str; 21] = [
     "sol",
     "dir",
     "z_old",
+    "kdir",
 ];
 
 /// The buffers the kernels write (the others are written once, from the host).
-const WRITTEN: [&str; 8] = ["x", "f", "r", "d", "partials", "sol", "dir", "z_old"];
+const WRITTEN: [&str; 9] = [
+    "x", "f", "r", "d", "partials", "sol", "dir", "z_old", "kdir",
+];
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
@@ -437,7 +445,7 @@ impl GpuMultigrid {
         let zeros = vec![[0.0f32; 4]; total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
         let krylov_zeros = vec![[0.0f32; 4]; if params.krylov { n_top } else { 0 }];
-        let contents: [Vec<u8>; 21] = [
+        let contents: [Vec<u8>; 22] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
@@ -455,8 +463,9 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&t_weight).to_vec(),
             bytemuck::cast_slice(&node_texel).to_vec(),
             bytemuck::cast_slice(&rhs_coef).to_vec(),
-            // Two halves: the dots kernel's second sum goes at `partials`.
-            bytemuck::cast_slice(&vec![[0.0f32; 4]; 2 * partials as usize]).to_vec(),
+            // CG_SUMS blocks: the CG apply pass's k-th sum goes at `k * partials`.
+            bytemuck::cast_slice(&vec![[0.0f32; 4]; CG_SUMS * partials as usize]).to_vec(),
+            bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
@@ -688,7 +697,9 @@ impl GpuMultigrid {
                 rec.coarse();
                 for l in 1..=top {
                     rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3]);
-                    rec.v_cycle(l);
+                    for _ in 0..self.params.fmg_cycles_at(l, top) {
+                        rec.v_cycle(l, false);
+                    }
                 }
             }
             rec.residual_check();
@@ -703,7 +714,7 @@ impl GpuMultigrid {
                 rec.direct(KRYLOV, top, CG_FINISH, n_top);
             } else {
                 for _ in 1..max_log {
-                    rec.v_cycle(top);
+                    rec.v_cycle(top, false);
                     rec.residual_check();
                 }
             }
@@ -734,15 +745,21 @@ impl GpuMultigrid {
     }
 
     /// Matrix entries one V-cycle from level `l` reads (see [`GpuMultigridReport::matvec_units`]).
-    fn v_cycle_entries(&self, l: usize) -> u64 {
+    /// `from_zero`: the cycle starts from x = 0 (a coarse correction, or the CG's preconditioner),
+    /// so its first smoothing step reads f and no residual.
+    fn v_cycle_entries(&self, l: usize, from_zero: bool) -> u64 {
         let level = &self.levels[l];
         if l == 0 {
-            return u64::from(self.coarse_steps) * level.entries;
+            // The coarsest level always starts from zero (the restriction zeroes it).
+            return u64::from(self.coarse_steps.saturating_sub(1)) * level.entries;
         }
         let (pre, post) = self.sweeps(l);
-        // A residual per smoothing step and one before the restriction; restriction and
-        // prolongation read the links once each.
-        u64::from(pre + post + 1) * level.entries + 2 * level.links + self.v_cycle_entries(l - 1)
+        // A residual per smoothing step (but a first one from zero) and one before the
+        // restriction; restriction and prolongation read the links once each.
+        let skipped = u32::from(from_zero && pre > 0);
+        u64::from(pre + post + 1 - skipped) * level.entries
+            + 2 * level.links
+            + self.v_cycle_entries(l - 1, true)
     }
 
     /// What the last solve did, from its control record.
@@ -754,10 +771,11 @@ impl GpuMultigrid {
         let log: Vec<f64> = c.residual[..logged].iter().map(|&v| f64::from(v)).collect();
         let warm = self.warm.get();
         let per = |u: u64| u as f64 / n_top as f64;
-        // A CG iteration: the V-cycle, then the dots, direction, K dir and update passes; without
-        // CG the V-cycle and the residual (its norm in the same pass).
+        // A CG iteration: the V-cycle, then the apply (K z and the dots) and step (direction,
+        // K dir, iterate and residual) passes; without CG the V-cycle and the residual (its norm
+        // in the same pass).
         let krylov = self.params.krylov;
-        let v_updates = self.v_cycle_updates(top) + if krylov { 4 * n_top } else { n_top };
+        let v_updates = self.v_cycle_updates(top) + if krylov { 2 * n_top } else { n_top };
         // CG: the start and finish passes (x into the iterate and back).
         let krylov_ends = if krylov { 2 * n_top } else { 0 };
         let mut cycles = Vec::new();
@@ -768,7 +786,10 @@ impl GpuMultigrid {
                 n_top
             } else {
                 (1..=top)
-                    .map(|l| 2 * u64::from(self.levels[l].count) + self.v_cycle_updates(l))
+                    .map(|l| {
+                        2 * u64::from(self.levels[l].count)
+                            + u64::from(self.params.fmg_cycles_at(l, top)) * self.v_cycle_updates(l)
+                    })
                     .sum::<u64>()
                     + self.v_cycle_updates(0)
                     + n_top
@@ -814,15 +835,19 @@ impl GpuMultigrid {
         // The same passes in matrix entries: the finest residual or K p once per cycle (plus
         // the start's), full multigrid's restrictions, coarsest solve, prolongations, V-cycles.
         let top_entries = self.levels[top].entries;
-        let v_entries = self.v_cycle_entries(top) + top_entries;
+        let v_entries = self.v_cycle_entries(top, self.params.krylov) + top_entries;
         let start_entries = top_entries
             + if warm {
                 0
             } else {
                 (1..=top)
-                    .map(|l| 2 * self.levels[l].links + self.v_cycle_entries(l))
+                    .map(|l| {
+                        2 * self.levels[l].links
+                            + u64::from(self.params.fmg_cycles_at(l, top))
+                                * self.v_cycle_entries(l, false)
+                    })
                     .sum::<u64>()
-                    + self.v_cycle_entries(0)
+                    + self.v_cycle_entries(0, true)
             };
         let matvec_units =
             (start_entries + v_cycles * v_entries) as f64 / top_entries.max(1) as f64;

@@ -61,6 +61,7 @@ use crate::material::MaterialField;
 use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
 use crate::quadgraph::shepard::ShepardIndex;
 
+mod cycle_spec;
 mod prolongation;
 mod smoothers;
 mod sparse;
@@ -163,6 +164,10 @@ pub struct MultigridParams {
     pub max_cycles: u32,
     /// Relative residual the coarsest level's CG reaches in every visit.
     pub coarse_tolerance: f64,
+    /// V-cycles per level below the finest in the cold start's full multigrid pass (after each
+    /// prolongation; the finest level gets one, the CG iterations after it are the better use
+    /// of its work): the coarse levels are cheap, more cycles there start the finest closer.
+    pub fmg_cycles: u32,
     /// Lanczos (CG) steps for lambda_max of `B^-1 K` (Chebyshev and the smoothed prolongation).
     pub power_iterations: u32,
 }
@@ -187,6 +192,7 @@ impl Default for MultigridParams {
             tolerance: 1e-4,
             max_cycles: 100,
             coarse_tolerance: 1e-3,
+            fmg_cycles: 1,
             power_iterations: 20,
         }
     }
@@ -194,13 +200,21 @@ impl Default for MultigridParams {
 
 impl MultigridParams {
     /// The GPU cycle's defaults (`solver::gpu::multigrid`, `translucent render`): [`Self::default`]
-    /// with one pre- and one post-sweep on the Galerkin levels between the finest and the
-    /// coarsest, and the coarsest level solved to 0.3 (6 Chebyshev steps instead of 21 on the
-    /// default scene). Measured in benches/RESULTS.md, "Multigrid time per work unit (wave 5)":
+    /// with the coarsest level solved to 0.3 (6 Chebyshev steps instead of 21 on the default
+    /// scene). Measured in benches/RESULTS.md, "Multigrid time per work unit (wave 5)":
     /// the same 6 CG entries to 1e-4 on the default scene for 41% fewer matrix entries read.
+    ///
+    /// Wave 6 (benches/RESULTS.md, "Smoother and cycle schedule (wave 6)"): Chebyshev degree 3 on
+    /// the finest level (pre and post), degree 2 on the middle levels, on `[0.07, 1] lambda_max`:
+    /// the CG factor per cycle 0.23 -> 0.10 on the default scene (0.28 -> 0.13 spot, 0.27 -> 0.11
+    /// nefertiti), two CG iterations fewer on all three (6 -> 4 log entries); 63 -> 53-54 work
+    /// units (73 before the two-pass CG iteration).
     pub fn gpu() -> Self {
         Self {
-            coarse_sweeps: Some(1),
+            smoother: Smoother::Chebyshev { lower: 0.07 },
+            pre_sweeps: 3,
+            post_sweeps: 3,
+            coarse_sweeps: Some(2),
             coarse_tolerance: 0.3,
             ..Self::default()
         }
@@ -211,6 +225,16 @@ impl MultigridParams {
         match self.coarse_sweeps {
             Some(n) if level > 0 && level < finest => (n, n),
             _ => (self.pre_sweeps, self.post_sweeps),
+        }
+    }
+
+    /// V-cycles on `level` in the full multigrid pass of a hierarchy whose finest level is
+    /// `finest` ([`Self::fmg_cycles`] below the finest, one on it).
+    pub fn fmg_cycles_at(&self, level: usize, finest: usize) -> u32 {
+        if level < finest {
+            self.fmg_cycles
+        } else {
+            1
         }
     }
 
@@ -253,6 +277,9 @@ impl MultigridParams {
             if !(0.0..1.0).contains(&theta) {
                 return bad("sparsify", format!("{theta} must lie in [0, 1)"));
             }
+        }
+        if !(1..=8).contains(&self.fmg_cycles) {
+            return bad("fmg_cycles", format!("{} must be 1 to 8", self.fmg_cycles));
         }
         if !(1..=1000).contains(&self.power_iterations) {
             return bad(
@@ -540,7 +567,9 @@ impl Hierarchy {
                     }
                     work.updates += self.levels[l].node_count() as u64;
                     work.entries += self.levels[l].link_entries();
-                    self.v_cycle(l, &mut up, rhs_l, params, &mut work);
+                    for _ in 0..params.fmg_cycles_at(l, top) {
+                        self.v_cycle(l, &mut up, rhs_l, params, &mut work);
+                    }
                     x = up;
                 }
                 residual = max3(self.relative_residual(&x, f));

@@ -86,11 +86,12 @@ impl Recorder<'_> {
         }
     }
 
-    /// `steps` steps of the level's Chebyshev polynomial (damped Jacobi: alpha = 0).
+    /// `steps` steps of the level's Chebyshev polynomial (damped Jacobi: alpha = 0); `from_zero`:
+    /// x = 0 on entry, so the first step's residual is f and its residual pass is skipped.
     ///
     /// # Safety
     /// As [`GpuMultigrid::record`].
-    pub(super) unsafe fn smooth(&self, level: usize, steps: u32) {
+    pub(super) unsafe fn smooth(&self, level: usize, steps: u32, from_zero: bool) {
         let bounds = self.mg.levels[level].bounds;
         for step in 0..steps {
             let (alpha, beta): ([f64; 3], [f64; 3]) = match self.mg.params.smoother {
@@ -103,8 +104,12 @@ impl Recorder<'_> {
             let alpha = if step == 0 { [0.0; 3] } else { alpha };
             // SAFETY: the caller's contract.
             unsafe {
-                self.indirect(RESIDUAL, level, 0, [0.0; 3], [0.0; 3]);
-                self.indirect(SMOOTH, level, 0, alpha, beta);
+                if from_zero && step == 0 {
+                    self.indirect(SMOOTH, level, 1, alpha, beta);
+                } else {
+                    self.indirect(RESIDUAL, level, 0, [0.0; 3], [0.0; 3]);
+                    self.indirect(SMOOTH, level, 0, alpha, beta);
+                }
             }
         }
     }
@@ -114,13 +119,17 @@ impl Recorder<'_> {
     /// # Safety
     /// As [`GpuMultigrid::record`].
     pub(super) unsafe fn coarse(&self) {
+        // The restriction zeroed the coarsest x (full multigrid's and every V-cycle's).
         // SAFETY: the caller's contract.
-        unsafe { self.smooth(0, self.mg.coarse_steps) };
+        unsafe { self.smooth(0, self.mg.coarse_steps, true) };
     }
 
+    /// One V-cycle from level `l`; `from_zero`: x = 0 on entry (a coarse correction, or the CG's
+    /// preconditioner applied to the CG residual).
+    ///
     /// # Safety
     /// As [`GpuMultigrid::record`].
-    pub(super) unsafe fn v_cycle(&self, l: usize) {
+    pub(super) unsafe fn v_cycle(&self, l: usize, from_zero: bool) {
         // SAFETY: the caller's contract.
         unsafe {
             if l == 0 {
@@ -128,12 +137,13 @@ impl Recorder<'_> {
                 return;
             }
             let (pre, post) = self.mg.sweeps(l);
-            self.smooth(l, pre);
+            self.smooth(l, pre, from_zero);
             self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
             self.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
-            self.v_cycle(l - 1);
+            // The restriction zeroed the coarser level's x.
+            self.v_cycle(l - 1, true);
             self.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]);
-            self.smooth(l, post);
+            self.smooth(l, post, false);
         }
     }
 
@@ -151,8 +161,9 @@ impl Recorder<'_> {
         }
     }
 
-    /// One flexible CG iteration preconditioned by one V-cycle (`krylov.comp`), ending in the
-    /// convergence check of the CG residual.
+    /// One flexible CG iteration preconditioned by one V-cycle (`krylov.comp`: two finest-level
+    /// passes, K z with the dot products, then the step), ending in the convergence check of the
+    /// CG residual.
     ///
     /// # Safety
     /// As [`GpuMultigrid::record`].
@@ -161,13 +172,11 @@ impl Recorder<'_> {
         let none = [0.0; 3];
         // SAFETY: the caller's contract.
         unsafe {
-            self.v_cycle(top);
-            self.indirect(KRYLOV, top, CG_DOTS, none, none);
-            self.check(CHECK_BETA);
-            self.indirect(KRYLOV, top, CG_DIRECTION, none, none);
+            // The step zeroed x: the V-cycle preconditions the CG residual from zero.
+            self.v_cycle(top, true);
             self.indirect(KRYLOV, top, CG_APPLY, none, none);
-            self.check(CHECK_ALPHA);
-            self.indirect(KRYLOV, top, CG_UPDATE, none, none);
+            self.check(CHECK_CG);
+            self.indirect(KRYLOV, top, CG_STEP, none, none);
             self.check(CHECK_RESIDUAL);
         }
     }

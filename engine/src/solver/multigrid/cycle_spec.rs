@@ -1,0 +1,84 @@
+//! The cycle's smoother and schedule written as text (`translucent render --multigrid-cycle`,
+//! `translucent bench --multigrid-cycle`): `key=value` items separated by commas, each replacing
+//! one field of a [`MultigridParams`]; what is not named keeps its value.
+//!
+//! | key | field | example |
+//! |---|---|---|
+//! | `nu` | `pre_sweeps` / `post_sweeps` (Chebyshev degree on the finest level) | `nu=3/3` |
+//! | `cnu` | `coarse_sweeps` (the levels between the finest and the coarsest) | `cnu=1` |
+//! | `cheb` | `Smoother::Chebyshev { lower }` | `cheb=0.2` |
+//! | `jacobi` | `Smoother::Jacobi { omega }` | `jacobi=0.8` |
+//! | `ctol` | `coarse_tolerance` | `ctol=0.3` |
+//! | `fmg` | `fmg_cycles` | `fmg=2` |
+//! | `krylov` | `krylov` (0 or 1) | `krylov=0` |
+//!
+//! ```
+//! use translucent::solver::multigrid::MultigridParams;
+//! let p = MultigridParams::gpu().with_cycle_spec("nu=3/3,cheb=0.2,fmg=2")?;
+//! assert_eq!((p.pre_sweeps, p.post_sweeps, p.fmg_cycles), (3, 3, 2));
+//! assert!(MultigridParams::gpu().with_cycle_spec("nu=3").is_err());
+//! # Ok::<(), translucent::solver::SolverError>(())
+//! ```
+
+use super::{MultigridParams, Smoother};
+use crate::solver::SolverError;
+
+impl MultigridParams {
+    /// `self` with the fields `spec` names replaced (see the module doc), validated.
+    pub fn with_cycle_spec(&self, spec: &str) -> Result<Self, SolverError> {
+        let bad = |problem: String| SolverError::BadParameter {
+            name: "multigrid cycle",
+            problem,
+        };
+        let mut p = self.clone();
+        for item in spec.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            let (key, value) = item
+                .split_once('=')
+                .ok_or_else(|| bad(format!("`{item}` is not key=value")))?;
+            let number = |v: &str| {
+                v.parse::<f64>()
+                    .map_err(|_| bad(format!("{key}: `{v}` is not a number")))
+            };
+            let count = |v: &str| {
+                v.parse::<u32>()
+                    .map_err(|_| bad(format!("{key}: `{v}` is not a count")))
+            };
+            match key {
+                "nu" => {
+                    let (pre, post) = value
+                        .split_once('/')
+                        .ok_or_else(|| bad(format!("nu: `{value}` is not PRE/POST")))?;
+                    p.pre_sweeps = count(pre)?;
+                    p.post_sweeps = count(post)?;
+                }
+                "cnu" => p.coarse_sweeps = Some(count(value)?),
+                "cheb" => {
+                    p.smoother = Smoother::Chebyshev {
+                        lower: number(value)?,
+                    }
+                }
+                "jacobi" => {
+                    p.smoother = Smoother::Jacobi {
+                        omega: number(value)?,
+                    }
+                }
+                "ctol" => p.coarse_tolerance = number(value)?,
+                "fmg" => p.fmg_cycles = count(value)?,
+                "krylov" => {
+                    p.krylov = match value {
+                        "0" => false,
+                        "1" => true,
+                        v => return Err(bad(format!("krylov: `{v}` is not 0 or 1"))),
+                    }
+                }
+                k => {
+                    return Err(bad(format!(
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, krylov)"
+                    )))
+                }
+            }
+        }
+        p.validate()?;
+        Ok(p)
+    }
+}
