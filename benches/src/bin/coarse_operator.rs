@@ -23,6 +23,8 @@ use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
 use translucent::solver::multigrid::{CoarseOperator, MultigridParams, OperatorStorage};
 use translucent::solver::{self, rel_rms, CpuSolveParams};
+use translucent::frame::quadgraph::PASS_EDITS;
+use translucent::frame::FrameGraph;
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;
 
@@ -142,6 +144,34 @@ fn variants() -> Vec<(&'static str, MultigridParams)> {
     ]
 }
 
+/// Runs the edits `GpuDiffusion::new` staged (a heterogeneous material's weight derivation) in
+/// their own submission: `solve_headless` records the solve and the exitance only.
+fn apply_edits(ctx: &Context, gpu: &mut GpuDiffusion) -> Result<()> {
+    let Some(edits) = gpu.take_edits() else {
+        return Ok(());
+    };
+    let gpu = &*gpu;
+    let edits = &edits;
+    let mut result = Ok(());
+    ctx.execute("coarse_operator edits", |cb| {
+        let mut graph = FrameGraph::new(ctx);
+        graph
+            .pass(PASS_EDITS)
+            .uses(gpu.edit_uses(edits))
+            .record(move |p| {
+                // SAFETY: inside the pass declaring the edits' uses; `gpu` and `edits` outlive
+                // the waited submission.
+                unsafe { gpu.record_edits(p.ctx, p.cb, edits, p.profiler()) };
+                Ok(())
+            });
+        // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
+        result = unsafe { graph.execute(cb, None, false) }.map(|_| ());
+        Ok(())
+    })?;
+    result?;
+    Ok(())
+}
+
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let scenes: Vec<&str> = if args.is_empty() {
@@ -171,6 +201,7 @@ fn main() -> Result<()> {
             let mut gpu = GpuDiffusion::new(&ctx, &graph, &field, &params)?;
             gpu.set_q_scale(GpuDiffusion::exposure_for(q.iter()));
             gpu.upload_q(&ctx, graph.levels.len() - 1, &q)?;
+            apply_edits(&ctx, &mut gpu)?;
             let mut ms = Vec::new();
             for _ in 0..=REPEATS {
                 let start = Instant::now();
