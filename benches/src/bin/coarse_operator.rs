@@ -2,7 +2,8 @@
 //! "Coarse operator and its storage (wave 6)": per scene and variant (Galerkin f32, Galerkin with
 //! fp16 coarse entries, Galerkin with weak entries dropped, re-discretized) one cold GPU solve to
 //! 1e-4: cycles, work units, matvec units, the multigrid's bytes per finest node, wall ms of the
-//! solve (median of 3 after a warm-up; lavapipe runs the submission on the CPU) and the J+ error
+//! solve (median of 3 after a warm-up, `COARSE_REPEATS=N` for N; lavapipe runs the submission on
+//! the CPU) and the J+ error
 //! against the f64 exact solve (PCG to 1e-10) of the same graph and q.
 //!
 //! ```text
@@ -33,6 +34,7 @@ type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 /// Render's auto resolution for the default scene, spot and the agate torus (29).
 const RESOLUTION: u32 = 29;
 const TOLERANCE: f64 = 1e-4;
+/// Timed solves per variant (after one warm-up); `COARSE_REPEATS` overrides.
 const REPEATS: usize = 3;
 
 fn bake(surface: &TriMesh, solid: &dyn translucent::mesh::Solid) -> Result<QuadGraph> {
@@ -109,36 +111,33 @@ fn scene() -> Scene {
 }
 
 fn variants() -> Vec<(&'static str, MultigridParams)> {
-    let gpu = MultigridParams::gpu();
+    let f16 = MultigridParams::gpu();
+    let f32 = MultigridParams {
+        coarse_storage: OperatorStorage::F32,
+        ..f16.clone()
+    };
     vec![
-        ("galerkin f32 (default)", gpu.clone()),
-        (
-            "galerkin f16",
-            MultigridParams {
-                coarse_storage: OperatorStorage::F16,
-                ..gpu.clone()
-            },
-        ),
+        ("galerkin f32 (wave 5)", f32.clone()),
+        ("galerkin f16 (default)", f16.clone()),
         (
             "galerkin drop 0.02",
             MultigridParams {
                 sparsify: Some(0.02),
-                ..gpu.clone()
+                ..f32.clone()
             },
         ),
         (
             "galerkin drop 0.02 + f16",
             MultigridParams {
                 sparsify: Some(0.02),
-                coarse_storage: OperatorStorage::F16,
-                ..gpu.clone()
+                ..f16
             },
         ),
         (
             "rediscretized",
             MultigridParams {
                 coarse: CoarseOperator::Rediscretized,
-                ..gpu
+                ..f32
             },
         ),
     ]
@@ -179,8 +178,12 @@ fn main() -> Result<()> {
     } else {
         args.iter().map(String::as_str).collect()
     };
+    let repeats: usize = match std::env::var("COARSE_REPEATS") {
+        Ok(v) => v.parse()?,
+        Err(_) => REPEATS,
+    };
     let ctx = Context::headless(&ContextDesc::default())?;
-    println!("| scene | variant | finest nodes | multigrid B/node | total B/node | cycles | WU | matvec units | residual | ms (median of {REPEATS}) | J+ vs f64 exact |");
+    println!("| scene | variant | finest nodes | multigrid B/node | total B/node | cycles | WU | matvec units | residual | ms (median of {repeats}) | J+ vs f64 exact |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for name in scenes {
         let (graph, field) = scene_of(name)?;
@@ -203,7 +206,7 @@ fn main() -> Result<()> {
             gpu.upload_q(&ctx, graph.levels.len() - 1, &q)?;
             apply_edits(&ctx, &mut gpu)?;
             let mut ms = Vec::new();
-            for _ in 0..=REPEATS {
+            for _ in 0..=repeats {
                 let start = Instant::now();
                 translucent::frame::quadgraph::solve_headless(&ctx, &mut gpu, false)?;
                 ms.push(start.elapsed().as_secs_f64() * 1e3);

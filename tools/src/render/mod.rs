@@ -167,8 +167,8 @@ pub struct RenderArgs {
     /// operator, 4-7 entries per row). benches/RESULTS.md, "Coarse operator and its storage".
     #[arg(long, value_name = "galerkin|rediscretized", value_parser = ["galerkin", "rediscretized"])]
     pub coarse_operator: Option<String>,
-    /// How the GPU multigrid stores the coarse levels' off-diagonal entries: `f32` (default) or
-    /// `f16` (relative to each row's diagonal, the rounding lumped onto the f32 diagonal); the
+    /// How the GPU multigrid stores the coarse levels' off-diagonal entries: `f16` (the default:
+    /// relative to each row's diagonal, the rounding lumped onto the f32 diagonal) or `f32`; the
     /// finest level stays f32.
     #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
     pub coarse_storage: Option<String>,

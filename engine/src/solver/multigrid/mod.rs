@@ -241,10 +241,16 @@ impl MultigridParams {
     /// coarsest, and the coarsest level solved to 0.3 (6 Chebyshev steps instead of 21 on the
     /// default scene). Measured in benches/RESULTS.md, "Multigrid time per work unit (wave 5)":
     /// the same 6 CG entries to 1e-4 on the default scene for 41% fewer matrix entries read.
+    ///
+    /// The coarse levels' entries in fp16 ([`OperatorStorage::F16`]; benches/RESULTS.md, "Coarse
+    /// operator and its storage (wave 6)"): the same cycles, work units and J+ to three digits on
+    /// the default scene, spot, agate and the 1e4 contrast, 88-93 bytes per finest node less, and
+    /// not slower on lavapipe.
     pub fn gpu() -> Self {
         Self {
             coarse_sweeps: Some(1),
             coarse_tolerance: 0.3,
+            coarse_storage: OperatorStorage::F16,
             ..Self::default()
         }
     }
