@@ -198,10 +198,25 @@ fn fp16_and_rediscretized_coarse_levels_reach_the_exact_solve_on_the_spot_mesh()
     let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
     let exact = exact(&graph, &field);
     for (what, coarse, storage) in [
-        ("spot, galerkin f16", CoarseOperator::Galerkin, OperatorStorage::F16),
-        ("spot, rediscretized", CoarseOperator::Rediscretized, OperatorStorage::F32),
+        (
+            "spot, galerkin f16",
+            CoarseOperator::Galerkin,
+            OperatorStorage::F16,
+        ),
+        (
+            "spot, rediscretized",
+            CoarseOperator::Rediscretized,
+            OperatorStorage::F32,
+        ),
     ] {
-        converges(ctx, what, &graph, &field, &exact, multigrid(coarse, storage));
+        converges(
+            ctx,
+            what,
+            &graph,
+            &field,
+            &exact,
+            multigrid(coarse, storage),
+        );
     }
     gpu.finish();
 }
@@ -295,10 +310,7 @@ fn multigrid_bytes_follow_the_operator_layout() {
         );
         let hierarchy = Hierarchy::build(&graph, &field, solver::Scheme::Fv, &mg).expect("cpu");
         for (name, expected) in operator_layout(&hierarchy, storage) {
-            let got = by_buffer
-                .iter()
-                .find(|&&(n, _)| n == name)
-                .map(|&(_, b)| b);
+            let got = by_buffer.iter().find(|&&(n, _)| n == name).map(|&(_, b)| b);
             assert_eq!(got, Some(expected), "{coarse:?} {storage:?}: {name}");
         }
         let entries: u64 = hierarchy
@@ -311,7 +323,9 @@ fn multigrid_bytes_follow_the_operator_layout() {
             OperatorStorage::F32 => F32_ENTRY * entries,
             OperatorStorage::F16 => F32_ENTRY * finest + F16_ENTRY * (entries - finest),
         };
-        println!("{coarse:?} {storage:?}: {total} bytes, {entries} entries, {entry_bytes} entry bytes");
+        println!(
+            "{coarse:?} {storage:?}: {total} bytes, {entries} entries, {entry_bytes} entry bytes"
+        );
         totals.push(total);
         drop(solve);
     }

@@ -16,6 +16,8 @@
 use std::time::Instant;
 
 use glam::DVec3;
+use translucent::frame::quadgraph::PASS_EDITS;
+use translucent::frame::FrameGraph;
 use translucent::material::{Coefficients, Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
@@ -24,8 +26,6 @@ use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
 use translucent::solver::multigrid::{CoarseOperator, MultigridParams, OperatorStorage};
 use translucent::solver::{self, rel_rms, CpuSolveParams};
-use translucent::frame::quadgraph::PASS_EDITS;
-use translucent::frame::FrameGraph;
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;
 
@@ -54,11 +54,13 @@ fn torus() -> Shape {
 }
 
 fn scene_of(name: &str) -> Result<(QuadGraph, MaterialField)> {
-    let preset = |n: &str| -> Result<MaterialField> {
-        Ok(MaterialField::Homogeneous(Material::preset(n)?))
-    };
+    let preset =
+        |n: &str| -> Result<MaterialField> { Ok(MaterialField::Homogeneous(Material::preset(n)?)) };
     Ok(match name {
-        "default" => (bake(&torus().triangulate(64), &torus())?, preset("skimmilk")?),
+        "default" => (
+            bake(&torus().triangulate(64), &torus())?,
+            preset("skimmilk")?,
+        ),
         "spot" => {
             let dir = std::env::var("TRANSLUCENT_MESH_DIR").unwrap_or("../shared/meshes".into());
             let (solid, _, _) = MeshSolid::load(

@@ -217,7 +217,16 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid residual",
         "multigrid/residual.comp",
-        &["x", "f", "r", "row_start", "cols", "values", "diag", "values16"],
+        &[
+            "x",
+            "f",
+            "r",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "values16",
+        ],
     ),
     (
         "multigrid smooth",
@@ -877,10 +886,7 @@ fn half_entry(v: [f64; 3], scale: f64) -> ([u32; 2], [f64; 3]) {
     let bits = |a: half::f16, b: half::f16| u32::from(a.to_bits()) | (u32::from(b.to_bits()) << 16);
     let scale32 = scale as f32;
     let effective = h.map(|c| f64::from(c.to_f32() * scale32));
-    (
-        [bits(h[0], h[1]), bits(h[2], half::f16::ZERO)],
-        effective,
-    )
+    ([bits(h[0], h[1]), bits(h[2], half::f16::ZERO)], effective)
 }
 
 /// Packs `hierarchy`'s operators for the kernels (`residual.comp`, `krylov.comp`), the coarse
@@ -933,13 +939,15 @@ fn pack_operators(
             }
             out.diag.push(d);
             let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
-            out.partner.push(if p == NO_NODE { NO_NODE } else { p + off });
+            out.partner
+                .push(if p == NO_NODE { NO_NODE } else { p + off });
             out.partner_value
                 .push(k.partner_value.get(i).copied().map_or([0.0; 4], rgb));
         }
         out.cols.extend(k.cols.iter().map(|&c| c + off));
         if half {
-            out.half_entries = u32::try_from(out.cols.len()).map_err(|_| too_big("the operator"))?;
+            out.half_entries =
+                u32::try_from(out.cols.len()).map_err(|_| too_big("the operator"))?;
         }
     }
     out.row_start
