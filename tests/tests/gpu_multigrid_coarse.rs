@@ -242,6 +242,7 @@ fn rediscretized_coarse_levels_report_divergence_on_the_1e4_contrast() {
     );
     assert_eq!(report.state, CycleState::Diverged, "{report:?}");
     assert!((report.cycles.len() as u32) < MAX_CYCLES, "{report:?}");
+    drop(solve);
     gpu.finish();
 }
 
