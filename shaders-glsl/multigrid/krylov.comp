@@ -17,6 +17,9 @@
 //             sol += alpha dir, R -= alpha kdir, z_old = z, x = 0; partials = R . R
 //   5 finish: x = sol (the solution the output pass writes and the next warm start reads)
 layout(local_size_x = 64) in;
+// The finest level's entries sit at e - HALF_ENTRIES of `values` (residual.comp: the coarse
+// levels' fp16 entries come first and live elsewhere).
+layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
 #include "common.glsl"
 
@@ -65,7 +68,7 @@ void reduce(vec3 s, uint slot) {
 vec3 apply_k(uint i) {
     vec3 acc = diag.v[i].rgb * x.v[i].rgb;
     for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
-        acc += values.v[e].rgb * x.v[cols.v[e]].rgb;
+        acc += values.v[e - HALF_ENTRIES].rgb * x.v[cols.v[e]].rgb;
     }
     return acc;
 }

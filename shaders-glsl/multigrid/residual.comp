@@ -1,7 +1,11 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // r = f - K x on one level (CSR rows, the diagonal apart).
+// Entries below HALF_ENTRIES (the coarse levels' under `--coarse-storage f16`, which come first)
+// are RGB fp16 in `values16` (two uints), relative to the row's scale in diag.a; the others are
+// RGB f32 in `values` at e - HALF_ENTRIES (`solver::gpu::multigrid`, `pack_operators`).
 layout(local_size_x = 64) in;
+layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
 #include "common.glsl"
 
@@ -12,15 +16,29 @@ layout(set = 0, binding = 3, std430) readonly buffer RowStart { uint v[]; } row_
 layout(set = 0, binding = 4, std430) readonly buffer Cols { uint v[]; } cols;
 layout(set = 0, binding = 5, std430) readonly buffer Values { vec4 v[]; } values;
 layout(set = 0, binding = 6, std430) readonly buffer Diag { vec4 v[]; } diag;
+layout(set = 0, binding = 7, std430) readonly buffer Values16 { uvec2 v[]; } values16;
 
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
         return;
     }
     uint i = pc.offset + gl_GlobalInvocationID.x;
-    vec3 acc = diag.v[i].rgb * x.v[i].rgb;
-    for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
-        acc += values.v[e].rgb * x.v[cols.v[e]].rgb;
+    vec4 d = diag.v[i];
+    uint first = row_start.v[i];
+    uint end = row_start.v[i + 1u];
+    vec3 acc = d.rgb * x.v[i].rgb;
+    if (first < HALF_ENTRIES) {
+        vec3 scaled = vec3(0.0);
+        for (uint e = first; e < end; ++e) {
+            uvec2 h = values16.v[e];
+            vec3 v = vec3(unpackHalf2x16(h.x), unpackHalf2x16(h.y).x);
+            scaled += v * x.v[cols.v[e]].rgb;
+        }
+        acc += d.a * scaled;
+    } else {
+        for (uint e = first; e < end; ++e) {
+            acc += values.v[e - HALF_ENTRIES].rgb * x.v[cols.v[e]].rgb;
+        }
     }
     r.v[i] = vec4(f.v[i].rgb - acc, 0.0);
 }

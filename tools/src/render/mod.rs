@@ -168,6 +168,20 @@ pub struct RenderArgs {
     /// textures derived once per edit (3 reads). benches/RESULTS.md, "Bytes per node (wave 5)".
     #[arg(long, value_name = "derived|stored", default_value = "derived", value_parser = ["derived", "stored"])]
     pub heterogeneous_weights: String,
+    /// The multigrid schedule's coarse-level operators (DESIGN 5.1): `galerkin` (the default,
+    /// `P^T K P`: ~130-480 entries per coarse row) or `rediscretized` (each coarse graph's own fv
+    /// operator, 4-7 entries per row). benches/RESULTS.md, "Coarse operator and its storage".
+    #[arg(long, value_name = "galerkin|rediscretized", value_parser = ["galerkin", "rediscretized"])]
+    pub coarse_operator: Option<String>,
+    /// How the GPU multigrid stores the coarse levels' off-diagonal entries: `f16` (the default:
+    /// relative to each row's diagonal, the rounding lumped onto the f32 diagonal) or `f32`; the
+    /// finest level stays f32.
+    #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
+    pub coarse_storage: Option<String>,
+    /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
+    /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
+    #[arg(long, value_name = "THETA")]
+    pub coarse_drop: Option<f64>,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
     /// every method): per display vertex the refracted view ray is marched at exponentially
     /// stratified depths up to the far face (a back-face depth pre-pass from the eye), lit through
@@ -460,6 +474,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let schedule = schedule_of(args);
     let multigrid = schedule == "multigrid";
+    let coarse_gpu = coarse_params(args, MultigridParams::gpu())?;
+    let coarse_cpu = coarse_params(args, MultigridParams::default())?;
+    if !multigrid
+        && (args.coarse_operator.is_some()
+            || args.coarse_storage.is_some()
+            || args.coarse_drop.is_some())
+    {
+        bail!("--coarse-operator, --coarse-storage and --coarse-drop shape the multigrid's coarse levels: add --schedule multigrid");
+    }
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
     }
@@ -600,7 +623,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             Schedule::Multigrid(
                 MultigridParams {
                     tolerance: args.tolerance,
-                    ..MultigridParams::default()
+                    ..coarse_cpu
                 }
                 .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?,
             )
@@ -659,7 +682,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             Some(
                 MultigridParams {
                     tolerance: args.tolerance,
-                    ..MultigridParams::gpu()
+                    ..coarse_gpu.clone()
                 }
                 .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?,
             )
@@ -839,7 +862,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         gpu_bytes = Some(translucent.gpu_bytes());
         let solve = quadgraph.solve();
         let finest_nodes = solve.node_count(solve.level_count() - 1);
-        gpu_bytes_split = Some(gpu_bytes_json(&solve.bytes_breakdown(), finest_nodes));
+        gpu_bytes_split = Some(gpu_bytes_json(
+            &solve.bytes_breakdown(),
+            &solve.multigrid_bytes_by_buffer(),
+            finest_nodes,
+        ));
         drop(host);
         drop(translucent);
     } else {
@@ -960,6 +987,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "frames": frames,
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "schedule": schedule,
+            // The multigrid's coarse operator and the GPU's storage of its coarse entries.
+            "coarse_operator": multigrid.then(|| format!("{:?}", coarse_gpu.coarse).to_lowercase()),
+            "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
+            "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             "source": match source {
                 solver::transport::Source::BoundaryFlux => "flux",
@@ -1010,6 +1041,25 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
+}
+
+/// `base` with the coarse-level options of `args` (`--coarse-operator`, `--coarse-storage`,
+/// `--coarse-drop`), checked.
+fn coarse_params(args: &RenderArgs, base: MultigridParams) -> anyhow::Result<MultigridParams> {
+    let params = MultigridParams {
+        coarse: match &args.coarse_operator {
+            Some(name) => name.parse()?,
+            None => base.coarse,
+        },
+        coarse_storage: match &args.coarse_storage {
+            Some(name) => name.parse()?,
+            None => base.coarse_storage,
+        },
+        sparsify: args.coarse_drop.filter(|&t| t > 0.0).or(base.sparsify),
+        ..base
+    };
+    params.validate()?;
+    Ok(params)
 }
 
 /// `lights` rotated about +Y by `degrees` (directions and positions).

@@ -122,10 +122,17 @@ pub(super) fn gpu_multigrid_json(
 /// in bytes and per finest-level node, beside the paper's ~90 bytes per node.
 pub(super) fn gpu_bytes_json(
     b: &translucent::solver::gpu::SolveBytes,
+    multigrid_by_buffer: &[(&str, u64)],
     finest_nodes: usize,
 ) -> serde_json::Value {
     let per_node = |v: u64| v as f64 / finest_nodes.max(1) as f64;
+    let by_buffer: serde_json::Map<String, serde_json::Value> = multigrid_by_buffer
+        .iter()
+        .map(|&(name, bytes)| (name.to_string(), per_node(bytes).into()))
+        .collect();
     serde_json::json!({
+        // The multigrid hierarchy's buffers, bytes per finest node (operators, links, vectors).
+        "multigrid_per_node_by_buffer": by_buffer,
         "textures": b.textures(),
         "multigrid": b.multigrid,
         "surface_shading": b.surface_shading(),

@@ -126,6 +126,14 @@ impl GpuDiffusion {
         (total, total as f64 / nodes.max(1) as f64)
     }
 
+    /// The multigrid hierarchy's bytes per buffer ([`multigrid::GpuMultigrid::bytes_by_buffer`];
+    /// empty under the cascade): they sum to [`SolveBytes::multigrid`].
+    pub fn multigrid_bytes_by_buffer(&self) -> Vec<(&'static str, u64)> {
+        self.multigrid
+            .as_ref()
+            .map_or_else(Vec::new, |m| m.bytes_by_buffer().to_vec())
+    }
+
     /// Every GPU byte of this solve, by kind (the fields add up to [`Self::bytes`]'s total).
     pub fn bytes_breakdown(&self) -> SolveBytes {
         let mut out = SolveBytes::default();

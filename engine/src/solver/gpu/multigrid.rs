@@ -5,7 +5,11 @@
 //! the [`Hierarchy`] (Galerkin coarse operators `P^T K P`, Lanczos bounds of `B^-1 K`), uploaded
 //! as storage buffers, every level's vectors concatenated (level `l` at node offset `offset_l`):
 //! - the operators in compressed rows (`row_start`, `cols`, `values` RGB f32, `diag`), with the
-//!   2x2 surface-node/cell blocks of the smoother (`partner`, `partner_value`);
+//!   2x2 surface-node/cell blocks of the smoother (`partner`, `partner_value`); with
+//!   [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels' entries are RGB fp16 in
+//!   `values16`, relative to their row's scale in `diag`'s fourth lane, each row's rounding lumped
+//!   onto its f32 diagonal (`pack_operators`); the coarse operators are Galerkin or the coarse
+//!   graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
 //! - the prolongation as the Shepard links (8 coarse nodes and weights per fine node) and its
 //!   transpose by coarse rows for the restriction (`t_start`, `t_fine`, `t_weight`): both gathers;
 //! - x, f, r and the Chebyshev direction d per node; the finest node -> texel map and the
@@ -55,9 +59,10 @@ use ash::vk;
 
 use super::record::scope;
 use crate::quadgraph::graph::{Packing, NO_NODE};
-use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
+use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
-    chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, MultigridParams, Smoother,
+    chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, MultigridParams,
+    OperatorStorage, Smoother,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -178,6 +183,8 @@ pub struct GpuMultigrid {
     pipelines: Vec<(ComputePipeline<MultigridPush>, vk::DescriptorSet)>,
     warm: Cell<bool>,
     bytes: u64,
+    /// Bytes per buffer, in [`BUFFER_NAMES`] order, then the control record.
+    buffer_bytes: Vec<(&'static str, u64)>,
 }
 
 /// Pipeline indices into [`GpuMultigrid::pipelines`].
@@ -214,7 +221,16 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid residual",
         "multigrid/residual.comp",
-        &["x", "f", "r", "row_start", "cols", "values", "diag"],
+        &[
+            "x",
+            "f",
+            "r",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "values16",
+        ],
     ),
     (
         "multigrid smooth",
@@ -268,7 +284,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
 ];
 
 /// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 22] = [
+const BUFFER_NAMES: [&str; 23] = [
     "x",
     "f",
     "r",
@@ -291,6 +307,7 @@ const BUFFER_NAMES: [&str; 22] = [
     "dir",
     "z_old",
     "kdir",
+    "values16",
 ];
 
 /// The buffers the kernels write (the others are written once, from the host).
@@ -344,29 +361,11 @@ impl GpuMultigrid {
         if total >= u32::MAX as usize {
             return Err(too_big("the node count"));
         }
-        // Operators in compressed rows, every level's entries after the previous level's.
-        let mut row_start: Vec<u32> = Vec::with_capacity(total + 1);
-        let mut cols: Vec<u32> = Vec::new();
-        let mut values: Vec<[f32; 4]> = Vec::new();
-        let mut diag: Vec<[f32; 4]> = Vec::with_capacity(total);
-        let mut partner: Vec<u32> = Vec::with_capacity(total);
-        let mut partner_value: Vec<[f32; 4]> = Vec::with_capacity(total);
+        let ops = pack_operators(hierarchy, &offsets, params.coarse_storage)?;
         let mut links: Vec<[u32; 4]> = Vec::with_capacity(2 * total);
         let mut link_weights: Vec<[f32; 4]> = Vec::with_capacity(2 * total);
         for (l, level) in hierarchy.levels.iter().enumerate() {
             let k = &level.operator;
-            let base = cols.len();
-            let off = offsets[l] as u32;
-            for i in 0..k.node_count() {
-                let start = base + k.row_start[i];
-                row_start.push(u32::try_from(start).map_err(|_| too_big("the operator"))?);
-                diag.push(rgb(k.diag[i]));
-                let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
-                partner.push(if p == NO_NODE { NO_NODE } else { p + off });
-                partner_value.push(k.partner_value.get(i).copied().map_or([0.0; 4], rgb));
-            }
-            cols.extend(k.cols.iter().map(|&c| c + off));
-            values.extend(k.values.iter().map(|&v| rgb(v)));
             match (&level.prolongation, l.checked_sub(1)) {
                 (Some(p), Some(coarse)) => {
                     let coarse_off = offsets[coarse] as u32;
@@ -392,7 +391,6 @@ impl GpuMultigrid {
                 }
             }
         }
-        row_start.push(u32::try_from(cols.len()).map_err(|_| too_big("the operator"))?);
         // Restriction by coarse rows: level l's rows gather from level l + 1.
         let mut t_start: Vec<u32> = Vec::with_capacity(total + 1);
         let mut t_fine: Vec<u32> = Vec::new();
@@ -445,17 +443,17 @@ impl GpuMultigrid {
         let zeros = vec![[0.0f32; 4]; total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
         let krylov_zeros = vec![[0.0f32; 4]; if params.krylov { n_top } else { 0 }];
-        let contents: [Vec<u8>; 22] = [
+        let contents: [Vec<u8>; 23] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
-            bytemuck::cast_slice(&row_start).to_vec(),
-            bytemuck::cast_slice(&cols).to_vec(),
-            bytemuck::cast_slice(&values).to_vec(),
-            bytemuck::cast_slice(&diag).to_vec(),
-            bytemuck::cast_slice(&partner).to_vec(),
-            bytemuck::cast_slice(&partner_value).to_vec(),
+            bytemuck::cast_slice(&ops.row_start).to_vec(),
+            bytemuck::cast_slice(&ops.cols).to_vec(),
+            bytemuck::cast_slice(&ops.values).to_vec(),
+            bytemuck::cast_slice(&ops.diag).to_vec(),
+            bytemuck::cast_slice(&ops.partner).to_vec(),
+            bytemuck::cast_slice(&ops.partner_value).to_vec(),
             bytemuck::cast_slice(&links).to_vec(),
             bytemuck::cast_slice(&link_weights).to_vec(),
             bytemuck::cast_slice(&t_start).to_vec(),
@@ -469,9 +467,11 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
+            bytemuck::cast_slice(&ops.values16).to_vec(),
         ];
         let mut buffers = Vec::with_capacity(BUFFER_NAMES.len());
         let mut bytes = 0u64;
+        let mut buffer_bytes = Vec::with_capacity(BUFFER_NAMES.len() + 1);
         for (name, data) in BUFFER_NAMES.iter().zip(contents) {
             // An empty array (no off-diagonal entries, one level) still gets a buffer.
             let size = data.len().max(16) as u64;
@@ -490,6 +490,7 @@ impl GpuMultigrid {
                 buffer.write_bytes(0, &data)?;
             }
             bytes += size;
+            buffer_bytes.push((*name, size));
             buffers.push(buffer);
         }
         let control = Buffer::new(
@@ -504,9 +505,19 @@ impl GpuMultigrid {
             },
         )?;
         bytes += control.size;
+        buffer_bytes.push(("control", control.size));
         let mut pipelines = Vec::with_capacity(KERNELS.len());
         for (name, shader, bindings) in KERNELS {
-            let pipeline = ComputePipeline::new(
+            // The operator readers learn where the fp16 entries end (`pack_operators`).
+            let constants: &[SpecConstant] = if bindings.contains(&"values") {
+                &[SpecConstant {
+                    id: 0,
+                    value: ops.half_entries,
+                }]
+            } else {
+                &[]
+            };
+            let pipeline = ComputePipeline::new_specialized(
                 ctx,
                 &ComputePipelineDesc {
                     name,
@@ -514,6 +525,7 @@ impl GpuMultigrid {
                     bindings,
                     max_sets: 1,
                 },
+                constants,
             )?;
             let writes: Vec<DescriptorWrite<'_>> = bindings
                 .iter()
@@ -548,6 +560,7 @@ impl GpuMultigrid {
             pipelines,
             warm: Cell::new(false),
             bytes,
+            buffer_bytes,
         })
     }
 
@@ -604,6 +617,12 @@ impl GpuMultigrid {
     /// GPU bytes of the buffers.
     pub fn bytes(&self) -> u64 {
         self.bytes
+    }
+
+    /// Bytes per buffer (the operators' `row_start`, `cols`, `values`, `values16`, `diag`, ...,
+    /// the vectors, the control record): they sum to [`Self::bytes`].
+    pub fn bytes_by_buffer(&self) -> &[(&'static str, u64)] {
+        &self.buffer_bytes
     }
 
     /// Chebyshev steps of one coarsest-level solve.
@@ -864,4 +883,99 @@ impl GpuMultigrid {
             coarse_steps: self.coarse_steps,
         })
     }
+}
+
+/// The operators of every level as the kernels read them (compressed rows, every level's entries
+/// after the previous level's, coarsest first; columns and partners as global node indices).
+struct PackedOperators {
+    row_start: Vec<u32>,
+    cols: Vec<u32>,
+    /// RGB f32 entries: all of them, or with fp16 coarse levels the finest level's only (entry
+    /// `e` at `e - half_entries`).
+    values: Vec<[f32; 4]>,
+    /// RGB fp16 entries (r|g, b|0) of the coarse levels relative to their row's scale `diag.a`.
+    values16: Vec<[u32; 2]>,
+    /// Entries stored in `values16`: those of every level below the finest (0 with f32 storage).
+    half_entries: u32,
+    /// RGB diagonal (with fp16 entries: plus the row's rounding, so the row sums as before) and
+    /// the row's scale of its fp16 entries in the fourth lane (0 where unused).
+    diag: Vec<[f32; 4]>,
+    partner: Vec<u32>,
+    partner_value: Vec<[f32; 4]>,
+}
+
+/// The row of `values16` and its effective f32 values (what `residual.comp` multiplies with):
+/// `v / scale` rounded to fp16, times `scale` again.
+fn half_entry(v: [f64; 3], scale: f64) -> ([u32; 2], [f64; 3]) {
+    let h = v.map(|c| half::f16::from_f64(c / scale));
+    let bits = |a: half::f16, b: half::f16| u32::from(a.to_bits()) | (u32::from(b.to_bits()) << 16);
+    let scale32 = scale as f32;
+    let effective = h.map(|c| f64::from(c.to_f32() * scale32));
+    ([bits(h[0], h[1]), bits(h[2], half::f16::ZERO)], effective)
+}
+
+/// Packs `hierarchy`'s operators for the kernels (`residual.comp`, `krylov.comp`), the coarse
+/// levels' entries in fp16 under [`OperatorStorage::F16`]: each row's entries divided by the
+/// row's largest diagonal channel (an fp32 value, so a 1e4 contrast or a 10 m object stays inside
+/// fp16's range: |entry| <= diagonal for these M-matrices), and the rounding `v - fp16(v)` of the
+/// row added to its diagonal, so that `K 1` (the absorption) is unchanged row by row.
+fn pack_operators(
+    hierarchy: &Hierarchy,
+    offsets: &[usize],
+    storage: OperatorStorage,
+) -> Result<PackedOperators, Error> {
+    let total = offsets.last().copied().unwrap_or(0);
+    let top = hierarchy.levels.len().saturating_sub(1);
+    let mut out = PackedOperators {
+        row_start: Vec::with_capacity(total + 1),
+        cols: Vec::new(),
+        values: Vec::new(),
+        values16: Vec::new(),
+        half_entries: 0,
+        diag: Vec::with_capacity(total),
+        partner: Vec::with_capacity(total),
+        partner_value: Vec::with_capacity(total),
+    };
+    for (l, level) in hierarchy.levels.iter().enumerate() {
+        let k = &level.operator;
+        let half = storage == OperatorStorage::F16 && l < top;
+        let base = out.cols.len();
+        let off = offsets[l] as u32;
+        for i in 0..k.node_count() {
+            let start = base + k.row_start[i];
+            out.row_start
+                .push(u32::try_from(start).map_err(|_| too_big("the operator"))?);
+            let row = k.row_start[i]..k.row_start[i + 1];
+            let mut d = rgb(k.diag[i]);
+            if half {
+                let scale = f64::from(d[0].max(d[1]).max(d[2]));
+                let mut diag = k.diag[i];
+                for e in row {
+                    let (bits, effective) = half_entry(k.values[e], scale);
+                    out.values16.push(bits);
+                    for c in 0..3 {
+                        diag[c] += k.values[e][c] - effective[c];
+                    }
+                }
+                d = rgb(diag);
+                d[3] = scale as f32;
+            } else {
+                out.values.extend(row.map(|e| rgb(k.values[e])));
+            }
+            out.diag.push(d);
+            let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
+            out.partner
+                .push(if p == NO_NODE { NO_NODE } else { p + off });
+            out.partner_value
+                .push(k.partner_value.get(i).copied().map_or([0.0; 4], rgb));
+        }
+        out.cols.extend(k.cols.iter().map(|&c| c + off));
+        if half {
+            out.half_entries =
+                u32::try_from(out.cols.len()).map_err(|_| too_big("the operator"))?;
+        }
+    }
+    out.row_start
+        .push(u32::try_from(out.cols.len()).map_err(|_| too_big("the operator"))?);
+    Ok(out)
 }

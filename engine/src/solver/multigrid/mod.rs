@@ -106,6 +106,46 @@ pub enum CoarseOperator {
     Galerkin,
 }
 
+impl std::str::FromStr for CoarseOperator {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "galerkin" => Ok(Self::Galerkin),
+            "rediscretized" => Ok(Self::Rediscretized),
+            _ => Err(SolverError::BadParameter {
+                name: "coarse_operator",
+                problem: format!("'{s}' (expected galerkin or rediscretized)"),
+            }),
+        }
+    }
+}
+
+/// How the GPU stores the off-diagonal entries of the coarse levels' operators (the finest
+/// level's stay f32: they define the solution; the coarse levels only precondition it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum OperatorStorage {
+    /// RGB f32 per entry (16 bytes with the unused fourth lane).
+    #[default]
+    F32,
+    /// RGB fp16 per entry (8 bytes) relative to a per-row scale kept in the f32 diagonal's fourth
+    /// lane; the rounding lumped onto the f32 diagonal so every row still sums as before.
+    F16,
+}
+
+impl std::str::FromStr for OperatorStorage {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "f32" => Ok(Self::F32),
+            "f16" => Ok(Self::F16),
+            _ => Err(SolverError::BadParameter {
+                name: "coarse_storage",
+                problem: format!("'{s}' (expected f32 or f16)"),
+            }),
+        }
+    }
+}
+
 /// The weights of the prolongation's links.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum Interpolation {
@@ -154,6 +194,8 @@ pub struct MultigridParams {
     /// ([`SparseOperator::sparsified`] with this threshold): fewer entries per coarse row, a
     /// slightly weaker coarse correction. `None`: the exact Galerkin product.
     pub sparsify: Option<f64>,
+    /// How the GPU stores the coarse levels' off-diagonal entries (the CPU solve is f64 either way).
+    pub coarse_storage: OperatorStorage,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -188,6 +230,7 @@ impl Default for MultigridParams {
             surface_blocks: true,
             smoothed_prolongation: None,
             sparsify: None,
+            coarse_storage: OperatorStorage::F32,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,
@@ -209,6 +252,11 @@ impl MultigridParams {
     /// the CG factor per cycle 0.23 -> 0.10 on the default scene (0.28 -> 0.13 spot, 0.27 -> 0.11
     /// nefertiti), two CG iterations fewer on all three (6 -> 4 log entries); 63 -> 53-54 work
     /// units (73 before the two-pass CG iteration).
+    ///
+    /// The coarse levels' entries in fp16 ([`OperatorStorage::F16`]; benches/RESULTS.md, "Coarse
+    /// operator and its storage (wave 6)"): the same cycles, work units and J+ to three digits on
+    /// the default scene, spot, agate and the 1e4 contrast, 88-93 bytes per finest node less, and
+    /// not slower on lavapipe.
     pub fn gpu() -> Self {
         Self {
             smoother: Smoother::Chebyshev { lower: 0.07 },
@@ -216,6 +264,7 @@ impl MultigridParams {
             post_sweeps: 3,
             coarse_sweeps: Some(2),
             coarse_tolerance: 0.3,
+            coarse_storage: OperatorStorage::F16,
             ..Self::default()
         }
     }

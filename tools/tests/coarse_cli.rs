@@ -1,0 +1,95 @@
+//! `translucent render --coarse-operator / --coarse-storage / --coarse-drop` (issue 13): the JSON
+//! names what ran, the multigrid's bytes by buffer add up to its part of `gpu_bytes_split`, fp16
+//! coarse entries (the default) take fewer bytes than f32 for the same cycles, and the options are
+//! refused without the multigrid schedule.
+
+mod common;
+
+use std::path::Path;
+
+use common::{json_of, scratch, translucent};
+
+/// Bytes per node are printed as floats: their sum matches the part to rounding.
+const BYTES_ROUNDING: f64 = 1e-6;
+
+fn render(dir: &Path, extra: &[&str]) -> std::process::Output {
+    let out = dir.join("x.png");
+    let mut args = vec![
+        "render",
+        "--out",
+        out.to_str().expect("path"),
+        "--json",
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "--resolution",
+        "16",
+        "--levels",
+        "3",
+        "--supersample",
+        "1",
+        "--single-scattering",
+        "off",
+    ];
+    args.extend_from_slice(extra);
+    translucent(&args, dir)
+}
+
+fn multigrid_per_node(json: &serde_json::Value) -> f64 {
+    json["gpu_bytes_split"]["bytes_per_finest_node"]["multigrid"]
+        .as_f64()
+        .expect("multigrid bytes")
+}
+
+#[test]
+fn coarse_options_are_reported_and_fp16_entries_take_fewer_bytes() {
+    let dir = scratch("coarse");
+    let f16 = json_of(&render(&dir, &[]));
+    let f32 = json_of(&render(&dir, &["--coarse-storage", "f32"]));
+    let re = json_of(&render(&dir, &["--coarse-operator", "rediscretized"]));
+    assert_eq!(f16["coarse_operator"], "galerkin", "{f16}");
+    assert_eq!(f16["coarse_storage"], "f16", "the default");
+    assert_eq!(f32["coarse_storage"], "f32");
+    assert_eq!(re["coarse_operator"], "rediscretized");
+    for json in [&f16, &f32, &re] {
+        assert_eq!(json["multigrid"]["state"], "Converged", "{json}");
+        let by_buffer = json["gpu_bytes_split"]["multigrid_per_node_by_buffer"]
+            .as_object()
+            .expect("by buffer");
+        let sum: f64 = by_buffer.values().map(|v| v.as_f64().expect("bytes")).sum();
+        let part = multigrid_per_node(json);
+        assert!(
+            (sum - part).abs() <= BYTES_ROUNDING * part,
+            "buffers {sum} against the multigrid's {part}"
+        );
+    }
+    assert_eq!(
+        f16["multigrid"]["cycles"], f32["multigrid"]["cycles"],
+        "fp16 coarse entries only perturb the preconditioner"
+    );
+    assert!(multigrid_per_node(&f16) < multigrid_per_node(&f32));
+    assert!(multigrid_per_node(&re) < multigrid_per_node(&f16));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn coarse_options_need_the_multigrid_schedule() {
+    let dir = scratch("coarse-cascade");
+    for option in [
+        ["--coarse-operator", "rediscretized"],
+        ["--coarse-storage", "f32"],
+        ["--coarse-drop", "0.02"],
+    ] {
+        let out = render(
+            &dir,
+            &[&["--schedule", "cascade"][..], &option[..]].concat(),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{option:?} ran under the cascade");
+        assert!(stderr.contains("--schedule multigrid"), "{stderr}");
+    }
+    let out = render(&dir, &["--coarse-drop", "1.5"]);
+    assert!(!out.status.success(), "--coarse-drop 1.5 accepted");
+    let _ = std::fs::remove_dir_all(&dir);
+}
