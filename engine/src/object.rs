@@ -802,12 +802,17 @@ impl TranslucentObject {
         for &(pass, why) in plan.skipped.iter().chain(&method.skipped) {
             graph.skip(pass, why);
         }
+        // No light above the error budget, an environment and the whole mode: the pass writes
+        // the environment's closed form without the march's depths.
+        let environment_only = scattering && !clear && self.scatter.environment_only();
         if self.params.single_scattering.is_some() && (!scattering || clear) {
             let why = below_budget.unwrap_or(crate::frame::SkipReason::Unchanged);
             graph.skip(PASS_SCATTER_DEPTHS, why);
             if !scattering {
                 graph.skip(PASS_SINGLE_SCATTERING, why);
             }
+        } else if environment_only {
+            graph.skip(PASS_SCATTER_DEPTHS, crate::frame::SkipReason::DarkLights);
         }
         self.method.add_edit_passes(&mut graph);
         let mesh = &*self.mesh;
@@ -825,7 +830,7 @@ impl TranslucentObject {
         }
         self.method.add_passes(&mut graph, shadows)?;
         let scatter = &self.scatter;
-        if scattering && !clear {
+        if scattering && !clear && !environment_only {
             graph
                 .pass(PASS_SCATTER_DEPTHS)
                 .uses(scatter.depth_uses(mesh))
