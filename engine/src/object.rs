@@ -787,9 +787,19 @@ impl TranslucentObject {
         let clear = below_budget.is_some() && self.scatter.live();
         let scattering = self.params.single_scattering.is_some()
             && (clear || (scatter_stale && below_budget.is_none()));
+        // No light above the error budget, an environment and the whole mode: the pass writes
+        // the environment's closed form without the march's depths (recorded once, empty, so
+        // that the march's descriptor reads a written atlas).
+        let environment_only = scattering
+            && !clear
+            && self.scatter.environment_only()
+            && self.scatter.depths_written();
         if scattering {
             self.scatter.bind(ctx, &self.mesh, &self.shadows, eye)?;
             self.scatter.set_live(!clear);
+            if !clear {
+                self.scatter.set_depths_written();
+            }
         }
         let mut graph = FrameGraph::new(ctx);
         let after = |t: &TargetImage| (!targets.host_barriers).then_some(t.after);
@@ -802,9 +812,6 @@ impl TranslucentObject {
         for &(pass, why) in plan.skipped.iter().chain(&method.skipped) {
             graph.skip(pass, why);
         }
-        // No light above the error budget, an environment and the whole mode: the pass writes
-        // the environment's closed form without the march's depths.
-        let environment_only = scattering && !clear && self.scatter.environment_only();
         if self.params.single_scattering.is_some() && (!scattering || clear) {
             let why = below_budget.unwrap_or(crate::frame::SkipReason::Unchanged);
             graph.skip(PASS_SCATTER_DEPTHS, why);

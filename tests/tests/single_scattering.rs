@@ -351,6 +351,9 @@ fn a_front_lit_view_skips_the_march_and_clears_its_last_output() {
 /// environment as beams) against the f64 reference's, relative RMS: the same formula in f32.
 const ENVIRONMENT_CLOSED_FORM: f64 = 1e-4;
 
+/// View cosines below this are the silhouette's: the f32 and f64 facing tests may differ there.
+const SILHOUETTE_COSINE: f64 = 1e-3;
+
 /// An object showing zero diffusion exitance on a 10 mm sphere under `scene`, seen from
 /// (0, 20, 60), with single scattering in `mode`.
 fn sphere_object(
@@ -468,6 +471,15 @@ fn the_whole_mode_adds_the_environments_closed_form_without_a_march() {
             environment,
         };
         let mut object = sphere_object(&gpu, &mesh, &scene, ScatterMode::Full);
+        // The first frame clears the depth atlas once (the march's descriptor reads it); the
+        // next frame that marches records no depths.
+        let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert!(
+            report.passes.contains(&PASS_SCATTER_DEPTHS),
+            "{:?}",
+            report.passes
+        );
+        object.set_lights(&scene).expect("lights");
         let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
         assert!(
             report.passes.contains(&PASS_SINGLE_SCATTERING),
@@ -492,7 +504,12 @@ fn the_whole_mode_adds_the_environments_closed_form_without_a_march() {
             eye,
             8,
         );
-        let err = rel_rms(&x, &cpu, |_| true);
+        // Away from the silhouette, where f32 and f64 may disagree on whether a vertex faces
+        // the eye (one writes zero, the other the grazing closed form).
+        let err = rel_rms(&x, &cpu, |i| {
+            let p = solid.mesh().positions[i];
+            solid.mesh().normals[i].dot((eye - p).normalize()).abs() >= SILHOUETTE_COSINE
+        });
         let mean: f64 = cpu.iter().map(|c| c[0]).sum::<f64>() / cpu.len() as f64;
         println!("{environment:?}: GPU vs f64 environment single scattering, rel RMS {err:.2e} (mean X {mean:.4})");
         assert!(mean > 1e-3, "nothing to compare: {mean}");
@@ -507,12 +524,12 @@ fn the_whole_mode_adds_the_environments_closed_form_without_a_march() {
 /// depths by 8 midpoints through the field, sigma_s' at each depth), relative RMS over the
 /// compared vertices: the GPU samples the field on a 33^3 grid (trilinear, a node every 0.6 mm)
 /// and reads its entry points from depth views (as [`GPU_VS_CPU_ETA1`]).
-const GPU_VS_CPU_HETEROGENEOUS: f64 = 0.10;
+const GPU_VS_CPU_HETEROGENEOUS: f64 = 0.07;
 
 /// The f64 march with the field's mean coefficients against the f64 march through the field on
 /// the same split sphere: the heterogeneous tau must matter by more than the tolerance above for
 /// the comparison to tell them apart.
-const MEAN_VS_FIELD_AT_LEAST: f64 = 0.25;
+const MEAN_VS_FIELD_AT_LEAST: f64 = 0.10;
 
 #[test]
 fn gpu_march_follows_a_heterogeneous_field_as_the_f64_reference() {

@@ -305,6 +305,7 @@ pub struct SingleScatteringPass {
     /// Per light, whether the march takes it ([`marched_lights`]).
     marched: Vec<bool>,
     environment: Environment,
+    depths_written: bool,
     /// Whether the output holds a march (not zeros): a skipped frame must clear it first.
     live: bool,
     output: Buffer,
@@ -467,6 +468,7 @@ impl SingleScatteringPass {
             lights: Vec::new(),
             marched: Vec::new(),
             environment: Environment::None,
+            depths_written: false,
             live: false,
             output: Self::zeroed_output(ctx, vertex_count)?,
             vertex_count,
@@ -584,6 +586,17 @@ impl SingleScatteringPass {
         self.params.mode == ScatterMode::Full
             && self.environment != Environment::None
             && !self.marched.contains(&true)
+    }
+
+    /// Whether a depth pre-pass was recorded since the atlas was allocated (the march's
+    /// descriptor must read a written atlas even where it does not march).
+    pub fn depths_written(&self) -> bool {
+        self.depths_written
+    }
+
+    /// Notes that this frame records the depth pre-pass.
+    pub fn set_depths_written(&mut self) {
+        self.depths_written = true;
     }
 
     /// Whether the output holds a march (a skipped frame must clear it: [`Self::record_clear`]).
@@ -846,7 +859,9 @@ impl SingleScatteringPass {
             })
             .layer_count(1)
             .depth_attachment(&depth);
-        let eye = (self.exit_view.tile[2] > 0.0).then(|| {
+        // The environment's closed form alone reads no depth: the atlas is only cleared.
+        let draw = !self.environment_only();
+        let eye = (draw && self.exit_view.tile[2] > 0.0).then(|| {
             (
                 &self.back_faces,
                 Mat4::from_cols_array(&self.exit_view.view_proj),
@@ -857,6 +872,7 @@ impl SingleScatteringPass {
             .views
             .iter()
             .enumerate()
+            .filter(|_| draw)
             .map(|(i, v)| (&self.front_faces, v.view_proj, i as u32 + 1));
         // SAFETY: the caller's contract; the pipelines' formats match the rendering scope.
         unsafe {
