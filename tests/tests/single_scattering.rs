@@ -137,6 +137,7 @@ fn gpu_march_matches_the_f64_reference_on_a_back_lit_sphere() {
             samples: 8,
             mode: ScatterMode::Difference,
             skip_front_lit: false,
+            environment: false,
         };
         let (x, passes, _) = march(&gpu, &mesh, &field, &scene, eye, Some(params));
         assert!(passes.contains(&PASS_SINGLE_SCATTERING), "{passes:?}");
@@ -213,6 +214,7 @@ fn march_on_a_flat_lit_face_is_the_closed_form() {
             samples: 16,
             mode,
             skip_front_lit: false,
+            environment: false,
         };
         let (x, _, _) = march(&gpu, &mesh, &field, &scene, eye, Some(params));
         let err = match mode {
@@ -361,6 +363,7 @@ fn sphere_object(
     mesh: &TriMesh,
     scene: &Scene,
     mode: ScatterMode,
+    environment: bool,
 ) -> TranslucentObject {
     let mut object = TranslucentObject::with_method(
         &gpu.ctx,
@@ -373,6 +376,7 @@ fn sphere_object(
         &ObjectParams {
             single_scattering: Some(ScatterParams {
                 mode,
+                environment,
                 ..ScatterParams::default()
             }),
             specular: false,
@@ -405,7 +409,7 @@ fn black_and_dim_lights_skip_the_march_and_say_why() {
     let back = scene("dir:0.2,-0.35,1:5,5,5", sky);
     // pi x 1 (the sky's irradiance) x 1e-4: a tenth of DARK_LIGHT_FRACTION.
     let dim = scene("dir:0.2,-0.35,1:3e-4,3e-4,3e-4", sky);
-    let mut object = sphere_object(&gpu, &mesh, &black, ScatterMode::Difference);
+    let mut object = sphere_object(&gpu, &mesh, &black, ScatterMode::Difference, true);
     let read = |object: &TranslucentObject| object.single_scattering().read(&gpu.ctx).unwrap();
     let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
     assert_eq!(
@@ -435,19 +439,19 @@ fn black_and_dim_lights_skip_the_march_and_say_why() {
         Some(&SkipReason::DarkLights)
     );
     drop(object);
-    // The whole mode without an environment: nothing to add either.
-    let mut object = sphere_object(
-        &gpu,
-        &mesh,
-        &scene("dir:0,-1,0:0,0,0", Environment::None),
-        ScatterMode::Full,
-    );
-    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
-    assert_eq!(
-        report.skipped.get(PASS_SINGLE_SCATTERING),
-        Some(&SkipReason::DarkLights)
-    );
-    drop(object);
+    // The whole mode without an environment, or without its environment term (render's
+    // `--source second` on the environment sphere): nothing to add either.
+    for (environment, term) in [(Environment::None, true), (sky, false)] {
+        let dark = scene("dir:0,-1,0:0,0,0", environment);
+        let mut object = sphere_object(&gpu, &mesh, &dark, ScatterMode::Full, term);
+        let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert_eq!(
+            report.skipped.get(PASS_SINGLE_SCATTERING),
+            Some(&SkipReason::DarkLights)
+        );
+        assert!(read(&object).iter().flatten().all(|&v| v == 0.0));
+        drop(object);
+    }
     gpu.assert_no_messages();
     gpu.finish();
 }
@@ -470,7 +474,7 @@ fn the_whole_mode_adds_the_environments_closed_form_without_a_march() {
             lights: vec!["dir:0,-1,0:0,0,0".parse().unwrap()],
             environment,
         };
-        let mut object = sphere_object(&gpu, &mesh, &scene, ScatterMode::Full);
+        let mut object = sphere_object(&gpu, &mesh, &scene, ScatterMode::Full, true);
         // The first frame clears the depth atlas once (the march's descriptor reads it); the
         // next frame that marches records no depths.
         let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
@@ -559,6 +563,7 @@ fn gpu_march_follows_a_heterogeneous_field_as_the_f64_reference() {
         samples: 8,
         mode: ScatterMode::Full,
         skip_front_lit: false,
+        environment: false,
     };
     let (x, passes, _) = march(&gpu, &mesh, &split, &scene, eye, Some(params));
     assert!(passes.contains(&PASS_SINGLE_SCATTERING), "{passes:?}");

@@ -182,6 +182,13 @@ pub struct ScatterParams {
     pub mode: ScatterMode,
     /// Skip the march for front-lit views ([`FRONT_LIT_COSINE`]); `false`: march every frame.
     pub skip_front_lit: bool,
+    /// [`ScatterMode::Full`] also adds the environment's single scattering (the flat closed
+    /// form over the environment as beams, as the CPU's `SingleScattering::Full` with
+    /// environment beams). Off by default: the GPU gather takes the environment as a boundary
+    /// flux, whose diffusion already carries its once-scattered light (measured: the
+    /// environment sphere at eta 1.3 goes from 1.4% to 8.7% against path tracing with it on,
+    /// benches/RESULTS.md "Single scattering: dark lights, heterogeneous tau, environment").
+    pub environment: bool,
 }
 
 impl Default for ScatterParams {
@@ -190,6 +197,7 @@ impl Default for ScatterParams {
             samples: 8,
             mode: ScatterMode::Difference,
             skip_front_lit: true,
+            environment: false,
         }
     }
 }
@@ -579,7 +587,8 @@ impl SingleScatteringPass {
     }
 
     /// Whether this frame's pass writes the environment's single scattering alone: the whole
-    /// mode ([`ScatterMode::Full`]) with an environment and no light above the error budget
+    /// mode ([`ScatterMode::Full`]) with [`ScatterParams::environment`], an environment and no
+    /// light above the error budget
     /// ([`DARK_LIGHT_FRACTION`]): the flat closed form per vertex, no march, no depth pre-pass
     /// (skipped as [`SkipReason::DarkLights`]).
     pub fn environment_only(&self) -> bool {
@@ -634,7 +643,13 @@ impl SingleScatteringPass {
     ) -> Result<(), Error> {
         *self.scene_data = GatherScene::new(scene, shadows)?;
         self.marched = marched_lights(scene, bounds);
-        self.environment = scene.environment;
+        // Without the environment term the march's copy of the scene has no environment.
+        self.environment = if self.params.environment {
+            scene.environment
+        } else {
+            self.scene_data.counts[1] = 0;
+            Environment::None
+        };
         // The march's own copy of the lights: a light below the budget is black to it (the
         // shader skips black lights).
         for (light, &marched) in self.scene_data.lights.iter_mut().zip(&self.marched) {
