@@ -838,9 +838,19 @@ impl TranslucentObject {
         let clear = below_budget.is_some() && self.scatter.live();
         let scattering = self.params.single_scattering.is_some()
             && (clear || (scatter_stale && below_budget.is_none()));
+        // No light above the error budget, an environment and the whole mode: the pass writes
+        // the environment's closed form without the march's depths (recorded once, empty, so
+        // that the march's descriptor reads a written atlas).
+        let environment_only = scattering
+            && !clear
+            && self.scatter.environment_only()
+            && self.scatter.depths_written();
         if scattering {
             self.scatter.bind(ctx, &self.mesh, &self.shadows, eye)?;
             self.scatter.set_live(!clear);
+            if !clear {
+                self.scatter.set_depths_written();
+            }
         }
         let mut graph = FrameGraph::new(ctx);
         let after = |t: &TargetImage| (!targets.host_barriers).then_some(t.after);
@@ -859,6 +869,8 @@ impl TranslucentObject {
             if !scattering {
                 graph.skip(PASS_SINGLE_SCATTERING, why);
             }
+        } else if environment_only {
+            graph.skip(PASS_SCATTER_DEPTHS, crate::frame::SkipReason::DarkLights);
         }
         self.method.add_edit_passes(&mut graph);
         let mesh = &*self.mesh;
@@ -894,7 +906,7 @@ impl TranslucentObject {
             }
         }
         let scatter = &self.scatter;
-        if scattering && !clear {
+        if scattering && !clear && !environment_only {
             graph
                 .pass(PASS_SCATTER_DEPTHS)
                 .uses(scatter.depth_uses(mesh))

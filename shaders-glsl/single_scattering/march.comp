@@ -16,7 +16,9 @@
 // object (on the light's side): it contributes nothing. Difference mode (`mode` 1) subtracts the
 // flat-surface closed form alpha p E mu_i T_i / (mu_t + mu_o') of each light that lights the
 // vertex directly (visibility by 3x3 PCF of the biased shadow atlas, as the gather), which the
-// diffusion source carries.
+// diffusion source carries. Whole mode (`mode` 2) adds the environment's flat closed form
+// (`mode` 3: that alone, no light above the error budget). Heterogeneous materials (the `medium`
+// grid): sigma_s' at x_k, tau_V and tau_L by DEPTH_SAMPLES midpoints through the field.
 #include "optics.glsl"
 
 layout(local_size_x = 64) in;
@@ -67,16 +69,137 @@ layout(std430, set = 0, binding = 5) readonly buffer ExitView {
     vec4 bounds;
 } exit_view;
 
+// The material (frame::single_scattering::MediumHeader): a heterogeneous field on a grid of
+// nodes (trilinear), or (nodes.y = 0) the push constants' coefficients everywhere.
+layout(std430, set = 0, binding = 6) readonly buffer Medium {
+    uvec4 nodes;   // x: nodes per axis; y: 1 = heterogeneous
+    vec4 origin;   // xyz: the first node (mm)
+    vec4 spacing;  // xyz: node spacing (mm)
+    vec4 values[]; // per node: sigma_s' (rgb), then sigma_a (rgb); x fastest
+} medium;
+
 layout(push_constant) uniform ScatterPush {
     vec4 eye;       // xyz: the camera's eye (object frame, mm)
     vec4 sigma_s;   // rgb: sigma_s' (1/mm); w: eta
     vec4 sigma_a;   // rgb: sigma_a (1/mm); w: offset (mm) of the march's start below the vertex
     uint vertex_count;
     uint samples;
-    uint mode;      // 0: zeros (the march is skipped); 1: difference to the flat closed form; 2: whole
+    uint mode;      // 0: zeros (the march is skipped); 1: difference to the flat closed form;
+                    // 2: whole, with the environment's; 3: the environment's alone (no light)
     float normal_offset; // shadow-map texels, for the vertex's own visibility
     uint columns;   // tiles per row of `depths`
 } pc;
+
+// Material samples per segment for heterogeneous optical depths, midpoint rule (as the f64
+// reference's DEPTH_SAMPLES).
+const int DEPTH_SAMPLES = 8;
+
+bool heterogeneous() {
+    return medium.nodes.y == 1u && medium.nodes.x >= 2u;
+}
+
+// sigma_s' and sigma_a at p: the grid's trilinear interpolation (clamped to its box, as a
+// `.vol` repeats its border), or the push constants' for a homogeneous material.
+void coefficients_at(vec3 p, out vec3 s, out vec3 a) {
+    s = pc.sigma_s.rgb;
+    a = pc.sigma_a.rgb;
+    if (!heterogeneous()) {
+        return;
+    }
+    int n = int(medium.nodes.x);
+    vec3 g = clamp((p - medium.origin.xyz) / medium.spacing.xyz, vec3(0.0), vec3(float(n - 1)));
+    ivec3 i = min(ivec3(floor(g)), ivec3(n - 2));
+    vec3 f = g - vec3(i);
+    s = vec3(0.0);
+    a = vec3(0.0);
+    for (int c = 0; c < 8; ++c) {
+        ivec3 d = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        vec3 w3 = mix(1.0 - f, f, vec3(d));
+        float w = w3.x * w3.y * w3.z;
+        ivec3 q = i + d;
+        int node = (q.z * n + q.y) * n + q.x;
+        s += w * medium.values[2 * node].rgb;
+        a += w * medium.values[2 * node + 1].rgb;
+    }
+}
+
+// Optical depth per channel along the segment from a to b (solver::single_scattering's
+// optical_depth: exact for a homogeneous material, DEPTH_SAMPLES midpoints through the field).
+vec3 optical_depth(vec3 a, vec3 b) {
+    float len = distance(a, b);
+    if (!heterogeneous()) {
+        return (pc.sigma_s.rgb + pc.sigma_a.rgb) * len;
+    }
+    vec3 tau = vec3(0.0);
+    for (int k = 0; k < DEPTH_SAMPLES; ++k) {
+        vec3 s;
+        vec3 m;
+        coefficients_at(mix(a, b, (float(k) + 0.5) / float(DEPTH_SAMPLES)), s, m);
+        tau += (s + m) * (len / float(DEPTH_SAMPLES));
+    }
+    return tau;
+}
+
+// transport::diffuse_quadrature: 8-point Gauss-Legendre on [-1, 1] in u = mu_i^2 (cosine
+// weighted, weights summing to 1), the environment's incident cosines.
+const float GAUSS_X[4] = float[](0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
+                                 0.9602898564975363);
+const float GAUSS_W[4] = float[](0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
+                                 0.1012285362903763);
+const uint ENV_NONE = 0;
+const uint ENV_CONSTANT = 1;
+// Azimuths per incident cosine of an SH environment (sources::ENV_AZIMUTHS).
+const int ENV_AZIMUTHS = 8;
+
+// The environment's radiance towards -d (sources::environment_radiance: SH order 2, clamped).
+vec3 environment_radiance(vec3 d) {
+    if (scene.counts.y == ENV_CONSTANT) {
+        return scene.sh[0].rgb;
+    }
+    vec3 v = scene.sh[0].rgb * 0.282095
+        + 0.488603 * (scene.sh[1].rgb * d.y + scene.sh[2].rgb * d.z + scene.sh[3].rgb * d.x)
+        + 1.092548 * (scene.sh[4].rgb * d.x * d.y + scene.sh[5].rgb * d.y * d.z
+                      + scene.sh[7].rgb * d.x * d.z)
+        + 0.315392 * scene.sh[6].rgb * (3.0 * d.z * d.z - 1.0)
+        + 0.546274 * scene.sh[8].rgb * (d.x * d.x - d.y * d.y);
+    return max(v, vec3(0.0));
+}
+
+// The environment's single scattering by DESIGN 2.8's flat closed form (unshadowed, as its
+// diffusion part), summed over the environment as beams (sources::environment_beams): per
+// quadrature cosine mu_i the irradiance pi w L (L averaged over the azimuth), times
+// albedo p T_i / (mu_t + mu_o'). The whole mode's environment term, as the f64 reference's.
+vec3 environment_single_scattering(vec3 n, vec3 albedo, float mu_o_inside, float eta) {
+    if (scene.counts.y == ENV_NONE) {
+        return vec3(0.0);
+    }
+    vec3 helper = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    vec3 t = normalize(cross(helper, n));
+    vec3 b = cross(n, t);
+    vec3 sum = vec3(0.0);
+    for (int k = 0; k < 4; ++k) {
+        for (int side = 0; side < 2; ++side) {
+            float mu = sqrt(0.5 * (1.0 + (side == 0 ? -GAUSS_X[k] : GAUSS_X[k])));
+            float weight = 0.5 * GAUSS_W[k];
+            vec3 radiance = vec3(0.0);
+            if (scene.counts.y == ENV_CONSTANT) {
+                radiance = scene.sh[0].rgb;
+            } else {
+                float sin_i = sqrt(max(1.0 - mu * mu, 0.0));
+                for (int a = 0; a < ENV_AZIMUTHS; ++a) {
+                    float phi = 2.0 * PI * (float(a) + 0.5) / float(ENV_AZIMUTHS);
+                    vec3 d = n * mu + (t * cos(phi) + b * sin(phi)) * sin_i;
+                    radiance += environment_radiance(d) / float(ENV_AZIMUTHS);
+                }
+            }
+            vec3 irr = PI * weight * radiance;
+            float mu_t = sqrt(max(1.0 - (1.0 - mu * mu) / (eta * eta), 0.0));
+            sum += albedo / (4.0 * PI) * irr * fresnel_transmittance(eta, mu)
+                / max(mu_t + mu_o_inside, MIN_MU_T);
+        }
+    }
+    return sum;
+}
 
 // Steps of the search for the far face (quadratically spaced: fine near the start, where
 // silhouette chords are short) and bisections of the step that leaves.
@@ -317,13 +440,26 @@ void main() {
     w = length(w) > 0.0 ? normalize(w) : -n;
     float mu_o_inside = -dot(w, n);
     vec3 start = x - n * pc.sigma_a.w;
-    vec3 sigma_s = pc.sigma_s.rgb;
-    vec3 sigma_t = sigma_s + pc.sigma_a.rgb;
+    // The coefficients below the vertex set the stratification and the flat closed form's
+    // albedo (as the f64 reference's `here`); each depth scatters with its own sigma_s'.
+    vec3 here_s;
+    vec3 here_a;
+    coefficients_at(start, here_s, here_a);
+    vec3 sigma_t = here_s + here_a;
     float sigma_ref = (sigma_t.r + sigma_t.g + sigma_t.b) / 3.0;
     uint count = min(scene.counts.x, MAX_LIGHTS);
     // The far face (DESIGN 2.8): the march stops there. Without an eye view (the eye inside the
     // bounding sphere) it runs on [0, infinity) and samples past the far face see a long
     // optical path or no light.
+    if (pc.mode == 3u) {
+        // No light above the error budget: the environment's closed form alone, no march.
+        vec3 env = environment_single_scattering(n, here_s / sigma_t, mu_o_inside, eta);
+        vec3 out_env = PI * env;
+        out_env = mix(out_env, vec3(0.0), isnan(out_env));
+        out_env = mix(out_env, vec3(0.0), isinf(out_env));
+        scattered.x[v] = vec4(out_env, 0.0);
+        return;
+    }
     float t_max = 1.0 / 0.0;
     vec4 bounds = exit_view.bounds;
     if (exit_view.tile.z > 0.0) {
@@ -342,14 +478,19 @@ void main() {
         float t = -log(1.0 - u * mass) / sigma_ref;
         float weight = mass / (float(pc.samples) * sigma_ref * (1.0 - u * mass)); // 1 / (N pdf)
         vec3 xk = start + w * t;
-        vec3 tau_v = sigma_t * t;
+        vec3 tau_v = optical_depth(start, xk);
         if (all(greaterThan(tau_v, vec3(MAX_OPTICAL_DEPTH)))) {
             continue;
         }
+        vec3 sigma_s;
+        vec3 sigma_a_k;
+        coefficients_at(xk, sigma_s, sigma_a_k);
         for (uint i = 0u; i < count; ++i) {
             GatherLight light = scene.lights[i];
-            if (light.views.y == 0u) {
-                continue; // an unshadowed light has no entry points to read
+            if (light.views.y == 0u || all(equal(light.colour.rgb, vec3(0.0)))) {
+                // An unshadowed light has no entry points to read; a black one (or one below
+                // the error budget, blackened by the pass) adds nothing.
+                continue;
             }
             vec3 l;
             arriving(light, xk, l);
@@ -379,15 +520,16 @@ void main() {
             }
             float s = max(along, 0.0); // within a texel of the entry: the depth's resolution
             // Jensen's refraction correction of the light-side distance s_i' = s_i mu_i / mu_t.
-            float s_i = s * mu_i / mu_t;
-            vec3 tau = sigma_t * s_i + tau_v;
+            // Through the material from x_k to the entry's plane along the light (a homogeneous
+            // material: sigma_t' s exactly).
+            vec3 tau = optical_depth(xk, xk + l * s) * (mu_i / mu_t) + tau_v;
             vec3 fluence = e * (mu_i * t_i / mu_t);
             vec3 term = sigma_s / (4.0 * PI) * fluence * exp(-min(tau, vec3(MAX_OPTICAL_DEPTH))) * weight;
             sum += mix(term, vec3(0.0), greaterThan(tau, vec3(MAX_OPTICAL_DEPTH)));
         }
     }
     if (pc.mode == 1u) {
-        vec3 albedo = sigma_s / sigma_t;
+        vec3 albedo = here_s / sigma_t;
         for (uint i = 0u; i < count; ++i) {
             GatherLight light = scene.lights[i];
             vec3 l;
@@ -405,6 +547,9 @@ void main() {
             // DESIGN 2.8's flat closed form without T_o / eta^2 (transport::flat_single_scattering).
             sum -= vis * albedo / (4.0 * PI) * e * mu_i * t_i / max(mu_t + mu_o_inside, MIN_MU_T);
         }
+    }
+    if (pc.mode == 2u) {
+        sum += environment_single_scattering(n, here_s / sigma_t, mu_o_inside, eta);
     }
     vec3 out_x = PI * sum;
     // No NaN/Inf leaves the pass (a degenerate normal or an overflowing light).

@@ -8,7 +8,7 @@ use glam::DVec3;
 use translucent::frame::{
     ScatterMode, ScatterParams, SkipReason, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
 };
-use translucent::material::{Material, MaterialField};
+use translucent::material::{Coefficients, Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, TriMesh};
 use translucent::scene::{Camera, Environment, Scene};
@@ -137,6 +137,7 @@ fn gpu_march_matches_the_f64_reference_on_a_back_lit_sphere() {
             samples: 8,
             mode: ScatterMode::Difference,
             skip_front_lit: false,
+            environment: false,
         };
         let (x, passes, _) = march(&gpu, &mesh, &field, &scene, eye, Some(params));
         assert!(passes.contains(&PASS_SINGLE_SCATTERING), "{passes:?}");
@@ -213,6 +214,7 @@ fn march_on_a_flat_lit_face_is_the_closed_form() {
             samples: 16,
             mode,
             skip_front_lit: false,
+            environment: false,
         };
         let (x, _, _) = march(&gpu, &mesh, &field, &scene, eye, Some(params));
         let err = match mode {
@@ -344,5 +346,272 @@ fn a_front_lit_view_skips_the_march_and_clears_its_last_output() {
     );
     drop(object);
     gpu.assert_no_messages();
+    gpu.finish();
+}
+
+/// The environment's single scattering on the GPU (the flat closed form summed over the
+/// environment as beams) against the f64 reference's, relative RMS: the same formula in f32.
+const ENVIRONMENT_CLOSED_FORM: f64 = 1e-4;
+
+/// View cosines below this are the silhouette's: the f32 and f64 facing tests may differ there.
+const SILHOUETTE_COSINE: f64 = 1e-3;
+
+/// An object showing zero diffusion exitance on a 10 mm sphere under `scene`, seen from
+/// (0, 20, 60), with single scattering in `mode`.
+fn sphere_object(
+    gpu: &GpuTest,
+    mesh: &TriMesh,
+    scene: &Scene,
+    mode: ScatterMode,
+    environment: bool,
+) -> TranslucentObject {
+    let mut object = TranslucentObject::with_method(
+        &gpu.ctx,
+        MethodDesc::Exitance {
+            mesh: mesh.clone(),
+            exitance: vec![[0.0; 3]; mesh.positions.len()],
+        },
+        &field(1.3),
+        scene,
+        &ObjectParams {
+            single_scattering: Some(ScatterParams {
+                mode,
+                environment,
+                ..ScatterParams::default()
+            }),
+            specular: false,
+            ..ObjectParams::default()
+        },
+    )
+    .expect("object");
+    object
+        .set_camera(Some(Camera {
+            eye: DVec3::new(0.0, 20.0, 60.0),
+            target: DVec3::ZERO,
+            fovy_deg: 30.0,
+        }))
+        .expect("camera");
+    object
+}
+
+#[test]
+fn black_and_dim_lights_skip_the_march_and_say_why() {
+    let gpu = GpuTest::new();
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(12);
+    // The environment sphere's scene (`--env-constant` with the placeholder black light), then
+    // the references' back light, then that light dimmed below the budget under the same sky.
+    let sky = Environment::Constant([1.0; 3]);
+    let scene = |light: &str, environment| Scene {
+        lights: vec![light.parse().unwrap()],
+        environment,
+    };
+    let black = scene("dir:0,-1,0:0,0,0", sky);
+    let back = scene("dir:0.2,-0.35,1:5,5,5", sky);
+    // pi x 1 (the sky's irradiance) x 1e-4: a tenth of DARK_LIGHT_FRACTION.
+    let dim = scene("dir:0.2,-0.35,1:3e-4,3e-4,3e-4", sky);
+    let mut object = sphere_object(&gpu, &mesh, &black, ScatterMode::Difference, true);
+    let read = |object: &TranslucentObject| object.single_scattering().read(&gpu.ctx).unwrap();
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert_eq!(
+        report.skipped.get(PASS_SINGLE_SCATTERING),
+        Some(&SkipReason::DarkLights),
+        "{:?}",
+        report.passes
+    );
+    assert!(!report.passes.contains(&PASS_SCATTER_DEPTHS));
+    assert!(read(&object).iter().flatten().all(|&v| v == 0.0));
+    // A light above the budget marches.
+    object.set_lights(&back).expect("lights");
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert!(report.passes.contains(&PASS_SINGLE_SCATTERING));
+    assert!(read(&object).iter().flatten().any(|&v| v != 0.0));
+    // Dimmed below the budget: one clearing dispatch, then nothing, with the reason.
+    object.set_lights(&dim).expect("lights");
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert_eq!(
+        report.skipped.get(PASS_SCATTER_DEPTHS),
+        Some(&SkipReason::DarkLights)
+    );
+    assert!(read(&object).iter().flatten().all(|&v| v == 0.0));
+    let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+    assert_eq!(
+        report.skipped.get(PASS_SINGLE_SCATTERING),
+        Some(&SkipReason::DarkLights)
+    );
+    drop(object);
+    // The whole mode without an environment, or without its environment term (render's
+    // `--source second` on the environment sphere): nothing to add either.
+    for (environment, term) in [(Environment::None, true), (sky, false)] {
+        let dark = scene("dir:0,-1,0:0,0,0", environment);
+        let mut object = sphere_object(&gpu, &mesh, &dark, ScatterMode::Full, term);
+        let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert_eq!(
+            report.skipped.get(PASS_SINGLE_SCATTERING),
+            Some(&SkipReason::DarkLights)
+        );
+        assert!(read(&object).iter().flatten().all(|&v| v == 0.0));
+        drop(object);
+    }
+    gpu.assert_no_messages();
+    gpu.finish();
+}
+
+#[test]
+fn the_whole_mode_adds_the_environments_closed_form_without_a_march() {
+    let gpu = GpuTest::new();
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(12);
+    let solid = MeshSolid::new(mesh.clone()).expect("solid");
+    let eye = DVec3::new(0.0, 20.0, 60.0);
+    // A constant sky and an SH sky brighter above, each with the placeholder black light.
+    let mut sh = [[0.0; 3]; 9];
+    sh[0] = [1.0 / 0.282_095; 3];
+    sh[1] = [0.5 / 0.488_603, 0.3 / 0.488_603, 0.1 / 0.488_603];
+    for environment in [
+        Environment::Constant([0.8, 0.6, 0.4]),
+        Environment::SphericalHarmonics(sh),
+    ] {
+        let scene = Scene {
+            lights: vec!["dir:0,-1,0:0,0,0".parse().unwrap()],
+            environment,
+        };
+        let mut object = sphere_object(&gpu, &mesh, &scene, ScatterMode::Full, true);
+        // The first frame clears the depth atlas once (the march's descriptor reads it); the
+        // next frame that marches records no depths.
+        let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert!(
+            report.passes.contains(&PASS_SCATTER_DEPTHS),
+            "{:?}",
+            report.passes
+        );
+        object.set_lights(&scene).expect("lights");
+        let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert!(
+            report.passes.contains(&PASS_SINGLE_SCATTERING),
+            "{:?}",
+            report.passes
+        );
+        assert_eq!(
+            report.skipped.get(PASS_SCATTER_DEPTHS),
+            Some(&SkipReason::DarkLights)
+        );
+        let x = object.single_scattering().read(&gpu.ctx).unwrap();
+        let transport = Transport {
+            single_scattering: SingleScattering::Full,
+            ..Transport::default()
+        };
+        let cpu = vertex_single_scattering(
+            solid.mesh(),
+            &field(1.3),
+            &scene,
+            &solid,
+            &transport,
+            eye,
+            8,
+        );
+        // Away from the silhouette, where f32 and f64 may disagree on whether a vertex faces
+        // the eye (one writes zero, the other the grazing closed form).
+        let err = rel_rms(&x, &cpu, |i| {
+            let p = solid.mesh().positions[i];
+            solid.mesh().normals[i].dot((eye - p).normalize()).abs() >= SILHOUETTE_COSINE
+        });
+        let mean: f64 = cpu.iter().map(|c| c[0]).sum::<f64>() / cpu.len() as f64;
+        println!("{environment:?}: GPU vs f64 environment single scattering, rel RMS {err:.2e} (mean X {mean:.4})");
+        assert!(mean > 1e-3, "nothing to compare: {mean}");
+        assert!(err <= ENVIRONMENT_CLOSED_FORM, "relative RMS {err}");
+        drop(object);
+    }
+    gpu.assert_no_messages();
+    gpu.finish();
+}
+
+/// GPU march through a heterogeneous field against the f64 march with the same formula (optical
+/// depths by 8 midpoints through the field, sigma_s' at each depth), relative RMS over the
+/// compared vertices: the GPU samples the field on a 33^3 grid (trilinear, a node every 0.6 mm)
+/// and reads its entry points from depth views (as [`GPU_VS_CPU_ETA1`]).
+const GPU_VS_CPU_HETEROGENEOUS: f64 = 0.07;
+
+/// The f64 march with the field's mean coefficients against the f64 march through the field on
+/// the same split sphere: the heterogeneous tau must matter by more than the tolerance above for
+/// the comparison to tell them apart.
+const MEAN_VS_FIELD_AT_LEAST: f64 = 0.10;
+
+#[test]
+fn gpu_march_follows_a_heterogeneous_field_as_the_f64_reference() {
+    use translucent::material::field::Procedural;
+    let gpu = GpuTest::new();
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(24);
+    let solid = MeshSolid::new(mesh.clone()).expect("solid");
+    let eye = DVec3::new(0.0, 20.0, 60.0);
+    // The split sphere's materials (skim milk below, skin1 above y = 0), lit from above (the
+    // reference's light), the whole march (the second-collision source's mode).
+    let coefficients = |name: &str| Material::preset(name).expect(name).coefficients();
+    let split = MaterialField::procedural(
+        Procedural::Split {
+            normal: DVec3::Y,
+            offset: 0.0,
+            below: coefficients("skimmilk"),
+            above: coefficients("skin1"),
+        },
+        1.0,
+    )
+    .expect("split field");
+    let scene = Scene {
+        lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
+        environment: Environment::None,
+    };
+    let params = ScatterParams {
+        samples: 8,
+        mode: ScatterMode::Full,
+        skip_front_lit: false,
+        environment: false,
+    };
+    let (x, passes, _) = march(&gpu, &mesh, &split, &scene, eye, Some(params));
+    assert!(passes.contains(&PASS_SINGLE_SCATTERING), "{passes:?}");
+    let transport = Transport {
+        single_scattering: SingleScattering::Full,
+        ..Transport::default()
+    };
+    let cpu = vertex_single_scattering(solid.mesh(), &split, &scene, &solid, &transport, eye, 8);
+    // The mean coefficients over the vertices: what the march used before the field.
+    let n = mesh.positions.len() as f64;
+    let mut mean = Coefficients {
+        sigma_s: [0.0; 3],
+        sigma_a: [0.0; 3],
+    };
+    for p in &mesh.positions {
+        let c = split.sample(*p);
+        for ch in 0..3 {
+            mean.sigma_s[ch] += c.sigma_s[ch] / n;
+            mean.sigma_a[ch] += c.sigma_a[ch] / n;
+        }
+    }
+    let mean_field =
+        MaterialField::Homogeneous(Material::new(mean.sigma_s, mean.sigma_a, 1.0).unwrap());
+    let cpu_mean = vertex_single_scattering(
+        solid.mesh(),
+        &mean_field,
+        &scene,
+        &solid,
+        &transport,
+        eye,
+        8,
+    );
+    let mu_o = |i: usize| {
+        let p = solid.mesh().positions[i];
+        solid.mesh().normals[i].dot((eye - p).normalize())
+    };
+    let keep = |i: usize| mu_o(i) >= MIN_MU_O_COMPARED;
+    let err = rel_rms(&x, &cpu, keep);
+    let mean_as_f32: Vec<[f32; 3]> = cpu_mean.iter().map(|c| c.map(|v| v as f32)).collect();
+    let mean_err = rel_rms(&mean_as_f32, &cpu, keep);
+    println!(
+        "split sphere: GPU vs f64 through the field, rel RMS {err:.4}; mean coefficients vs the \
+         field (f64) {mean_err:.4}"
+    );
+    assert!(err <= GPU_VS_CPU_HETEROGENEOUS, "relative RMS {err}");
+    assert!(
+        mean_err >= MEAN_VS_FIELD_AT_LEAST,
+        "the field barely matters here ({mean_err}): the check cannot tell"
+    );
     gpu.finish();
 }

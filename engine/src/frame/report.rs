@@ -30,6 +30,10 @@ pub enum SkipReason {
     /// march minus the flat closed form is below the error budget
     /// ([`crate::frame::single_scattering::FRONT_LIT_COSINE`]).
     FrontLit,
+    /// Single scattering: no light is above the error budget (all black, as `--env-constant`'s
+    /// placeholder light, or below [`crate::frame::single_scattering::DARK_LIGHT_FRACTION`] of
+    /// the brightest light or environment): the march would add nothing visible.
+    DarkLights,
 }
 
 impl std::fmt::Display for SkipReason {
@@ -45,6 +49,7 @@ impl std::fmt::Display for SkipReason {
             SkipReason::Precomputed => "exitance precomputed",
             SkipReason::NotRead => "no pass reads it",
             SkipReason::FrontLit => "front-lit: below the error budget",
+            SkipReason::DarkLights => "no light above the error budget",
         })
     }
 }

@@ -23,8 +23,16 @@
 //! Double counting: [`ScatterMode::Difference`] (the default) adds the march minus the flat-surface
 //! closed form of each light lighting the vertex directly (the diffusion's source already carries
 //! the flat part: zero on flat lit regions, all of the march in back-lit crescents), as the CPU's
-//! `SingleScattering::Difference`. Material: one set of coefficients (the field's mean over the
-//! display vertices for a heterogeneous field).
+//! `SingleScattering::Difference`. [`ScatterMode::Full`] also adds the environment's single
+//! scattering by the flat closed form (as the CPU's `SingleScattering::Full`).
+//!
+//! Material: a heterogeneous field is sampled on a [`MEDIUM_NODES`]^3 grid over the display
+//! mesh's box (binding `medium`), and the march takes sigma_s' at each depth and the optical
+//! depths of both legs through it (8 midpoints a leg, as the f64 reference); a homogeneous one
+//! takes its coefficients from the push constants. Lights below the error budget
+//! ([`DARK_LIGHT_FRACTION`]) are left out; with none left the march is skipped
+//! ([`SkipReason::DarkLights`]), or in the whole mode with an environment only its closed form
+//! is written ([`SingleScatteringPass::environment_only`]).
 //!
 //! ```no_run
 //! # use translucent::frame::single_scattering::{ScatterParams, SingleScatteringPass};
@@ -43,7 +51,7 @@ use crate::frame::SkipReason;
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::{GpuMesh, Vertex};
 use crate::render::{GatherScene, RenderError, ShadowMaps, ShadowPush, ShadowView};
-use crate::scene::{Light, Scene};
+use crate::scene::{Environment, Light, Scene};
 use crate::shader::{
     ComputePipeline, ComputePipelineDesc, DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc,
     VertexAttribute,
@@ -90,6 +98,82 @@ pub enum ScatterMode {
 /// benches/RESULTS.md ("Single scattering: far-face stop").
 pub const FRONT_LIT_COSINE: f64 = 0.5;
 
+/// A light whose largest irradiance anywhere on the object is at most this fraction of the
+/// brightest light's or the environment's contributes nothing the frame can show: the march
+/// leaves it out, and a frame whose lights are all below it (or black, as `--env-constant`'s
+/// placeholder `dir:0,-1,0:0,0,0`) skips the march ([`SkipReason::DarkLights`]). Why 1e-3:
+/// single scattering is at most the light's whole share of the radiance, and 1e-3 of the
+/// brightest term is a quarter of an 8-bit display step and a tenth of the references' noise
+/// (1.1-3.1%, tests/reference/pt/README.md).
+pub const DARK_LIGHT_FRACTION: f64 = 1e-3;
+
+/// The largest irradiance `light` can put on a surface facing it within the bounding sphere
+/// `(centre, radius)`: its irradiance (directional) or intensity / (distance - radius)^2 (point,
+/// spot: the falloff is at most 1); infinite for a non-black light inside the sphere.
+pub fn peak_irradiance(light: &Light, bounds: (DVec3, f64)) -> f64 {
+    let brightest = |c: [f64; 3]| c.into_iter().fold(0.0, f64::max);
+    match *light {
+        Light::Directional { irradiance, .. } => brightest(irradiance),
+        Light::Point {
+            position,
+            intensity,
+        }
+        | Light::Spot {
+            position,
+            intensity,
+            ..
+        } => {
+            let peak = brightest(intensity);
+            let gap = position.distance(bounds.0) - bounds.1;
+            if peak == 0.0 {
+                0.0
+            } else if gap > 0.0 {
+                peak / (gap * gap)
+            } else {
+                f64::INFINITY
+            }
+        }
+    }
+}
+
+/// The largest irradiance the environment puts on any surface direction (over the 26
+/// directions of a cube's faces, edges and corners for an SH environment: its irradiance is a
+/// smooth quadratic in the normal, so the bound is within a few percent).
+pub fn peak_environment_irradiance(environment: &Environment) -> f64 {
+    let mut peak: f64 = 0.0;
+    for x in -1..=1 {
+        for y in -1..=1 {
+            for z in -1..=1 {
+                let n = DVec3::new(f64::from(x), f64::from(y), f64::from(z));
+                if n != DVec3::ZERO {
+                    let e = environment.irradiance(n.normalize());
+                    peak = e.into_iter().fold(peak, f64::max);
+                }
+            }
+        }
+    }
+    peak
+}
+
+/// Which of `scene`'s lights the march takes (`true`): those above [`DARK_LIGHT_FRACTION`] of
+/// the brightest light's or the environment's peak irradiance on the bounding sphere `bounds`.
+pub fn marched_lights(scene: &Scene, bounds: (DVec3, f64)) -> Vec<bool> {
+    let peaks: Vec<f64> = scene
+        .lights
+        .iter()
+        .map(|l| peak_irradiance(l, bounds))
+        .collect();
+    let brightest = peaks
+        .iter()
+        .copied()
+        .fold(peak_environment_irradiance(&scene.environment), f64::max);
+    peaks
+        .iter()
+        // A light inside the bounding sphere has no finite bound: it darkens none of the others.
+        .map(|&p| p > 0.0 && (brightest.is_infinite() || p > DARK_LIGHT_FRACTION * brightest))
+        .collect()
+}
+
 /// How [`SingleScatteringPass`] marches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ScatterParams {
@@ -98,6 +182,13 @@ pub struct ScatterParams {
     pub mode: ScatterMode,
     /// Skip the march for front-lit views ([`FRONT_LIT_COSINE`]); `false`: march every frame.
     pub skip_front_lit: bool,
+    /// [`ScatterMode::Full`] also adds the environment's single scattering (the flat closed
+    /// form over the environment as beams, as the CPU's `SingleScattering::Full` with
+    /// environment beams). Off by default: the GPU gather takes the environment as a boundary
+    /// flux, whose diffusion already carries its once-scattered light (measured: the
+    /// environment sphere at eta 1.3 goes from 1.4% to 8.7% against path tracing with it on,
+    /// benches/RESULTS.md "Single scattering: dark lights, heterogeneous tau, environment").
+    pub environment: bool,
 }
 
 impl Default for ScatterParams {
@@ -106,8 +197,66 @@ impl Default for ScatterParams {
             samples: 8,
             mode: ScatterMode::Difference,
             skip_front_lit: true,
+            environment: false,
         }
     }
+}
+
+/// Nodes per axis of the material grid the march samples for a heterogeneous field (DESIGN 2.8,
+/// "heterogeneous: tau through the material field"): the field sampled at the nodes of the
+/// display mesh's bounding box, trilinear in between (1.2 MB). 33 nodes put a node every 0.6 mm
+/// on the 20 mm split sphere, finer than the diffusion's finest spacing at the default
+/// resolution (32 cells: ~0.8 mm), so the march sees the field the solve sees.
+pub const MEDIUM_NODES: u32 = 33;
+
+/// The `Medium` storage buffer's header of `march.comp`, followed by two vec4 per grid node
+/// (sigma_s' rgb, then sigma_a rgb), x fastest.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MediumHeader {
+    /// x: nodes per axis; y: 1 = heterogeneous (sample the grid), 0 = the push constants'.
+    pub nodes: [u32; 4],
+    /// xyz: the grid's first node (object frame, mm).
+    pub origin: [f32; 4],
+    /// xyz: node spacing (mm).
+    pub spacing: [f32; 4],
+}
+
+/// The march's material: a header and, for a heterogeneous field, [`MEDIUM_NODES`]^3 nodes.
+fn medium_data(field: &MaterialField, positions: &[DVec3]) -> Vec<[f32; 4]> {
+    if matches!(field, MaterialField::Homogeneous(_)) || positions.is_empty() {
+        let homogeneous = MediumHeader {
+            nodes: [1, 0, 0, 0],
+            origin: [0.0; 4],
+            spacing: [1.0, 1.0, 1.0, 0.0],
+        };
+        return bytemuck::cast_slice(&[homogeneous]).to_vec();
+    }
+    let (lo, hi) = positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let n = MEDIUM_NODES as usize;
+    let spacing = ((hi - lo) / (n - 1) as f64).max(DVec3::splat(1e-9));
+    let header = MediumHeader {
+        nodes: [MEDIUM_NODES, 1, 0, 0],
+        origin: lo.as_vec3().extend(0.0).to_array(),
+        spacing: spacing.as_vec3().extend(0.0).to_array(),
+    };
+    let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&[header]).to_vec();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = lo + spacing * DVec3::new(i as f64, j as f64, k as f64);
+                let c = field.sample(p);
+                let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+                data.push(f(c.sigma_s));
+                data.push(f(c.sigma_a));
+            }
+        }
+    }
+    data
 }
 
 /// Push constants of `single_scattering/march.comp`.
@@ -123,7 +272,8 @@ pub struct ScatterPush {
     pub vertex_count: u32,
     pub samples: u32,
     /// 0: zeros (a skipped march clears its last output); 1: difference to the flat closed
-    /// form; 2: whole.
+    /// form; 2: whole, with the environment's flat closed form; 3: the environment's alone
+    /// ([`SingleScatteringPass::environment_only`]).
     pub mode: u32,
     pub normal_offset: f32,
     /// Tiles per row of the pass's depth atlas.
@@ -160,6 +310,10 @@ pub struct SingleScatteringPass {
     views: Vec<ShadowView>,
     bounds: (DVec3, f64),
     lights: Vec<Light>,
+    /// Per light, whether the march takes it ([`marched_lights`]).
+    marched: Vec<bool>,
+    environment: Environment,
+    depths_written: bool,
     /// Whether the output holds a march (not zeros): a skipped frame must clear it first.
     live: bool,
     output: Buffer,
@@ -169,6 +323,13 @@ pub struct SingleScatteringPass {
     params: ScatterParams,
     scene_data: Box<GatherScene>,
     coefficients: Coefficients,
+    /// The material grid's buffer (binding `medium`) and what the next upload writes.
+    medium: Buffer,
+    medium_data: Vec<[f32; 4]>,
+    /// `medium_data` changed since the last upload; `upload_medium`: this frame's record
+    /// uploads it (set by `bind`).
+    medium_dirty: bool,
+    upload_medium: bool,
     eta: f32,
     radius: f64,
 }
@@ -179,6 +340,9 @@ fn invalid(what: &str, problem: String) -> Error {
         problem,
     })
 }
+
+/// Bytes per vkCmdUpdateBuffer (its limit).
+const UPDATE_CHUNK: usize = 65536;
 
 /// Descriptor sets one pass may allocate: one per display vertex buffer it meets (a voxel
 /// object's new topologies); beyond this a typed error.
@@ -217,6 +381,7 @@ impl SingleScatteringPass {
                     "scene",
                     "depths",
                     "exit_view",
+                    "medium",
                 ],
                 max_sets: MAX_SETS,
             },
@@ -280,8 +445,23 @@ impl SingleScatteringPass {
                 memory: MemoryUse::GpuOnly,
             },
         )?;
+        let medium_bytes =
+            std::mem::size_of::<MediumHeader>() as u64 + 32 * u64::from(MEDIUM_NODES).pow(3);
+        let medium = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "single scattering medium",
+                size: medium_bytes,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                memory: MemoryUse::GpuOnly,
+            },
+        )?;
         Ok(SingleScatteringPass {
             pipeline,
+            medium,
+            medium_data: Vec::new(),
+            medium_dirty: false,
+            upload_medium: false,
             sampler,
             scene,
             back_faces,
@@ -294,6 +474,9 @@ impl SingleScatteringPass {
             views: Vec::new(),
             bounds: (DVec3::ZERO, 1.0),
             lights: Vec::new(),
+            marched: Vec::new(),
+            environment: Environment::None,
+            depths_written: false,
             live: false,
             output: Self::zeroed_output(ctx, vertex_count)?,
             vertex_count,
@@ -365,13 +548,19 @@ impl SingleScatteringPass {
             .collect())
     }
 
-    /// Why this frame's march may be skipped for the eye at `eye` (object frame, mm): the
+    /// Why this frame's march may be skipped for the eye at `eye` (object frame, mm): no light
+    /// above [`DARK_LIGHT_FRACTION`] ([`SkipReason::DarkLights`], whatever the mode: the march
+    /// of such lights is below the error budget, of black ones exactly zero), or the
     /// lights are all in front of the object ([`FRONT_LIT_COSINE`]), with
     /// [`ScatterParams::skip_front_lit`]. A point or spot light inside the bounding sphere has no
     /// one direction: never skipped. [`ScatterMode::Full`] is never skipped: the rule bounds the
     /// difference to the flat closed form, while the whole march carries all once-scattered
     /// light (the second-collision source leaves it out of the diffusion).
     pub fn skip_reason(&self, eye: DVec3) -> Option<SkipReason> {
+        if !self.marched.contains(&true) {
+            // The whole mode still adds the environment's closed form (no march).
+            return (!self.environment_only()).then_some(SkipReason::DarkLights);
+        }
         let centre = self.bounds.0;
         let to_eye = (eye - centre).normalize_or_zero();
         if !self.params.skip_front_lit
@@ -381,7 +570,8 @@ impl SingleScatteringPass {
         {
             return None;
         }
-        let front = self.lights.iter().all(|light| {
+        let marched = self.lights.iter().zip(&self.marched);
+        let front = marched.filter(|(_, &m)| m).all(|(light, _)| {
             let to_light = match *light {
                 Light::Directional { direction, .. } => -direction.normalize_or_zero(),
                 Light::Point { position, .. } | Light::Spot { position, .. } => {
@@ -394,6 +584,28 @@ impl SingleScatteringPass {
             to_light.dot(to_eye) >= FRONT_LIT_COSINE
         });
         front.then_some(SkipReason::FrontLit)
+    }
+
+    /// Whether this frame's pass writes the environment's single scattering alone: the whole
+    /// mode ([`ScatterMode::Full`]) with [`ScatterParams::environment`], an environment and no
+    /// light above the error budget
+    /// ([`DARK_LIGHT_FRACTION`]): the flat closed form per vertex, no march, no depth pre-pass
+    /// (skipped as [`SkipReason::DarkLights`]).
+    pub fn environment_only(&self) -> bool {
+        self.params.mode == ScatterMode::Full
+            && self.environment != Environment::None
+            && !self.marched.contains(&true)
+    }
+
+    /// Whether a depth pre-pass was recorded since the atlas was allocated (the march's
+    /// descriptor must read a written atlas even where it does not march).
+    pub fn depths_written(&self) -> bool {
+        self.depths_written
+    }
+
+    /// Notes that this frame records the depth pre-pass.
+    pub fn set_depths_written(&mut self) {
+        self.depths_written = true;
     }
 
     /// Whether the output holds a march (a skipped frame must clear it: [`Self::record_clear`]).
@@ -430,6 +642,21 @@ impl SingleScatteringPass {
         bounds: (DVec3, f64),
     ) -> Result<(), Error> {
         *self.scene_data = GatherScene::new(scene, shadows)?;
+        self.marched = marched_lights(scene, bounds);
+        // Without the environment term the march's copy of the scene has no environment.
+        self.environment = if self.params.environment {
+            scene.environment
+        } else {
+            self.scene_data.counts[1] = 0;
+            Environment::None
+        };
+        // The march's own copy of the lights: a light below the budget is black to it (the
+        // shader skips black lights).
+        for (light, &marched) in self.scene_data.lights.iter_mut().zip(&self.marched) {
+            if !marched {
+                light.colour[..3].fill(0.0);
+            }
+        }
         self.views = shadows.views().to_vec();
         self.lights = scene.lights.clone();
         self.radius = bounds.1;
@@ -437,10 +664,14 @@ impl SingleScatteringPass {
         Ok(())
     }
 
-    /// The material: `field`'s coefficients (homogeneous), or their mean over `positions` (the
-    /// display vertices) for a heterogeneous field.
+    /// The material: `field`'s coefficients (homogeneous), or for a heterogeneous field the
+    /// field on a grid of [`MEDIUM_NODES`]^3 over the bounding box of `positions` (the display
+    /// vertices; uploaded by the next frame that marches) and, for the push constants, its
+    /// mean over `positions`.
     pub fn set_material(&mut self, field: &MaterialField, positions: &[DVec3]) {
         self.eta = field.eta() as f32;
+        self.medium_data = medium_data(field, positions);
+        self.medium_dirty = true;
         self.coefficients = match field {
             MaterialField::Homogeneous(m) => m.coefficients(),
             _ => {
@@ -593,10 +824,16 @@ impl SingleScatteringPass {
                         name: "exit_view",
                         buffer: &self.exit_buffer,
                     },
+                    DescriptorWrite::StorageBuffer {
+                        name: "medium",
+                        buffer: &self.medium,
+                    },
                 ],
             )?);
             self.bound_vertices = mesh.vertex_buffer().raw;
         }
+        self.upload_medium = self.medium_dirty;
+        self.medium_dirty = false;
         Ok(())
     }
 
@@ -637,7 +874,9 @@ impl SingleScatteringPass {
             })
             .layer_count(1)
             .depth_attachment(&depth);
-        let eye = (self.exit_view.tile[2] > 0.0).then(|| {
+        // The environment's closed form alone reads no depth: the atlas is only cleared.
+        let draw = !self.environment_only();
+        let eye = (draw && self.exit_view.tile[2] > 0.0).then(|| {
             (
                 &self.back_faces,
                 Mat4::from_cols_array(&self.exit_view.view_proj),
@@ -648,6 +887,7 @@ impl SingleScatteringPass {
             .views
             .iter()
             .enumerate()
+            .filter(|_| draw)
             .map(|(i, v)| (&self.front_faces, v.view_proj, i as u32 + 1));
         // SAFETY: the caller's contract; the pipelines' formats match the rendering scope.
         unsafe {
@@ -723,6 +963,7 @@ impl SingleScatteringPass {
             mode: match (clear, self.params.mode) {
                 (true, _) => 0,
                 (false, ScatterMode::Difference) => 1,
+                (false, ScatterMode::Full) if self.environment_only() => 3,
                 (false, ScatterMode::Full) => 2,
             },
             normal_offset: NORMAL_OFFSET_TEXELS,
@@ -744,11 +985,111 @@ impl SingleScatteringPass {
                 0,
                 bytemuck::bytes_of(&self.exit_view),
             );
+            if self.upload_medium {
+                // vkCmdUpdateBuffer takes at most 65536 bytes a call.
+                let bytes: &[u8] = bytemuck::cast_slice(&self.medium_data);
+                for (i, chunk) in bytes.chunks(UPDATE_CHUNK).enumerate() {
+                    let offset = (i * UPDATE_CHUNK) as u64;
+                    ctx.raw()
+                        .cmd_update_buffer(cb, self.medium.raw, offset, chunk);
+                }
+            }
             // why: the march reads the scene just written (RAW).
             barrier::memory(ctx, cb, Access::TransferDst, Access::ComputeRead);
             self.pipeline
                 .dispatch(ctx, cb, set, &push, [self.vertex_count as u32, 1, 1]);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(lights: &[&str], environment: Environment) -> Scene {
+        Scene {
+            lights: lights.iter().map(|l| l.parse().unwrap()).collect(),
+            environment,
+        }
+    }
+
+    const BOUNDS: (DVec3, f64) = (DVec3::ZERO, 10.0);
+
+    #[test]
+    fn black_and_dim_lights_are_not_marched() {
+        // The environment sphere's placeholder: black, whatever the sky.
+        let s = scene(&["dir:0,-1,0:0,0,0"], Environment::Constant([0.5; 3]));
+        assert_eq!(marched_lights(&s, BOUNDS), [false]);
+        let s = scene(&["dir:0,-1,0:0,0,0"], Environment::None);
+        assert_eq!(marched_lights(&s, BOUNDS), [false]);
+        // Against a sky of irradiance pi: just above and just below the budget.
+        let sky = Environment::Constant([1.0; 3]);
+        let bright = format!("dir:0,-1,0:{},0,0", 1.1e-3 * std::f64::consts::PI);
+        let dim = format!("dir:0,-1,0:0,{},0", 0.9e-3 * std::f64::consts::PI);
+        let s = scene(&[&bright, &dim], sky);
+        assert_eq!(marched_lights(&s, BOUNDS), [true, false]);
+        // A point light: intensity over the squared distance to the sphere's nearest point.
+        let s = scene(&["point:0,0,30:400,400,400", "dir:0,-1,0:0.9,0.9,0.9"], sky);
+        assert_eq!(marched_lights(&s, BOUNDS), [true, true]);
+        let s = scene(&["point:0,0,30:0.3,0.3,0.3", "dir:0,-1,0:1000,0,0"], sky);
+        assert_eq!(marched_lights(&s, BOUNDS), [false, true]);
+        // Inside the bounding sphere: no bound, marched, and it darkens nothing else.
+        let s = scene(&["point:0,0,1:1e-6,0,0", "dir:0,-1,0:0.01,0,0"], sky);
+        assert_eq!(marched_lights(&s, BOUNDS), [true, true]);
+    }
+
+    #[test]
+    fn the_medium_grid_holds_the_field_at_its_nodes() {
+        use crate::material::{Coefficients, Procedural};
+        let c = |s: f64, a: f64| Coefficients {
+            sigma_s: [s; 3],
+            sigma_a: [a; 3],
+        };
+        let field = MaterialField::procedural(
+            Procedural::Split {
+                normal: DVec3::Y,
+                offset: 0.3,
+                below: c(1.0, 0.01),
+                above: c(2.0, 0.5),
+            },
+            1.3,
+        )
+        .unwrap();
+        let positions = [DVec3::new(-2.0, -4.0, -1.0), DVec3::new(6.0, 4.0, 3.0)];
+        let data = medium_data(&field, &positions);
+        let n = MEDIUM_NODES as usize;
+        assert_eq!(data.len(), 3 + 2 * n * n * n);
+        let header: MediumHeader = bytemuck::cast_slice(&data[..3])[0];
+        assert_eq!(header.nodes[..2], [MEDIUM_NODES, 1]);
+        assert_eq!(header.origin[..3], [-2.0, -4.0, -1.0]);
+        let spacing = DVec3::new(8.0, 8.0, 4.0) / (n - 1) as f64;
+        for (i, j, k) in [(0, 0, 0), (n - 1, n - 1, n - 1), (5, 16, 7), (20, 17, 30)] {
+            let p =
+                DVec3::new(-2.0, -4.0, -1.0) + spacing * DVec3::new(i as f64, j as f64, k as f64);
+            let node = (k * n + j) * n + i;
+            let want = field.sample(p);
+            assert_eq!(data[3 + 2 * node][..3], want.sigma_s.map(|v| v as f32));
+            assert_eq!(data[3 + 2 * node + 1][..3], want.sigma_a.map(|v| v as f32));
+        }
+        // Homogeneous: the header alone, flagged off.
+        let m = crate::material::Material::preset("marble").unwrap();
+        let data = medium_data(&MaterialField::Homogeneous(m), &positions);
+        assert_eq!(data.len(), 3);
+        assert_eq!(
+            bytemuck::cast_slice::<_, MediumHeader>(&data)[0].nodes[1],
+            0
+        );
+    }
+
+    #[test]
+    fn an_sh_environment_bounds_its_irradiance() {
+        // Radiance 1 + w_y: irradiance pi + 2 pi / 3 n_y, peak at +Y.
+        let mut c = [[0.0; 3]; 9];
+        c[0] = [1.0 / 0.282095; 3];
+        c[1] = [1.0 / 0.488603; 3];
+        let e = Environment::SphericalHarmonics(c);
+        let exact = e.irradiance(DVec3::Y)[0];
+        assert!((peak_environment_irradiance(&e) - exact).abs() < 1e-12 * exact);
     }
 }

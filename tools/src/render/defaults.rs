@@ -122,6 +122,9 @@ impl RenderArgs {
                 } else {
                     translucent::frame::ScatterMode::Difference
                 },
+                // The gather's environment is a boundary flux: its once-scattered light is in
+                // the diffusion already (ScatterParams::environment).
+                environment: false,
             }),
         )
     }
