@@ -156,6 +156,12 @@ pub struct RenderArgs {
     /// bunny and the back-lit scenes so far, benches/RESULTS.md "Smooth surfaces").
     #[arg(long, value_name = "interior|shepard", default_value = "shepard", value_parser = ["interior", "shepard"])]
     pub surface: String,
+    /// The diffusion coefficient D of the QuadGraph method (GPU and CPU solvers, the solve, the
+    /// sources and the exit query alike; `material::DiffusionCoefficient`): `classical` (the
+    /// default), 1 / (3 sigma_t'), or `grosjean`, (2 sigma_a + sigma_s') / (3 sigma_t'^2), larger
+    /// at low albedo (benches/RESULTS.md, "Diffusion coefficient at low albedo").
+    #[arg(long, value_name = "classical|grosjean", default_value = "classical", value_parser = ["classical", "grosjean"])]
+    pub diffusion_coefficient: String,
     /// Heterogeneous materials on the GPU cascade: `derived` (the default) computes the Jacobi
     /// weights in every sweep from the per-node kappa and mu by the harmonic face mean (48 bytes
     /// per node less, 8 texel reads per node and sweep); `stored` keeps three RGBA32F weight
@@ -396,6 +402,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.texture_only && args.method != "dipole" {
         bail!("--texture-only applies to --method dipole");
     }
+    let diffusion: translucent::material::DiffusionCoefficient =
+        args.diffusion_coefficient.parse()?;
+    if diffusion != translucent::material::DiffusionCoefficient::Classical
+        && args.method != "quadgraph"
+    {
+        bail!(
+            "--diffusion-coefficient {} applies to --method quadgraph (the voxel and dipole methods keep 1 / (3 sigma_t'))",
+            diffusion.name()
+        );
+    }
     match args.method.as_str() {
         "quadgraph" | "dipole" => {}
         "voxel" => return crate::render::voxel::run(args),
@@ -462,7 +478,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (None, Some(path)) => Environment::load_exr(path).context("--env")?,
         (None, None) => Environment::None,
     };
-    let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
+    let field = args
+        .material
+        .field(args.object.size_mm, DEFAULT_MATERIAL)?
+        .with_diffusion(diffusion);
 
     // Bake, or load the cached bake of the same surface and parameters.
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
@@ -893,6 +912,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "exact_iterations": solution.as_ref().and_then(|s| s.exact.as_ref()).map(|e| e.iterations),
             "schedule": schedule,
             // Where the lights' transmitted light enters (`--source`, resolved).
+            // `--diffusion-coefficient`: which D the solve used.
+            "diffusion_coefficient": field.diffusion().name(),
             "source": match source {
                 solver::transport::Source::BoundaryFlux => "flux",
                 solver::transport::Source::Collimated => "beam",
