@@ -560,12 +560,26 @@ mod tests {
 
     #[test]
     fn particular_solution_solves_the_ode_and_avoids_the_resonance() {
+        // Ketchup blue; Grosjean's D (0.446 against 0.225 mm) moves the resonance
+        // sigma_a mu_t^2 = D sigma_t'^2 from mu_t = 0.577 to 0.821.
+        for (diffusion, resonance) in [
+            (DiffusionCoefficient::Classical, 0.577_350_269_189_625_8),
+            (
+                DiffusionCoefficient::Grosjean,
+                (2.93f64 / (3.0 * 1.45)).sqrt(),
+            ),
+        ] {
+            particular_solution_at(diffusion, resonance);
+        }
+    }
+
+    fn particular_solution_at(diffusion: DiffusionCoefficient, resonance: f64) {
         let o = Optics {
             sigma_s: 0.03,
             sigma_a: 1.45,
-            diffusion: DiffusionCoefficient::Classical,
+            diffusion,
         };
-        for mu_t in [1.0, 0.6, 0.577_350_269_189_625_8, 0.3] {
+        for mu_t in [1.0, 0.6, resonance, 0.3] {
             let r = Refraction {
                 mu_i: mu_t,
                 t_i: 1.0,
