@@ -1,7 +1,19 @@
-# Diffusion-coefficient variants against the half-space Monte Carlo at low albedo.
-# usage: python3 dvar.py N thi alpha... (eta 1 and 1.3 both)
+#!/usr/bin/env python3
+"""Diffusion-coefficient variants against the half-space Monte Carlo (benches/RESULTS.md,
+"Diffusion coefficient at low albedo").
+
+usage: python3 benches/halfspace_diffusion_coefficient.py N THETA_I ALBEDO...  (eta 1 and 1.3)
+
+Per albedo: the Monte Carlo of ../shared/research/halfspace-mc/mc.py (N photons, collimated beam
+at THETA_I degrees), then the mean ratio to it over the view bins 80-19 degrees (and the relative
+RMS) of the second-collision source + exact single scattering and of the first-collision
+(collimated) source, each with the classical, Grosjean and asymptotic D. Needs numpy.
+$HALFSPACE_MC overrides where mc.py and diff.py are.
+"""
+import os
+from pathlib import Path
 import numpy as np, sys
-sys.path.insert(0, "/work/shared/research/halfspace-mc")
+sys.path.insert(0, os.environ.get("HALFSPACE_MC", str(Path(__file__).resolve().parents[2] / "shared/research/halfspace-mc")))
 from mc import run, fresnel
 from diff import C1C2
 
