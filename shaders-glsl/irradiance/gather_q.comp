@@ -12,7 +12,10 @@
 // solve is unchanged), and the exit query's part of it, a_phi K - a_d D beta K, into `particular`
 // (added back by the J+ pass: DESIGN 2.6 with phi = phi_h + K, dphi/dz_in = phi_h' - beta K).
 // Heterogeneous materials (beam_local = 1): the node's own coefficients from the level's kappa and
-// mu images (sigma_t' = 1 / (3 kappa), sigma_a = mu). Second-collision source (beam_exit.w = 1,
+// mu images (sigma_t' = 1 / (3 kappa), sigma_a = mu; with Grosjean's D, beam_kappa.w = 1, the
+// positive root of 3 kappa sigma_t'^2 - sigma_t' - sigma_a = 0). D is the material's diffusion
+// coefficient (material::DiffusionCoefficient): 1 / (3 sigma_t') or (2 sigma_a + sigma_s') /
+// (3 sigma_t'^2), in the particular solution, the resonance and the exit query alike. Second-collision source (beam_exit.w = 1,
 // DESIGN 2.8's second option): Q0 times the share of once-scattered light that collides again
 // (solver::transport::second_collision_ratio), single scattering then added whole. Shadow-edge
 // fallback (beam_edge = 1): a light the node's 3x3 PCF sees partly occluded enters as the boundary
@@ -72,6 +75,7 @@ layout(push_constant) uniform GatherPush {
     vec4 beam_sigma_a; // rgb: sigma_a; w: the boundary constant A
     vec4 beam_exit;    // x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain 4 / (1 - 2 C1),
                        // w: 1 = the second-collision source
+    vec4 beam_kappa;   // rgb: D of a homogeneous material; w: 1 = Grosjean's D, 0 = 1 / (3 sigma_t')
 } pc;
 
 // Quadrature points of second_collision_ratio's integral over mu (as the f64 reference).
@@ -81,11 +85,11 @@ const float SECOND_COLLISION_MIN_MU_T = 1e-6;
 
 // The share of the once-scattered light of a beam (refracted cosine mu_t) that collides again,
 // per channel: transport::second_collision_ratio, the same quadrature.
-vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, float mu_t, float eta) {
+vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, float mu_t, float eta) {
     float b = 1.0 / max(mu_t, SECOND_COLLISION_MIN_MU_T);
     vec3 sigma_t = sigma_s + sigma_a;
-    // s / sigma_t' with s = sqrt(sigma_a / D) = sqrt(3 sigma_a sigma_t').
-    vec3 s = sqrt(3.0 * sigma_a * sigma_t) / sigma_t;
+    // s / sigma_t' with s = sqrt(sigma_a / D) (classical: sqrt(3 sigma_a sigma_t')).
+    vec3 s = sqrt(sigma_a / d) / sigma_t;
     vec3 j = vec3(0.0);
     for (int i = 0; i < SECOND_COLLISION_POINTS; ++i) {
         float m = (float(i) + 0.5) / float(SECOND_COLLISION_POINTS);
@@ -167,11 +171,17 @@ void main() {
     bool beams = pc.beam_sigma_s.w > 0.5;
     vec3 beam_s = pc.beam_sigma_s.rgb;
     vec3 beam_a = pc.beam_sigma_a.rgb;
+    vec3 beam_d = pc.beam_kappa.rgb;
     if (beams && pc.beam_local > 0.5) {
         vec3 k = imageLoad(kappa, texel).rgb;
         vec3 m = imageLoad(mu, texel).rgb;
         beam_a = m;
-        beam_s = max(1.0 / (3.0 * k) - m, vec3(0.0));
+        beam_d = k;
+        // sigma_t' from D and sigma_a (material::DiffusionCoefficient::sigma_t).
+        vec3 sigma_t = pc.beam_kappa.w > 0.5
+            ? (1.0 + sqrt(1.0 + 12.0 * k * m)) / (6.0 * k)
+            : 1.0 / (3.0 * k);
+        beam_s = max(sigma_t - m, vec3(0.0));
     }
     for (uint i = 0; i < min(scene.counts.x, MAX_LIGHTS); ++i) {
         GatherLight light = scene.lights[i];
@@ -226,7 +236,7 @@ void main() {
         // The second-collision source scales the whole source, its flux fallback included
         // (the once-scattered light is the march's, added whole).
         vec3 gain = pc.beam_exit.w > 0.5
-            ? second_collision_ratio(beam_s, sigma_a, mu_t, pc.eta)
+            ? second_collision_ratio(beam_s, sigma_a, beam_d, mu_t, pc.eta)
             : vec3(1.0);
         if (pc.beam_edge > 0.5 && vis < 1.0) {
             // A shadow edge: the flat half-space fails; the boundary flux.
@@ -234,7 +244,8 @@ void main() {
             continue;
         }
         vec3 a = sigma_a * (mu_t * mu_t);
-        vec3 b = sigma_t / 3.0;
+        // D sigma_t'^2 (sigma_t' / 3 with the classical D).
+        vec3 b = beam_d * sigma_t * sigma_t;
         // Near the resonance the solve cannot cancel a large K: that share of the light
         // enters as the boundary flux (transport::beam_share, the same smoothstep).
         vec3 share = smoothstep(vec3(RESONANCE_FLUX_BELOW), vec3(RESONANCE_BEAM_ABOVE),
@@ -246,7 +257,7 @@ void main() {
         vec3 source = beam_s * transmitted * share * gain;
         vec3 k = source * mu_t / denom;
         vec3 beta_k = source * sigma_t / denom;
-        vec3 d = 1.0 / (3.0 * sigma_t);
+        vec3 d = beam_d;
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
         sum += -(k + 2.0 * pc.beam_sigma_a.w * d * beta_k) / pc.beam_exit.z;
         part += pc.beam_exit.x * k - pc.beam_exit.y * d * beta_k;

@@ -335,3 +335,80 @@ fn gpu_heterogeneous_and_second_collision_beams_match_the_cpu_reference() {
     }
     gpu.finish();
 }
+
+/// Grosjean's diffusion coefficient (`material::DiffusionCoefficient`, render
+/// `--diffusion-coefficient grosjean`) on the GPU against the f64 CPU reference: the solve's
+/// kappa, the second-collision source's s = sqrt(sigma_a / D), the particular solution's
+/// resonance D sigma_t'^2 and the exit query's D dphi/dz all take the material's D. Ketchup
+/// (albedo 0.75, 0.067, 0.020: D up to 2x the classical one) homogeneous, and the split sphere
+/// (the gather inverts each node's kappa into sigma_t' with Grosjean's quadratic); each must
+/// also move away from the classical D's CPU answer (a GPU that ignored the option fails).
+#[test]
+fn gpu_grosjean_diffusion_coefficient_matches_the_cpu_reference() {
+    use translucent::material::{DiffusionCoefficient, Procedural};
+    use translucent::solver::transport::Source;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 10.0 }, 16, 2);
+    let ketchup = MaterialField::Homogeneous(Material::preset("ketchup").unwrap());
+    let split = MaterialField::procedural(
+        Procedural::Split {
+            normal: glam::DVec3::Y,
+            offset: 0.0,
+            below: Material::preset("skimmilk").unwrap().coefficients(),
+            above: Material::preset("ketchup").unwrap().coefficients(),
+        },
+        1.0,
+    )
+    .unwrap();
+    let scene = Scene {
+        lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
+        environment: Environment::None,
+    };
+    for (name, classical) in [("ketchup", &ketchup), ("split", &split)] {
+        let grosjean = classical
+            .clone()
+            .with_diffusion(DiffusionCoefficient::Grosjean);
+        let transport = Transport {
+            source: Source::SecondCollision,
+            ..Transport::gpu_collimated()
+        };
+        let cpu_vertex = |field: &MaterialField| -> Vec<[f64; 3]> {
+            let params = CpuSolveParams {
+                transport,
+                ..CpuSolveParams::default()
+            };
+            solver::solve(&graph, field, &scene, None, &params)
+                .unwrap()
+                .vertex_j_plus
+                .iter()
+                .map(|x| x.map(f64::from))
+                .collect()
+        };
+        let (want, other) = (cpu_vertex(&grosjean), cpu_vertex(classical));
+        let params = GpuSolveParams {
+            iterations: vec![4000],
+            tolerance: 1e-6,
+            exit: ExitQuery::Moments,
+            collimated: true,
+            second_collision: true,
+            ..Default::default()
+        };
+        let mut object = multilevel_object(ctx, &graph, &grosjean, &scene, params);
+        render_once(ctx, &mut object, 32, 32);
+        let v = object
+            .quadgraph()
+            .expect("a QuadGraph object")
+            .solve()
+            .read_vertex_j_plus(ctx)
+            .expect("vertex J+");
+        let err = rel_rms(&v, &want);
+        let apart = rel_rms(&v, &other);
+        println!("{name} Grosjean: GPU vs CPU {err:.2e}, vs the classical D {apart:.3}");
+        assert!(err <= BEAM_VARIANT_GPU_VS_CPU, "{name}: relative RMS {err}");
+        assert!(apart > BEAM_VARIANT_DIFFERS, "{name}: {apart}");
+        drop(object);
+        gpu.assert_no_messages();
+    }
+    gpu.finish();
+}

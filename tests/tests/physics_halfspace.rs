@@ -15,7 +15,7 @@
 
 use std::f64::consts::PI;
 
-use translucent::material::fresnel;
+use translucent::material::{fresnel, DiffusionCoefficient};
 use translucent::solver::transport::{
     beam_particular, flat_single_scattering, refracted_cosine, second_collision_ratio, Boundary,
     ExitQuery, Optics, Refraction,
@@ -127,10 +127,30 @@ fn rms(model: &[f64; BINS], reference: &[f64; BINS]) -> f64 {
 /// Diffusion radiance per bin for a beam at `mu_i` with unit surface irradiance: the collimated
 /// source (gain 1) or the second-collision one, read with `exit`.
 fn diffusion(albedo: f64, eta: f64, mu_i: f64, exit: ExitQuery, second: bool) -> [f64; BINS] {
+    diffusion_with(
+        albedo,
+        eta,
+        mu_i,
+        exit,
+        second,
+        DiffusionCoefficient::Classical,
+    )
+}
+
+/// [`diffusion`] with the diffusion coefficient `kind`.
+fn diffusion_with(
+    albedo: f64,
+    eta: f64,
+    mu_i: f64,
+    exit: ExitQuery,
+    second: bool,
+    kind: DiffusionCoefficient,
+) -> [f64; BINS] {
     let b = Boundary::new(eta, exit);
     let o = Optics {
         sigma_s: albedo,
         sigma_a: 1.0 - albedo,
+        diffusion: kind,
     };
     let r = Refraction::new(eta, mu_i);
     let gain = if second {
@@ -163,6 +183,7 @@ fn flux_only(albedo: f64, eta: f64, mu_i: f64) -> [f64; BINS] {
     let o = Optics {
         sigma_s: albedo,
         sigma_a: 1.0 - albedo,
+        diffusion: Default::default(),
     };
     let (k, beta) = beam_particular(o, Refraction::new(eta, mu_i), 1.0, 1.0);
     let s = o.s();
@@ -243,6 +264,47 @@ fn second_collision_source_with_single_scattering_matches_the_monte_carlo() {
         assert!(err < bound + MC_NOISE, "{albedo} {eta} {deg}: {err}");
         if eta == 1.0 && deg == 80.0 {
             assert!(collimated > 0.1, "collimated at grazing: {collimated}");
+        }
+    }
+}
+
+/// Low albedo (ketchup's and skin's absorbing channels), both diffusion coefficients: with the
+/// second-collision source and single scattering whole the model stays within a few percent of
+/// the Monte Carlo whichever D (diffusion carries little there; benches/RESULTS.md "Diffusion
+/// coefficient at low albedo"), and Grosjean's D cuts the collimated (first-collision) source's
+/// excess at eta 1.3 (classical 1.26-1.30x, Grosjean 1.19-1.20x in the Python twin).
+#[test]
+fn low_albedo_second_collision_holds_with_either_diffusion_coefficient() {
+    let mu_i = 30f64.to_radians().cos();
+    // Bounds: the largest error of the Python twin over both kinds at these points (eta 1:
+    // 1.4-2.3%, eta 1.3: 2.2-4.4% at albedo 0.02-0.2, view bins 80-19 degrees), plus MC_NOISE.
+    // This test measured 1.9-2.0% (0.067, eta 1), 2.5-2.9% (0.2, eta 1), 3.8-4.2% (0.2, eta 1.3).
+    for (albedo, eta, bound) in [(0.067, 1.0, 0.025), (0.2, 1.0, 0.03), (0.2, 1.3, 0.05)] {
+        let mc = monte_carlo(albedo, eta, mu_i, PHOTONS, 5, u32::MAX);
+        let ss = single_scattering(albedo, eta, mu_i);
+        let mut first = [0.0; 2];
+        for (i, kind) in [
+            DiffusionCoefficient::Classical,
+            DiffusionCoefficient::Grosjean,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let diff = diffusion_with(albedo, eta, mu_i, ExitQuery::Moments, true, kind);
+            let total: [f64; BINS] = std::array::from_fn(|b| diff[b] + ss[b]);
+            let err = rms(&total, &mc.all);
+            let collimated = diffusion_with(albedo, eta, mu_i, ExitQuery::Moments, false, kind);
+            first[i] =
+                (1..BINS).map(|b| collimated[b] / mc.all[b]).sum::<f64>() / (BINS - 1) as f64;
+            println!(
+                "albedo {albedo} eta {eta} {kind:?}: second + single {err:.4}, collimated mean ratio {:.3}",
+                first[i]
+            );
+            assert!(err < bound + MC_NOISE, "{albedo} {eta} {kind:?}: {err}");
+        }
+        if eta > 1.0 {
+            // The collimated source's excess at low albedo is smaller with Grosjean's D.
+            assert!(first[1] < first[0] - 0.03, "{first:?}");
         }
     }
 }

@@ -244,6 +244,7 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
         sigma_s: [0.0; 3],
         sigma_a: [0.0; 3],
         eta: 1.3,
+        diffusion: Default::default(),
     });
     let e = solver::solve(&g, &hand_made, &scene, None, &ok).unwrap_err();
     assert!(matches!(e, SolverError::BadMaterialAt { .. }), "{e}");
@@ -251,6 +252,7 @@ fn bad_graphs_scenes_and_parameters_are_typed_errors() {
         sigma_s: [1.0; 3],
         sigma_a: [0.0; 3],
         eta: 5.0,
+        diffusion: Default::default(),
     });
     let e = solver::solve(&g, &bad_eta, &scene, None, &ok).unwrap_err();
     assert!(matches!(e, SolverError::Material(_)), "{e}");

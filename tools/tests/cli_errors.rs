@@ -296,3 +296,34 @@ fn no_vulkan_driver_names_the_packages_to_install() {
         "{line}"
     );
 }
+
+/// Grosjean's diffusion coefficient belongs to the QuadGraph method: naming it with another
+/// method is an error that says so, before any output is written.
+#[test]
+fn grosjean_diffusion_coefficient_with_another_method_is_named() {
+    let dir = scratch("diffusion-coefficient");
+    let out = dir.join("x.png");
+    for method in ["voxel", "dipole"] {
+        let line = error_line(
+            &[
+                "render",
+                "--shape",
+                "sphere",
+                "--method",
+                method,
+                "--diffusion-coefficient",
+                "grosjean",
+                "--out",
+                out.to_str().expect("utf-8"),
+            ],
+            &dir,
+            &[],
+        );
+        assert!(
+            line.contains("--diffusion-coefficient grosjean applies to --method quadgraph"),
+            "{method}: {line}"
+        );
+    }
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -40,6 +40,8 @@ fn render_energy(dir: &Path, material: &[&str]) -> [f64; 3] {
     // A heterogeneous material keeps the boundary flux by default (the beam's share near its
     // resonance is what differed by 22% between the grid and the procedural field).
     assert_eq!(json["source"], "flux", "{json}");
+    // render's QuadGraph default D (benches/RESULTS.md "Diffusion coefficient at low albedo").
+    assert_eq!(json["diffusion_coefficient"], "grosjean", "{json}");
     rgb(&json["energy"]["exitance"])
 }
 

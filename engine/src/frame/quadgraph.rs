@@ -113,21 +113,24 @@ fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource
     if !params.collimated {
         return None;
     }
-    let (sigma_s, sigma_a, local) = match field {
+    let (sigma_s, sigma_a, kappa, local) = match field {
         MaterialField::Homogeneous(m) => {
             let c = m.coefficients();
             (
                 c.sigma_s.map(|v| v as f32),
                 c.sigma_a.map(|v| v as f32),
+                m.kappa().map(|v| v as f32),
                 false,
             )
         }
-        _ => ([0.0; 3], [0.0; 3], true),
+        _ => ([0.0; 3], [0.0; 3], [0.0; 3], true),
     };
     let b = solve.boundary();
     Some(BeamSource {
         sigma_s,
         sigma_a,
+        kappa,
+        diffusion: field.diffusion(),
         a: b.a as f32,
         exit_phi: (0.25 * (1.0 - 2.0 * b.c1)) as f32,
         exit_flux: (0.5 * (1.0 - 3.0 * b.c2)) as f32,

@@ -22,7 +22,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::{check_eta, check_pair, noise, Material, MaterialError, VolGrid};
+use super::{check_eta, check_pair, noise, DiffusionCoefficient, Material, MaterialError, VolGrid};
 
 /// Optical coefficients at a point (1/mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,7 +42,12 @@ impl Coefficients {
 
     /// Diffusion coefficient kappa = 1 / (3 (sigma_a + sigma_s')).
     pub fn kappa(&self) -> [f64; 3] {
-        std::array::from_fn(|c| 1.0 / (3.0 * (self.sigma_s[c] + self.sigma_a[c])))
+        self.kappa_with(DiffusionCoefficient::Classical)
+    }
+
+    /// Diffusion coefficient D per channel of the given kind (mm).
+    pub fn kappa_with(&self, kind: DiffusionCoefficient) -> [f64; 3] {
+        std::array::from_fn(|c| kind.d(self.sigma_s[c], self.sigma_a[c]))
     }
 
     /// Absorption mu = sigma_a.
@@ -99,11 +104,15 @@ pub enum MaterialField {
     Procedural {
         pattern: Procedural,
         eta: f64,
+        /// Which D [`MaterialField::kappa_at`] gives.
+        diffusion: DiffusionCoefficient,
     },
     /// A `.vol` grid (6 channels) sampled trilinearly; outside its box the border value repeats.
     Grid {
         grid: VolGrid,
         eta: f64,
+        /// Which D [`MaterialField::kappa_at`] gives.
+        diffusion: DiffusionCoefficient,
     },
 }
 
@@ -165,13 +174,21 @@ impl MaterialField {
                 }
             }
         }
-        Ok(Self::Procedural { pattern, eta })
+        Ok(Self::Procedural {
+            pattern,
+            eta,
+            diffusion: DiffusionCoefficient::Classical,
+        })
     }
 
     /// A validated grid field.
     pub fn grid(grid: VolGrid, eta: f64) -> Result<Self, MaterialError> {
         check_eta(eta)?;
-        Ok(Self::Grid { grid, eta })
+        Ok(Self::Grid {
+            grid,
+            eta,
+            diffusion: DiffusionCoefficient::Classical,
+        })
     }
 
     /// The object's relative index of refraction.
@@ -180,6 +197,37 @@ impl MaterialField {
             Self::Homogeneous(m) => m.eta,
             Self::Procedural { eta, .. } | Self::Grid { eta, .. } => *eta,
         }
+    }
+
+    /// Which diffusion coefficient D the diffusion methods use for this material (classical unless
+    /// [`MaterialField::with_diffusion`] set another).
+    pub fn diffusion(&self) -> DiffusionCoefficient {
+        match self {
+            Self::Homogeneous(m) => m.diffusion,
+            Self::Procedural { diffusion, .. } | Self::Grid { diffusion, .. } => *diffusion,
+        }
+    }
+
+    /// The same field with the diffusion coefficient `kind`.
+    pub fn with_diffusion(self, kind: DiffusionCoefficient) -> Self {
+        match self {
+            Self::Homogeneous(m) => Self::Homogeneous(m.with_diffusion(kind)),
+            Self::Procedural { pattern, eta, .. } => Self::Procedural {
+                pattern,
+                eta,
+                diffusion: kind,
+            },
+            Self::Grid { grid, eta, .. } => Self::Grid {
+                grid,
+                eta,
+                diffusion: kind,
+            },
+        }
+    }
+
+    /// The diffusion coefficient D at `p` (mm), of the field's [`MaterialField::diffusion`].
+    pub fn kappa_at(&self, p: DVec3) -> [f64; 3] {
+        self.sample(p).kappa_with(self.diffusion())
     }
 
     /// Whether the coefficients are the same everywhere.

@@ -26,6 +26,64 @@ pub mod vol;
 use std::path::PathBuf;
 
 pub use field::{Coefficients, MaterialField, Procedural};
+
+/// Which diffusion coefficient D the diffusion methods use (render `--diffusion-coefficient`).
+///
+/// `Classical`: D = 1 / (3 sigma_t'), DESIGN section 2. `Grosjean`: D = (2 sigma_a + sigma_s') /
+/// (3 sigma_t'^2) (Grosjean 1956; d'Eon and Irving 2011, "A quantized-diffusion model", Eq. 7),
+/// the same at albedo 1 and up to twice as large as the albedo falls. Both give sigma_tr =
+/// sqrt(sigma_a / D). benches/RESULTS.md "Diffusion coefficient at low albedo" measures them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DiffusionCoefficient {
+    /// D = 1 / (3 sigma_t').
+    #[default]
+    Classical,
+    /// D = (2 sigma_a + sigma_s') / (3 sigma_t'^2).
+    Grosjean,
+}
+
+impl DiffusionCoefficient {
+    /// D (mm) of one channel with reduced scattering `sigma_s` and absorption `sigma_a` (1/mm,
+    /// sigma_s + sigma_a > 0).
+    pub fn d(self, sigma_s: f64, sigma_a: f64) -> f64 {
+        let sigma_t = sigma_s + sigma_a;
+        match self {
+            Self::Classical => 1.0 / (3.0 * sigma_t),
+            Self::Grosjean => (2.0 * sigma_a + sigma_s) / (3.0 * sigma_t * sigma_t),
+        }
+    }
+
+    /// sigma_t' back from D and sigma_a (the GPU reads a heterogeneous level's kappa and mu):
+    /// classical 1 / (3 D); Grosjean the positive root of 3 D sigma_t'^2 - sigma_t' - sigma_a = 0.
+    pub fn sigma_t(self, d: f64, sigma_a: f64) -> f64 {
+        match self {
+            Self::Classical => 1.0 / (3.0 * d),
+            Self::Grosjean => (1.0 + (1.0 + 12.0 * d * sigma_a).sqrt()) / (6.0 * d),
+        }
+    }
+
+    /// The name `--diffusion-coefficient` and `--json` use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Classical => "classical",
+            Self::Grosjean => "grosjean",
+        }
+    }
+}
+
+impl std::str::FromStr for DiffusionCoefficient {
+    type Err = MaterialError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "classical" => Ok(Self::Classical),
+            "grosjean" => Ok(Self::Grosjean),
+            other => Err(MaterialError::BadParameter {
+                name: "diffusion coefficient",
+                problem: format!("'{other}' is not classical or grosjean"),
+            }),
+        }
+    }
+}
 pub use vol::{VolError, VolGrid};
 
 /// Channel names used in error messages.
@@ -78,6 +136,9 @@ pub struct Material {
     pub sigma_a: [f64; 3],
     /// Relative index of refraction n_inside / n_outside.
     pub eta: f64,
+    /// Which diffusion coefficient D [`Material::kappa`] gives (the classical one unless
+    /// [`Material::with_diffusion`] says otherwise).
+    pub diffusion: DiffusionCoefficient,
 }
 
 /// Checks one coefficient triple: finite and non-negative.
@@ -135,7 +196,13 @@ impl Material {
             sigma_s,
             sigma_a,
             eta,
+            diffusion: DiffusionCoefficient::Classical,
         })
+    }
+
+    /// The same material with the diffusion coefficient `diffusion`.
+    pub fn with_diffusion(self, diffusion: DiffusionCoefficient) -> Self {
+        Self { diffusion, ..self }
     }
 
     /// A measured material of Jensen et al. 2001 by name (see [`presets::PRESETS`]).
@@ -156,9 +223,15 @@ impl Material {
         std::array::from_fn(|c| self.sigma_a[c] + self.sigma_s[c])
     }
 
-    /// Diffusion coefficient kappa = D = 1 / (3 sigma_t') in mm.
+    /// Diffusion coefficient kappa = D in mm: 1 / (3 sigma_t') (classical, the default) or
+    /// Grosjean's, as [`Material::diffusion`] says.
     pub fn kappa(&self) -> [f64; 3] {
-        self.sigma_t().map(|t| 1.0 / (3.0 * t))
+        self.kappa_with(self.diffusion)
+    }
+
+    /// Diffusion coefficient D per channel of the given kind, in mm.
+    pub fn kappa_with(&self, kind: DiffusionCoefficient) -> [f64; 3] {
+        self.coefficients().kappa_with(kind)
     }
 
     /// Absorption mu = sigma_a.
@@ -188,6 +261,52 @@ impl Material {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // Hand values written as decimal quotients: a few f64 roundings apart.
+    const HAND_TOLERANCE: f64 = 1e-12;
+
+    #[test]
+    fn grosjean_coefficient_matches_hand_values() {
+        // Ketchup red: sigma_s' 0.18, sigma_a 0.061 (sigma_t' 0.241): classical 1 / 0.723 =
+        // 1.383126 mm, Grosjean (0.122 + 0.18) / (3 * 0.058081) = 0.302 / 0.174243 = 1.733212 mm.
+        let (s, a) = (0.18, 0.061);
+        let classical = DiffusionCoefficient::Classical.d(s, a);
+        let grosjean = DiffusionCoefficient::Grosjean.d(s, a);
+        assert!((classical - 1.0 / 0.723).abs() < HAND_TOLERANCE);
+        assert!((grosjean - 0.302 / 0.174243).abs() < HAND_TOLERANCE);
+        assert!((grosjean - 1.733_212).abs() < 1e-6, "{grosjean}");
+        // No absorption: both are 1 / (3 sigma_t'); no scattering: Grosjean is twice classical.
+        assert_eq!(
+            DiffusionCoefficient::Grosjean.d(2.0, 0.0),
+            DiffusionCoefficient::Classical.d(2.0, 0.0)
+        );
+        let pure_absorber = DiffusionCoefficient::Grosjean.d(0.0, 1.5);
+        assert!(
+            (pure_absorber - 2.0 * DiffusionCoefficient::Classical.d(0.0, 1.5)).abs()
+                < HAND_TOLERANCE
+        );
+        // sigma_t' comes back from (D, sigma_a) for both kinds.
+        for kind in [
+            DiffusionCoefficient::Classical,
+            DiffusionCoefficient::Grosjean,
+        ] {
+            let t = kind.sigma_t(kind.d(s, a), a);
+            assert!((t - 0.241).abs() < HAND_TOLERANCE, "{kind:?}: {t}");
+            assert_eq!(kind.name().parse::<DiffusionCoefficient>().unwrap(), kind);
+        }
+        assert!("quantized".parse::<DiffusionCoefficient>().is_err());
+        let m = Material::preset("ketchup").unwrap();
+        assert_eq!(m.kappa_with(DiffusionCoefficient::Classical), m.kappa());
+        assert!(m.kappa_with(DiffusionCoefficient::Grosjean)[2] > 1.9 * m.kappa()[2]);
+        let g = m.with_diffusion(DiffusionCoefficient::Grosjean);
+        assert_eq!(g.kappa(), m.kappa_with(DiffusionCoefficient::Grosjean));
+        let field = MaterialField::Homogeneous(g);
+        assert_eq!(field.diffusion(), DiffusionCoefficient::Grosjean);
+        let p = glam::DVec3::ZERO;
+        assert_eq!(field.kappa_at(p), g.kappa());
+        let back = field.with_diffusion(DiffusionCoefficient::Classical);
+        assert_eq!(back.kappa_at(p), m.kappa());
+    }
 
     #[test]
     fn derived_quantities() {

@@ -57,7 +57,7 @@ use glam::DVec3;
 
 use super::shadow_maps::{ShadowMaps, MAX_LIGHTS, MAX_SHADOW_VIEWS};
 use super::RenderError;
-use crate::material::fresnel;
+use crate::material::{fresnel, DiffusionCoefficient};
 use crate::quadgraph::graph::GraphLevel;
 use crate::scene::{Environment, Light, Scene};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite};
@@ -101,6 +101,9 @@ pub struct GatherPush {
     /// x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain, w: 1 for the second-collision
     /// source.
     pub beam_exit: [f32; 4],
+    /// rgb: the diffusion coefficient D of a homogeneous material; w: 1 for Grosjean's D (the
+    /// gather inverts a heterogeneous level's kappa with it), 0 for 1 / (3 sigma_t').
+    pub beam_kappa: [f32; 4],
 }
 
 /// The collimated source of DESIGN 2.7 (what the gather needs of the solver's boundary model,
@@ -112,6 +115,9 @@ pub struct BeamSource {
     /// Reduced scattering sigma_s' and absorption sigma_a per channel (1/mm).
     pub sigma_s: [f32; 3],
     pub sigma_a: [f32; 3],
+    /// The diffusion coefficient D per channel (mm; unused when `local`) and its kind.
+    pub kappa: [f32; 3],
+    pub diffusion: DiffusionCoefficient,
     /// The boundary constant A = (1 + 3 C2) / (1 - 2 C1).
     pub a: f32,
     /// The exit query's weights of phi and of D dphi/dz_in: (1 - 2 C1) / 4 and (1 - 3 C2) / 2.
@@ -578,6 +584,15 @@ impl IrradiancePass {
                     b.exit_flux,
                     b.flux_gain,
                     if b.second_collision { 1.0 } else { 0.0 },
+                ]
+            }),
+            beam_kappa: self.beam.map_or([0.0; 4], |b| {
+                let grosjean = b.diffusion == DiffusionCoefficient::Grosjean;
+                [
+                    b.kappa[0],
+                    b.kappa[1],
+                    b.kappa[2],
+                    if grosjean { 1.0 } else { 0.0 },
                 ]
             }),
         };

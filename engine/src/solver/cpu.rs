@@ -270,7 +270,8 @@ fn level_sources(
                 Scheme::Fv => material.sample(level.positions[level.surface_faces[s].0 as usize]),
                 Scheme::Paper => here,
             };
-            let h: [f64; 3] = std::array::from_fn(|c| 2.0 * op.a * row.kappa()[c]);
+            let d = row.kappa_with(material.diffusion());
+            let h: [f64; 3] = std::array::from_fn(|c| 2.0 * op.a * d[c]);
             (model.at_with(x, level.surface_normals[s], &here, h), h)
         })
         .unzip()
@@ -609,9 +610,7 @@ fn node_exitance(
         .into_par_iter()
         .map(|s| {
             let src = &sources[s];
-            let d = material
-                .sample(level.positions[level.surface_faces[s].0 as usize])
-                .kappa();
+            let d = material.kappa_at(level.positions[level.surface_faces[s].0 as usize]);
             std::array::from_fn(|c| {
                 let phi_h = phi[inner + s][c];
                 let dphi_h = (phi_h - src.rhs[c]) / row_h[s][c];
@@ -656,7 +655,8 @@ pub fn reconstruct_vertices(
             let here = model
                 .material
                 .sample(level.positions[cell.min(level.inner_count() - 1)]);
-            let optics: [Optics; 3] = std::array::from_fn(|c| Optics::channel(&here, c));
+            let kind = model.material.diffusion();
+            let optics: [Optics; 3] = std::array::from_fn(|c| Optics::channel_with(&here, c, kind));
             let h: [f64; 3] = std::array::from_fn(|c| boundary.h(optics[c]));
             let mut src = model.at_with(x, n, &here, h);
             if let Some(extra) = bounce {
@@ -706,9 +706,7 @@ pub fn interior_vertices(
         .collect();
     let part: Vec<[f64; 3]> = (0..sources.len())
         .map(|s| {
-            let d = material
-                .sample(level.positions[level.surface_faces[s].0 as usize])
-                .kappa();
+            let d = material.kappa_at(level.positions[level.surface_faces[s].0 as usize]);
             std::array::from_fn(|c| {
                 boundary.exitance(d[c], sources[s].phi_p[c], sources[s].dphi_p[c], 0.0)
             })
@@ -730,13 +728,14 @@ pub fn interior_vertices(
         .map(|v| {
             let cell = (samples.cell[v] as usize).min(inner.saturating_sub(1));
             let here = material.sample(level.positions[cell]);
+            let kappa = here.kappa_with(material.diffusion());
             let p = samples.interpolate(v, phi_h);
             let (q_v, part_v) = (
                 samples.source_average(v, &q),
                 samples.source_average(v, &part),
             );
             std::array::from_fn(|c| {
-                let (d, h) = (here.kappa()[c], 2.0 * boundary.a * here.kappa()[c]);
+                let (d, h) = (kappa[c], 2.0 * boundary.a * kappa[c]);
                 let s = (here.mu()[c] / d).sqrt();
                 let qv = q_v[c];
                 let (phi0, dphi0) =

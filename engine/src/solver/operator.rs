@@ -129,7 +129,9 @@ impl LevelOperator {
                 source,
             })?;
         }
-        let kappa: Vec<[f64; 3]> = coeffs.iter().map(Coefficients::kappa).collect();
+        // D of the material's kind (classical 1 / (3 sigma_t') unless Grosjean's was chosen).
+        let diffusion = material.diffusion();
+        let kappa: Vec<[f64; 3]> = coeffs.iter().map(|c| c.kappa_with(diffusion)).collect();
         let volumes: Vec<f64> = (0..inner)
             .into_par_iter()
             .map(|t| signed_volume(&level.tets, t))

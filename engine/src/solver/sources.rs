@@ -328,7 +328,7 @@ impl<'a> SourceModel<'a> {
                         if self.beams() && !thin {
                             // Near the particular solution's resonance part of the light
                             // enters as the boundary flux (transport::beam_share).
-                            let o = Optics::channel(here, ch);
+                            let o = Optics::channel_with(here, ch, self.material.diffusion());
                             let share = beam_share(o, r.mu_t);
                             add_beam(&mut out, ch, o, r, irr * share, 1.0, 1.0, true);
                             // The second-collision source scales its flux part too (the
@@ -371,7 +371,7 @@ impl<'a> SourceModel<'a> {
                         if tau > MAX_OPTICAL_DEPTH {
                             continue;
                         }
-                        let o = Optics::channel(&at_entry, ch);
+                        let o = Optics::channel_with(&at_entry, ch, self.material.diffusion());
                         let irr = irradiance[ch] * mu_i;
                         add_beam(&mut out, ch, o, r, irr, (-tau).exp(), alignment, false);
                     }
@@ -444,7 +444,7 @@ impl<'a> SourceModel<'a> {
             }
             let r = Refraction::new(self.boundary.eta, mu);
             for ch in 0..3 {
-                let o = Optics::channel(here, ch);
+                let o = Optics::channel_with(here, ch, self.material.diffusion());
                 let gain = if first_collision {
                     1.0
                 } else {
@@ -463,7 +463,10 @@ impl<'a> SourceModel<'a> {
     /// [`Self::at_with`] with the material sampled at `x` and its own extrapolation length.
     pub fn at(&self, x: DVec3, n: DVec3) -> LocalSource {
         let here = self.material.sample(x);
-        let h = std::array::from_fn(|c| self.boundary.h(Optics::channel(&here, c)));
+        let h = std::array::from_fn(|c| {
+            self.boundary
+                .h(Optics::channel_with(&here, c, self.material.diffusion()))
+        });
         self.at_with(x, n, &here, h)
     }
 }

@@ -20,7 +20,7 @@
 //! let b = Boundary::new(1.5, ExitQuery::Moments);
 //! assert!((b.a - (1.0 + 3.0 * b.c2) / (1.0 - 2.0 * b.c1)).abs() < 1e-12);
 //! // A lit flat half-space of albedo 0.999, light at 30 degrees: the exitance of DESIGN 2.6.
-//! let o = Optics { sigma_s: 0.999, sigma_a: 0.001 };
+//! let o = Optics { sigma_s: 0.999, sigma_a: 0.001, diffusion: Default::default() };
 //! let r = Refraction::new(1.5, 30f64.to_radians().cos());
 //! let (k, beta) = beam_particular(o, r, 1.0, 1.0);
 //! let m = b.half_space_exitance(o, 0.0, k, -beta * k, -(k + b.h(o) * beta * k));
@@ -31,7 +31,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use crate::material::{fresnel, Coefficients};
+use crate::material::{fresnel, Coefficients, DiffusionCoefficient};
 
 /// How exitance is read from phi at the surface.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -202,13 +202,21 @@ pub struct Optics {
     /// Reduced scattering sigma_s'.
     pub sigma_s: f64,
     pub sigma_a: f64,
+    /// Which D the diffusion uses ([`DiffusionCoefficient`]).
+    pub diffusion: DiffusionCoefficient,
 }
 
 impl Optics {
+    /// Channel `ch` of `c` with the classical D.
     pub fn channel(c: &Coefficients, ch: usize) -> Self {
+        Self::channel_with(c, ch, DiffusionCoefficient::Classical)
+    }
+    /// Channel `ch` of `c` with the D of `diffusion`.
+    pub fn channel_with(c: &Coefficients, ch: usize, diffusion: DiffusionCoefficient) -> Self {
         Self {
             sigma_s: c.sigma_s[ch],
             sigma_a: c.sigma_a[ch],
+            diffusion,
         }
     }
     pub fn sigma_t(&self) -> f64 {
@@ -217,9 +225,9 @@ impl Optics {
     pub fn albedo(&self) -> f64 {
         self.sigma_s / self.sigma_t()
     }
-    /// D = kappa = 1 / (3 sigma_t').
+    /// D = kappa: 1 / (3 sigma_t') (classical) or (2 sigma_a + sigma_s') / (3 sigma_t'^2).
     pub fn d(&self) -> f64 {
-        1.0 / (3.0 * self.sigma_t())
+        self.diffusion.d(self.sigma_s, self.sigma_a)
     }
     /// s = sqrt(sigma_a / D).
     pub fn s(&self) -> f64 {
@@ -432,8 +440,9 @@ pub const RESONANCE_BEAM_ABOVE: f64 = 0.5;
 /// enters as the boundary flux ([`RESONANCE_FLUX_BELOW`]). The GPU gather computes the same.
 pub fn beam_share(o: Optics, mu_t: f64) -> f64 {
     let mu_t = mu_t.max(MIN_MU_T);
+    // sigma_a mu_t^2 against D sigma_t'^2 (sigma_t' / 3 with the classical D).
     let a = o.sigma_a * mu_t * mu_t;
-    let b = o.sigma_t() / 3.0;
+    let b = o.d() * o.sigma_t() * o.sigma_t();
     let x = (a - b).abs() / (a + b);
     let t = ((x - RESONANCE_FLUX_BELOW) / (RESONANCE_BEAM_ABOVE - RESONANCE_FLUX_BELOW))
         .clamp(0.0, 1.0);
@@ -538,6 +547,7 @@ mod tests {
         let o = Optics {
             sigma_s: 1.0,
             sigma_a: 0.0,
+            diffusion: DiffusionCoefficient::Classical,
         };
         let r = second_collision_ratio(o, 1.0, 1.0);
         let exact = 0.5 * (1.0 + std::f64::consts::LN_2);
@@ -550,11 +560,26 @@ mod tests {
 
     #[test]
     fn particular_solution_solves_the_ode_and_avoids_the_resonance() {
+        // Ketchup blue; Grosjean's D (0.446 against 0.225 mm) moves the resonance
+        // sigma_a mu_t^2 = D sigma_t'^2 from mu_t = 0.577 to 0.821.
+        for (diffusion, resonance) in [
+            (DiffusionCoefficient::Classical, 0.577_350_269_189_625_8),
+            (
+                DiffusionCoefficient::Grosjean,
+                (2.93f64 / (3.0 * 1.45)).sqrt(),
+            ),
+        ] {
+            particular_solution_at(diffusion, resonance);
+        }
+    }
+
+    fn particular_solution_at(diffusion: DiffusionCoefficient, resonance: f64) {
         let o = Optics {
             sigma_s: 0.03,
             sigma_a: 1.45,
+            diffusion,
         };
-        for mu_t in [1.0, 0.6, 0.577_350_269_189_625_8, 0.3] {
+        for mu_t in [1.0, 0.6, resonance, 0.3] {
             let r = Refraction {
                 mu_i: mu_t,
                 t_i: 1.0,
@@ -580,6 +605,7 @@ mod tests {
                 let o = Optics {
                     sigma_s: 2.0,
                     sigma_a: 0.01,
+                    diffusion: DiffusionCoefficient::Classical,
                 };
                 let (phi, q) = (3.0, 0.4);
                 let rhs = b.flux_gain * q;

@@ -13,6 +13,13 @@ use super::{RenderArgs, DEFAULT_MATERIAL};
 pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
     translucent::solver::transport::Source::SecondCollision;
 
+/// `render`'s diffusion coefficient with `--method quadgraph` when none is named
+/// (benches/RESULTS.md, "Diffusion coefficient at low albedo": against the path-traced
+/// references Grosjean's D is level or better on every scene with the Shepard surface; it
+/// differs from 1 / (3 sigma_t') only at low albedo). The library's default stays classical.
+pub const DEFAULT_DIFFUSION_COEFFICIENT: translucent::material::DiffusionCoefficient =
+    translucent::material::DiffusionCoefficient::Grosjean;
+
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
 pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {

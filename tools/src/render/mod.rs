@@ -43,7 +43,9 @@ mod graph_file;
 mod output;
 pub mod voxel;
 
-pub use defaults::{choice_json, resolve_auto, schedule_of, DEFAULT_SOURCE};
+pub use defaults::{
+    choice_json, resolve_auto, schedule_of, DEFAULT_DIFFUSION_COEFFICIENT, DEFAULT_SOURCE,
+};
 pub use graph_file::{load_graph_file, GraphFileError};
 pub(crate) use output::{check_writable, write_trace};
 use output::{gpu_bytes_json, gpu_multigrid_json, lit_pixels, profile_in_order};
@@ -162,6 +164,15 @@ pub struct RenderArgs {
     /// bunny and the back-lit scenes so far, benches/RESULTS.md "Smooth surfaces").
     #[arg(long, value_name = "interior|shepard", default_value = "shepard", value_parser = ["interior", "shepard"])]
     pub surface: String,
+    /// The diffusion coefficient D of the QuadGraph method (GPU and CPU solvers, the solve, the
+    /// sources and the exit query alike; `material::DiffusionCoefficient`): `grosjean` (the
+    /// default with `--method quadgraph`), (2 sigma_a + sigma_s') / (3 sigma_t'^2), or
+    /// `classical`, 1 / (3 sigma_t') (the voxel and dipole methods' only one). They differ only
+    /// at low albedo: against the path-traced references Grosjean's is level or better on every
+    /// scene with the default surface (split `.vol` sphere 19.5% -> 16.7%; benches/RESULTS.md,
+    /// "Diffusion coefficient at low albedo"). `--json` `diffusion_coefficient` says which ran.
+    #[arg(long, value_name = "classical|grosjean", value_parser = ["classical", "grosjean"])]
+    pub diffusion_coefficient: Option<String>,
     /// Heterogeneous materials on the GPU cascade: `derived` (the default) computes the Jacobi
     /// weights in every sweep from the per-node kappa and mu by the harmonic face mean (48 bytes
     /// per node less, 8 texel reads per node and sweep); `stored` keeps three RGBA32F weight
@@ -435,6 +446,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             args.solver
         );
     }
+    let diffusion = match args.diffusion_coefficient.as_deref() {
+        Some(name) => name.parse()?,
+        None if args.method == "quadgraph" => DEFAULT_DIFFUSION_COEFFICIENT,
+        None => translucent::material::DiffusionCoefficient::Classical,
+    };
+    if diffusion != translucent::material::DiffusionCoefficient::Classical
+        && args.method != "quadgraph"
+    {
+        bail!(
+            "--diffusion-coefficient {} applies to --method quadgraph (the voxel and dipole methods keep 1 / (3 sigma_t'))",
+            diffusion.name()
+        );
+    }
     match args.method.as_str() {
         "quadgraph" | "dipole" => {}
         "voxel" => return crate::render::voxel::run(args),
@@ -510,7 +534,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (None, Some(path)) => Environment::load_exr(path).context("--env")?,
         (None, None) => Environment::None,
     };
-    let field = args.material.field(args.object.size_mm, DEFAULT_MATERIAL)?;
+    let field = args
+        .material
+        .field(args.object.size_mm, DEFAULT_MATERIAL)?
+        .with_diffusion(diffusion);
 
     // Bake, or load the cached bake of the same surface and parameters.
     let object = args.object.load(Some(DEFAULT_SHAPE))?;
@@ -992,6 +1019,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
             "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
+            // `--diffusion-coefficient`: which D the solve used.
+            "diffusion_coefficient": field.diffusion().name(),
             "source": match source {
                 solver::transport::Source::BoundaryFlux => "flux",
                 solver::transport::Source::Collimated => "beam",

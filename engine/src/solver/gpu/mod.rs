@@ -390,7 +390,8 @@ impl GpuDiffusion {
             MaterialField::Homogeneous(m) => {
                 let c = m.coefficients();
                 Some(HomogeneousMaterial {
-                    kappa: c.kappa(),
+                    // D of the material's kind (classical or Grosjean).
+                    kappa: m.kappa(),
                     mu: c.mu(),
                 })
             }

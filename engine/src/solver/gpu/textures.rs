@@ -363,7 +363,7 @@ impl MaterialTexels {
             if t >= texels {
                 return Err(bad(format!("node {node} outside the level's texture")));
             }
-            let (k, m) = (c.kappa(), c.mu());
+            let (k, m) = (c.kappa_with(field.diffusion()), c.mu());
             out.kappa[t] = [k[0] as f32, k[1] as f32, k[2] as f32, 0.0];
             out.mu[t] = [m[0] as f32, m[1] as f32, m[2] as f32, 0.0];
             let ok = |v: &[f32; 4]| v.iter().all(|x| x.is_finite());

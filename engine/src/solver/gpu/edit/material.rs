@@ -154,7 +154,8 @@ impl GpuDiffusion {
                 let c = m.coefficients();
                 crate::material::check_pair(c.sigma_s, c.sigma_a).map_err(SolverError::from)?;
                 Some(HomogeneousMaterial {
-                    kappa: c.kappa(),
+                    // D of the material's kind (classical or Grosjean).
+                    kappa: m.kappa(),
                     mu: c.mu(),
                 })
             }
