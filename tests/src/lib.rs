@@ -272,6 +272,8 @@ pub fn quadgraph_object(
         scene,
         &translucent::ObjectParams {
             solve: params,
+            // why: the solve is the caller's; single scattering (on by default) is not.
+            single_scattering: None,
             ..translucent::ObjectParams::default()
         },
     )
@@ -295,6 +297,8 @@ pub fn multilevel_object(
         &translucent::ObjectParams {
             solve: params,
             single_level_nodes: 0,
+            // why: the solve is the caller's; single scattering (on by default) is not.
+            single_scattering: None,
             ..translucent::ObjectParams::default()
         },
     )

@@ -9,7 +9,9 @@ use anyhow::{bail, Context as _};
 use indicatif::ProgressBar;
 use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRenderer};
 use translucent::material::MaterialField;
+use translucent::defaults::{Schedule, Settings};
 use translucent::scene::{self};
+use translucent::solver::transport::Source;
 use translucent::solver::gpu::{GpuSolveParams, PASS_EXITANCE, PASS_SOLVE};
 use translucent::solver::{self, CpuSolution, CpuSolveParams};
 use translucent::vk::{Access, Context, ImageReadback, LinearImage};
@@ -208,25 +210,7 @@ pub(super) fn run_gpu(
     config: &Config,
     repeats: u32,
 ) -> anyhow::Result<GpuRun> {
-    let params = ObjectParams {
-        solve: GpuSolveParams {
-            scheme: config.scheme,
-            precision: config.precision,
-            iterations: vec![config.cap],
-            block: BLOCK,
-            tolerance: config.tolerance,
-            multigrid: config
-                .multigrid
-                .then(translucent::solver::multigrid::MultigridParams::gpu),
-            heterogeneous_weights: config.weights,
-            ..GpuSolveParams::default()
-        },
-        specular: frame_desc.specular,
-        roughness: frame_desc.roughness,
-        radiance: frame_desc.radiance,
-        skip: config.warm,
-        ..ObjectParams::default()
-    };
+    let params = object_params(config, field, frame_desc);
     let first = if config.warm { previous } else { scene };
     let mut object = TranslucentObject::new(ctx, graph.clone(), field, first, &params)?;
     object.set_camera(frame_desc.camera)?;
@@ -297,4 +281,46 @@ pub(super) fn run_gpu(
         j_plus: method.solve().read_j_plus(ctx)?,
         image: last.image,
     })
+}
+
+/// The settings one configuration of the sweep runs: the library's real-time defaults for
+/// `field` ([`Settings::for_material`], as `render` and `view` start from) with the swept
+/// options, and two deliberate pins for comparability: the boundary-flux source (errors (a) and
+/// (b) compare J+ with the exact discrete solution and the closed form of the boundary-flux
+/// system) and no single scattering (not part of the solve the bench measures).
+pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings {
+    let mut settings = Settings::for_material(field).with_source(Source::BoundaryFlux);
+    settings.schedule = if config.multigrid {
+        Schedule::Multigrid
+    } else {
+        Schedule::Cascade
+    };
+    settings.scheme = config.scheme;
+    settings.precision = config.precision;
+    settings.cascade_iterations = config.cap;
+    settings.tolerance = f64::from(config.tolerance);
+    settings.heterogeneous_weights = config.weights;
+    settings.single_scattering = None;
+    settings
+}
+
+/// The object's parameters for one configuration ([`sweep_settings`]; skipping only for warm
+/// starts).
+pub(crate) fn object_params(
+    config: &Config,
+    field: &MaterialField,
+    frame_desc: &FrameDesc,
+) -> ObjectParams {
+    let settings = sweep_settings(config, field);
+    ObjectParams {
+        solve: GpuSolveParams {
+            block: BLOCK,
+            ..settings.solve_params()
+        },
+        specular: frame_desc.specular,
+        roughness: frame_desc.roughness,
+        radiance: frame_desc.radiance,
+        skip: config.warm,
+        ..settings.object_params()
+    }
 }

@@ -51,6 +51,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
 use ash::vk;
+use translucent::defaults::{Schedule, Settings};
 use translucent::headless::FrameDesc;
 use translucent::material::MaterialField;
 use translucent::object::{MethodDesc, RecordCtx, TargetImage, Targets};
@@ -111,12 +112,22 @@ pub struct ViewArgs {
     /// Discretization: fv (finite volumes, default) or paper (Eqs. 5/6).
     #[arg(long, default_value = "fv", value_parser = ["fv", "paper"])]
     pub scheme: String,
-    /// Jacobi iteration cap per level.
-    #[arg(long, default_value_t = 2000)]
-    pub iterations: u32,
-    /// Stop a level's iterations once the estimated relative error is below this.
-    #[arg(long, default_value_t = 1e-4)]
+    /// The cascade's Jacobi iteration cap per level (default 2000); as with `render`, giving it
+    /// runs the cascade.
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// The solve's stopping point: the multigrid's relative residual, or the cascade's estimated
+    /// relative error per level.
+    #[arg(long, default_value_t = translucent::defaults::TOLERANCE)]
     pub tolerance: f64,
+    /// How the levels are used (DESIGN 5.1), as `render --schedule`: multigrid (the default, the
+    /// library's) or cascade; fp16 precision (the `p` key) and `--scheme paper` run the cascade.
+    #[arg(long, value_parser = ["cascade", "multigrid"])]
+    pub schedule: Option<String>,
+    /// Single scattering to start with (the `s` key toggles): on (the default, as `render`'s)
+    /// or off.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
+    pub single_scattering: Option<String>,
     /// GPU state precision to start with (the `p` key cycles).
     #[arg(long, default_value = "mixed", value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: String,
