@@ -315,7 +315,10 @@ mod tests {
             }
         };
         assert_eq!(glslc_program(env(&[])), PathBuf::from("glslc"));
-        assert_eq!(glslc_program(env(&[("GLSLC", "/old")])), PathBuf::from("/old"));
+        assert_eq!(
+            glslc_program(env(&[("GLSLC", "/old")])),
+            PathBuf::from("/old")
+        );
         assert_eq!(
             glslc_program(env(&[("GLSLC", "/old"), ("TRANSLUCENT_GLSLC", "/new")])),
             PathBuf::from("/new")

@@ -7,12 +7,12 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use indicatif::ProgressBar;
+use translucent::defaults::{Schedule, Settings};
 use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRenderer};
 use translucent::material::MaterialField;
-use translucent::defaults::{Schedule, Settings};
 use translucent::scene::{self};
-use translucent::solver::transport::Source;
 use translucent::solver::gpu::{GpuSolveParams, PASS_EXITANCE, PASS_SOLVE};
+use translucent::solver::transport::Source;
 use translucent::solver::{self, CpuSolution, CpuSolveParams};
 use translucent::vk::{Access, Context, ImageReadback, LinearImage};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};

@@ -67,6 +67,8 @@ mod gpu;
 mod methods;
 mod metrics;
 mod plot;
+#[cfg(test)]
+mod same_defaults;
 mod suites;
 mod sweep;
 
@@ -159,18 +161,15 @@ pub struct BenchArgs {
     /// Schedules to sweep (DESIGN 5.1): cascade (the paper's Jacobi per level, --iterations
     /// caps it), multigrid (full multigrid / V-cycles to the relative residual --tolerance; the
     /// default, the library's and `render`'s). The named suites pin `cascade` (all but
-    /// `schedules`) so their rows stay comparable with the tables in benches/RESULTS.md.
-    #[arg(long, value_name = "S,..", default_value = DEFAULT_SCHEDULE)]
-    pub schedule: String,
+    /// `schedules`) so their rows stay comparable with the tables in benches/RESULTS.md. As with
+    /// `render`, an option only the cascade has (`--iterations`, fp16 in `--precision`, paper in
+    /// `--scheme`) makes the cascade the default.
+    #[arg(long, value_name = "S,..")]
+    pub schedule: Option<String>,
     /// Jacobi iteration caps per level to sweep (the cascade's; default the library's
-    /// `defaults::CASCADE_ITERATIONS`).
-    #[arg(
-        long,
-        value_name = "N,..",
-        default_value = "2000",
-        allow_hyphen_values = true
-    )]
-    pub iterations: String,
+    /// `defaults::CASCADE_ITERATIONS`, 2000).
+    #[arg(long, value_name = "N,..", allow_hyphen_values = true)]
+    pub iterations: Option<String>,
     /// Convergence tolerances to sweep (0: always run the cap). The library's and `render`'s
     /// default is 1e-4 (`defaults::TOLERANCE`); the bench sweeps around it.
     #[arg(

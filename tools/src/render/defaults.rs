@@ -102,8 +102,9 @@ impl RenderArgs {
             None if self.solver != "gpu" || self.exit_query.as_deref() == Some("flux") => {
                 Source::BoundaryFlux
             }
-            None => Settings::for_method(self.method_kind(), !self.material.is_heterogeneous())
-                .source,
+            None => {
+                Settings::for_method(self.method_kind(), !self.material.is_heterogeneous()).source
+            }
         }
     }
 
@@ -116,8 +117,9 @@ impl RenderArgs {
     /// Everything the GPU frame's solve and single scattering resolve to: the library's
     /// real-time defaults ([`Settings::for_method`]) changed by the options given.
     pub fn settings(&self) -> anyhow::Result<Settings> {
-        let mut settings = Settings::for_method(self.method_kind(), !self.material.is_heterogeneous())
-            .with_source(self.light_source());
+        let mut settings =
+            Settings::for_method(self.method_kind(), !self.material.is_heterogeneous())
+                .with_source(self.light_source());
         if settings.source == translucent::solver::transport::Source::BoundaryFlux {
             if let Some(query) = &self.exit_query {
                 settings.exit = query.parse()?;
@@ -160,7 +162,11 @@ impl RenderArgs {
         // Default `on` (the library's): the march with the front-lit skip rule.
         let mode = self.single_scattering.as_deref().unwrap_or("on");
         Ok((mode != "off").then(|| {
-            translucent::defaults::scatter_for(self.light_source(), self.scatter_samples, mode == "on")
+            translucent::defaults::scatter_for(
+                self.light_source(),
+                self.scatter_samples,
+                mode == "on",
+            )
         }))
     }
 }

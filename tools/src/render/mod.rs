@@ -27,7 +27,7 @@ use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRende
 use translucent::scene::Camera;
 use translucent::scene::Environment;
 use translucent::scene::Light;
-use translucent::solver::gpu::{GpuSolveParams, Precision};
+use translucent::solver::gpu::GpuSolveParams;
 use translucent::solver::multigrid::MultigridParams;
 use translucent::solver::{self, CpuSolveParams, Schedule, Scheme};
 use translucent::vk::{Context, ContextDesc, FrameTimings};

@@ -538,13 +538,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         _ => None,
     };
     state.precision = args.precision.parse()?;
-    // The library's default (on) unless `--single-scattering off`.
-    state.single_scattering = match args.single_scattering.as_deref() {
-        Some(v) => v == "on",
-        None => translucent::defaults::Settings::default()
-            .single_scattering
-            .is_some(),
-    };
+    state.single_scattering = start_single_scattering(args);
     state.skip = !args.no_skip;
     state.method = METHODS
         .iter()

@@ -57,7 +57,8 @@ use translucent::material::MaterialField;
 use translucent::object::{MethodDesc, RecordCtx, TargetImage, Targets};
 use translucent::render::{COLOR_FORMAT, DEPTH_FORMAT};
 use translucent::scene::{Environment, Scene};
-use translucent::solver::gpu::{GpuSolveParams, Precision};
+use translucent::solver::gpu::Precision;
+use translucent::solver::transport::Source;
 use translucent::solver::Scheme;
 use translucent::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc, ImageReadback};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
@@ -82,6 +83,8 @@ use state::{camera_arg, light_arg, ViewState, METHODS};
 use targets::*;
 
 pub use app::run;
+#[cfg(test)]
+pub(crate) use setup::{start_single_scattering, view_settings};
 
 /// Frames the viewer keeps in flight (command buffers, fences, profiler slots).
 const IN_FLIGHT: usize = 2;
@@ -124,6 +127,10 @@ pub struct ViewArgs {
     /// library's) or cascade; fp16 precision (the `p` key) and `--scheme paper` run the cascade.
     #[arg(long, value_parser = ["cascade", "multigrid"])]
     pub schedule: Option<String>,
+    /// Where the lights' light enters the diffusion, as `render --source`: flux, beam or second
+    /// (default: the library's, second for homogeneous materials and flux for heterogeneous ones).
+    #[arg(long, value_name = "flux|beam|second", value_parser = ["flux", "beam", "second"])]
+    pub source: Option<String>,
     /// Single scattering to start with (the `s` key toggles): on (the default, as `render`'s)
     /// or off.
     #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]

@@ -333,6 +333,14 @@ pub(crate) fn view_settings(
     single_scattering: bool,
 ) -> Settings {
     let mut settings = Settings::for_method(method, homogeneous);
+    if method == translucent::frame::MethodKind::QuadGraph {
+        settings = match args.source.as_deref() {
+            Some("flux") => settings.with_source(Source::BoundaryFlux),
+            Some("beam") => settings.with_source(Source::Collimated),
+            Some("second") => settings.with_source(Source::SecondCollision),
+            _ => settings,
+        };
+    }
     settings.scheme = if args.scheme == "paper" {
         Scheme::Paper
     } else {
@@ -357,10 +365,19 @@ pub(crate) fn view_settings(
 }
 
 /// `render --source`'s name of a light source.
-pub(crate) fn source_name(source: translucent::solver::transport::Source) -> &'static str {
+pub(crate) fn source_name(source: Source) -> &'static str {
     match source {
-        translucent::solver::transport::Source::BoundaryFlux => "flux",
-        translucent::solver::transport::Source::Collimated => "beam",
-        translucent::solver::transport::Source::SecondCollision => "second",
+        Source::BoundaryFlux => "flux",
+        Source::Collimated => "beam",
+        Source::SecondCollision => "second",
+    }
+}
+
+/// Whether the viewer starts with single scattering: the library's default (on) unless
+/// `--single-scattering off`.
+pub(crate) fn start_single_scattering(args: &ViewArgs) -> bool {
+    match args.single_scattering.as_deref() {
+        Some(v) => v == "on",
+        None => Settings::default().single_scattering.is_some(),
     }
 }
