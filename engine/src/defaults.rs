@@ -4,6 +4,10 @@
 //! change only what the user names; what a command deliberately pins otherwise (bench's sweeps,
 //! the viewer's one sample per pixel) is said in its help.
 //!
+//! The multigrid solves the rest pose only: an object that will be deformed
+//! ([`crate::TranslucentObject::deform`]) takes [`Schedule::Cascade`] (`deform` otherwise returns
+//! a typed error saying so).
+//!
 //! ```no_run
 //! use translucent::defaults::{Schedule, Settings};
 //! use translucent::material::{Material, MaterialField};
