@@ -200,6 +200,11 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
         "shot.png",
         "--report",
         "report.json",
+        // why: this session checks the solve's skips; the march (on by default) is view-dependent
+        // and re-runs on every camera move (its own skips: tests/tests/single_scattering.rs; the
+        // default view: `the_default_view_names_its_settings_and_matches_render`).
+        "--single-scattering",
+        "off",
     ]);
     let out = view(&xvfb.display, &dir, &args);
     let stderr = String::from_utf8_lossy(&out.stderr);
