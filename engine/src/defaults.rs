@@ -209,7 +209,7 @@ impl Settings {
             tolerance: s
                 .multigrid
                 .as_ref()
-                .map_or(f64::from(s.tolerance), |m| m.tolerance),
+                .map_or(f32_decimal(s.tolerance), |m| m.tolerance),
             cascade_iterations: s.iterations.first().copied().unwrap_or(0),
             surface: s.surface,
             heterogeneous_weights: s.heterogeneous_weights,
@@ -223,6 +223,13 @@ impl Default for Settings {
     fn default() -> Self {
         Settings::realtime(true)
     }
+}
+
+/// An f32 setting (the GPU's tolerance) as the shortest decimal that reads back as it, in f64:
+/// 1e-4 stays 1e-4 (not 9.99999975e-5), so settings typed as text compare equal whether a
+/// command keeps them as f32 or f64.
+pub fn f32_decimal(value: f32) -> f64 {
+    value.to_string().parse().unwrap_or(f64::from(value))
 }
 
 /// The exit query a source is read with (a beam source implies the moments query, DESIGN 2.7).

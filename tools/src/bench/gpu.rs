@@ -298,13 +298,8 @@ pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings
     settings.scheme = config.scheme;
     settings.precision = config.precision;
     settings.cascade_iterations = config.cap;
-    // why: the sweep keeps tolerances as f32 (the GPU's); its shortest decimal is the one the
-    // user typed, so 1e-4 reads back as render's f64 1e-4, not 9.99999975e-5.
-    settings.tolerance = config
-        .tolerance
-        .to_string()
-        .parse()
-        .unwrap_or(f64::from(config.tolerance));
+    // The sweep keeps tolerances as f32 (the GPU's): read back as the decimal the user typed.
+    settings.tolerance = translucent::defaults::f32_decimal(config.tolerance);
     settings.heterogeneous_weights = config.weights;
     settings.single_scattering = None;
     settings
