@@ -200,9 +200,12 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
         "shot.png",
         "--report",
         "report.json",
-        // why: this session checks the solve's skips; the march (on by default) is view-dependent
-        // and re-runs on every camera move (its own skips: tests/tests/single_scattering.rs; the
-        // default view: `the_default_view_names_its_settings_and_matches_render`).
+        // why: this session checks the cascade's skips and warm starts level by level (the
+        // report's iterations per level); the march (on by default) is view-dependent and re-runs
+        // on every camera move (its own skips: tests/tests/single_scattering.rs). The default
+        // view (multigrid, the march): `the_default_view_names_its_settings_and_matches_render`.
+        "--schedule",
+        "cascade",
         "--single-scattering",
         "off",
     ]);
