@@ -52,12 +52,18 @@ fn main() {
     let out_dir =
         PathBuf::from(std::env::var("OUT_DIR").unwrap_or_else(|_| fail("OUT_DIR not set")));
     println!("cargo:rerun-if-changed={}", root.display());
+    // The compiler: `TRANSLUCENT_GLSLC` (the one name, as the runtime compiler of
+    // `shader::runtime` reads it), else `GLSLC` (kept for scripts), else `glslc` on PATH.
+    println!("cargo:rerun-if-env-changed=TRANSLUCENT_GLSLC");
     println!("cargo:rerun-if-env-changed=GLSLC");
 
     let mut sources = Vec::new();
     let mut files = Vec::new();
     collect(&root, &mut sources, &mut files);
-    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
+    let glslc = ["TRANSLUCENT_GLSLC", "GLSLC"]
+        .iter()
+        .find_map(|name| std::env::var(name).ok().filter(|v| !v.is_empty()))
+        .unwrap_or_else(|| "glslc".into());
     let mut table = String::from("/// Embedded SPIR-V, keyed by path under `shaders-glsl/`.\npub static EMBEDDED: &[(&str, &[u8])] = &[\n");
     for source in &sources {
         let rel = source

@@ -198,7 +198,9 @@ impl HeadlessRenderer {
             specular: frame.specular,
             roughness: frame.roughness,
             radiance: frame.radiance,
-            ..ObjectParams::default()
+            // why: the exitance is given: no solve, and no single scattering (its material
+            // here is a stand-in).
+            ..ObjectParams::base()
         };
         // Only `eta` reaches the shading from the material here: the exitance is given.
         let field = MaterialField::Homogeneous(Material::new([1.0; 3], [0.0; 3], mesh.eta)?);

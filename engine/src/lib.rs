@@ -80,6 +80,7 @@
 //! Inside [`TranslucentObject`] a method adds its passes in [`frame::Method::add_passes`]; a pass
 //! every method shares goes into [`object`]'s composition next to the shadow and shading passes.
 
+pub mod defaults;
 pub mod frame;
 pub mod headless;
 #[cfg(feature = "wgpu")]

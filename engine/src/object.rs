@@ -112,10 +112,27 @@ pub struct ObjectParams {
 }
 
 impl Default for ObjectParams {
+    /// The real-time defaults ([`crate::defaults::Settings::realtime`] for a homogeneous
+    /// material: multigrid, the second-collision source, single scattering on), as `translucent
+    /// render` runs them. For a heterogeneous material use [`ObjectParams::for_material`].
     fn default() -> Self {
+        crate::defaults::Settings::default().object_params()
+    }
+}
+
+impl ObjectParams {
+    /// The real-time defaults resolved for `field` ([`crate::defaults::Settings::for_material`]:
+    /// the boundary-flux source for a heterogeneous material).
+    pub fn for_material(field: &crate::material::MaterialField) -> Self {
+        crate::defaults::Settings::for_material(field).object_params()
+    }
+
+    /// Everything but the solve and single scattering at its default; the solve is the
+    /// solver's own default (cascade, boundary flux) capped at the default iterations.
+    pub(crate) fn base() -> Self {
         ObjectParams {
             solve: GpuSolveParams {
-                iterations: vec![2000],
+                iterations: vec![crate::defaults::CASCADE_ITERATIONS],
                 ..GpuSolveParams::default()
             },
             color_format: COLOR_FORMAT,

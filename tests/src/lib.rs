@@ -256,6 +256,22 @@ pub fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32
     worst
 }
 
+/// The library's defaults before wave 6: the cascade, the boundary flux, no single scattering
+/// (`ObjectParams::default()` is now the real-time default: multigrid, the second-collision
+/// source, the march). The skip, edit and gather tests were written for it: they count the
+/// cascade's iterations per level, list the passes without the march, and deform (the
+/// multigrid solves the rest pose only).
+pub fn cascade_params() -> translucent::ObjectParams {
+    use translucent::defaults::{Schedule, Settings};
+    Settings {
+        schedule: Schedule::Cascade,
+        single_scattering: None,
+        ..Settings::default()
+    }
+    .with_source(translucent::solver::transport::Source::BoundaryFlux)
+    .object_params()
+}
+
 /// A QuadGraph object (the one frame composition) for `graph` with the solve `params`, every
 /// other setting default (skips on, specular on).
 pub fn quadgraph_object(
@@ -272,6 +288,8 @@ pub fn quadgraph_object(
         scene,
         &translucent::ObjectParams {
             solve: params,
+            // why: the solve is the caller's; single scattering (on by default) is not.
+            single_scattering: None,
             ..translucent::ObjectParams::default()
         },
     )
@@ -295,6 +313,8 @@ pub fn multilevel_object(
         &translucent::ObjectParams {
             solve: params,
             single_level_nodes: 0,
+            // why: the solve is the caller's; single scattering (on by default) is not.
+            single_scattering: None,
             ..translucent::ObjectParams::default()
         },
     )

@@ -214,6 +214,8 @@ fn gpu_frame_renders_like_the_cpu_reference() {
             solve: solve_params,
             specular: false,
             single_level_nodes: 0,
+            // why: compared with the CPU reference's image, which has no single scattering.
+            single_scattering: None,
             ..ObjectParams::default()
         },
     )

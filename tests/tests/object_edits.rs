@@ -79,7 +79,7 @@ fn object(
 ) -> TranslucentObject {
     let params = ObjectParams {
         skip,
-        ..ObjectParams::default()
+        ..translucent_tests::cascade_params()
     };
     TranslucentObject::new(ctx, graph.clone(), field, &scene(), &params).expect("object")
 }

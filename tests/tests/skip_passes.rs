@@ -68,7 +68,7 @@ fn object(
     scene: &Scene,
     tweak: impl FnOnce(&mut ObjectParams),
 ) -> TranslucentObject {
-    let mut params = ObjectParams::default();
+    let mut params = translucent_tests::cascade_params();
     tweak(&mut params);
     TranslucentObject::new(ctx, graph.clone(), field, scene, &params).expect("object")
 }

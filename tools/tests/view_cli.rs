@@ -98,6 +98,20 @@ fn read_exr(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
     image.layer_data.channel_data.pixels
 }
 
+/// Relative RMS of `ours` against `theirs` over all pixels and channels; `theirs` must not be
+/// black (`what` says what it is).
+fn relative_rms(ours: &[[f32; 3]], theirs: &[[f32; 3]], what: &str) -> f64 {
+    let (mut diff, mut norm) = (0.0f64, 0.0f64);
+    for (a, b) in ours.iter().zip(theirs) {
+        for c in 0..3 {
+            diff += f64::from(a[c] - b[c]).powi(2);
+            norm += f64::from(b[c]).powi(2);
+        }
+    }
+    assert!(norm > 0.0, "{what}");
+    (diff / norm).sqrt()
+}
+
 /// The small sphere of the 96 x 72 viewer tests (a 16-cell two-level bake).
 const SMALL_SPHERE: [&str; 12] = [
     "--shape",
@@ -186,6 +200,14 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
         "shot.png",
         "--report",
         "report.json",
+        // why: this session checks the cascade's skips and warm starts level by level (the
+        // report's iterations per level); the march (on by default) is view-dependent and re-runs
+        // on every camera move (its own skips: tests/tests/single_scattering.rs). The default
+        // view (multigrid, the march): `the_default_view_names_its_settings_and_matches_render`.
+        "--schedule",
+        "cascade",
+        "--single-scattering",
+        "off",
     ]);
     let out = view(&xvfb.display, &dir, &args);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -287,15 +309,7 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
     let (rw, rh, theirs) = read_exr(&reference);
     assert_eq!((w, h), (rw, rh));
     assert_eq!((w, h), (160, 120));
-    let (mut diff, mut norm) = (0.0f64, 0.0f64);
-    for (a, b) in ours.iter().zip(&theirs) {
-        for c in 0..3 {
-            diff += f64::from(a[c] - b[c]).powi(2);
-            norm += f64::from(b[c]).powi(2);
-        }
-    }
-    assert!(norm > 0.0, "the reference is black");
-    let rms = (diff / norm).sqrt();
+    let rms = relative_rms(&ours, &theirs, "the reference is black");
     eprintln!("viewer screenshot against render: relative RMS {rms:.2e}");
     assert!(
         rms <= SCREENSHOT_RELATIVE_RMS,
@@ -410,16 +424,84 @@ fn the_method_key_switches_to_voxel_and_matches_render() {
     );
     let (_, _, ours) = read_exr(&dir.join("shot.exr"));
     let (_, _, theirs) = read_exr(&reference);
-    let (mut diff, mut norm) = (0.0f64, 0.0f64);
-    for (a, b) in ours.iter().zip(&theirs) {
-        for c in 0..3 {
-            diff += f64::from(a[c] - b[c]).powi(2);
-            norm += f64::from(b[c]).powi(2);
-        }
-    }
-    assert!(norm > 0.0, "the voxel render is black");
-    let rms = (diff / norm).sqrt();
+    let rms = relative_rms(&ours, &theirs, "the voxel render is black");
     eprintln!("voxel screenshot against render: relative RMS {rms:.2e}");
+    assert!(rms <= SCREENSHOT_RELATIVE_RMS, "relative RMS {rms}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The viewer at its defaults (no solver option) runs the library's real-time defaults, and its
+/// report's equivalent render command names them and reproduces its frame (issue 13: one place
+/// for defaults).
+#[test]
+fn the_default_view_names_its_settings_and_matches_render() {
+    let Some(xvfb) = start_xvfb() else { return };
+    let dir = scratch("view-defaults");
+    let out = view(
+        &xvfb.display,
+        &dir,
+        &[
+            SMALL_SPHERE.as_slice(),
+            &[
+                "--frames",
+                "3",
+                "--screenshot",
+                "shot.png",
+                "--report",
+                "report.json",
+            ],
+        ]
+        .concat(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}\n{stderr}", out.status);
+    let report = read_report(&dir);
+    assert_eq!(report["validation_messages"], 0);
+    let render_args: Vec<String> = report["final"]["render_args"]
+        .as_array()
+        .expect("render_args")
+        .iter()
+        .map(|a| a.as_str().expect("text").to_string())
+        .collect();
+    // The library's defaults for a homogeneous material, named.
+    for named in [
+        "--schedule=multigrid",
+        "--source=second",
+        "--single-scattering=on",
+        "--precision=mixed",
+        "--supersample=1",
+    ] {
+        assert!(
+            render_args.iter().any(|a| a == named),
+            "{named}: {render_args:?}"
+        );
+    }
+    assert!(
+        !render_args.iter().any(|a| a.starts_with("--iterations")),
+        "the multigrid takes no cap: {render_args:?}"
+    );
+    let first = &report["frames"][0];
+    assert!(
+        first["passes"]
+            .as_array()
+            .is_some_and(|p| p.iter().any(|p| p == "single_scattering")),
+        "single scattering runs by default: {first}"
+    );
+    let reference = dir.join("render.exr");
+    let mut args: Vec<&str> = vec!["render"];
+    args.extend(render_args.iter().map(String::as_str));
+    let out_arg = format!("--out={}", reference.display());
+    args.push(&out_arg);
+    let rendered = translucent(&args, &dir);
+    let render_stderr = String::from_utf8_lossy(&rendered.stderr);
+    assert!(
+        rendered.status.success(),
+        "render {args:?}: {render_stderr}"
+    );
+    let (_, _, ours) = read_exr(&dir.join("shot.exr"));
+    let (_, _, theirs) = read_exr(&reference);
+    let rms = relative_rms(&ours, &theirs, "the render is black");
+    eprintln!("default view against its render command: relative RMS {rms:.2e}");
     assert!(rms <= SCREENSHOT_RELATIVE_RMS, "relative RMS {rms}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,7 +1,8 @@
 //! Runtime shader compilation for hot reload: `glslc` as a subprocess, with the flags
 //! `build.rs` uses (`--target-env=vulkan1.3 -O -g -I shaders-glsl/include`), so a shader compiled
 //! here is the embedded one when its source is the same. No dependency: glslc is the build-time
-//! compiler already (Debian package `glslc`). Found as `TRANSLUCENT_GLSLC`, else `glslc` on `PATH`.
+//! compiler already (Debian package `glslc`). Found as `TRANSLUCENT_GLSLC` (the name `build.rs`
+//! reads too), else `GLSLC` (kept for scripts), else `glslc` on `PATH`.
 //!
 //! [`ShaderTree`] is a `shaders-glsl/` directory on disk: [`ShaderTree::scan`] says which of the
 //! embedded shaders' sources there differ from the ones the binary was built from (the file or
@@ -29,8 +30,11 @@ use std::process::Command;
 
 use super::{embedded_names, ShaderError, Spirv};
 
-/// The environment variable naming the glslc program (default `glslc`, found on `PATH`).
+/// The environment variable naming the glslc program (default `glslc`, found on `PATH`), for
+/// `build.rs` and the runtime compiler alike.
 pub const GLSLC_ENV: &str = "TRANSLUCENT_GLSLC";
+/// The older name `build.rs` read, used when [`GLSLC_ENV`] is not set (kept for scripts).
+pub const GLSLC_ENV_FALLBACK: &str = "GLSLC";
 
 /// Includes nest at most this deep (a cycle is a source error, not a stack overflow).
 const MAX_INCLUDE_DEPTH: usize = 16;
@@ -57,13 +61,20 @@ pub struct Glslc {
     program: PathBuf,
 }
 
+/// The glslc program named by the environment `var` reads: [`GLSLC_ENV`], else
+/// [`GLSLC_ENV_FALLBACK`] (an empty value counts as unset), else `glslc` on `PATH`.
+pub fn glslc_program(var: impl Fn(&str) -> Option<std::ffi::OsString>) -> PathBuf {
+    [GLSLC_ENV, GLSLC_ENV_FALLBACK]
+        .iter()
+        .find_map(|name| var(name).filter(|p| !p.is_empty()))
+        .map_or_else(|| PathBuf::from("glslc"), PathBuf::from)
+}
+
 impl Glslc {
-    /// `TRANSLUCENT_GLSLC`, else `glslc` on `PATH`; checked by running `glslc --version`.
+    /// `TRANSLUCENT_GLSLC`, else `GLSLC`, else `glslc` on `PATH`; checked by running
+    /// `glslc --version`.
     pub fn find() -> Result<Glslc, ShaderError> {
-        let program = std::env::var_os(GLSLC_ENV)
-            .filter(|p| !p.is_empty())
-            .map_or_else(|| PathBuf::from("glslc"), PathBuf::from);
-        Glslc::at(program)
+        Glslc::at(glslc_program(|name| std::env::var_os(name)))
     }
 
     /// The glslc at `program`; checked by running `program --version`.
@@ -291,6 +302,32 @@ mod tests {
     /// This crate's `shaders-glsl/`, which the embedded SPIR-V was compiled from.
     fn source_tree() -> ShaderTree {
         ShaderTree::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders-glsl")).expect("tree")
+    }
+
+    #[test]
+    fn one_glslc_variable_with_the_old_name_as_fallback() {
+        let env = |pairs: &'static [(&'static str, &'static str)]| {
+            move |name: &str| {
+                pairs
+                    .iter()
+                    .find(|(n, _)| *n == name)
+                    .map(|(_, v)| std::ffi::OsString::from(v))
+            }
+        };
+        assert_eq!(glslc_program(env(&[])), PathBuf::from("glslc"));
+        assert_eq!(
+            glslc_program(env(&[("GLSLC", "/old")])),
+            PathBuf::from("/old")
+        );
+        assert_eq!(
+            glslc_program(env(&[("GLSLC", "/old"), ("TRANSLUCENT_GLSLC", "/new")])),
+            PathBuf::from("/new")
+        );
+        assert_eq!(
+            glslc_program(env(&[("GLSLC", "/old"), ("TRANSLUCENT_GLSLC", "")])),
+            PathBuf::from("/old"),
+            "an empty value counts as unset"
+        );
     }
 
     fn scratch(name: &str) -> PathBuf {

@@ -133,6 +133,10 @@ pub fn our_object(ctx: &Context, turned: bool) -> Result<TranslucentObject, tran
             tolerance: 1e-4,
             ..GpuSolveParams::default()
         },
+        // The library's default is the real-time one (multigrid, second-collision source, single
+        // scattering); this host pins the cascade, the boundary flux and no single scattering
+        // that `render_command` names.
+        single_scattering: None,
         ..ObjectParams::default()
     };
     let mut object = TranslucentObject::new(

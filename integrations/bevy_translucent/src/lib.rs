@@ -181,6 +181,9 @@ pub(crate) fn build_object(
             ..GpuSolveParams::default()
         },
         color_format: format,
+        // The library's default is the real-time one; the plugin keeps the solve above (cascade,
+        // boundary flux) and no single scattering, as its example's render command names.
+        single_scattering: None,
         ..ObjectParams::default()
     };
     Ok(TranslucentObject::new(

@@ -122,6 +122,10 @@ pub fn object_params(color: ash::vk::Format, depth: ash::vk::Format) -> ObjectPa
         },
         color_format: color,
         depth_format: depth,
+        // The library's default is the real-time one (multigrid, second-collision source, single
+        // scattering); this host pins the cascade, the boundary flux and no single scattering
+        // that `render_command` names.
+        single_scattering: None,
         ..ObjectParams::default()
     }
 }

@@ -7,10 +7,13 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use indicatif::ProgressBar;
+use translucent::defaults::{Schedule, Settings};
 use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRenderer};
 use translucent::material::MaterialField;
 use translucent::scene::{self};
 use translucent::solver::gpu::{GpuSolveParams, PASS_EXITANCE, PASS_SOLVE};
+use translucent::solver::multigrid::MultigridParams;
+use translucent::solver::transport::Source;
 use translucent::solver::{self, CpuSolution, CpuSolveParams};
 use translucent::vk::{Access, Context, ImageReadback, LinearImage};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
@@ -208,23 +211,7 @@ pub(super) fn run_gpu(
     config: &Config,
     repeats: u32,
 ) -> anyhow::Result<GpuRun> {
-    let params = ObjectParams {
-        solve: GpuSolveParams {
-            scheme: config.scheme,
-            precision: config.precision,
-            iterations: vec![config.cap],
-            block: BLOCK,
-            tolerance: config.tolerance,
-            multigrid: config.multigrid.then(|| config.cycle.clone()),
-            heterogeneous_weights: config.weights,
-            ..GpuSolveParams::default()
-        },
-        specular: frame_desc.specular,
-        roughness: frame_desc.roughness,
-        radiance: frame_desc.radiance,
-        skip: config.warm,
-        ..ObjectParams::default()
-    };
+    let params = object_params(config, field, frame_desc);
     let first = if config.warm { previous } else { scene };
     let mut object = TranslucentObject::new(ctx, graph.clone(), field, first, &params)?;
     object.set_camera(frame_desc.camera)?;
@@ -295,4 +282,53 @@ pub(super) fn run_gpu(
         j_plus: method.solve().read_j_plus(ctx)?,
         image: last.image,
     })
+}
+
+/// The settings one configuration of the sweep runs: the library's real-time defaults for
+/// `field` ([`Settings::for_material`], as `render` and `view` start from) with the swept
+/// options, and two deliberate pins for comparability: the boundary-flux source (errors (a) and
+/// (b) compare J+ with the exact discrete solution and the closed form of the boundary-flux
+/// system) and no single scattering (not part of the solve the bench measures).
+pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings {
+    let mut settings = Settings::for_material(field).with_source(Source::BoundaryFlux);
+    settings.schedule = if config.multigrid {
+        Schedule::Multigrid
+    } else {
+        Schedule::Cascade
+    };
+    settings.scheme = config.scheme;
+    settings.precision = config.precision;
+    settings.cascade_iterations = config.cap;
+    // The sweep keeps tolerances as f32 (the GPU's): read back as the decimal the user typed.
+    settings.tolerance = translucent::defaults::f32_decimal(config.tolerance);
+    settings.heterogeneous_weights = config.weights;
+    settings.single_scattering = None;
+    settings
+}
+
+/// The object's parameters for one configuration ([`sweep_settings`]; skipping only for warm
+/// starts).
+pub(crate) fn object_params(
+    config: &Config,
+    field: &MaterialField,
+    frame_desc: &FrameDesc,
+) -> ObjectParams {
+    let settings = sweep_settings(config, field);
+    let solve = settings.solve_params();
+    ObjectParams {
+        solve: GpuSolveParams {
+            block: BLOCK,
+            // The cycle of `--multigrid-cycle` over the library's, at the swept tolerance.
+            multigrid: solve.multigrid.as_ref().map(|m| MultigridParams {
+                tolerance: m.tolerance,
+                ..config.cycle.clone()
+            }),
+            ..solve
+        },
+        specular: frame_desc.specular,
+        roughness: frame_desc.roughness,
+        radiance: frame_desc.radiance,
+        skip: config.warm,
+        ..settings.object_params()
+    }
 }

@@ -257,7 +257,8 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
             k: translucent::quadgraph::BakeParams::default().k,
             levels: translucent::quadgraph::BakeParams::default().levels,
             resolution: crate::object_args::ResolutionArg::Cells(fixed_cells),
-            up: "y".into(),
+            // The automatic up axis, as `render` (tools/src/framing.rs).
+            up: "auto".into(),
             relax: false,
             force: false,
         };
@@ -312,12 +313,14 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
                     }
                 }
             };
+            // `render`'s defaults for this method and material (the library's).
             let params = ObjectParams {
                 specular: frame_desc.specular,
                 roughness: frame_desc.roughness,
                 radiance: frame_desc.radiance,
                 skip: false,
-                ..ObjectParams::default()
+                ..translucent::defaults::Settings::for_method(kind, field.is_homogeneous())
+                    .object_params()
             };
             match TranslucentObject::with_method(&ctx, desc, &field, &lit, &params) {
                 Err(e) => row.note = format!("refused: {e}"),

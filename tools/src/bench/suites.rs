@@ -13,7 +13,9 @@ pub(super) struct SuiteCli {
 /// The camera every path-traced reference in `tests/reference/pt` uses (its README).
 pub(super) const PT_CAMERA: &str = "0,20,60:0,0,0:30";
 
-/// The suites: name, what it shows, its options. Paths are relative to the repository root;
+/// The suites: name, what it shows, its options. All but `schedules` pin `--schedule cascade`
+/// (the bench's default is the library's multigrid) so their rows stay comparable with the
+/// tables in benches/RESULTS.md. Paths are relative to the repository root;
 /// meshes come from `$TRANSLUCENT_MESH_DIR` (default `../shared/meshes`).
 #[rustfmt::skip]
 pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
@@ -21,6 +23,7 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
         "heterogeneous",
         "skim milk / skin1 split sphere (.vol), directional light, against its path-traced reference",
         &[
+            "--schedule", "cascade",
             "--shape", "sphere", "--size-mm", "20",
             "--volume", "tests/reference/pt/milk-skin-split.vol", "--eta", "1",
             "--light", "dir:0.5,-1,-0.5:4,4,4", "--camera", PT_CAMERA, "--width", "96",
@@ -35,6 +38,7 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
         "thin",
         "cheburashka (thin ears), veined marble, back and fill light",
         &[
+            "--schedule", "cascade",
             "--mesh", "@MESHES/cheburashka.obj", "--size-mm", "50", "--material", "veined-marble",
             "--width", "128", "--height", "128", "--no-specular", "--resolution", "32",
             "--levels", "3", "-K", "0,1", "--iterations", "2000",
@@ -46,6 +50,7 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
         "scan",
         "Stanford bunny (a scan with holes), skim milk, back and fill light",
         &[
+            "--schedule", "cascade",
             "--mesh", "@MESHES/stanford-bunny.obj", "--size-mm", "50", "--material", "skimmilk",
             "--width", "128", "--height", "128", "--no-specular", "--resolution", "24",
             "--levels", "3", "-K", "1", "--iterations", "16,64,256,1024", "--tolerance", "0",
@@ -56,6 +61,7 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
         "scan-reference",
         "Stanford bunny lit from the side through its thin ears, marble, against its path-traced reference",
         &[
+            "--schedule", "cascade",
             "--mesh", "@MESHES/stanford-bunny.obj", "--size-mm", "20", "--material", "marble",
             "--eta", "1", "--light", "dir:1,-0.2,0:5,5,5", "--camera", PT_CAMERA,
             "--width", "96", "--height", "96", "--no-specular",
@@ -69,6 +75,7 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
         "sphere-env",
         "marble sphere in a white environment (closed form), against its path-traced reference",
         &[
+            "--schedule", "cascade",
             "--shape", "sphere", "--size-mm", "20", "--material", "marble", "--eta", "1.3",
             "--env-constant", "1,1,1", "--light", "dir:0,-1,0:0,0,0", "--camera", PT_CAMERA,
             "--width", "96", "--height", "96",
@@ -81,6 +88,7 @@ pub(super) const SUITES: [(&str, &str, &[&str]); 7] = [
         "multilevel",
         "paper Fig. 14: one level against three, skin1 sphere (gpu_solve's table)",
         &[
+            "--schedule", "cascade",
             "--shape", "sphere", "--size-mm", "20", "--material", "skin1",
             "--light", "dir:-0.3,-1,0.2:1,1,1", "--env-constant", "0.05,0.05,0.05", "--width", "96",
             "--height", "96", "--no-specular", "--resolution", "24", "--levels", "1,3", "-K", "1",

@@ -79,8 +79,29 @@ pub(super) fn non_negative(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `--schedule` when not given: the library's (multigrid, [`super::DEFAULT_SCHEDULE`]) unless an
+/// option only the cascade has is given, as `render` decides (`render::schedule_of`):
+/// `--iterations` (the cascade's caps), fp16 in `--precision` (the cycles keep phi in fp32),
+/// paper in `--scheme` (not symmetric, which the CG around the V-cycle assumes).
+fn default_schedule(args: &BenchArgs) -> &'static str {
+    let named = |list: &str, item: &str| list.split(',').any(|s| s.trim() == item);
+    if args.iterations.is_some() || named(&args.precision, "fp16") || named(&args.scheme, "paper") {
+        "cascade"
+    } else {
+        super::DEFAULT_SCHEDULE
+    }
+}
+
 impl Sweep {
     pub(super) fn parse(args: &BenchArgs) -> Result<Sweep, BenchError> {
+        let iterations = args
+            .iterations
+            .clone()
+            .unwrap_or_else(|| translucent::defaults::CASCADE_ITERATIONS.to_string());
+        let schedule = args
+            .schedule
+            .clone()
+            .unwrap_or_else(|| default_schedule(args).to_string());
         let sweep = Sweep {
             k: list("-K", &args.k, non_negative)?,
             levels: list("--levels", &args.levels, uint(1, 8))?,
@@ -99,12 +120,12 @@ impl Sweep {
                 "warm" => Ok(true),
                 _ => Err("is not a start (cold, warm)".into()),
             })?,
-            schedules: list("--schedule", &args.schedule, |s| match s {
+            schedules: list("--schedule", &schedule, |s| match s {
                 "cascade" => Ok(false),
                 "multigrid" => Ok(true),
                 _ => Err("is not a schedule (cascade, multigrid)".into()),
             })?,
-            iterations: list("--iterations", &args.iterations, uint(1, 1_000_000))?,
+            iterations: list("--iterations", &iterations, uint(1, 1_000_000))?,
             tolerances: list("--tolerance", &args.tolerance, |s| {
                 non_negative(s).map(|v| v as f32)
             })?,
@@ -130,7 +151,7 @@ impl Sweep {
             if scopes > FRAME_SCOPES {
                 return Err(BenchError::BadList {
                     option: "--iterations",
-                    list: args.iterations.clone(),
+                    list: iterations.clone(),
                     item: cap.to_string(),
                     problem: format!(
                         "needs {scopes} timestamp scopes per frame with {max_levels} levels; the \

@@ -1,17 +1,18 @@
 //! What `render` runs when an option is not given: the light source, the schedule, single
-//! scattering, and `--method auto`'s pick (one place for render's defaults).
+//! scattering, and `--method auto`'s pick. The values are the library's real-time defaults
+//! ([`translucent::defaults::Settings`], shared with `view`, `bench` and
+//! `ObjectParams::default`); this file says how render's options change them.
 
-use anyhow::bail;
-use translucent::frame::{choose_method, MethodChoice, SceneTraits};
+use anyhow::{bail, Context as _};
+use translucent::defaults::{Schedule, Settings};
+use translucent::frame::{choose_method, MethodChoice, MethodKind, SceneTraits};
 
 use super::{RenderArgs, DEFAULT_MATERIAL};
 
-/// `render`'s light source on the GPU when none is named (benches/RESULTS.md, "Model terms on the
-/// GPU (wave 5)": against the path-traced references the second-collision source is better than
-/// the boundary flux on six scenes of seven and level on the seventh, and where it loses to the
-/// first-collision beam it does so within that scene's noise).
+/// `render`'s light source on the GPU when none is named, for homogeneous materials (the
+/// library's: [`translucent::defaults::HOMOGENEOUS_SOURCE`]).
 pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
-    translucent::solver::transport::Source::SecondCollision;
+    translucent::defaults::HOMOGENEOUS_SOURCE;
 
 /// `render`'s diffusion coefficient with `--method quadgraph` when none is named
 /// (benches/RESULTS.md, "Diffusion coefficient at low albedo": against the path-traced
@@ -52,24 +53,36 @@ pub fn choice_json(choice: Option<MethodChoice>) -> serde_json::Value {
     }
 }
 
-/// The schedule a render uses: `--schedule` when given; else multigrid on the GPU solver (DESIGN
-/// 5.1: the default, measured faster than the cascade: benches/RESULTS.md, "GPU multigrid with
-/// CG, and the default schedule") unless an option only the cascade has asks for it (`--precision fp16`, whose phi
-/// the cycles cannot keep; `--iterations`, the cascade's cap per level; `--scheme paper`, whose
-/// operator is not symmetric, which the CG around the V-cycle assumes); cascade + exact PCG on
-/// the CPU solver (the f64 reference).
+/// The schedule a render uses: `--schedule` when given; else the library's default
+/// ([`Settings::schedule`], multigrid: DESIGN 5.1, measured faster than the cascade:
+/// benches/RESULTS.md, "GPU multigrid with CG, and the default schedule") on the GPU solver
+/// unless an option only the cascade has asks for it (`--precision fp16`, whose phi the cycles
+/// cannot keep; `--iterations`, the cascade's cap per level; `--scheme paper`, whose operator is
+/// not symmetric, which the CG around the V-cycle assumes: [`Settings::schedule_allowed`]);
+/// cascade + exact PCG on the CPU solver (the f64 reference).
 pub fn schedule_of(args: &RenderArgs) -> &'static str {
     match args.schedule.as_deref() {
         Some("multigrid") => "multigrid",
         Some(_) => "cascade",
-        None if args.solver != "gpu"
-            || args.precision.as_deref() == Some("fp16")
-            || args.iterations.is_some()
-            || args.scheme == "paper" =>
-        {
-            "cascade"
+        None if args.solver != "gpu" || args.iterations.is_some() => "cascade",
+        None => {
+            let fp16 = args.precision.as_deref() == Some("fp16");
+            let paper = args.scheme == "paper";
+            let settings = Settings {
+                precision: if fp16 {
+                    translucent::solver::gpu::Precision::Fp16
+                } else {
+                    Settings::default().precision
+                },
+                scheme: if paper {
+                    translucent::solver::Scheme::Paper
+                } else {
+                    translucent::solver::Scheme::Fv
+                },
+                ..Settings::default()
+            };
+            settings.schedule_allowed().name()
         }
-        None => "multigrid",
     }
 }
 
@@ -93,15 +106,53 @@ impl RenderArgs {
             Some("second") => Source::SecondCollision,
             Some(_) => Source::BoundaryFlux,
             None if self.beam_source => Source::Collimated,
-            None if self.method != "quadgraph"
-                || self.solver != "gpu"
-                || self.material.is_heterogeneous()
-                || self.exit_query.as_deref() == Some("flux") =>
-            {
+            None if self.solver != "gpu" || self.exit_query.as_deref() == Some("flux") => {
                 Source::BoundaryFlux
             }
-            None => DEFAULT_SOURCE,
+            None => {
+                Settings::for_method(self.method_kind(), !self.material.is_heterogeneous()).source
+            }
         }
+    }
+
+    /// `--method` as the library's kind (`auto` is resolved before any frame; it reads as the
+    /// QuadGraph here).
+    pub fn method_kind(&self) -> MethodKind {
+        self.method.parse().unwrap_or_default()
+    }
+
+    /// Everything the GPU frame's solve and single scattering resolve to: the library's
+    /// real-time defaults ([`Settings::for_method`]) changed by the options given.
+    pub fn settings(&self) -> anyhow::Result<Settings> {
+        let mut settings =
+            Settings::for_method(self.method_kind(), !self.material.is_heterogeneous())
+                .with_source(self.light_source());
+        if settings.source == translucent::solver::transport::Source::BoundaryFlux {
+            if let Some(query) = &self.exit_query {
+                settings.exit = query.parse()?;
+            }
+        }
+        settings.schedule = if schedule_of(self) == "multigrid" {
+            Schedule::Multigrid
+        } else {
+            Schedule::Cascade
+        };
+        settings.scheme = if self.scheme == "paper" {
+            translucent::solver::Scheme::Paper
+        } else {
+            translucent::solver::Scheme::Fv
+        };
+        if let Some(p) = &self.precision {
+            settings.precision = p.parse()?;
+        }
+        settings.tolerance = self.tolerance;
+        if let Some(n) = self.iterations {
+            settings.cascade_iterations = u32::try_from(n).context("--iterations: too large")?;
+        }
+        settings.surface = self.surface.parse()?;
+        settings.heterogeneous_weights = self.heterogeneous_weights.parse()?;
+        settings.single_scattering = self.scatter_params()?;
+        Ok(settings)
     }
 
     /// `--single-scattering` and `--scatter-samples` as the object's parameters (`None`: off).
@@ -115,24 +166,14 @@ impl RenderArgs {
                 range.end()
             );
         }
-        // Default `on`: the march with the front-lit skip rule.
+        // Default `on` (the library's): the march with the front-lit skip rule.
         let mode = self.single_scattering.as_deref().unwrap_or("on");
-        Ok(
-            (mode != "off").then_some(translucent::frame::ScatterParams {
-                samples: self.scatter_samples,
-                skip_front_lit: mode == "on",
-                // The second-collision source leaves the once-scattered light to the march.
-                mode: if self.light_source()
-                    == translucent::solver::transport::Source::SecondCollision
-                {
-                    translucent::frame::ScatterMode::Full
-                } else {
-                    translucent::frame::ScatterMode::Difference
-                },
-                // The gather's environment is a boundary flux: its once-scattered light is in
-                // the diffusion already (ScatterParams::environment).
-                environment: false,
-            }),
-        )
+        Ok((mode != "off").then(|| {
+            translucent::defaults::scatter_for(
+                self.light_source(),
+                self.scatter_samples,
+                mode == "on",
+            )
+        }))
     }
 }

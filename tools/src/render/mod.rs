@@ -27,7 +27,7 @@ use translucent::headless::{ExitanceMesh, FrameDesc, HeadlessHost, HeadlessRende
 use translucent::scene::Camera;
 use translucent::scene::Environment;
 use translucent::scene::Light;
-use translucent::solver::gpu::{GpuSolveParams, Precision};
+use translucent::solver::gpu::GpuSolveParams;
 use translucent::solver::multigrid::MultigridParams;
 use translucent::solver::{self, CpuSolveParams, Schedule, Scheme};
 use translucent::vk::{Context, ContextDesc, FrameTimings};
@@ -103,7 +103,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub iterations: Option<usize>,
     /// Stop a level's iterations once the estimated relative error is below this.
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = translucent::defaults::TOLERANCE)]
     pub tolerance: f64,
     /// How the levels are used (DESIGN 5.1): multigrid (full multigrid + CG-accelerated
     /// V-cycles to the relative residual --tolerance, on either solver; warm frames start from
@@ -215,7 +215,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", default_value_t = translucent::frame::BounceParams::default().rays)]
     pub bounce_rays: u32,
     /// Depths per view ray of `--single-scattering on` (4..=16).
-    #[arg(long, value_name = "N", default_value_t = 8)]
+    #[arg(long, value_name = "N", default_value_t = translucent::defaults::SCATTER_SAMPLES)]
     pub scatter_samples: u32,
     /// Output image: `.png` (exposure, tone map, sRGB) or `.exr` (linear radiance).
     #[arg(long)]
@@ -246,7 +246,7 @@ pub struct RenderArgs {
     /// Anti-aliasing: render N x N samples per output pixel and average them (linear radiance,
     /// before the tone map); 1 turns it off. Default 2: smooth silhouettes for 4x the shading
     /// and read-back (not the solve; benches/RESULTS.md, "Anti-aliasing").
-    #[arg(long, value_name = "N", default_value_t = 2,
+    #[arg(long, value_name = "N", default_value_t = translucent::defaults::SUPERSAMPLE,
           value_parser = clap::value_parser!(u32).range(1..=4))]
     pub supersample: u32,
     /// Print the per-pass GPU milliseconds of the last frame.
@@ -685,38 +685,23 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         echo_validation: true,
         ..ContextDesc::default()
     })?;
+    // The library's real-time defaults, changed by the options given (`defaults.rs`).
+    let settings = args.settings()?;
+    let base = settings.solve_params();
     let gpu_params = GpuSolveParams {
-        scheme,
-        precision: match args.precision.as_deref() {
-            Some(p) => p.parse::<Precision>()?,
-            None => Precision::Mixed,
-        },
-        iterations: vec![
-            u32::try_from(args.iterations.unwrap_or(2000)).context("--iterations: too large")?
-        ],
-        tolerance: args.tolerance as f32,
-        exit: if beams {
-            solver::transport::ExitQuery::Moments
-        } else {
-            exit_query
-        },
-        collimated: beams,
-        second_collision: source == solver::transport::Source::SecondCollision,
         shadow_edge_flux: args.shadow_edge_flux,
-        surface,
-        heterogeneous_weights: args.heterogeneous_weights.parse()?,
-        multigrid: if multigrid {
-            Some(
+        // The multigrid's coarse operator and cycle as named (`--coarse-*`, `--multigrid-cycle`).
+        multigrid: match base.multigrid.as_ref() {
+            Some(m) => Some(
                 MultigridParams {
-                    tolerance: args.tolerance,
+                    tolerance: m.tolerance,
                     ..coarse_gpu.clone()
                 }
                 .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?,
-            )
-        } else {
-            None
+            ),
+            None => None,
         },
-        ..GpuSolveParams::default()
+        ..base
     };
     let graph = Arc::new(graph);
     let level_count = graph.levels.len();
@@ -737,7 +722,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
             skip: !args.no_skip,
-            single_scattering: args.scatter_params()?,
+            single_scattering: settings.single_scattering,
             ..ObjectParams::default()
         };
         let mut translucent =

@@ -538,6 +538,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         _ => None,
     };
     state.precision = args.precision.parse()?;
+    state.single_scattering = start_single_scattering(args);
     state.skip = !args.no_skip;
     state.method = METHODS
         .iter()

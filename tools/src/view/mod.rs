@@ -51,12 +51,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _};
 use ash::vk;
+use translucent::defaults::{Schedule, Settings};
 use translucent::headless::FrameDesc;
 use translucent::material::MaterialField;
 use translucent::object::{MethodDesc, RecordCtx, TargetImage, Targets};
 use translucent::render::{COLOR_FORMAT, DEPTH_FORMAT};
 use translucent::scene::{Environment, Scene};
-use translucent::solver::gpu::{GpuSolveParams, Precision};
+use translucent::solver::gpu::Precision;
+use translucent::solver::transport::Source;
 use translucent::solver::Scheme;
 use translucent::vk::{barrier, Access, Context, GpuProfiler, Image, ImageDesc, ImageReadback};
 use translucent::{ObjectParams, QuadGraph, TranslucentObject};
@@ -81,6 +83,8 @@ use state::{camera_arg, light_arg, ViewState, METHODS};
 use targets::*;
 
 pub use app::run;
+#[cfg(test)]
+pub(crate) use setup::{start_single_scattering, view_settings};
 
 /// Frames the viewer keeps in flight (command buffers, fences, profiler slots).
 const IN_FLIGHT: usize = 2;
@@ -111,12 +115,26 @@ pub struct ViewArgs {
     /// Discretization: fv (finite volumes, default) or paper (Eqs. 5/6).
     #[arg(long, default_value = "fv", value_parser = ["fv", "paper"])]
     pub scheme: String,
-    /// Jacobi iteration cap per level.
-    #[arg(long, default_value_t = 2000)]
-    pub iterations: u32,
-    /// Stop a level's iterations once the estimated relative error is below this.
-    #[arg(long, default_value_t = 1e-4)]
+    /// The cascade's Jacobi iteration cap per level (default 2000); as with `render`, giving it
+    /// runs the cascade.
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// The solve's stopping point: the multigrid's relative residual, or the cascade's estimated
+    /// relative error per level.
+    #[arg(long, default_value_t = translucent::defaults::TOLERANCE)]
     pub tolerance: f64,
+    /// How the levels are used (DESIGN 5.1), as `render --schedule`: multigrid (the default, the
+    /// library's) or cascade; fp16 precision (the `p` key) and `--scheme paper` run the cascade.
+    #[arg(long, value_parser = ["cascade", "multigrid"])]
+    pub schedule: Option<String>,
+    /// Where the lights' light enters the diffusion, as `render --source`: flux, beam or second
+    /// (default: the library's, second for homogeneous materials and flux for heterogeneous ones).
+    #[arg(long, value_name = "flux|beam|second", value_parser = ["flux", "beam", "second"])]
+    pub source: Option<String>,
+    /// Single scattering to start with (the `s` key toggles): on (the default, as `render`'s)
+    /// or off.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
+    pub single_scattering: Option<String>,
     /// GPU state precision to start with (the `p` key cycles).
     #[arg(long, default_value = "mixed", value_parser = ["mixed", "fp16", "fp32"])]
     pub precision: String,

@@ -46,8 +46,14 @@ impl Setup {
                 args.tolerance
             );
         }
-        if args.iterations == 0 {
+        if args.iterations == Some(0) {
             bail!("--iterations 0: give at least one iteration per level");
+        }
+        if args.iterations.is_some() && args.schedule.as_deref() == Some("multigrid") {
+            bail!("--iterations sets the cascade's Jacobi iterations per level; --schedule multigrid stops at --tolerance");
+        }
+        if args.schedule.as_deref() == Some("multigrid") && args.precision == "fp16" {
+            bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
         }
         if let Some(dir) = &args.shader_dir {
             translucent::shader::runtime::ShaderTree::new(dir).context("--shader-dir")?;
@@ -148,30 +154,30 @@ impl Setup {
         }
     }
 
+    /// What the object for `state` resolves to: the library's real-time defaults for its method
+    /// and material ([`view_settings`]).
+    pub(super) fn settings(&self, state: &ViewState) -> Settings {
+        let homogeneous = self.field(state).map_or(true, |f| f.is_homogeneous());
+        view_settings(
+            &self.args,
+            state.method_name().parse().unwrap_or_default(),
+            homogeneous,
+            state.precision,
+            state.single_scattering,
+        )
+    }
+
     /// The object's parameters for `state`.
     pub(super) fn object_params(&self, state: &ViewState) -> ObjectParams {
+        let settings = self.settings(state);
         ObjectParams {
-            solve: GpuSolveParams {
-                scheme: if self.args.scheme == "paper" {
-                    Scheme::Paper
-                } else {
-                    Scheme::Fv
-                },
-                precision: state.precision,
-                iterations: vec![self.args.iterations],
-                tolerance: self.args.tolerance as f32,
-                ..GpuSolveParams::default()
-            },
             color_format: COLOR_FORMAT,
             depth_format: DEPTH_FORMAT,
             specular: self.frame.specular,
             roughness: self.frame.roughness,
             radiance: self.frame.radiance,
             skip: state.skip,
-            single_scattering: state
-                .single_scattering
-                .then(translucent::frame::ScatterParams::default),
-            ..ObjectParams::default()
+            ..settings.object_params()
         }
     }
 
@@ -284,14 +290,17 @@ impl Setup {
         push("--radiance", a.scene.radiance.clone());
         push("--exposure", a.scene.exposure.to_string());
         push("--scheme", a.scheme.clone());
-        // The QuadGraph's solver options; render refuses them for the other methods.
+        // The QuadGraph's solver options as the object resolved them (named, so the command
+        // reproduces the frame whatever the defaults); render refuses them for the other methods.
+        let settings = self.settings(state);
         if state.method_name() == "quadgraph" {
             push("--precision", precision_name(state.precision).into());
-            push("--iterations", a.iterations.to_string());
+            push("--schedule", settings.schedule.name().into());
+            if settings.schedule == Schedule::Cascade {
+                push("--iterations", settings.cascade_iterations.to_string());
+            }
             push("--tolerance", a.tolerance.to_string());
-            // The viewer's object takes the boundary flux (the library's default); render's
-            // default on the GPU is the second-collision source.
-            push("--source", "flux".into());
+            push("--source", source_name(settings.source).into());
         }
         if a.scene.no_specular {
             out.push("--no-specular".into());
@@ -308,5 +317,67 @@ impl Setup {
             out.push("--texture-only".into());
         }
         out
+    }
+}
+
+/// The settings `translucent view` resolves for `method` on a homogeneous (`true`) or
+/// heterogeneous material: the library's real-time defaults ([`Settings::for_method`], as
+/// `render` starts from) changed by the options given and the viewer's switches. The viewer
+/// differs from `render` only where its switches do (precision `p`, single scattering `s`) and
+/// in drawing one sample per pixel (`render --supersample 1`).
+pub(crate) fn view_settings(
+    args: &ViewArgs,
+    method: translucent::frame::MethodKind,
+    homogeneous: bool,
+    precision: Precision,
+    single_scattering: bool,
+) -> Settings {
+    let mut settings = Settings::for_method(method, homogeneous);
+    if method == translucent::frame::MethodKind::QuadGraph {
+        settings = match args.source.as_deref() {
+            Some("flux") => settings.with_source(Source::BoundaryFlux),
+            Some("beam") => settings.with_source(Source::Collimated),
+            Some("second") => settings.with_source(Source::SecondCollision),
+            _ => settings,
+        };
+    }
+    settings.scheme = if args.scheme == "paper" {
+        Scheme::Paper
+    } else {
+        Scheme::Fv
+    };
+    settings.precision = precision;
+    settings.tolerance = args.tolerance;
+    if let Some(n) = args.iterations {
+        settings.cascade_iterations = n;
+        settings.schedule = Schedule::Cascade;
+    }
+    match args.schedule.as_deref() {
+        Some("cascade") => settings.schedule = Schedule::Cascade,
+        Some("multigrid") => settings.schedule = Schedule::Multigrid,
+        _ => {}
+    }
+    settings.schedule = settings.schedule_allowed();
+    if !single_scattering {
+        settings.single_scattering = None;
+    }
+    settings
+}
+
+/// `render --source`'s name of a light source.
+pub(crate) fn source_name(source: Source) -> &'static str {
+    match source {
+        Source::BoundaryFlux => "flux",
+        Source::Collimated => "beam",
+        Source::SecondCollision => "second",
+    }
+}
+
+/// Whether the viewer starts with single scattering: the library's default (on) unless
+/// `--single-scattering off`.
+pub(crate) fn start_single_scattering(args: &ViewArgs) -> bool {
+    match args.single_scattering.as_deref() {
+        Some(v) => v == "on",
+        None => Settings::default().single_scattering.is_some(),
     }
 }

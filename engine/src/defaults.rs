@@ -1,0 +1,289 @@
+//! The real-time defaults: what the library ([`ObjectParams::default`],
+//! [`ObjectParams::for_material`]), `translucent render`, `translucent view` and `translucent
+//! bench` run when nothing is named, in one place. The CLI's options start from [`Settings`] and
+//! change only what the user names; what a command deliberately pins otherwise (bench's sweeps,
+//! the viewer's one sample per pixel) is said in its help.
+//!
+//! The multigrid solves the rest pose only: an object that will be deformed
+//! ([`crate::TranslucentObject::deform`]) takes [`Schedule::Cascade`] (`deform` otherwise returns
+//! a typed error saying so).
+//!
+//! ```no_run
+//! use translucent::defaults::{Schedule, Settings};
+//! use translucent::material::{Material, MaterialField};
+//! use translucent::solver::transport::Source;
+//! use translucent::ObjectParams;
+//!
+//! let milk = MaterialField::Homogeneous(Material::new([0.7, 1.2, 1.9], [0.0014, 0.0025, 0.0142], 1.3)?);
+//! let settings = Settings::for_material(&milk);
+//! assert_eq!(settings.schedule, Schedule::Multigrid);
+//! assert_eq!(settings.source, Source::SecondCollision);
+//! // What `TranslucentObject::new(ctx, graph, &milk, scene, &params)` is given by default.
+//! let params: ObjectParams = settings.object_params();
+//! assert_eq!(Settings::of(&params), settings);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use crate::frame::{ScatterMode, ScatterParams};
+use crate::material::MaterialField;
+use crate::object::ObjectParams;
+use crate::solver::gpu::{GpuSolveParams, HeterogeneousWeights, Precision};
+use crate::solver::multigrid::MultigridParams;
+use crate::solver::transport::{ExitQuery, Source, SurfaceReconstruction};
+use crate::solver::Scheme;
+
+/// The relative error (cascade: estimated per level; multigrid: relative residual) a solve stops
+/// at.
+pub const TOLERANCE: f64 = 1e-4;
+/// The cascade's cap on Jacobi iterations per level (it stops earlier at [`TOLERANCE`]).
+pub const CASCADE_ITERATIONS: u32 = 2000;
+/// Depths per view ray of the single-scattering march (DESIGN 2.8).
+pub const SCATTER_SAMPLES: u32 = 8;
+/// Samples per output pixel side of `translucent render`'s headless host (anti-aliasing:
+/// benches/RESULTS.md, "Anti-aliasing"). A host (the viewer, Bevy, wgpu) draws its own pixels:
+/// the library has no supersampling, so their equivalent render commands name `--supersample 1`.
+pub const SUPERSAMPLE: u32 = 2;
+/// The light source for homogeneous materials (benches/RESULTS.md, "Model terms on the GPU (wave
+/// 5)": against the path-traced references the second-collision source is better than the
+/// boundary flux on six scenes of seven and level on the seventh).
+pub const HOMOGENEOUS_SOURCE: Source = Source::SecondCollision;
+/// The light source for heterogeneous materials: near the particular solution's resonance the
+/// beam's share is sensitive to the coefficients (the agate's blue differs by 22% between its
+/// `.vol` grid and the procedural field it samples, against 0.8% with the flux), so a
+/// heterogeneous beam is opt-in until that is fixed.
+pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
+
+/// How the levels are used (DESIGN 5.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Schedule {
+    /// The paper's: Jacobi per level, coarsest first, capped by
+    /// [`Settings::cascade_iterations`].
+    Cascade,
+    /// Full multigrid + CG-accelerated V-cycles to the relative residual (the default: measured
+    /// faster than the cascade, benches/RESULTS.md "GPU multigrid with CG, and the default
+    /// schedule").
+    Multigrid,
+}
+
+impl Schedule {
+    pub fn name(self) -> &'static str {
+        match self {
+            Schedule::Cascade => "cascade",
+            Schedule::Multigrid => "multigrid",
+        }
+    }
+}
+
+/// The settings a frame resolves to: the solve's and the single-scattering pass's, as plain data
+/// that can be compared across the commands (`translucent render --json` reports the same).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub schedule: Schedule,
+    pub source: Source,
+    /// How exitance is read: the moments query with a beam source (DESIGN 2.6-2.7), the
+    /// boundary-flux query with the boundary flux.
+    pub exit: ExitQuery,
+    pub scheme: Scheme,
+    pub precision: Precision,
+    pub tolerance: f64,
+    /// The cascade's cap per level (unused by multigrid).
+    pub cascade_iterations: u32,
+    pub surface: SurfaceReconstruction,
+    pub heterogeneous_weights: HeterogeneousWeights,
+    /// `None`: the single-scattering pass is not recorded.
+    pub single_scattering: Option<ScatterParams>,
+}
+
+impl Settings {
+    /// The real-time defaults for a homogeneous (`true`) or heterogeneous material.
+    pub fn realtime(homogeneous: bool) -> Settings {
+        let source = if homogeneous {
+            HOMOGENEOUS_SOURCE
+        } else {
+            HETEROGENEOUS_SOURCE
+        };
+        Settings {
+            schedule: Schedule::Multigrid,
+            source,
+            exit: exit_for(source),
+            scheme: Scheme::Fv,
+            precision: Precision::Mixed,
+            tolerance: TOLERANCE,
+            cascade_iterations: CASCADE_ITERATIONS,
+            surface: SurfaceReconstruction::Shepard,
+            heterogeneous_weights: HeterogeneousWeights::Derived,
+            single_scattering: Some(scatter_for(source, SCATTER_SAMPLES, true)),
+        }
+    }
+
+    /// The real-time defaults for `field`.
+    pub fn for_material(field: &MaterialField) -> Settings {
+        Settings::realtime(field.is_homogeneous())
+    }
+
+    /// The real-time defaults for `method` on a homogeneous (`true`) or heterogeneous material:
+    /// the QuadGraph's are
+    /// [`Settings::for_material`]'s; the voxel and dipole methods read no light source from the
+    /// solve (their exitance carries the once-scattered light as the boundary flux does), so
+    /// single scattering is added to theirs as the difference to the flat closed form.
+    pub fn for_method(method: crate::frame::MethodKind, homogeneous: bool) -> Settings {
+        let settings = Settings::realtime(homogeneous);
+        match method {
+            crate::frame::MethodKind::QuadGraph => settings,
+            _ => settings.with_source(Source::BoundaryFlux),
+        }
+    }
+
+    /// These settings with the light source `source`, the exit query and the single-scattering
+    /// mode that go with it (the march whole with the second-collision source, else as the
+    /// difference to the flat closed form).
+    pub fn with_source(self, source: Source) -> Settings {
+        Settings {
+            source,
+            exit: exit_for(source),
+            single_scattering: self
+                .single_scattering
+                .map(|s| scatter_for(source, s.samples, s.skip_front_lit)),
+            ..self
+        }
+    }
+
+    /// The schedule these settings fall back to when `precision` is fp16 (phi in fp16 cannot
+    /// keep the cycles' corrections) or the scheme is the paper's (not symmetric, which the CG
+    /// around the V-cycle assumes): the cascade.
+    pub fn schedule_allowed(&self) -> Schedule {
+        if self.precision == Precision::Fp16 || self.scheme == Scheme::Paper {
+            Schedule::Cascade
+        } else {
+            self.schedule
+        }
+    }
+
+    /// The GPU solve's parameters.
+    pub fn solve_params(&self) -> GpuSolveParams {
+        let beam = self.source != Source::BoundaryFlux;
+        GpuSolveParams {
+            scheme: self.scheme,
+            precision: self.precision,
+            iterations: vec![self.cascade_iterations],
+            tolerance: self.tolerance as f32,
+            exit: self.exit,
+            collimated: beam,
+            second_collision: self.source == Source::SecondCollision,
+            surface: self.surface,
+            heterogeneous_weights: self.heterogeneous_weights,
+            multigrid: (self.schedule == Schedule::Multigrid).then(|| MultigridParams {
+                tolerance: self.tolerance,
+                ..MultigridParams::gpu()
+            }),
+            ..GpuSolveParams::default()
+        }
+    }
+
+    /// The object's parameters (formats, specular and skipping at their defaults).
+    pub fn object_params(&self) -> ObjectParams {
+        ObjectParams {
+            solve: self.solve_params(),
+            single_scattering: self.single_scattering,
+            ..ObjectParams::base()
+        }
+    }
+
+    /// What `params` resolve to (the inverse of [`Settings::object_params`] on these fields).
+    pub fn of(params: &ObjectParams) -> Settings {
+        let s = &params.solve;
+        Settings {
+            schedule: if s.multigrid.is_some() {
+                Schedule::Multigrid
+            } else {
+                Schedule::Cascade
+            },
+            source: match (s.collimated, s.second_collision) {
+                (false, _) => Source::BoundaryFlux,
+                (true, false) => Source::Collimated,
+                (true, true) => Source::SecondCollision,
+            },
+            exit: s.exit,
+            scheme: s.scheme,
+            precision: s.precision,
+            tolerance: s
+                .multigrid
+                .as_ref()
+                .map_or(f32_decimal(s.tolerance), |m| m.tolerance),
+            cascade_iterations: s.iterations.first().copied().unwrap_or(0),
+            surface: s.surface,
+            heterogeneous_weights: s.heterogeneous_weights,
+            single_scattering: params.single_scattering,
+        }
+    }
+}
+
+impl Default for Settings {
+    /// [`Settings::realtime`] for a homogeneous material.
+    fn default() -> Self {
+        Settings::realtime(true)
+    }
+}
+
+/// An f32 setting (the GPU's tolerance) as the shortest decimal that reads back as it, in f64:
+/// 1e-4 stays 1e-4 (not 9.99999975e-5), so settings typed as text compare equal whether a
+/// command keeps them as f32 or f64.
+pub fn f32_decimal(value: f32) -> f64 {
+    value.to_string().parse().unwrap_or(f64::from(value))
+}
+
+/// The exit query a source is read with (a beam source implies the moments query, DESIGN 2.7).
+pub fn exit_for(source: Source) -> ExitQuery {
+    match source {
+        Source::BoundaryFlux => ExitQuery::Classic,
+        Source::Collimated | Source::SecondCollision => ExitQuery::Moments,
+    }
+}
+
+/// The single-scattering pass's parameters for `source`: the march whole with the
+/// second-collision source (the once-scattered light is the march's alone), else the
+/// difference to the flat closed form.
+pub fn scatter_for(source: Source, samples: u32, skip_front_lit: bool) -> ScatterParams {
+    ScatterParams {
+        samples,
+        skip_front_lit,
+        mode: if source == Source::SecondCollision {
+            ScatterMode::Full
+        } else {
+            ScatterMode::Difference
+        },
+        // The gather's environment is a boundary flux: its once-scattered light is in the
+        // diffusion already (ScatterParams::environment).
+        environment: false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn object_params_read_back_as_the_settings() {
+        for homogeneous in [true, false] {
+            let s = Settings::realtime(homogeneous);
+            assert_eq!(Settings::of(&s.object_params()), s);
+            let cascade = Settings {
+                schedule: Schedule::Cascade,
+                ..s
+            }
+            .with_source(Source::Collimated);
+            assert_eq!(Settings::of(&cascade.object_params()), cascade);
+        }
+    }
+
+    #[test]
+    fn the_library_default_is_the_homogeneous_realtime_default() {
+        assert_eq!(
+            Settings::of(&ObjectParams::default()),
+            Settings::realtime(true)
+        );
+        assert_eq!(Settings::realtime(true).source, Source::SecondCollision);
+        assert_eq!(Settings::realtime(false).source, Source::BoundaryFlux);
+        assert_eq!(Settings::realtime(false).schedule, Schedule::Multigrid);
+    }
+}
