@@ -224,6 +224,7 @@ pub(super) fn run_gpu(
         specular: frame_desc.specular,
         roughness: frame_desc.roughness,
         radiance: frame_desc.radiance,
+        exit_lobe: frame_desc.exit_lobe,
         skip: config.warm,
         ..ObjectParams::default()
     };

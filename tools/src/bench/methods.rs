@@ -316,6 +316,7 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
                 specular: frame_desc.specular,
                 roughness: frame_desc.roughness,
                 radiance: frame_desc.radiance,
+                exit_lobe: frame_desc.exit_lobe,
                 skip: false,
                 ..ObjectParams::default()
             };

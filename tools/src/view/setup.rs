@@ -167,6 +167,7 @@ impl Setup {
             specular: self.frame.specular,
             roughness: self.frame.roughness,
             radiance: self.frame.radiance,
+            exit_lobe: self.frame.exit_lobe,
             skip: state.skip,
             single_scattering: state
                 .single_scattering
