@@ -89,16 +89,13 @@ fn centre_to_limb_radiance_follows_the_exit_lobe() {
                 f64::from(image.pixel(cx, cy)[0]) / f64::from(image.pixel(limb.0, limb.1)[0]);
             ratios.push(ratio);
         }
-        // The lobes are told apart: each slope changes the centre-to-limb ratio by far more
-        // than the pixels' tolerance (P1 at eta 1: (1 + 1.5) / (1 + 1.5 * 0.55), ~37%).
-        assert!(
-            ratios[1] > ratios[2] * (1.0 + 4.0 * PIXEL_TOL),
-            "{ratios:?}"
-        );
-        assert!(
-            ratios[2] > ratios[0] * (1.0 + 4.0 * PIXEL_TOL),
-            "{ratios:?}"
-        );
+        // The lobes are told apart: each slope raises the centre-to-limb ratio above the
+        // Lambertian one by far more than the pixels' tolerance (P1 at eta 1: (1 + 1.5) /
+        // (1 + 1.5 * 0.55), ~37%; the fitted lobe at eta 1.3, the smallest: ~6%).
+        for steeper in &ratios[1..] {
+            assert!(*steeper > ratios[0] * (1.0 + 4.0 * PIXEL_TOL), "{ratios:?}");
+        }
+        assert!(ratios[1] > ratios[2], "P1 is the steeper lobe: {ratios:?}");
     }
     gpu.finish();
 }
