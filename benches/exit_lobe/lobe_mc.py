@@ -1,7 +1,10 @@
 """Exit-lobe fit on the half-space Monte Carlo (research/halfspace-mc) and a slab Monte Carlo.
 
 Usage: python3 benches/exit_lobe/lobe_mc.py run N        # runs the cases, writes lobe_mc.npz
+       python3 benches/exit_lobe/lobe_mc.py slabs N      # reruns only the slabs
+       python3 benches/exit_lobe/lobe_mc.py refine       # recomputes the diffusion side only
        python3 benches/exit_lobe/lobe_mc.py fit          # fits b of L ~ T_o (1 + b mu_i) / norm
+(lobe_mc.npz beside this script, 7 KB, holds the data of RESULTS "Exit lobe": `fit` alone reruns in seconds.)
 
 Reflection: half-space, render's default source (second-collision diffusion + exact single
 scattering, diff3.solve2), exitance M of DESIGN 2.6; the lobe only redistributes M over angles.
