@@ -28,7 +28,7 @@ use crate::mesh::shapes::Shape;
 use crate::mesh::TriMesh;
 use crate::object::{MethodDesc, ObjectParams, RecordCtx, TargetImage, Targets};
 use crate::render::{OffscreenTarget, RenderError};
-use crate::scene::{Camera, Light, RadianceMode, Scene};
+use crate::scene::{Camera, ExitLobe, Light, RadianceMode, Scene};
 use crate::vk::{Access, Context, FrameTimings, GpuProfiler, ImageReadback, LinearImage};
 use crate::{Error, FrameReport, TranslucentObject};
 
@@ -62,6 +62,8 @@ pub struct FrameDesc {
     /// `None`: framed automatically.
     pub camera: Option<Camera>,
     pub radiance: RadianceMode,
+    /// The angular shape of the exit radiance (`--exit-lobe`).
+    pub exit_lobe: ExitLobe,
     /// Cook-Torrance specular of the first directional light (shadowed by its depth map).
     pub specular: bool,
     /// GGX roughness (alpha = roughness^2).
@@ -75,6 +77,7 @@ impl Default for FrameDesc {
             height: 512,
             camera: None,
             radiance: RadianceMode::Physical,
+            exit_lobe: ExitLobe::default(),
             specular: true,
             roughness: 0.35,
         }
@@ -198,6 +201,7 @@ impl HeadlessRenderer {
             specular: frame.specular,
             roughness: frame.roughness,
             radiance: frame.radiance,
+            exit_lobe: frame.exit_lobe,
             // why: the exitance is given: no solve, and no single scattering (its material
             // here is a stand-in).
             ..ObjectParams::base()

@@ -80,7 +80,7 @@ use crate::render::{
     environment_sh, MeshPass, RenderError, ShadeAttachments, ShadePush, ShadeUniforms, ShadowMaps,
     ShadowMapsDesc, COLOR_FORMAT, DEPTH_FORMAT, MAX_SHADOW_VIEWS,
 };
-use crate::scene::{Camera, Light, RadianceMode, Scene};
+use crate::scene::{Camera, ExitLobe, Light, RadianceMode, Scene};
 use crate::solver::gpu::{Deformation, GpuSolveParams};
 use crate::vk::{Access, Context, GpuProfiler, Image, ImageDesc, ImageState};
 use crate::{Error, QuadGraph};
@@ -102,6 +102,8 @@ pub struct ObjectParams {
     /// GGX roughness (alpha = roughness^2), in (0, 1].
     pub roughness: f32,
     pub radiance: RadianceMode,
+    /// The angular shape of the diffusion's exit radiance (`--exit-lobe`).
+    pub exit_lobe: ExitLobe,
     /// `false`: every frame records everything with a cold solve (for comparisons).
     pub skip: bool,
     /// Finest-level node count below which a cold solve iterates one level.
@@ -140,6 +142,7 @@ impl ObjectParams {
             specular: true,
             roughness: 0.35,
             radiance: RadianceMode::Physical,
+            exit_lobe: ExitLobe::default(),
             skip: true,
             single_level_nodes: SINGLE_LEVEL_NODES,
             single_scattering: None,
@@ -835,6 +838,7 @@ impl TranslucentObject {
             }
         }
         let (uniforms, specular) = self.uniforms(targets.color.extent);
+        let (lobe_slope, lobe_scale) = self.params.exit_lobe.shading_constants(f64::from(self.eta));
         let push = ShadePush {
             eta: self.eta,
             radiance_mode: match self.params.radiance {
@@ -843,6 +847,8 @@ impl TranslucentObject {
             },
             roughness: self.params.roughness,
             specular: u32::from(specular),
+            lobe_slope: lobe_slope as f32,
+            lobe_scale: lobe_scale as f32,
         };
 
         let eye = glam::Vec3::from_slice(&uniforms.camera_pos[..3]);

@@ -1,6 +1,7 @@
 #version 460
-// Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) (J+ + X) / (pi eta^2) (physical) or
-// F_t (J+ + X) / pi (paper Eq. 4), X the single scattering per vertex (DESIGN 2.8), plus optional
+// Final shading (DESIGN section 5): L_o = F_t(eta, theta_o) (g(mu_i) J+ + X) / (pi eta^2) (physical)
+// or F_t (g J+ + X) / pi (paper Eq. 4), X the single scattering per vertex (DESIGN 2.8), g the exit
+// lobe of the diffusion (scene::ExitLobe, 1 for Lambert), plus optional
 // Cook-Torrance specular of one light, shadowed by the
 // light's tile of the shadow atlas (light_view_proj maps onto the whole atlas), plus the mirror
 // reflection of the environment F_r(eta, theta_o) L_env(r).
@@ -28,6 +29,9 @@ layout(push_constant) uniform ShadePush {
     uint radiance_mode; // 0: physical, 1: paper
     float roughness;    // GGX alpha = roughness^2
     uint specular;      // 1: add Cook-Torrance specular
+    // Exit lobe (scene::ExitLobe): L = L_lambert (1 + b mu_i) / (1 + b K(eta)); 0 and 1: Lambert.
+    float lobe_slope;
+    float lobe_scale;
 } pc;
 
 layout(location = 0) out vec4 out_radiance;
@@ -58,9 +62,14 @@ void main() {
     }
     float f_t = fresnel_transmittance(pc.eta, n_v);
     float scale = pc.radiance_mode == 0u ? 1.0 / (PI * pc.eta * pc.eta) : 1.0 / PI;
+    // The exit lobe (scene::ExitLobe::factor): mu_i the refracted cosine inside; normalized so the
+    // exitance over the hemisphere is unchanged. It shapes the diffusion's J+ only: the march's X
+    // is already the single scattering toward this view.
+    float mu_i = sqrt(max(1.0 - (1.0 - n_v * n_v) / (pc.eta * pc.eta), 0.0));
+    float lobe = (1.0 + pc.lobe_slope * mu_i) * pc.lobe_scale;
     // Single scattering (DESIGN 2.8) joins the diffusion's J+: L_ss = T_o X / (pi eta^2). As a
     // difference to the flat closed form it may be negative; the sum never is.
-    vec3 radiance = f_t * max(max(v_exitance, vec3(0.0)) + v_scattered, vec3(0.0)) * scale;
+    vec3 radiance = f_t * max(lobe * max(v_exitance, vec3(0.0)) + v_scattered, vec3(0.0)) * scale;
     // The smooth boundary mirrors the environment: the part F_r = 1 - F_t of the light arriving
     // from the reflected direction (F_t above is the same unpolarized Fresnel term). The object
     // does not occlude its own reflection (exact for convex shapes).

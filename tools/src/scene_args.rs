@@ -5,7 +5,7 @@
 use anyhow::{bail, Context as _};
 use glam::{DQuat, DVec3};
 use translucent::headless::FrameDesc;
-use translucent::scene::{Camera, Light, RadianceMode};
+use translucent::scene::{Camera, ExitLobe, Light, RadianceMode};
 
 use crate::framing::Side;
 
@@ -28,6 +28,10 @@ pub struct SceneArgs {
     /// `physical`: F_t J+ / (pi eta^2); `paper`: F_t J+ / pi (paper Eq. 4).
     #[arg(long, default_value = "physical", value_parser = ["physical", "paper"])]
     pub radiance: String,
+    /// Angular shape of the exit radiance: `lambert` (DESIGN 2.6), `p1` (1 + 3/(2A) mu_i), `fitted`
+    /// (half the P1 slope, fitted on Monte Carlo; translucent::scene::ExitLobe).
+    #[arg(long, default_value = "lambert", value_parser = ExitLobe::NAMES)]
+    pub exit_lobe: String,
     /// No Cook-Torrance specular (and no shadow map pass).
     #[arg(long)]
     pub no_specular: bool,
@@ -193,6 +197,7 @@ impl SceneArgs {
             } else {
                 RadianceMode::Physical
             },
+            exit_lobe: self.exit_lobe.parse()?,
             specular: !self.no_specular,
             ..FrameDesc::default()
         })

@@ -68,6 +68,10 @@ pub struct ShadePush {
     pub roughness: f32,
     /// 1: add Cook-Torrance specular.
     pub specular: u32,
+    /// The exit lobe's slope b and scale 1 / (1 + b K(eta)) ([`crate::scene::ExitLobe`]); 0 and 1
+    /// for the Lambertian lobe of DESIGN 2.6.
+    pub lobe_slope: f32,
+    pub lobe_scale: f32,
 }
 
 /// Where [`MeshPass::record_into`] draws: views already in attachment layouts.

@@ -5,6 +5,7 @@
 //! - [`Light`]: directional, point and spot lights, parsed from the command-line syntax.
 //! - [`Environment`]: none, constant, or order-2 spherical harmonics (from an EXR map).
 //! - [`Camera`]: a pinhole camera looking from eye to target.
+//! - [`ExitLobe`]: the angular shape of the radiance leaving the surface (`--exit-lobe`).
 //! - [`Scene`]: what lights the object, and the transmitted irradiance q it gives a surface point.
 //!
 //! ```
@@ -23,6 +24,7 @@
 mod camera;
 mod environment;
 mod environment_map;
+mod exit_lobe;
 mod light;
 
 use glam::DVec3;
@@ -35,6 +37,7 @@ use crate::quadgraph::graph::GraphLevel;
 pub use camera::{Camera, FOVY_RANGE_DEG, MAX_CAMERA_MM};
 pub use environment::Environment;
 pub use environment_map::equirect_direction;
+pub use exit_lobe::{inside_cosine, ExitLobe, FITTED_SLOPE_SHARE};
 pub use light::{Light, MAX_LIGHT_COLOUR};
 
 /// A bad light, environment, camera or mode, naming it and the problem.

@@ -40,12 +40,23 @@ use super::SolverError;
 use crate::material::{fresnel, MaterialField};
 use crate::mesh::Solid;
 use crate::quadgraph::graph::{GraphLevel, QuadGraph, ShepardLinks, NO_NODE};
-use crate::scene::{RadianceMode, Scene};
+use crate::scene::{ExitLobe, RadianceMode, Scene};
 
 /// Outgoing radiance at a surface point with outgoing current `j_plus`, viewed at `cos_o` to the
 /// normal (outside). Negative J+ gives zero radiance.
 pub fn radiance(j_plus: [f64; 3], eta: f64, cos_o: f64, mode: RadianceMode) -> [f64; 3] {
-    let ft = fresnel::transmittance(eta, cos_o);
+    radiance_with_lobe(j_plus, eta, cos_o, mode, ExitLobe::Lambert)
+}
+
+/// [`radiance`] with the exit lobe `lobe` (`shade_mesh.frag`'s formula in f64).
+pub fn radiance_with_lobe(
+    j_plus: [f64; 3],
+    eta: f64,
+    cos_o: f64,
+    mode: RadianceMode,
+    lobe: ExitLobe,
+) -> [f64; 3] {
+    let ft = fresnel::transmittance(eta, cos_o) * lobe.factor(eta, cos_o);
     let k = match mode {
         RadianceMode::Physical => ft / (std::f64::consts::PI * eta * eta),
         RadianceMode::Paper => ft / std::f64::consts::PI,

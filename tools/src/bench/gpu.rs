@@ -328,6 +328,7 @@ pub(crate) fn object_params(
         specular: frame_desc.specular,
         roughness: frame_desc.roughness,
         radiance: frame_desc.radiance,
+        exit_lobe: frame_desc.exit_lobe,
         skip: config.warm,
         ..settings.object_params()
     }

@@ -318,6 +318,7 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
                 specular: frame_desc.specular,
                 roughness: frame_desc.roughness,
                 radiance: frame_desc.radiance,
+                exit_lobe: frame_desc.exit_lobe,
                 skip: false,
                 ..translucent::defaults::Settings::for_method(kind, field.is_homogeneous())
                     .object_params()

@@ -84,6 +84,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         specular: r.frame_desc.specular,
         roughness: r.frame_desc.roughness,
         radiance: r.frame_desc.radiance,
+        exit_lobe: r.frame_desc.exit_lobe,
         skip: !args.no_skip,
         single_scattering: args.scatter_params()?,
         ..ObjectParams::default()
@@ -216,6 +217,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
             "device": ctx.info().device_name,
             "output": args.out.display().to_string(),
             "width": r.frame_desc.width,
+            "exit_lobe": r.frame_desc.exit_lobe.name(),
             "height": r.frame_desc.height,
             "method": "dipole",
             "method_choice": crate::render::choice_json(method_choice),

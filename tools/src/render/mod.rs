@@ -721,6 +721,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             specular: frame_desc.specular,
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
+            exit_lobe: frame_desc.exit_lobe,
             skip: !args.no_skip,
             single_scattering: settings.single_scattering,
             ..ObjectParams::default()
@@ -1011,6 +1012,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 solver::transport::Source::Collimated => "beam",
                 solver::transport::Source::SecondCollision => "second",
             },
+            "exit_lobe": frame_desc.exit_lobe.name(),
             "multigrid": match &last_gpu_multigrid {
                 Some(m) => Some(gpu_multigrid_json(m)),
                 None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({

@@ -129,6 +129,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             specular: frame_desc.specular,
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
+            exit_lobe: frame_desc.exit_lobe,
             skip: !args.no_skip,
             single_scattering: args.scatter_params()?,
             ..ObjectParams::default()
@@ -234,6 +235,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "device": ctx.info().device_name,
             "output": args.out.display().to_string(),
             "width": frame_desc.width,
+            "exit_lobe": frame_desc.exit_lobe.name(),
             "height": frame_desc.height,
             "method": "voxel",
             "method_choice": crate::render::choice_json(method_choice),

@@ -176,6 +176,7 @@ impl Setup {
             specular: self.frame.specular,
             roughness: self.frame.roughness,
             radiance: self.frame.radiance,
+            exit_lobe: self.frame.exit_lobe,
             skip: state.skip,
             ..settings.object_params()
         }
