@@ -294,8 +294,11 @@ pub fn vertex_reflectance(
     positions: &[DVec3],
 ) -> Vec<[f32; 3]> {
     let boundary = Boundary::new(field.eta(), exit);
+    let diffusion = field.diffusion();
     let one = |c: &crate::material::Coefficients| -> [f32; 3] {
-        std::array::from_fn(|ch| diffuse_reflectance(&boundary, Optics::channel(c, ch)) as f32)
+        std::array::from_fn(|ch| {
+            diffuse_reflectance(&boundary, Optics::channel_with(c, ch, diffusion)) as f32
+        })
     };
     match field {
         MaterialField::Homogeneous(m) => vec![one(&m.coefficients()); positions.len()],
@@ -522,6 +525,7 @@ impl BouncePass {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::material::DiffusionCoefficient;
 
     /// F_dr's polynomial is 0.0016 (not 0) at eta = 1: the classic boundary keeps that much.
     const NO_ABSORPTION_TOL: f64 = 3e-3;
@@ -536,6 +540,7 @@ mod tests {
                 Optics {
                     sigma_s: 2.0,
                     sigma_a: 0.0,
+                    diffusion: DiffusionCoefficient::Classical,
                 },
             );
             assert!((r - 1.0).abs() < NO_ABSORPTION_TOL, "{exit:?}: {r}");
@@ -551,6 +556,7 @@ mod tests {
                 Optics {
                     sigma_s: 1.0,
                     sigma_a: a,
+                    diffusion: DiffusionCoefficient::Classical,
                 },
             )
         };
