@@ -62,6 +62,16 @@ use crate::vk::{
 };
 use crate::Error;
 
+mod budget;
+mod medium;
+
+pub use budget::{
+    marched_lights, peak_environment_irradiance, peak_irradiance, DARK_LIGHT_FRACTION,
+    FRONT_LIT_COSINE,
+};
+use medium::medium_data;
+pub use medium::{MediumHeader, MEDIUM_NODES};
+
 /// The pass's name (graph pass, debug label, profiler scope).
 pub const PASS_SINGLE_SCATTERING: &str = "single_scattering";
 /// The depth pre-pass's name: the eye's back faces and the unbiased light views.
@@ -91,89 +101,6 @@ pub enum ScatterMode {
     Full,
 }
 
-/// The error budget's rule (DESIGN 2.8, "skip below the error budget"): when every light's
-/// direction from the object's centre is within acos(FRONT_LIT_COSINE) of the eye's, the
-/// difference to the flat closed form lives only in a thin terminator band the eye sees at a
-/// grazing angle, and the march is skipped ([`SkipReason::FrontLit`]). Measured in
-/// benches/RESULTS.md ("Single scattering: far-face stop").
-pub const FRONT_LIT_COSINE: f64 = 0.5;
-
-/// A light whose largest irradiance anywhere on the object is at most this fraction of the
-/// brightest light's or the environment's contributes nothing the frame can show: the march
-/// leaves it out, and a frame whose lights are all below it (or black, as `--env-constant`'s
-/// placeholder `dir:0,-1,0:0,0,0`) skips the march ([`SkipReason::DarkLights`]). Why 1e-3:
-/// single scattering is at most the light's whole share of the radiance, and 1e-3 of the
-/// brightest term is a quarter of an 8-bit display step and a tenth of the references' noise
-/// (1.1-3.1%, tests/reference/pt/README.md).
-pub const DARK_LIGHT_FRACTION: f64 = 1e-3;
-
-/// The largest irradiance `light` can put on a surface facing it within the bounding sphere
-/// `(centre, radius)`: its irradiance (directional) or intensity / (distance - radius)^2 (point,
-/// spot: the falloff is at most 1); infinite for a non-black light inside the sphere.
-pub fn peak_irradiance(light: &Light, bounds: (DVec3, f64)) -> f64 {
-    let brightest = |c: [f64; 3]| c.into_iter().fold(0.0, f64::max);
-    match *light {
-        Light::Directional { irradiance, .. } => brightest(irradiance),
-        Light::Point {
-            position,
-            intensity,
-        }
-        | Light::Spot {
-            position,
-            intensity,
-            ..
-        } => {
-            let peak = brightest(intensity);
-            let gap = position.distance(bounds.0) - bounds.1;
-            if peak == 0.0 {
-                0.0
-            } else if gap > 0.0 {
-                peak / (gap * gap)
-            } else {
-                f64::INFINITY
-            }
-        }
-    }
-}
-
-/// The largest irradiance the environment puts on any surface direction (over the 26
-/// directions of a cube's faces, edges and corners for an SH environment: its irradiance is a
-/// smooth quadratic in the normal, so the bound is within a few percent).
-pub fn peak_environment_irradiance(environment: &Environment) -> f64 {
-    let mut peak: f64 = 0.0;
-    for x in -1..=1 {
-        for y in -1..=1 {
-            for z in -1..=1 {
-                let n = DVec3::new(f64::from(x), f64::from(y), f64::from(z));
-                if n != DVec3::ZERO {
-                    let e = environment.irradiance(n.normalize());
-                    peak = e.into_iter().fold(peak, f64::max);
-                }
-            }
-        }
-    }
-    peak
-}
-
-/// Which of `scene`'s lights the march takes (`true`): those above [`DARK_LIGHT_FRACTION`] of
-/// the brightest light's or the environment's peak irradiance on the bounding sphere `bounds`.
-pub fn marched_lights(scene: &Scene, bounds: (DVec3, f64)) -> Vec<bool> {
-    let peaks: Vec<f64> = scene
-        .lights
-        .iter()
-        .map(|l| peak_irradiance(l, bounds))
-        .collect();
-    let brightest = peaks
-        .iter()
-        .copied()
-        .fold(peak_environment_irradiance(&scene.environment), f64::max);
-    peaks
-        .iter()
-        // A light inside the bounding sphere has no finite bound: it darkens none of the others.
-        .map(|&p| p > 0.0 && (brightest.is_infinite() || p > DARK_LIGHT_FRACTION * brightest))
-        .collect()
-}
-
 /// How [`SingleScatteringPass`] marches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ScatterParams {
@@ -200,63 +127,6 @@ impl Default for ScatterParams {
             environment: false,
         }
     }
-}
-
-/// Nodes per axis of the material grid the march samples for a heterogeneous field (DESIGN 2.8,
-/// "heterogeneous: tau through the material field"): the field sampled at the nodes of the
-/// display mesh's bounding box, trilinear in between (1.2 MB). 33 nodes put a node every 0.6 mm
-/// on the 20 mm split sphere, finer than the diffusion's finest spacing at the default
-/// resolution (32 cells: ~0.8 mm), so the march sees the field the solve sees.
-pub const MEDIUM_NODES: u32 = 33;
-
-/// The `Medium` storage buffer's header of `march.comp`, followed by two vec4 per grid node
-/// (sigma_s' rgb, then sigma_a rgb), x fastest.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct MediumHeader {
-    /// x: nodes per axis; y: 1 = heterogeneous (sample the grid), 0 = the push constants'.
-    pub nodes: [u32; 4],
-    /// xyz: the grid's first node (object frame, mm).
-    pub origin: [f32; 4],
-    /// xyz: node spacing (mm).
-    pub spacing: [f32; 4],
-}
-
-/// The march's material: a header and, for a heterogeneous field, [`MEDIUM_NODES`]^3 nodes.
-fn medium_data(field: &MaterialField, positions: &[DVec3]) -> Vec<[f32; 4]> {
-    if matches!(field, MaterialField::Homogeneous(_)) || positions.is_empty() {
-        let homogeneous = MediumHeader {
-            nodes: [1, 0, 0, 0],
-            origin: [0.0; 4],
-            spacing: [1.0, 1.0, 1.0, 0.0],
-        };
-        return bytemuck::cast_slice(&[homogeneous]).to_vec();
-    }
-    let (lo, hi) = positions
-        .iter()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
-    let n = MEDIUM_NODES as usize;
-    let spacing = ((hi - lo) / (n - 1) as f64).max(DVec3::splat(1e-9));
-    let header = MediumHeader {
-        nodes: [MEDIUM_NODES, 1, 0, 0],
-        origin: lo.as_vec3().extend(0.0).to_array(),
-        spacing: spacing.as_vec3().extend(0.0).to_array(),
-    };
-    let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&[header]).to_vec();
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let p = lo + spacing * DVec3::new(i as f64, j as f64, k as f64);
-                let c = field.sample(p);
-                let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
-                data.push(f(c.sigma_s));
-                data.push(f(c.sigma_a));
-            }
-        }
-    }
-    data
 }
 
 /// Push constants of `single_scattering/march.comp`.
