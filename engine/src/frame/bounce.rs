@@ -118,13 +118,8 @@ impl Default for BounceParams {
     }
 }
 
-/// Sparse form factors between display vertices: vertex v receives from
-/// `links[offsets[v]..offsets[v + 1]]`, each (source vertex, form factor).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct BounceLinks {
-    pub offsets: Vec<u32>,
-    pub links: Vec<(u32, f32)>,
-}
+/// The links live with the bake ([`crate::QuadGraph::bounce`], written to the bake cache).
+pub use crate::quadgraph::BounceLinks;
 
 fn invalid(what: &str, problem: String) -> Error {
     Error::Render(RenderError::Invalid {
@@ -167,6 +162,8 @@ impl BounceLinks {
             return Ok(BounceLinks {
                 offsets: vec![0; mesh.positions.len() + 1],
                 links: Vec::new(),
+                rays: params.rays,
+                max_links: params.max_links,
             });
         }
         let solid = MeshSolid::new(mesh.clone())?;
@@ -239,7 +236,17 @@ impl BounceLinks {
                     .map_err(|_| invalid("bounce", "more than 2^32 links".into()))?,
             );
         }
-        Ok(BounceLinks { offsets, links })
+        Ok(BounceLinks {
+            offsets,
+            links,
+            rays: params.rays,
+            max_links: params.max_links,
+        })
+    }
+
+    /// Whether these links were built with `params` (a stored copy can be used as it is).
+    pub fn built_with(&self, params: &BounceParams) -> bool {
+        self.rays == params.rays && self.max_links == params.max_links
     }
 
     pub fn vertex_count(&self) -> usize {

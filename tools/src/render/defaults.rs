@@ -155,6 +155,11 @@ impl RenderArgs {
         Ok(settings)
     }
 
+    /// `--bounce` resolved.
+    pub fn bounce_mode(&self) -> anyhow::Result<translucent::frame::BounceMode> {
+        Ok(self.bounce.parse()?)
+    }
+
     /// `--single-scattering` and `--scatter-samples` as the object's parameters (`None`: off).
     pub fn scatter_params(&self) -> anyhow::Result<Option<translucent::frame::ScatterParams>> {
         let range = translucent::frame::single_scattering::SAMPLE_RANGE;

@@ -578,7 +578,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // camera this render uses (the automatic framing when none is given).
     let footprint_camera = frame_desc.camera.context("the camera is set above")?;
     let start = Instant::now();
-    let (graph, stats, outcome, cache_file, resolution) = match &args.graph {
+    let (mut graph, stats, outcome, cache_file, resolution, cache_key) = match &args.graph {
         // `--graph FILE`: the bake `translucent bake` wrote, with its own resolution.
         Some(path) => {
             let graph = load_graph_file(path, &object)?;
@@ -590,7 +590,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 spacing_mm,
                 auto: None,
             };
-            (graph, stats, CacheOutcome::Loaded, path.clone(), resolution)
+            (
+                graph,
+                stats,
+                CacheOutcome::Loaded,
+                path.clone(),
+                resolution,
+                None,
+            )
         }
         None => {
             let resolution = args.object.resolution(
@@ -602,7 +609,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // The bake cache with its size limit (least recently used bakes are evicted).
             let (graph, stats, outcome, cache_file) =
                 crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
-            (graph, stats, outcome, cache_file, resolution)
+            let key = translucent::quadgraph::cache::cache_key(&object.surface, &params);
+            (graph, stats, outcome, cache_file, resolution, Some(key))
         }
     };
     let bake_s = start.elapsed().as_secs_f64();
@@ -703,6 +711,32 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         },
         ..base
     };
+    // `--bounce local`: the links stored with the bake, or built now and stored with it (in the
+    // bake cache; a `--graph FILE` is not rewritten), so the next render of this mesh casts no ray.
+    let bounce_links = if on_gpu && args.bounce_mode()? == translucent::frame::BounceMode::Local {
+        let params = translucent::frame::BounceParams {
+            rays: args.bounce_rays,
+            ..Default::default()
+        };
+        let t = Instant::now();
+        let stored = graph.bounce.as_ref().is_some_and(|b| {
+            b.built_with(&params) && b.vertex_count() == graph.surface.positions.len()
+        });
+        if !stored {
+            graph.bounce = Some(translucent::frame::BounceLinks::build(
+                &graph.surface,
+                &params,
+            )?);
+            if let Some(key) = cache_key {
+                graph.save(&cache_file, key).with_context(|| {
+                    format!("storing the bounce links in {}", cache_file.display())
+                })?;
+            }
+        }
+        Some((params, t.elapsed().as_secs_f64(), stored))
+    } else {
+        None
+    };
     let graph = Arc::new(graph);
     let level_count = graph.levels.len();
     let mut frames = Vec::new();
@@ -728,28 +762,26 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         };
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
-        if args.bounce.parse::<translucent::frame::BounceMode>()?
-            == translucent::frame::BounceMode::Local
+        if let (Some((params, build_s, stored)), Some(links)) =
+            (bounce_links, graph.bounce.as_ref())
         {
-            let t = Instant::now();
-            let params = translucent::frame::BounceParams {
-                rays: args.bounce_rays,
-                ..Default::default()
-            };
-            let links = translucent::frame::BounceLinks::build(&graph.surface, &params)?;
-            let build_s = t.elapsed().as_secs_f64();
-            translucent.set_bounce(&ctx, Some(&links), &field)?;
+            translucent.set_bounce(&ctx, Some(links), &field)?;
             let vertices = links.vertex_count().max(1);
+            let how = if stored {
+                "loaded with the bake"
+            } else {
+                "built"
+            };
             if !args.json {
                 eprintln!(
-                    "bounce: {} links over {} display vertices ({:.1} bytes each), built in {build_s:.2} s",
+                    "bounce: {} links over {} display vertices ({:.1} bytes each), {how} in {build_s:.2} s",
                     links.link_count(),
                     links.vertex_count(),
                     links.bytes() as f64 / vertices as f64
                 );
             }
             bounce_json = Some(serde_json::json!({
-                "mode": args.bounce,
+                "mode": "local",
                 "rays": params.rays,
                 "max_links": params.max_links,
                 "links": links.link_count(),
@@ -758,6 +790,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "bytes": links.bytes(),
                 "bytes_per_vertex": links.bytes() as f64 / vertices as f64,
                 "build_seconds": build_s,
+                "stored": stored,
             }));
         }
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));
