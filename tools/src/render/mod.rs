@@ -207,10 +207,12 @@ pub struct RenderArgs {
     /// surface enters it again elsewhere (concave parts; eta = 1 outside). `local`: at bake time
     /// cosine-weighted rays per display vertex find the surface it sees (sparse form factors);
     /// per solve the pass `bounce` gathers E_b = sum F M and adds R_d E_b where it enters (no
-    /// second solve). `off` (the default): no links, no pass. GPU quadgraph only
-    /// (benches/RESULTS.md, "One bounce between surface points").
-    #[arg(long, value_name = "off|local", default_value = "off", value_parser = ["off", "local"])]
-    pub bounce: String,
+    /// second solve). `local` is the default with `--method quadgraph` on the GPU (the links are
+    /// stored with the bake: the next render of the mesh casts no ray; a convex mesh gets none
+    /// without casting rays); `off`: no links, no pass, and the default of the other methods
+    /// and of `--solver cpu` (benches/RESULTS.md, "One bounce between surface points").
+    #[arg(long, value_name = "off|local", value_parser = ["off", "local"])]
+    pub bounce: Option<String>,
     /// Rays per display vertex of `--bounce local`'s links (1..=4096).
     #[arg(long, value_name = "N", default_value_t = translucent::frame::BounceParams::default().rays)]
     pub bounce_rays: u32,
@@ -438,13 +440,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.texture_only && args.method != "dipole" {
         bail!("--texture-only applies to --method dipole");
     }
-    if args.bounce != "off" && (args.method != "quadgraph" || args.solver != "gpu") {
-        bail!(
-            "--bounce {}: the GPU quadgraph method only (not --method {} --solver {})",
-            args.bounce,
-            args.method,
-            args.solver
-        );
+    if let Some(bounce) = args.bounce.as_deref().filter(|&b| b != "off") {
+        if args.method != "quadgraph" || args.solver != "gpu" {
+            bail!(
+                "--bounce {bounce}: the GPU quadgraph method only (not --method {} --solver {})",
+                args.method,
+                args.solver
+            );
+        }
     }
     let diffusion = match args.diffusion_coefficient.as_deref() {
         Some(name) => name.parse()?,
@@ -713,27 +716,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     // `--bounce local`: the links stored with the bake, or built now and stored with it (in the
     // bake cache; a `--graph FILE` is not rewritten), so the next render of this mesh casts no ray.
-    let bounce_links = if on_gpu && args.bounce_mode()? == translucent::frame::BounceMode::Local {
+    let bounce_links = if on_gpu && settings.bounce == translucent::frame::BounceMode::Local {
         let params = translucent::frame::BounceParams {
             rays: args.bounce_rays,
             ..Default::default()
         };
-        let t = Instant::now();
-        let stored = graph.bounce.as_ref().is_some_and(|b| {
-            b.built_with(&params) && b.vertex_count() == graph.surface.positions.len()
-        });
-        if !stored {
-            graph.bounce = Some(translucent::frame::BounceLinks::build(
-                &graph.surface,
-                &params,
-            )?);
-            if let Some(key) = cache_key {
-                graph.save(&cache_file, key).with_context(|| {
-                    format!("storing the bounce links in {}", cache_file.display())
-                })?;
-            }
-        }
-        Some((params, t.elapsed().as_secs_f64(), stored))
+        let store = cache_key.map(|key| (cache_file.as_path(), key));
+        let (seconds, stored) = crate::cache::bounce_links(&mut graph, &params, store)?;
+        Some((params, seconds, stored))
     } else {
         None
     };
@@ -758,6 +748,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             exit_lobe: frame_desc.exit_lobe,
             skip: !args.no_skip,
             single_scattering: settings.single_scattering,
+            bounce: settings.bounce,
             ..ObjectParams::default()
         };
         let mut translucent =
@@ -765,7 +756,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if let (Some((params, build_s, stored)), Some(links)) =
             (bounce_links, graph.bounce.as_ref())
         {
-            translucent.set_bounce(&ctx, Some(links), &field)?;
+            // The object took the links from the graph (`ObjectParams::bounce`).
+            anyhow::ensure!(
+                translucent.bounce().is_some(),
+                "the bounce pass was not set up"
+            );
             let vertices = links.vertex_count().max(1);
             let how = if stored {
                 "loaded with the bake"
