@@ -311,8 +311,10 @@ pub fn is_convex(mesh: &TriMesh) -> bool {
     }
     let (_, radius) = crate::mesh::bounding_sphere(&mesh.positions);
     let tol = CONVEX_TOL * radius;
-    // Per undirected edge: (face, directed forward, far corner), at most two.
-    let mut edges: HashMap<(u32, u32), Vec<(usize, bool, u32)>> =
+    /// A face at an edge: (face, traversed from the lower index, the face's far corner).
+    type EdgeFace = (usize, bool, u32);
+    // Per undirected edge: its faces, at most two.
+    let mut edges: HashMap<(u32, u32), Vec<EdgeFace>> =
         HashMap::with_capacity(mesh.indices.len() * 3 / 2);
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn root(parent: &mut [u32], mut i: u32) -> u32 {
