@@ -114,7 +114,8 @@ pub struct ObjectParams {
     /// One bounce between display vertices ([`crate::frame::bounce`]): with
     /// [`BounceMode::Local`] a QuadGraph object takes the links its graph carries
     /// ([`crate::QuadGraph::bounce`], stored with the bake; a graph without links gets no bounce: build
-    /// them with [`BounceLinks::build`] and store them there, or call [`Self::set_bounce`]).
+    /// them with [`BounceLinks::build`] and store them there, or call [`Self::set_bounce`]);
+    /// links without a single link (a convex object) record no pass.
     pub bounce: crate::frame::BounceMode,
 }
 
@@ -435,7 +436,8 @@ impl TranslucentObject {
             method_choice: None,
             bounce: None,
         };
-        if let Some(links) = &bounce_links {
+        // No link (a convex object): no pass to record.
+        if let Some(links) = bounce_links.as_ref().filter(|l| l.link_count() > 0) {
             object.set_bounce(ctx, Some(links), field)?;
         }
         Ok(object)

@@ -756,9 +756,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if let (Some((params, build_s, stored)), Some(links)) =
             (bounce_links, graph.bounce.as_ref())
         {
-            // The object took the links from the graph (`ObjectParams::bounce`).
+            // The object took the links from the graph (`ObjectParams::bounce`); a convex
+            // object has none and records no pass.
             anyhow::ensure!(
-                translucent.bounce().is_some(),
+                translucent.bounce().is_some() == (links.link_count() > 0),
                 "the bounce pass was not set up"
             );
             let vertices = links.vertex_count().max(1);

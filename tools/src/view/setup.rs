@@ -313,6 +313,7 @@ impl Setup {
             }
             push("--tolerance", a.tolerance.to_string());
             push("--source", source_name(settings.source).into());
+            push("--bounce", settings.bounce.name().into());
         }
         if a.scene.no_specular {
             out.push("--no-specular".into());
