@@ -111,6 +111,12 @@ pub struct ObjectParams {
     /// Single scattering (DESIGN 2.8) as the shared pass `single_scattering` between the method
     /// and the shading; `None`: off (the pass is not recorded).
     pub single_scattering: Option<ScatterParams>,
+    /// One bounce between display vertices ([`crate::frame::bounce`]): with
+    /// [`BounceMode::Local`] a QuadGraph object takes the links its graph carries
+    /// ([`crate::QuadGraph::bounce`], stored with the bake; a graph without links gets no bounce: build
+    /// them with [`BounceLinks::build`] and store them there, or call [`Self::set_bounce`]);
+    /// links without a single link (a convex object) record no pass.
+    pub bounce: crate::frame::BounceMode,
 }
 
 impl Default for ObjectParams {
@@ -146,6 +152,7 @@ impl ObjectParams {
             skip: true,
             single_level_nodes: SINGLE_LEVEL_NODES,
             single_scattering: None,
+            bounce: crate::frame::BounceMode::Off,
         }
     }
 }
@@ -316,6 +323,13 @@ impl TranslucentObject {
         };
         let framing = crate::mesh::bounding_sphere(&surface.positions);
         let rest_positions = surface.positions.clone();
+        // The bounce links stored with the bake, when the parameters ask for the bounce.
+        let bounce_links = match &method {
+            MethodDesc::QuadGraph(graph) if params.bounce == crate::frame::BounceMode::Local => {
+                graph.bounce.clone()
+            }
+            _ => None,
+        };
         let mut shadows = ShadowMaps::new(
             ctx,
             &ShadowMapsDesc {
@@ -394,7 +408,7 @@ impl TranslucentObject {
         )?;
         scatter.set_lights(scene, &shadows, shadow_bounds)?;
         scatter.set_material(field, &rest_positions);
-        Ok(TranslucentObject {
+        let mut object = TranslucentObject {
             method,
             mesh,
             shadows,
@@ -421,7 +435,12 @@ impl TranslucentObject {
             last_frame: None,
             method_choice: None,
             bounce: None,
-        })
+        };
+        // No link (a convex object): no pass to record.
+        if let Some(links) = bounce_links.as_ref().filter(|l| l.link_count() > 0) {
+            object.set_bounce(ctx, Some(links), field)?;
+        }
+        Ok(object)
     }
 
     /// New lights and environment: the shadow views are refitted and the method updated now; the

@@ -319,3 +319,62 @@ fn a_convex_sphere_has_no_links_and_bad_parameters_are_typed_errors() {
     }
     assert!("solve".parse::<translucent::frame::BounceMode>().is_err());
 }
+
+/// The links are stored with the bake: a cache file round trip keeps them bit for bit, and a
+/// file whose links index past the display vertices is refused with a typed error.
+#[test]
+fn links_survive_the_bake_cache_and_bad_links_are_refused() {
+    let torus = Shape::Torus {
+        major: 8.0,
+        minor: 3.0,
+    };
+    let mut graph = bake(&torus);
+    assert!(graph.bounce.is_none(), "a bake carries no links");
+    let params = BounceParams {
+        rays: 16,
+        max_links: 8,
+    };
+    let links = BounceLinks::build(&graph.surface, &params).expect("links");
+    assert!(links.link_count() > 0 && links.built_with(&params));
+    assert!(!links.built_with(&BounceParams::default()));
+    graph.bounce = Some(links.clone());
+    let key = 7;
+    let path = std::path::Path::new("torus.qgraph");
+    let back = QuadGraph::from_cache_bytes(&graph.to_cache_bytes(key), path, Some(key))
+        .expect("round trip");
+    assert_eq!(back.bounce.as_ref(), Some(&links));
+    // Without links: None again.
+    graph.bounce = None;
+    let back = QuadGraph::from_cache_bytes(&graph.to_cache_bytes(key), path, Some(key))
+        .expect("round trip");
+    assert!(back.bounce.is_none());
+    // A link to a vertex the surface does not have.
+    let mut bad = links.clone();
+    bad.links[0].0 = graph.surface.positions.len() as u32;
+    graph.bounce = Some(bad);
+    let err = QuadGraph::from_cache_bytes(&graph.to_cache_bytes(key), path, Some(key));
+    assert!(
+        matches!(&err, Err(e) if e.to_string().contains("bounce link")),
+        "{err:?}"
+    );
+    // A negative form factor.
+    let mut bad = links;
+    bad.links[0].1 = -1.0;
+    graph.bounce = Some(bad);
+    assert!(QuadGraph::from_cache_bytes(&graph.to_cache_bytes(key), path, Some(key)).is_err());
+}
+
+/// The convex early-out on the meshes the bounce meets: the sphere is convex (no links, no ray
+/// cast), the torus and the U-block-like facing boxes are not.
+#[test]
+fn the_sphere_is_convex_and_the_torus_is_not() {
+    use translucent::frame::bounce::is_convex;
+    let sphere = bake(&Shape::Sphere { radius: 8.0 });
+    assert!(is_convex(&sphere.surface));
+    let torus = bake(&Shape::Torus {
+        major: 8.0,
+        minor: 3.0,
+    });
+    assert!(!is_convex(&torus.surface));
+    assert!(!is_convex(&facing_boxes()));
+}

@@ -163,6 +163,36 @@ pub fn bake(
     Ok((graph, stats, outcome, file))
 }
 
+/// The bounce links of `graph` ([`QuadGraph::bounce`]) built with `params`: kept when the graph
+/// carries them (loaded with the bake), else built now and, with `store` (the cache file and its
+/// key), written back with the bake so that the next command on this mesh casts no ray. Returns
+/// the seconds it took and whether they were stored already.
+pub fn bounce_links(
+    graph: &mut QuadGraph,
+    params: &translucent::frame::BounceParams,
+    store: Option<(&Path, u64)>,
+) -> anyhow::Result<(f64, bool)> {
+    let start = std::time::Instant::now();
+    let vertices = graph.surface.positions.len();
+    if graph
+        .bounce
+        .as_ref()
+        .is_some_and(|b| b.built_with(params) && b.vertex_count() == vertices)
+    {
+        return Ok((start.elapsed().as_secs_f64(), true));
+    }
+    graph.bounce = Some(translucent::frame::BounceLinks::build(
+        &graph.surface,
+        params,
+    )?);
+    if let Some((file, key)) = store {
+        graph
+            .save(file, key)
+            .with_context(|| format!("storing the bounce links in {}", file.display()))?;
+    }
+    Ok((start.elapsed().as_secs_f64(), false))
+}
+
 /// How long ago `t` was, roughly.
 fn ago(t: SystemTime) -> String {
     let s = SystemTime::now()

@@ -238,6 +238,9 @@ fn gpu_frame_image_matches_the_cpu_reference_image() {
                 // One model on both (the GPU's default source is the second-collision beam).
                 "--source",
                 "flux",
+                // The GPU's default bounce (the torus's hole) is not the CPU solver's.
+                "--bounce",
+                "off",
                 "--shape",
                 "torus",
                 "--material",
@@ -853,4 +856,69 @@ fn multigrid_cycle_option_changes_the_cycle_and_refuses_bad_items() {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(stderr.contains(named), "{bad}: {stderr}");
     }
+}
+
+/// The bounce is render's default on the GPU QuadGraph: the first render of a concave mesh
+/// builds the links and stores them with the bake, the second loads them (no rays) and draws the
+/// same image; a convex sphere gets no links; `--bounce off` and the other methods have none.
+#[test]
+fn the_bounce_is_on_by_default_and_its_links_are_stored_with_the_bake() {
+    let dir = scratch("bounce_default");
+    let torus = |name: &str, extra: &[&str]| {
+        let png = dir.join(name);
+        let mut args = vec![
+            "render",
+            "--shape",
+            "torus",
+            "--material",
+            "marble",
+            "--resolution",
+            "16",
+            "--levels",
+            "2",
+            "--width",
+            "48",
+            "--height",
+            "48",
+            "--size-mm",
+            "20",
+            "--bounce-rays",
+            "16",
+            "--json",
+            "--out",
+        ];
+        args.push(png.to_str().expect("utf-8 path"));
+        args.extend(extra);
+        let out = translucent(&args, &dir);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (json_of(&out), std::fs::read(&png).expect("png"))
+    };
+    let (first, first_png) = torus("first.png", &[]);
+    assert_eq!(first["bounce"]["stored"], false, "{first}");
+    assert!(
+        first["bounce"]["links"].as_u64().unwrap_or(0) > 0,
+        "{first}"
+    );
+    let (second, second_png) = torus("second.png", &[]);
+    assert_eq!(second["bounce"]["stored"], true, "{second}");
+    assert_eq!(second["bounce"]["links"], first["bounce"]["links"]);
+    assert_eq!(
+        first_png, second_png,
+        "the stored links draw the same image"
+    );
+    let (off, off_png) = torus("off.png", &["--bounce", "off"]);
+    assert!(off["bounce"].is_null(), "{off}");
+    assert_ne!(off_png, first_png, "the torus's hole is lit by the bounce");
+    // A convex sphere: no links (found without rays).
+    let out = render(&dir, &[]);
+    assert!(out.status.success());
+    assert_eq!(json_of(&out)["bounce"]["links"], 0);
+    // Another method: off without error when not named.
+    let out = render(&dir, &["--solver", "cpu"]);
+    assert!(out.status.success());
+    assert!(json_of(&out)["bounce"].is_null());
 }

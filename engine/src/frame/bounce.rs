@@ -11,7 +11,8 @@
 //! the visible surface (F(x, y) = cos_x cos_y dA_y / (pi r^2) integrated; the cosine-weighted
 //! sampling carries cos_x / pi, the hit's solid angle cos_y dA_y / r^2), with the visibility of a
 //! ray cast. A vertex keeps its [`BounceParams::max_links`] heaviest links, rescaled to the same
-//! sum. A convex object's rays all escape: no links, no cost beyond the dispatch.
+//! sum. A convex object's rays all escape: [`is_convex`] finds it before any ray is cast (no
+//! links, no cost beyond the dispatch).
 //!
 //! Frame ([`PASS_BOUNCE`], after the method's exitance, before the shading): `bounce/bounce.comp`
 //! gathers E_b(x) = sum_y F(x, y) X(y) from the display vertices' exitance values X (the shading's
@@ -53,6 +54,11 @@ pub const PASS_BOUNCE: &str = "bounce";
 /// The ray's start above the vertex, relative to the mesh's bounding radius (clear of the
 /// vertex's own faces in f64; the BVH also ignores crossings within 1e-9 of the origin).
 const START_OFFSET: f64 = 1e-5;
+/// How far (relative to the bounding radius) a neighbouring face's far corner may stand in front
+/// of a face's plane and the edge still count as convex: coplanar facets (a box's sides) within
+/// f64 rounding of their coordinates; far below the rays' start offset, so a dent this shallow
+/// could not be seen by a ray anyway.
+const CONVEX_TOL: f64 = 1e-9;
 /// Rays per vertex accepted by [`BounceLinks::build`].
 pub const RAY_RANGE: std::ops::RangeInclusive<u32> = 1..=4096;
 /// Links per vertex accepted.
@@ -112,13 +118,8 @@ impl Default for BounceParams {
     }
 }
 
-/// Sparse form factors between display vertices: vertex v receives from
-/// `links[offsets[v]..offsets[v + 1]]`, each (source vertex, form factor).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct BounceLinks {
-    pub offsets: Vec<u32>,
-    pub links: Vec<(u32, f32)>,
-}
+/// The links live with the bake ([`crate::QuadGraph::bounce`], written to the bake cache).
+pub use crate::quadgraph::BounceLinks;
 
 fn invalid(what: &str, problem: String) -> Error {
     Error::Render(RenderError::Invalid {
@@ -155,6 +156,15 @@ impl BounceLinks {
                     LINK_RANGE.end()
                 ),
             ));
+        }
+        if is_convex(mesh) {
+            // Every ray would escape: no links (measured: the sphere's 2.5 s of rays go).
+            return Ok(BounceLinks {
+                offsets: vec![0; mesh.positions.len() + 1],
+                links: Vec::new(),
+                rays: params.rays,
+                max_links: params.max_links,
+            });
         }
         let solid = MeshSolid::new(mesh.clone())?;
         let mesh = solid.mesh();
@@ -226,7 +236,17 @@ impl BounceLinks {
                     .map_err(|_| invalid("bounce", "more than 2^32 links".into()))?,
             );
         }
-        Ok(BounceLinks { offsets, links })
+        Ok(BounceLinks {
+            offsets,
+            links,
+            rays: params.rays,
+            max_links: params.max_links,
+        })
+    }
+
+    /// Whether these links were built with `params` (a stored copy can be used as it is).
+    pub fn built_with(&self, params: &BounceParams) -> bool {
+        self.rays == params.rays && self.max_links == params.max_links
     }
 
     pub fn vertex_count(&self) -> usize {
@@ -270,6 +290,87 @@ impl BounceLinks {
             })
             .collect()
     }
+}
+
+/// Whether the closed surface `mesh` bounds a convex solid, without casting a ray: one connected
+/// part, every edge shared by exactly two faces that traverse it in opposite directions (a
+/// coherently wound closed surface), and every edge locally convex: the far corner of each face
+/// lies on or behind the other face's plane (within [`CONVEX_TOL`] of the bounding radius), on
+/// the same side for every edge (outward or inside-out winding alike). A connected closed
+/// embedded surface that is locally convex at every edge bounds a convex solid (Tietze's
+/// theorem), so no point of it sees another. O(faces); a mesh that fails any condition (seams
+/// of split vertices, several parts, a torus's or a bunny's concave edges) gets the rays.
+pub fn is_convex(mesh: &TriMesh) -> bool {
+    use std::collections::HashMap;
+    let n = mesh.positions.len();
+    if mesh.indices.is_empty()
+        || mesh.indices.iter().flatten().any(|&i| i as usize >= n)
+        || !mesh.positions.iter().all(|p| p.is_finite())
+    {
+        return false;
+    }
+    let (_, radius) = crate::mesh::bounding_sphere(&mesh.positions);
+    let tol = CONVEX_TOL * radius;
+    /// A face at an edge: (face, traversed from the lower index, the face's far corner).
+    type EdgeFace = (usize, bool, u32);
+    // Per undirected edge: its faces, at most two.
+    let mut edges: HashMap<(u32, u32), Vec<EdgeFace>> =
+        HashMap::with_capacity(mesh.indices.len() * 3 / 2);
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    for (f, t) in mesh.indices.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            if a == b {
+                return false;
+            }
+            let e = edges.entry((a.min(b), a.max(b))).or_default();
+            if e.len() == 2 {
+                return false;
+            }
+            e.push((f, a < b, c));
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra as usize] = rb;
+        }
+    }
+    let first = root(&mut parent, mesh.indices[0][0]);
+    if mesh
+        .indices
+        .iter()
+        .flatten()
+        .any(|&i| root(&mut parent, i) != first)
+    {
+        return false;
+    }
+    let normal = |f: usize| {
+        let p = mesh.indices[f].map(|i| mesh.positions[i as usize]);
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+    };
+    let (mut front, mut behind) = (false, false);
+    for (&(a, _), faces) in &edges {
+        let [(f1, fwd1, c1), (f2, fwd2, c2)] = faces[..] else {
+            return false;
+        };
+        if fwd1 == fwd2 {
+            return false;
+        }
+        let at = mesh.positions[a as usize];
+        for (f, c) in [(f1, c2), (f2, c1)] {
+            let d = normal(f).dot(mesh.positions[c as usize] - at);
+            front |= d > tol;
+            behind |= d < -tol;
+            if front && behind {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Total diffuse reflectance of a half-space of `optics` for diffuse incidence, in the model's
@@ -529,6 +630,36 @@ mod tests {
 
     /// F_dr's polynomial is 0.0016 (not 0) at eta = 1: the classic boundary keeps that much.
     const NO_ABSORPTION_TOL: f64 = 3e-3;
+
+    #[test]
+    fn convex_solids_are_found_and_concave_ones_are_not() {
+        use crate::mesh::shapes::Shape;
+        let sphere = Shape::Sphere { radius: 10.0 }.triangulate(24);
+        assert!(is_convex(&sphere));
+        let mut inside_out = sphere.clone();
+        inside_out.indices.iter_mut().for_each(|t| t.swap(1, 2));
+        assert!(is_convex(&inside_out));
+        let torus = Shape::Torus {
+            major: 8.0,
+            minor: 3.0,
+        }
+        .triangulate(24);
+        assert!(!is_convex(&torus));
+        // Two spheres side by side: each is convex, together they see each other.
+        let mut two = sphere.clone();
+        let base = two.positions.len() as u32;
+        two.positions
+            .extend(sphere.positions.iter().map(|p| *p + DVec3::X * 30.0));
+        two.normals.extend(&sphere.normals);
+        two.indices
+            .extend(sphere.indices.iter().map(|t| t.map(|i| i + base)));
+        assert!(!is_convex(&two));
+        // A dent: one vertex pushed towards the centre.
+        let mut dented = sphere.clone();
+        let v = dented.positions.len() / 2;
+        dented.positions[v] *= 0.8;
+        assert!(!is_convex(&dented));
+    }
 
     /// The half-space's R_d at sigma_a = 0 reflects everything.
     #[test]

@@ -333,6 +333,7 @@ impl QuadGraph {
             surface: surface.clone(),
             shading,
             samples,
+            bounce: None,
         };
         let mut summary = graph.stats();
         for (s, from_stats) in summary.levels.iter_mut().zip(stats) {

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use super::graph::{GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks};
+use super::graph::{BounceLinks, GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks};
 use super::surface_samples::SurfaceSamples;
 use super::{BakeError, BakeParams, BakeProgress, BakeStats};
 use crate::limits::{Limit, Limits};
@@ -32,7 +32,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -415,6 +415,22 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
             .for_each(|&x| w.u32(x));
         w.u32s(&p.texels);
     }
+    // Format 5: one bounce's links, when a render stored them (flag 0: none).
+    match &g.bounce {
+        None => w.u32(0),
+        Some(b) => {
+            w.u32(1);
+            w.u32(b.rays);
+            w.u32(b.max_links);
+            w.u32s(&b.offsets.iter().map(|&o| [o]).collect::<Vec<_>>());
+            w.u32s(
+                &b.links
+                    .iter()
+                    .map(|&(y, f)| [y, f.to_bits()])
+                    .collect::<Vec<_>>(),
+            );
+        }
+    }
 }
 
 fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
@@ -481,9 +497,27 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
             packing,
         });
     }
+    let bounce = match r.u32()? {
+        0 => None,
+        1 => {
+            let (rays, max_links) = (r.u32()?, r.u32()?);
+            let offsets: Vec<[u32; 1]> = r.u32s()?;
+            let links: Vec<[u32; 2]> = r.u32s()?;
+            Some(BounceLinks {
+                offsets: offsets.into_iter().map(|[o]| o).collect(),
+                links: links
+                    .into_iter()
+                    .map(|[y, f]| (y, f32::from_bits(f)))
+                    .collect(),
+                rays,
+                max_links,
+            })
+        }
+        x => return Err(format!("bad bounce flag {x}")),
+    };
     if r.at != r.bytes.len() {
         return Err(format!(
-            "{} bytes left after the last level",
+            "{} bytes left after the bounce links",
             r.bytes.len() - r.at
         ));
     }
@@ -492,6 +526,7 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
         surface,
         shading,
         samples,
+        bounce,
     })
 }
 
@@ -615,6 +650,21 @@ fn check(g: &QuadGraph) -> Result<(), String> {
     for l in &g.shading.links {
         l.iter()
             .try_for_each(|&i| in_range("shading link", i, finest_surface))?;
+    }
+    if let Some(b) = &g.bounce {
+        if b.offsets.len() != nv + 1
+            || b.offsets.first() != Some(&0)
+            || b.offsets.windows(2).any(|w| w[0] > w[1])
+            || b.offsets.last().map(|&o| o as usize) != Some(b.links.len())
+        {
+            return Err("bounce link offsets do not match the surface's vertices".into());
+        }
+        for &(y, f) in &b.links {
+            corner("bounce link", y, nv)?;
+            if !(f.is_finite() && f >= 0.0) {
+                return Err("a bounce form factor is negative or not finite".into());
+            }
+        }
     }
     for (h, l) in g.levels.iter().enumerate() {
         let (ni, ns) = (l.tets.tets.len(), l.surface_faces.len());

@@ -114,6 +114,22 @@ pub struct QuadGraph {
     /// Interior sample points of `surface`'s vertices in the finest level (the exit query's
     /// depth-sampled reconstruction; empty for graphs built without a bake).
     pub samples: super::surface_samples::SurfaceSamples,
+    /// One bounce's form factors between `surface`'s vertices, when a render built them
+    /// (`crate::frame::BounceLinks::build`): stored with the bake so that the next render of the
+    /// same mesh casts no ray. `None` after a bake.
+    pub bounce: Option<BounceLinks>,
+}
+
+/// Sparse form factors between display vertices (`crate::frame::bounce`): vertex v receives
+/// from `links[offsets[v]..offsets[v + 1]]`, each (source vertex, form factor).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BounceLinks {
+    pub offsets: Vec<u32>,
+    pub links: Vec<(u32, f32)>,
+    /// The rays per vertex and the links kept per vertex they were built with: a render asking
+    /// for others builds them again.
+    pub rays: u32,
+    pub max_links: u32,
 }
 
 impl QuadGraph {

@@ -92,7 +92,8 @@ pub fn render_command() -> String {
         "translucent render --shape torus --size-mm {SIZE_MM} --resolution {RESOLUTION} --levels {LEVELS} \
          --material {MATERIAL} --light dir:{},{},{}:{ILLUMINANCE},{ILLUMINANCE},{ILLUMINANCE} \
          --env-constant {r},{g},{b} --camera {},{},{}:0,0,0:{FOVY_DEG} --width {WIDTH} --height {HEIGHT} \
-         --schedule cascade --source flux --single-scattering off --supersample 1 --out reference.exr",
+         --schedule cascade --source flux --single-scattering off --bounce off \
+         --diffusion-coefficient classical --supersample 1 --out reference.exr",
         d.x, d.y, d.z, e.x, e.y, e.z
     )
 }

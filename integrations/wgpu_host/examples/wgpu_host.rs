@@ -147,7 +147,8 @@ pub fn render_command() -> String {
         "translucent render --shape torus --size-mm {SIZE_MM} --resolution {RESOLUTION} --levels {LEVELS} \
          --material {MATERIAL} --light dir:{},{},{}:{},{},{} --env-constant {},{},{} \
          --camera {},{},{}:{},{},{}:{} --width {WIDTH} --height {HEIGHT} \
-         --schedule cascade --source flux --single-scattering off --supersample 1 --out reference.exr",
+         --schedule cascade --source flux --single-scattering off --bounce off \
+         --diffusion-coefficient classical --supersample 1 --out reference.exr",
         d.x, d.y, d.z, e[0], e[1], e[2], env[0], env[1], env[2], c.eye.x, c.eye.y, c.eye.z,
         c.target.x, c.target.y, c.target.z, c.fovy_deg
     )

@@ -303,6 +303,8 @@ pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings
     settings.tolerance = translucent::defaults::f32_decimal(config.tolerance);
     settings.heterogeneous_weights = config.weights;
     settings.single_scattering = None;
+    // Pinned: the sweep's errors compare with the diffusion system's exact solution.
+    settings.bounce = translucent::frame::BounceMode::Off;
     settings
 }
 

@@ -1,11 +1,12 @@
 //! `render`, `view`, `bench` and the library resolve the same settings for the same inputs
 //! (issue 13: one place for defaults, `translucent::defaults`). Where a command deliberately
-//! differs the test names the difference: bench pins the boundary-flux source and no single
-//! scattering (its errors compare with the boundary-flux system's exact solution), and the
+//! differs the test names the difference: bench pins the boundary-flux source, no single
+//! scattering and no bounce (its errors compare with the boundary-flux system's exact solution), and the
 //! viewer's single-scattering and precision switches are its state.
 
 use clap::Parser as _;
 use translucent::defaults::{Schedule, Settings};
+use translucent::frame::BounceMode;
 use translucent::solver::transport::Source;
 use translucent::ObjectParams;
 
@@ -93,6 +94,17 @@ fn render_view_and_the_library_resolve_the_same_defaults() {
         assert!(r.single_scattering.is_some(), "{material:?}");
     }
     assert_eq!(render(&[]).source, Source::SecondCollision);
+    // One bounce: the QuadGraph's default; the other methods and the CPU solver have none
+    // unless named.
+    assert_eq!(render(&[]).bounce, BounceMode::Local);
+    assert_eq!(render(&["--bounce", "off"]).bounce, BounceMode::Off);
+    for options in [
+        &["--method", "voxel"][..],
+        &["--method", "dipole"],
+        &["--solver", "cpu"],
+    ] {
+        assert_eq!(render(options).bounce, BounceMode::Off, "{options:?}");
+    }
     assert_eq!(
         render(&["--material", "agate"]).source,
         Source::BoundaryFlux
@@ -124,7 +136,15 @@ fn bench_differs_from_render_only_by_its_documented_pins() {
         // The pins (BenchArgs' page): the boundary flux, no single scattering.
         assert_eq!(b.source, Source::BoundaryFlux);
         assert_eq!(b.single_scattering, None);
-        options.extend(["--source", "flux", "--single-scattering", "off"]);
+        assert_eq!(b.bounce, BounceMode::Off);
+        options.extend([
+            "--source",
+            "flux",
+            "--single-scattering",
+            "off",
+            "--bounce",
+            "off",
+        ]);
         assert_eq!(b, render(&options), "{material:?}");
     }
 }

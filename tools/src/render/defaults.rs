@@ -152,7 +152,18 @@ impl RenderArgs {
         settings.surface = self.surface.parse()?;
         settings.heterogeneous_weights = self.heterogeneous_weights.parse()?;
         settings.single_scattering = self.scatter_params()?;
+        settings.bounce = self.bounce_mode()?;
         Ok(settings)
+    }
+
+    /// `--bounce` resolved: the given mode; else the library's for the method
+    /// ([`Settings::for_method`]: local for the QuadGraph), off with `--solver cpu`.
+    pub fn bounce_mode(&self) -> anyhow::Result<translucent::frame::BounceMode> {
+        match self.bounce.as_deref() {
+            Some(mode) => Ok(mode.parse()?),
+            None if self.solver != "gpu" => Ok(translucent::frame::BounceMode::Off),
+            None => Ok(Settings::for_method(self.method_kind(), true).bounce),
+        }
     }
 
     /// `--single-scattering` and `--scatter-samples` as the object's parameters (`None`: off).

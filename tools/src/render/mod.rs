@@ -207,10 +207,12 @@ pub struct RenderArgs {
     /// surface enters it again elsewhere (concave parts; eta = 1 outside). `local`: at bake time
     /// cosine-weighted rays per display vertex find the surface it sees (sparse form factors);
     /// per solve the pass `bounce` gathers E_b = sum F M and adds R_d E_b where it enters (no
-    /// second solve). `off` (the default): no links, no pass. GPU quadgraph only
-    /// (benches/RESULTS.md, "One bounce between surface points").
-    #[arg(long, value_name = "off|local", default_value = "off", value_parser = ["off", "local"])]
-    pub bounce: String,
+    /// second solve). `local` is the default with `--method quadgraph` on the GPU (the links are
+    /// stored with the bake: the next render of the mesh casts no ray; a convex mesh gets none
+    /// without casting rays); `off`: no links, no pass, and the default of the other methods
+    /// and of `--solver cpu` (benches/RESULTS.md, "One bounce between surface points").
+    #[arg(long, value_name = "off|local", value_parser = ["off", "local"])]
+    pub bounce: Option<String>,
     /// Rays per display vertex of `--bounce local`'s links (1..=4096).
     #[arg(long, value_name = "N", default_value_t = translucent::frame::BounceParams::default().rays)]
     pub bounce_rays: u32,
@@ -438,13 +440,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.texture_only && args.method != "dipole" {
         bail!("--texture-only applies to --method dipole");
     }
-    if args.bounce != "off" && (args.method != "quadgraph" || args.solver != "gpu") {
-        bail!(
-            "--bounce {}: the GPU quadgraph method only (not --method {} --solver {})",
-            args.bounce,
-            args.method,
-            args.solver
-        );
+    if let Some(bounce) = args.bounce.as_deref().filter(|&b| b != "off") {
+        if args.method != "quadgraph" || args.solver != "gpu" {
+            bail!(
+                "--bounce {bounce}: the GPU quadgraph method only (not --method {} --solver {})",
+                args.method,
+                args.solver
+            );
+        }
     }
     let diffusion = match args.diffusion_coefficient.as_deref() {
         Some(name) => name.parse()?,
@@ -578,7 +581,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // camera this render uses (the automatic framing when none is given).
     let footprint_camera = frame_desc.camera.context("the camera is set above")?;
     let start = Instant::now();
-    let (graph, stats, outcome, cache_file, resolution) = match &args.graph {
+    let (mut graph, stats, outcome, cache_file, resolution, cache_key) = match &args.graph {
         // `--graph FILE`: the bake `translucent bake` wrote, with its own resolution.
         Some(path) => {
             let graph = load_graph_file(path, &object)?;
@@ -590,7 +593,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 spacing_mm,
                 auto: None,
             };
-            (graph, stats, CacheOutcome::Loaded, path.clone(), resolution)
+            (
+                graph,
+                stats,
+                CacheOutcome::Loaded,
+                path.clone(),
+                resolution,
+                None,
+            )
         }
         None => {
             let resolution = args.object.resolution(
@@ -602,7 +612,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // The bake cache with its size limit (least recently used bakes are evicted).
             let (graph, stats, outcome, cache_file) =
                 crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
-            (graph, stats, outcome, cache_file, resolution)
+            let key = translucent::quadgraph::cache::cache_key(&object.surface, &params);
+            (graph, stats, outcome, cache_file, resolution, Some(key))
         }
     };
     let bake_s = start.elapsed().as_secs_f64();
@@ -703,6 +714,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         },
         ..base
     };
+    // `--bounce local`: the links stored with the bake, or built now and stored with it (in the
+    // bake cache; a `--graph FILE` is not rewritten), so the next render of this mesh casts no ray.
+    let bounce_links = if on_gpu && settings.bounce == translucent::frame::BounceMode::Local {
+        let params = translucent::frame::BounceParams {
+            rays: args.bounce_rays,
+            ..Default::default()
+        };
+        let store = cache_key.map(|key| (cache_file.as_path(), key));
+        let (seconds, stored) = crate::cache::bounce_links(&mut graph, &params, store)?;
+        Some((params, seconds, stored))
+    } else {
+        None
+    };
     let graph = Arc::new(graph);
     let level_count = graph.levels.len();
     let mut frames = Vec::new();
@@ -724,32 +748,36 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             exit_lobe: frame_desc.exit_lobe,
             skip: !args.no_skip,
             single_scattering: settings.single_scattering,
+            bounce: settings.bounce,
             ..ObjectParams::default()
         };
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
-        if args.bounce.parse::<translucent::frame::BounceMode>()?
-            == translucent::frame::BounceMode::Local
+        if let (Some((params, build_s, stored)), Some(links)) =
+            (bounce_links, graph.bounce.as_ref())
         {
-            let t = Instant::now();
-            let params = translucent::frame::BounceParams {
-                rays: args.bounce_rays,
-                ..Default::default()
-            };
-            let links = translucent::frame::BounceLinks::build(&graph.surface, &params)?;
-            let build_s = t.elapsed().as_secs_f64();
-            translucent.set_bounce(&ctx, Some(&links), &field)?;
+            // The object took the links from the graph (`ObjectParams::bounce`); a convex
+            // object has none and records no pass.
+            anyhow::ensure!(
+                translucent.bounce().is_some() == (links.link_count() > 0),
+                "the bounce pass was not set up"
+            );
             let vertices = links.vertex_count().max(1);
+            let how = if stored {
+                "loaded with the bake"
+            } else {
+                "built"
+            };
             if !args.json {
                 eprintln!(
-                    "bounce: {} links over {} display vertices ({:.1} bytes each), built in {build_s:.2} s",
+                    "bounce: {} links over {} display vertices ({:.1} bytes each), {how} in {build_s:.2} s",
                     links.link_count(),
                     links.vertex_count(),
                     links.bytes() as f64 / vertices as f64
                 );
             }
             bounce_json = Some(serde_json::json!({
-                "mode": args.bounce,
+                "mode": "local",
                 "rays": params.rays,
                 "max_links": params.max_links,
                 "links": links.link_count(),
@@ -758,6 +786,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "bytes": links.bytes(),
                 "bytes_per_vertex": links.bytes() as f64 / vertices as f64,
                 "build_seconds": build_s,
+                "stored": stored,
             }));
         }
         let aspect = f64::from(frame_desc.width) / f64::from(frame_desc.height.max(1));

@@ -91,8 +91,19 @@ impl Setup {
         let resolution = args.object.resolution(&object, &field, None);
         let params = args.object.bake_params(&resolution);
         let start = Instant::now();
-        let (graph, stats, outcome, file) =
+        let (mut graph, stats, outcome, file) =
             crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;
+        // The bounce (the library's default for the QuadGraph, as `render`'s): the links stored
+        // with the bake, or built once and stored with it.
+        let method: translucent::frame::MethodKind = args.method.parse().unwrap_or_default();
+        if Settings::for_method(method, true).bounce == translucent::frame::BounceMode::Local {
+            let key = translucent::quadgraph::cache::cache_key(&object.surface, &params);
+            crate::cache::bounce_links(
+                &mut graph,
+                &translucent::frame::BounceParams::default(),
+                Some((file.as_path(), key)),
+            )?;
+        }
         eprintln!(
             "{}",
             resolution.line(
@@ -302,6 +313,7 @@ impl Setup {
             }
             push("--tolerance", a.tolerance.to_string());
             push("--source", source_name(settings.source).into());
+            push("--bounce", settings.bounce.name().into());
         }
         if a.scene.no_specular {
             out.push("--no-specular".into());
