@@ -10,8 +10,9 @@
 //! A collimated beam of surface irradiance `irr` (E mu_i, power per unit surface area arriving) is
 //! transmitted with T_i, refracted to cosine mu_t and first scattered with density
 //! Q0 exp(-beta z), Q0 = gain sigma_s' irr T_i / mu_t, beta = sigma_t' / mu_t (gain 1: the first
-//! collision, DESIGN 2.7; gain r < 1: the second-collision source, see
-//! [`second_collision_ratio`]). Its particular solution K exp(-beta z),
+//! collision, DESIGN 2.7; the second-collision source: gain about r < 1 and a slower decay fitted
+//! to both moments of the true density, see [`second_collision_fit`]). Its particular solution
+//! K exp(-beta z),
 //! K = Q0 / (sigma_a - D beta^2), leaves the remainder phi_h = phi - K exp(-beta z) with no volume
 //! source and the Robin condition phi_h - 2 A D dphi_h = rhs - K (1 + 2 A D beta).
 //!
@@ -70,7 +71,8 @@ pub enum Source {
     /// moved into the Robin condition. Carries the once-scattered light in diffusion form.
     Collimated,
     /// DESIGN 2.8's second option: the same with the second-collision density (the part of the
-    /// once-scattered light that collides again), single scattering added whole.
+    /// once-scattered light that collides again; [`second_collision_fit`]), single scattering
+    /// added whole.
     SecondCollision,
 }
 
