@@ -105,7 +105,11 @@ vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, float mu_t, floa
 // transport::second_collision_fit: the effective refracted cosine mu_e = sigma_t' / beta' of the
 // second-collision source fitted to the deep moment, 1/beta' = (r_T / r)(1/beta + z_b) - z_b,
 // with r_T (transport::second_collision_deep_ratio, the same quadrature) and z_b = h = 2 A D.
-vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 h, float mu_t, float eta, vec3 r) {
+const float DEEP_FIT_FULL_BELOW = 0.2;
+const float DEEP_FIT_NONE_ABOVE = 0.5;
+vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 d, float a_const, float mu_t,
+                            float eta, vec3 r) {
+    vec3 h = 2.0 * a_const * d;
     float mt = max(mu_t, SECOND_COLLISION_MIN_MU_T);
     float b = 1.0 / mt;
     vec3 sigma_t = sigma_s + sigma_a;
@@ -119,7 +123,10 @@ vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 h, float mu_t, floa
     }
     j /= float(SECOND_COLLISION_POINTS);
     vec3 r_t = sigma_s / sigma_t * 0.5 * j / (mt + zb);
-    vec3 mu_e = max((r_t / r) * (mt + zb) - zb, vec3(mt));
+    // transport::DEEP_FIT_FULL_BELOW / DEEP_FIT_NONE_ABOVE: the fit fades out with s / sigma_t'.
+    vec3 s = sqrt(sigma_a / d) / sigma_t;
+    vec3 weight = 1.0 - smoothstep(vec3(DEEP_FIT_FULL_BELOW), vec3(DEEP_FIT_NONE_ABOVE), s);
+    vec3 mu_e = mt + weight * max((r_t / r) * (mt + zb) - zb - mt, vec3(0.0));
     return mix(vec3(mt), mu_e, greaterThan(r, vec3(0.0)));
 }
 
@@ -262,8 +269,8 @@ void main() {
             : vec3(1.0);
         // The particular solution's cosine: mu_t, or the second collision's fitted mu_e.
         vec3 mu_p = pc.beam_exit.w > 0.5
-            ? second_collision_depth(beam_s, sigma_a, 2.0 * pc.beam_sigma_a.w * beam_d, mu_t,
-                                     pc.eta, gain)
+            ? second_collision_depth(beam_s, sigma_a, beam_d, pc.beam_sigma_a.w, mu_t, pc.eta,
+                                     gain)
             : vec3(mu_t);
         if (pc.beam_edge > 0.5 && vis < 1.0) {
             // A shadow edge: the flat half-space fails; the boundary flux.

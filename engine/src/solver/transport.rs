@@ -516,18 +516,30 @@ pub struct SecondCollisionFit {
     pub mu_e: f64,
 }
 
+/// The deep-moment weight z + z_b is the weak-absorption (s -> 0) limit of the far field
+/// sinh(s (z + z_b)) / s: the fit applies fully up to this s / sigma_t' (marble 0.05, skim milk
+/// up to 0.15) and fades (smoothstep) to none at [`DEEP_FIT_NONE_ABOVE`]; absorbing channels
+/// (skin1 blue 0.98, ketchup) carry little light across an object and keep the plain scaling
+/// (the fit pushed skin1's blue into its particular solution's resonance).
+pub const DEEP_FIT_FULL_BELOW: f64 = 0.2;
+/// See [`DEEP_FIT_FULL_BELOW`].
+pub const DEEP_FIT_NONE_ABOVE: f64 = 0.5;
+
 /// See [`SecondCollisionFit`].
 pub fn second_collision_fit(o: Optics, mu_t: f64, eta: f64, h: f64) -> SecondCollisionFit {
     let mu_t = mu_t.max(MIN_MU_T);
     let ratio = second_collision_ratio(o, mu_t, eta);
     let zb = h * o.sigma_t();
     let r_t = second_collision_deep_ratio(o, mu_t, eta, zb);
+    let s = o.s() / o.sigma_t();
+    let t =
+        ((DEEP_FIT_NONE_ABOVE - s) / (DEEP_FIT_NONE_ABOVE - DEEP_FIT_FULL_BELOW)).clamp(0.0, 1.0);
+    let weight = t * t * (3.0 - 2.0 * t);
     let mu_e = if ratio > 0.0 {
-        ((r_t / ratio) * (mu_t + zb) - zb).max(mu_t)
+        mu_t + weight * ((r_t / ratio) * (mu_t + zb) - zb - mu_t).max(0.0)
     } else {
         mu_t
     };
-    let s = o.s() / o.sigma_t();
     SecondCollisionFit {
         ratio,
         gain: ratio * (1.0 + s * mu_e) / (1.0 + s * mu_t),
