@@ -105,8 +105,8 @@ vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, float mu_t, floa
 // transport::second_collision_fit: the effective refracted cosine mu_e = sigma_t' / beta' of the
 // second-collision source fitted to the deep moment, 1/beta' = (r_T / r)(1/beta + z_b) - z_b,
 // with r_T (transport::second_collision_deep_ratio, the same quadrature) and z_b = h = 2 A D.
-const float DEEP_FIT_FULL_BELOW = 0.2;
-const float DEEP_FIT_NONE_ABOVE = 0.5;
+const float DEEP_FIT_FULL_BELOW = 0.15;
+const float DEEP_FIT_NONE_ABOVE = 0.3;
 vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 d, float a_const, float mu_t,
                             float eta, vec3 r) {
     vec3 h = 2.0 * a_const * d;

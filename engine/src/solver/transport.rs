@@ -518,12 +518,13 @@ pub struct SecondCollisionFit {
 
 /// The deep-moment weight z + z_b is the weak-absorption (s -> 0) limit of the far field
 /// sinh(s (z + z_b)) / s: the fit applies fully up to this s / sigma_t' (marble 0.05, skim milk
-/// up to 0.15) and fades (smoothstep) to none at [`DEEP_FIT_NONE_ABOVE`]; absorbing channels
-/// (skin1 blue 0.98, ketchup) carry little light across an object and keep the plain scaling
-/// (the fit pushed skin1's blue into its particular solution's resonance).
-pub const DEEP_FIT_FULL_BELOW: f64 = 0.2;
+/// up to 0.149) and fades (smoothstep) to none at [`DEEP_FIT_NONE_ABOVE`]; absorbing channels
+/// (skin1 red 0.35, blue 0.98, ketchup) carry little light across an object and keep the plain
+/// scaling (with the fit skin1 red front-lit went from 1.09 to 1.13 x the reference; blue
+/// went into its particular solution's resonance).
+pub const DEEP_FIT_FULL_BELOW: f64 = 0.15;
 /// See [`DEEP_FIT_FULL_BELOW`].
-pub const DEEP_FIT_NONE_ABOVE: f64 = 0.5;
+pub const DEEP_FIT_NONE_ABOVE: f64 = 0.3;
 
 /// See [`SecondCollisionFit`].
 pub fn second_collision_fit(o: Optics, mu_t: f64, eta: f64, h: f64) -> SecondCollisionFit {
