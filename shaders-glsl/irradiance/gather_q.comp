@@ -17,7 +17,8 @@
 // coefficient (material::DiffusionCoefficient): 1 / (3 sigma_t') or (2 sigma_a + sigma_s') /
 // (3 sigma_t'^2), in the particular solution, the resonance and the exit query alike. Second-collision source (beam_exit.w = 1,
 // DESIGN 2.8's second option): Q0 times the share of once-scattered light that collides again
-// (solver::transport::second_collision_ratio), single scattering then added whole. Shadow-edge
+// (solver::transport::second_collision_ratio, the power), its decay fitted to the deep moment
+// (transport::second_collision_fit: beta' = sigma_t' / mu_e), single scattering then added whole. Shadow-edge
 // fallback (beam_edge = 1): a light the node's 3x3 PCF sees partly occluded enters as the boundary
 // flux (the flat half-space of the particular solution fails within a mean free path of the edge).
 #include "optics.glsl"
@@ -99,6 +100,34 @@ vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, float mu_t, floa
     }
     j /= float(SECOND_COLLISION_POINTS);
     return sigma_s / sigma_t * (b + s) * 0.5 * j;
+}
+
+// transport::second_collision_fit: the effective refracted cosine mu_e = sigma_t' / beta' of the
+// second-collision source fitted to the deep moment, 1/beta' = (r_T / r)(1/beta + z_b) - z_b,
+// with r_T (transport::second_collision_deep_ratio, the same quadrature) and z_b = h = 2 A D.
+const float DEEP_FIT_FULL_BELOW = 0.15;
+const float DEEP_FIT_NONE_ABOVE = 0.3;
+vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 d, float a_const, float mu_t,
+                            float eta, vec3 r) {
+    vec3 h = 2.0 * a_const * d;
+    float mt = max(mu_t, SECOND_COLLISION_MIN_MU_T);
+    float b = 1.0 / mt;
+    vec3 sigma_t = sigma_s + sigma_a;
+    vec3 zb = h * sigma_t;
+    vec3 j = vec3(0.0);
+    for (int i = 0; i < SECOND_COLLISION_POINTS; ++i) {
+        float m = (float(i) + 0.5) / float(SECOND_COLLISION_POINTS);
+        float rf = fresnel_reflectance(1.0 / eta, m);
+        float c = b * m / (b * m + 1.0);
+        j += 2.0 * (mt + zb) - (zb - m) * c + rf * (zb + m) * c;
+    }
+    j /= float(SECOND_COLLISION_POINTS);
+    vec3 r_t = sigma_s / sigma_t * 0.5 * j / (mt + zb);
+    // transport::DEEP_FIT_FULL_BELOW / DEEP_FIT_NONE_ABOVE: the fit fades out with s / sigma_t'.
+    vec3 s = sqrt(sigma_a / d) / sigma_t;
+    vec3 weight = 1.0 - smoothstep(vec3(DEEP_FIT_FULL_BELOW), vec3(DEEP_FIT_NONE_ABOVE), s);
+    vec3 mu_e = mt + weight * max((r_t / r) * (mt + zb) - zb - mt, vec3(0.0));
+    return mix(vec3(mt), mu_e, greaterThan(r, vec3(0.0)));
 }
 
 // Relative distance kept from the resonance sigma_a mu_t^2 = sigma_t' / 3 (K infinite, phi_h
@@ -238,12 +267,17 @@ void main() {
         vec3 gain = pc.beam_exit.w > 0.5
             ? second_collision_ratio(beam_s, sigma_a, beam_d, mu_t, pc.eta)
             : vec3(1.0);
+        // The particular solution's cosine: mu_t, or the second collision's fitted mu_e.
+        vec3 mu_p = pc.beam_exit.w > 0.5
+            ? second_collision_depth(beam_s, sigma_a, beam_d, pc.beam_sigma_a.w, mu_t, pc.eta,
+                                     gain)
+            : vec3(mu_t);
         if (pc.beam_edge > 0.5 && vis < 1.0) {
             // A shadow edge: the flat half-space fails; the boundary flux.
             sum += transmitted * gain;
             continue;
         }
-        vec3 a = sigma_a * (mu_t * mu_t);
+        vec3 a = sigma_a * (mu_p * mu_p);
         // D sigma_t'^2 (sigma_t' / 3 with the classical D).
         vec3 b = beam_d * sigma_t * sigma_t;
         // Near the resonance the solve cannot cancel a large K: that share of the light
@@ -254,8 +288,14 @@ void main() {
         vec3 denom = a - b;
         vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
         denom = mix(denom, -guard, lessThan(abs(denom), guard));
-        vec3 source = beam_s * transmitted * share * gain;
-        vec3 k = source * mu_t / denom;
+        // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
+        // (1 + s~ mu_t) with Q0 over mu_e (transport::second_collision_fit), s~ = s / sigma_t'.
+        vec3 s_mfp = sqrt(sigma_a / beam_d) / sigma_t;
+        vec3 beam_gain = gain * (1.0 + s_mfp * mu_p)
+            / (1.0 + s_mfp * max(mu_t, SECOND_COLLISION_MIN_MU_T));
+        beam_gain = pc.beam_exit.w > 0.5 ? beam_gain : vec3(1.0);
+        vec3 source = beam_s * transmitted * share * beam_gain;
+        vec3 k = source * mu_p / denom;
         vec3 beta_k = source * sigma_t / denom;
         vec3 d = beam_d;
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.

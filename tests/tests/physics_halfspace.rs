@@ -17,7 +17,7 @@ use std::f64::consts::PI;
 
 use translucent::material::{fresnel, DiffusionCoefficient};
 use translucent::solver::transport::{
-    beam_particular, flat_single_scattering, refracted_cosine, second_collision_ratio, Boundary,
+    beam_particular, flat_single_scattering, refracted_cosine, second_collision_fit, Boundary,
     ExitQuery, Optics, Refraction,
 };
 
@@ -153,10 +153,13 @@ fn diffusion_with(
         diffusion: kind,
     };
     let r = Refraction::new(eta, mu_i);
-    let gain = if second {
-        second_collision_ratio(o, r.mu_t, eta)
+    // The second-collision source as render uses it: fitted to both moments (its reflectance
+    // moment is r's exactly).
+    let (gain, r) = if second {
+        let f = second_collision_fit(o, r.mu_t, eta, b.h(o));
+        (f.gain, Refraction { mu_t: f.mu_e, ..r })
     } else {
-        1.0
+        (1.0, r)
     };
     let (k, beta) = beam_particular(o, r, 1.0, gain);
     let m = b.half_space_exitance(o, 0.0, k, -beta * k, -(k + b.h(o) * beta * k));

@@ -130,7 +130,8 @@ pub struct BeamSource {
     /// material; `sigma_s`, `sigma_a` unused), where the level was bound with them.
     pub local: bool,
     /// The second-collision source (DESIGN 2.8's second option): the first-collision density
-    /// times `transport::second_collision_ratio`; single scattering is then added whole.
+    /// times `transport::second_collision_ratio`, decaying with `transport::second_collision_fit`'s
+    /// fitted depth (both moments of the true density); single scattering is then added whole.
     pub second_collision: bool,
     /// The shadow-edge fallback of DESIGN 2.7: a light the node's 3x3 PCF sees partly occluded
     /// (within about a shadow texel and a half of a shadow edge or the terminator) enters as the

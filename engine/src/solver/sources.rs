@@ -33,8 +33,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::transport::{
-    beam_particular, beam_share, diffuse_quadrature, second_collision_ratio, tangent_frame,
-    Boundary, ExitQuery, Optics, Refraction, Source, Transport,
+    beam_particular, beam_share, diffuse_quadrature, second_collision_fit, tangent_frame, Boundary,
+    ExitQuery, Optics, Refraction, Source, Transport,
 };
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::Solid;
@@ -243,10 +243,16 @@ impl<'a> SourceModel<'a> {
         self.transport.source != Source::BoundaryFlux
     }
 
-    fn gain(&self, o: Optics, mu_t: f64) -> f64 {
+    /// The source's particular solution (gain, refraction) and the share r of its flux part: the
+    /// first collision as refracted (1, r, 1); the second collision fitted to both moments
+    /// ([`second_collision_fit`]).
+    fn fitted(&self, o: Optics, r: Refraction) -> (f64, Refraction, f64) {
         match self.transport.source {
-            Source::SecondCollision => second_collision_ratio(o, mu_t, self.boundary.eta),
-            _ => 1.0,
+            Source::SecondCollision => {
+                let f = second_collision_fit(o, r.mu_t, self.boundary.eta, self.boundary.h(o));
+                (f.gain, Refraction { mu_t: f.mu_e, ..r }, f.ratio)
+            }
+            _ => (1.0, r, 1.0),
         }
     }
 
@@ -290,7 +296,8 @@ impl<'a> SourceModel<'a> {
                         attenuation: f64,
                         alignment: f64,
                         lit_here: bool| {
-            let (k, beta) = beam_particular(o, r, irr, self.gain(o, r.mu_t));
+            let (gain, fit, _) = self.fitted(o, r);
+            let (k, beta) = beam_particular(o, fit, irr, gain);
             out.phi_p[ch] += k * attenuation;
             out.dphi_p[ch] += -beta * k * attenuation * alignment;
             if lit_here {
@@ -329,11 +336,12 @@ impl<'a> SourceModel<'a> {
                             // Near the particular solution's resonance part of the light
                             // enters as the boundary flux (transport::beam_share).
                             let o = Optics::channel_with(here, ch, self.material.diffusion());
-                            let share = beam_share(o, r.mu_t);
+                            let (_, fit, ratio) = self.fitted(o, r);
+                            let share = beam_share(o, fit.mu_t);
                             add_beam(&mut out, ch, o, r, irr * share, 1.0, 1.0, true);
                             // The second-collision source scales its flux part too (the
                             // once-scattered light is single scattering's, added whole).
-                            out.q_flux[ch] += self.gain(o, r.mu_t) * irr * (1.0 - share) * r.t_i;
+                            out.q_flux[ch] += ratio * irr * (1.0 - share) * r.t_i;
                             out.transmitted[ch] += irr * (1.0 - share) * r.t_i;
                         } else {
                             out.q_flux[ch] += irr * r.t_i;
@@ -445,12 +453,12 @@ impl<'a> SourceModel<'a> {
             let r = Refraction::new(self.boundary.eta, mu);
             for ch in 0..3 {
                 let o = Optics::channel_with(here, ch, self.material.diffusion());
-                let gain = if first_collision {
-                    1.0
+                let (gain, fit, _) = if first_collision {
+                    (1.0, r, 1.0)
                 } else {
-                    self.gain(o, r.mu_t)
+                    self.fitted(o, r)
                 };
-                let (k, beta) = beam_particular(o, r, irr[ch], gain);
+                let (k, beta) = beam_particular(o, fit, irr[ch], gain);
                 let p = irr[ch] * r.t_i;
                 out.phi_p[ch] += k;
                 out.dphi_p[ch] -= beta * k;
