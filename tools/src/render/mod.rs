@@ -37,6 +37,7 @@ use crate::material_args::MaterialArgs;
 use crate::object_args::ObjectArgs;
 use crate::scene_args::SceneArgs;
 
+mod checks;
 mod defaults;
 pub mod dipole;
 mod graph_file;
@@ -47,8 +48,8 @@ pub use defaults::{
     choice_json, resolve_auto, schedule_of, DEFAULT_DIFFUSION_COEFFICIENT, DEFAULT_SOURCE,
 };
 pub use graph_file::{load_graph_file, GraphFileError};
-pub(crate) use output::{check_writable, write_trace};
-use output::{gpu_bytes_json, gpu_multigrid_json, lit_pixels, profile_in_order};
+use output::{gpu_bytes_json, gpu_multigrid_json, profile_in_order};
+pub(crate) use output::{supersample_factor, write_output, write_trace};
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -276,86 +277,6 @@ pub struct RenderArgs {
     pub graph: Option<PathBuf>,
 }
 
-/// The samples per side `--supersample` renders with for a `width` x `height` image: at most
-/// the option, and no more than keeps the rendered image within 16384 pixels a side.
-pub(crate) fn supersample_factor(args: &RenderArgs, width: u32, height: u32) -> u32 {
-    let largest = width.max(height).max(1);
-    args.supersample.clamp(1, (16384 / largest).max(1))
-}
-
-/// The image rendered `factor` x `factor` times larger, averaged down to the output size (a box
-/// filter over linear radiance and coverage, so edges blend before the tone map).
-pub(crate) fn downsample(
-    image: &translucent::vk::capture::LinearImage,
-    factor: u32,
-) -> translucent::vk::capture::LinearImage {
-    if factor <= 1 {
-        return image.clone();
-    }
-    let (width, height) = (image.width / factor, image.height / factor);
-    let weight = 1.0 / (factor * factor) as f32;
-    let mut pixels = Vec::with_capacity((width * height) as usize);
-    for y in 0..height {
-        for x in 0..width {
-            let mut sum = [0.0f32; 4];
-            for sy in 0..factor {
-                let row = ((y * factor + sy) * image.width) as usize;
-                for sx in 0..factor {
-                    let p = image.pixels[row + (x * factor + sx) as usize];
-                    for c in 0..4 {
-                        sum[c] += p[c] * weight;
-                    }
-                }
-            }
-            pixels.push(sum);
-        }
-    }
-    translucent::vk::capture::LinearImage {
-        width,
-        height,
-        pixels,
-    }
-}
-
-/// What every method's render does with its last frame: averages the supersamples, refuses an
-/// image with no lit object pixel (unless `--allow-black`), adds the backdrop, writes `--out`
-/// and says so. Returns the written image.
-pub(crate) fn write_output(
-    args: &RenderArgs,
-    rendered: &translucent::vk::capture::LinearImage,
-    factor: u32,
-    started: Instant,
-) -> anyhow::Result<translucent::vk::capture::LinearImage> {
-    let mut image = downsample(rendered, factor);
-    // An EXR keeps any radiance (a dim scene is data); a PNG must show something.
-    let png = args
-        .out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    let lit = lit_pixels(&image, png.then_some(args.scene.exposure));
-    if lit == 0 && !args.allow_black {
-        bail!(
-            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it{}? --allow-black writes it anyway",
-            args.out.display(),
-            if png { ", or is --exposure too low" } else { "" }
-        );
-    }
-    if args.backdrop {
-        crate::backdrop::composite(&mut image, args.scene.exposure);
-    }
-    image
-        .write(&args.out, args.scene.exposure)
-        .with_context(|| format!("--out {}", args.out.display()))?;
-    eprintln!(
-        "wrote {} ({} x {}, {} ms)",
-        args.out.display(),
-        image.width,
-        image.height,
-        started.elapsed().as_millis()
-    );
-    Ok(image)
-}
-
 /// The default scene: a torus of skim milk, back lit (see `scene_args::default_lights`), so the
 /// light passing through its tube shows.
 const DEFAULT_SHAPE: &str = "torus";
@@ -385,27 +306,7 @@ fn rgb(option: &str, text: &str) -> anyhow::Result<[f64; 3]> {
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
-    match args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
-        Some("png" | "exr") => {}
-        _ => bail!("--out {}: must end in .png or .exr", args.out.display()),
-    }
-    check_writable(&args.out)?;
-    if args.backdrop
-        && !args
-            .out
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
-    {
-        bail!(
-            "--backdrop: PNG output only (an EXR is linear radiance on a black background, for comparisons)"
-        );
-    }
+    checks::output(args)?;
     let started = Instant::now();
     if args.frames == 0 {
         bail!("--frames 0: must render at least one frame");
@@ -429,76 +330,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.method == "auto" {
         return run(&resolve_auto(args)?);
     }
-    if args.method != "voxel"
-        && (args.voxels.is_some() || args.voxel_model.is_some() || args.voxel_soft.is_some())
-    {
-        bail!(
-            "--voxels, --voxel-model and --voxel-soft apply to --method voxel (not {})",
-            args.method
-        );
-    }
-    if args.texture_only && args.method != "dipole" {
-        bail!("--texture-only applies to --method dipole");
-    }
-    if let Some(bounce) = args.bounce.as_deref().filter(|&b| b != "off") {
-        if args.method != "quadgraph" || args.solver != "gpu" {
-            bail!(
-                "--bounce {bounce}: the GPU quadgraph method only (not --method {} --solver {})",
-                args.method,
-                args.solver
-            );
-        }
-    }
-    let diffusion = match args.diffusion_coefficient.as_deref() {
-        Some(name) => name.parse()?,
-        None if args.method == "quadgraph" => DEFAULT_DIFFUSION_COEFFICIENT,
-        None => translucent::material::DiffusionCoefficient::Classical,
-    };
-    if diffusion != translucent::material::DiffusionCoefficient::Classical
-        && args.method != "quadgraph"
-    {
-        bail!(
-            "--diffusion-coefficient {} applies to --method quadgraph (the voxel and dipole methods keep 1 / (3 sigma_t'))",
-            diffusion.name()
-        );
-    }
+    let diffusion = checks::method_options(args)?;
     match args.method.as_str() {
         "quadgraph" | "dipole" => {}
         "voxel" => return crate::render::voxel::run(args),
         other => bail!("--method {other}: unknown (quadgraph, voxel, dipole)"),
     }
     let on_gpu = args.solver == "gpu";
-    if args.explicit_beam() && args.exit_query.as_deref() == Some("flux") {
-        bail!("a beam source (--source beam|second, --beam-source) is read by the moments exit query (DESIGN 2.6-2.7): drop --exit-query flux");
-    }
-    if args.shadow_edge_flux && args.light_source() == solver::transport::Source::BoundaryFlux {
-        bail!("--shadow-edge-flux applies to a beam source (--source beam|second)");
-    }
-    if args.precision.is_some() && !on_gpu {
-        bail!("--precision applies to the GPU solver; the CPU reference is f64");
-    }
-    if !(args.tolerance.is_finite() && args.tolerance >= 0.0) {
-        bail!(
-            "--tolerance {}: must be a finite non-negative number",
-            args.tolerance
-        );
-    }
-    for (name, v) in [
-        ("--orbit-light", args.orbit_light),
-        ("--orbit-camera", args.orbit_camera),
-    ] {
-        if let Some(v) = v {
-            if !on_gpu {
-                bail!("{name} applies to the GPU solver (--solver gpu)");
-            }
-            if !v.is_finite() {
-                bail!("{name} {v}: must be a finite number of degrees");
-            }
-        }
-    }
-    if args.no_skip && !on_gpu {
-        bail!("--no-skip applies to the GPU solver (--solver gpu)");
-    }
+    checks::solver_options(args, on_gpu)?;
     let schedule = schedule_of(args);
     let multigrid = schedule == "multigrid";
     let coarse_gpu = coarse_params(args, MultigridParams::gpu())?;

@@ -2,10 +2,13 @@
 //! probe, `--trace`, and the `--profile` / `--json` views of a frame's GPU scopes and multigrid.
 
 use std::path::Path;
+use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use translucent::vk::capture::write_atomically;
 use translucent::vk::FrameTimings;
+
+use super::RenderArgs;
 
 /// One step of an 8-bit PNG channel: a pixel whose tone-mapped sRGB value is below it shows as
 /// black.
@@ -157,4 +160,84 @@ pub(super) fn gpu_bytes_json(
         "deform": b.deform,
         "control": b.control,
     })
+}
+
+/// The samples per side `--supersample` renders with for a `width` x `height` image: at most
+/// the option, and no more than keeps the rendered image within 16384 pixels a side.
+pub(crate) fn supersample_factor(args: &RenderArgs, width: u32, height: u32) -> u32 {
+    let largest = width.max(height).max(1);
+    args.supersample.clamp(1, (16384 / largest).max(1))
+}
+
+/// The image rendered `factor` x `factor` times larger, averaged down to the output size (a box
+/// filter over linear radiance and coverage, so edges blend before the tone map).
+pub(crate) fn downsample(
+    image: &translucent::vk::capture::LinearImage,
+    factor: u32,
+) -> translucent::vk::capture::LinearImage {
+    if factor <= 1 {
+        return image.clone();
+    }
+    let (width, height) = (image.width / factor, image.height / factor);
+    let weight = 1.0 / (factor * factor) as f32;
+    let mut pixels = Vec::with_capacity((width * height) as usize);
+    for y in 0..height {
+        for x in 0..width {
+            let mut sum = [0.0f32; 4];
+            for sy in 0..factor {
+                let row = ((y * factor + sy) * image.width) as usize;
+                for sx in 0..factor {
+                    let p = image.pixels[row + (x * factor + sx) as usize];
+                    for c in 0..4 {
+                        sum[c] += p[c] * weight;
+                    }
+                }
+            }
+            pixels.push(sum);
+        }
+    }
+    translucent::vk::capture::LinearImage {
+        width,
+        height,
+        pixels,
+    }
+}
+
+/// What every method's render does with its last frame: averages the supersamples, refuses an
+/// image with no lit object pixel (unless `--allow-black`), adds the backdrop, writes `--out`
+/// and says so. Returns the written image.
+pub(crate) fn write_output(
+    args: &RenderArgs,
+    rendered: &translucent::vk::capture::LinearImage,
+    factor: u32,
+    started: Instant,
+) -> anyhow::Result<translucent::vk::capture::LinearImage> {
+    let mut image = downsample(rendered, factor);
+    // An EXR keeps any radiance (a dim scene is data); a PNG must show something.
+    let png = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let lit = lit_pixels(&image, png.then_some(args.scene.exposure));
+    if lit == 0 && !args.allow_black {
+        bail!(
+            "the image has no lit object pixel (nothing written to {}): is a light or the camera inside the object, or a light pointing away from it{}? --allow-black writes it anyway",
+            args.out.display(),
+            if png { ", or is --exposure too low" } else { "" }
+        );
+    }
+    if args.backdrop {
+        crate::backdrop::composite(&mut image, args.scene.exposure);
+    }
+    image
+        .write(&args.out, args.scene.exposure)
+        .with_context(|| format!("--out {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({} x {}, {} ms)",
+        args.out.display(),
+        image.width,
+        image.height,
+        started.elapsed().as_millis()
+    );
+    Ok(image)
 }
