@@ -82,8 +82,12 @@ use crate::render::{
 };
 use crate::scene::{Camera, ExitLobe, Light, RadianceMode, Scene};
 use crate::solver::gpu::{Deformation, GpuSolveParams};
-use crate::vk::{Access, Context, GpuProfiler, Image, ImageDesc, ImageState};
+use crate::vk::{Access, Context, Image, ImageDesc, ImageState};
 use crate::{Error, QuadGraph};
+
+mod host;
+
+pub use host::{HostResource, RecordCtx, ResourceUse, TargetImage, Targets};
 
 pub use crate::frame::{CompletedSolve, SkipReason};
 
@@ -182,63 +186,6 @@ pub enum MethodDesc {
         hierarchy: Arc<crate::solver::dipole::FaceClusterHierarchy>,
         params: crate::frame::DipoleParams,
     },
-}
-
-/// The host's side of one [`TranslucentObject::record`].
-pub struct RecordCtx<'a> {
-    pub ctx: &'a Context,
-    /// The host's command buffer, recording, outside a rendering scope.
-    pub cb: vk::CommandBuffer,
-    /// The frame being recorded (monotonic).
-    pub frame: u64,
-    /// The last frame the GPU has finished.
-    pub completed_frame: u64,
-    /// The host's profiler (its frame begun): our passes add named scopes.
-    pub profiler: Option<&'a mut GpuProfiler>,
-}
-
-/// One host image we render into, with the state it comes in and must leave in.
-#[derive(Clone, Copy, Debug)]
-pub struct TargetImage {
-    pub image: vk::Image,
-    pub view: vk::ImageView,
-    pub format: vk::Format,
-    pub extent: vk::Extent2D,
-    pub before: ImageState,
-    pub after: ImageState,
-}
-
-/// Where [`TranslucentObject::record`] draws.
-#[derive(Clone, Copy, Debug)]
-pub struct Targets {
-    /// Loaded (the host's background stays) and drawn over.
-    pub color: TargetImage,
-    /// The host's depth: we test against it and write ours. `None`: our own depth buffer.
-    pub depth: Option<TargetImage>,
-    /// The host placed the boundary barriers (from [`TranslucentObject::declare`]): the targets
-    /// are already in the declared states and `before`/`after` are ignored.
-    pub host_barriers: bool,
-}
-
-/// Which host resource a [`ResourceUse`] is about.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum HostResource {
-    /// [`Targets::color`].
-    Color,
-    /// [`Targets::depth`].
-    Depth,
-}
-
-/// How our recorded work uses a host resource, for a host graph's barriers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ResourceUse {
-    pub resource: HostResource,
-    pub stage: vk::PipelineStageFlags2,
-    pub access: vk::AccessFlags2,
-    /// Images: the layout we use it in.
-    pub layout: vk::ImageLayout,
-    pub read: bool,
-    pub write: bool,
 }
 
 /// The shading pass's use of the host's colour target (its declaration and [`TranslucentObject::declare`]).
