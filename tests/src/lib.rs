@@ -462,3 +462,20 @@ pub fn level_irradiance(
         })
         .collect()
 }
+
+/// The multigrid tests' hard material: sigma_s' 0.1 and 1000 /mm (kappa 1e4 apart) across a
+/// plane, no absorption anywhere, eta 1.3.
+pub fn kappa_contrast_field() -> translucent::material::MaterialField {
+    use translucent::material::{Coefficients, MaterialField, Procedural};
+    let c = |s: f64| Coefficients::new([s; 3], [0.0; 3]).expect("valid coefficients");
+    MaterialField::procedural(
+        Procedural::Split {
+            normal: glam::DVec3::new(1.0, 0.3, 0.1).normalize(),
+            offset: 0.0,
+            below: c(0.1),
+            above: c(1000.0),
+        },
+        1.3,
+    )
+    .expect("a valid split field")
+}

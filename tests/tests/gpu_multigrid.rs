@@ -6,7 +6,7 @@
 //! Validation (with synchronization validation) is on and any message fails.
 
 use glam::{DQuat, DVec3};
-use translucent::material::{Coefficients, Material, MaterialField, Procedural};
+use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
@@ -16,7 +16,7 @@ use translucent::solver::multigrid::MultigridParams;
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
-use translucent_tests::{solve_once, tol, GpuTest};
+use translucent_tests::{kappa_contrast_field, solve_once, tol, GpuTest};
 
 /// Relative residual the GPU cycles stop at: well above f32's floor for these systems (~1e-6),
 /// below the fp16 q rounding that dominates the error against the exact solve.
@@ -52,21 +52,6 @@ fn scene(turn_degrees: f64) -> Scene {
         lights: vec![light],
         environment: Environment::Constant([0.05; 3]),
     }
-}
-
-/// sigma_s' 0.1 and 1000 /mm (kappa 1e4 apart) across a plane, no absorption anywhere.
-fn contrast() -> MaterialField {
-    let c = |s: f64| Coefficients::new([s; 3], [0.0; 3]).unwrap();
-    MaterialField::procedural(
-        Procedural::Split {
-            normal: DVec3::new(1.0, 0.3, 0.1).normalize(),
-            offset: 0.0,
-            below: c(0.1),
-            above: c(1000.0),
-        },
-        1.3,
-    )
-    .unwrap()
 }
 
 fn params() -> GpuSolveParams {
@@ -167,7 +152,7 @@ fn gpu_multigrid_reaches_the_exact_solve_on_a_1e4_contrast() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let graph = bake(&torus());
-    let field = contrast();
+    let field = kappa_contrast_field();
     let p = GpuSolveParams {
         multigrid: Some(MultigridParams {
             max_cycles: 40,
@@ -321,7 +306,7 @@ fn gpu_multigrid_defaults_read_fewer_matrix_entries_than_the_cpu_defaults() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let graph = bake(&torus());
-    let field = contrast();
+    let field = kappa_contrast_field();
     let exact = exact(&graph, &field, &scene(0.0));
     let mut units = Vec::new();
     for (what, mg) in [

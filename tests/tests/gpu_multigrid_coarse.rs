@@ -7,8 +7,7 @@
 //! entries taking half the f32 entries' bytes. Validation (with synchronization validation) is
 //! on and any message fails.
 
-use glam::DVec3;
-use translucent::material::{Coefficients, Material, MaterialField, Procedural};
+use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
@@ -18,7 +17,7 @@ use translucent::solver::multigrid::{CoarseOperator, Hierarchy, MultigridParams,
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
-use translucent_tests::{solve_once, tol, GpuTest};
+use translucent_tests::{kappa_contrast_field, solve_once, tol, GpuTest};
 
 /// Relative residual the GPU cycles stop at (as tests/tests/gpu_multigrid.rs: above f32's floor,
 /// below the fp16 q rounding that dominates the error against the exact solve).
@@ -56,21 +55,6 @@ fn scene() -> Scene {
         lights: vec![light],
         environment: Environment::Constant([0.05; 3]),
     }
-}
-
-/// sigma_s' 0.1 and 1000 /mm (kappa 1e4 apart) across a plane, no absorption anywhere.
-fn contrast() -> MaterialField {
-    let c = |s: f64| Coefficients::new([s; 3], [0.0; 3]).unwrap();
-    MaterialField::procedural(
-        Procedural::Split {
-            normal: DVec3::new(1.0, 0.3, 0.1).normalize(),
-            offset: 0.0,
-            below: c(0.1),
-            above: c(1000.0),
-        },
-        1.3,
-    )
-    .unwrap()
 }
 
 fn multigrid(coarse: CoarseOperator, storage: OperatorStorage) -> MultigridParams {
@@ -158,7 +142,7 @@ fn fp16_coarse_entries_reach_the_exact_solve_on_the_1e4_contrast() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let graph = bake(&torus());
-    let field = contrast();
+    let field = kappa_contrast_field();
     let exact = exact(&graph, &field);
     let f32_report = converges(
         ctx,
@@ -230,7 +214,7 @@ fn rediscretized_coarse_levels_report_divergence_on_the_1e4_contrast() {
     let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let graph = bake(&torus());
-    let field = contrast();
+    let field = kappa_contrast_field();
     let mg = multigrid(CoarseOperator::Rediscretized, OperatorStorage::F32);
     let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params(mg)).expect("GpuDiffusion");
     let (_, report) = cold_solve(ctx, &mut solve, &graph, &field);

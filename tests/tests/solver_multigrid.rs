@@ -4,8 +4,8 @@
 //! light turn costs less than a cold full multigrid, extreme sizes converge without NaN, and bad
 //! parameters are typed errors.
 
-use glam::{DQuat, DVec3};
-use translucent::material::{Coefficients, Material, MaterialField, Procedural};
+use glam::DQuat;
+use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
@@ -14,6 +14,7 @@ use translucent::solver::multigrid::{
 };
 use translucent::solver::{self, CpuSolveParams, Schedule, Scheme, SolverError};
 use translucent::QuadGraph;
+use translucent_tests::kappa_contrast_field;
 
 /// Multigrid and cascade + PCG both stop at relative residual 1e-10 (`exact_tolerance`); their J+
 /// differ by that residual times the system's condition number (~1e4 here), with margin.
@@ -63,21 +64,6 @@ fn scene() -> Scene {
 
 fn skimmilk() -> MaterialField {
     MaterialField::Homogeneous(Material::preset("skimmilk").unwrap())
-}
-
-/// sigma_s' 0.1 and 1000 /mm (kappa 1e4 apart) across a plane, no absorption anywhere.
-fn contrast() -> MaterialField {
-    let c = |s: f64| Coefficients::new([s; 3], [0.0; 3]).unwrap();
-    MaterialField::procedural(
-        Procedural::Split {
-            normal: DVec3::new(1.0, 0.3, 0.1).normalize(),
-            offset: 0.0,
-            below: c(0.1),
-            above: c(1000.0),
-        },
-        1.3,
-    )
-    .unwrap()
 }
 
 fn solve_mg(
@@ -174,7 +160,13 @@ fn contrast_1e4_converges_with_the_galerkin_coarse_operator() {
             max_cycles: 200,
             ..MultigridParams::default()
         };
-        let (phi, report) = solve_mg(&graph, &contrast(), &scene(), &params, Start::Cold);
+        let (phi, report) = solve_mg(
+            &graph,
+            &kappa_contrast_field(),
+            &scene(),
+            &params,
+            Start::Cold,
+        );
         check_converged(
             &format!("1e4 contrast, Galerkin, krylov {krylov}"),
             &report,
@@ -197,7 +189,7 @@ fn a_diverging_schedule_is_an_error_not_a_nan() {
     };
     let result = solver::solve(
         &graph,
-        &contrast(),
+        &kappa_contrast_field(),
         &scene(),
         None,
         &CpuSolveParams {
