@@ -15,7 +15,7 @@
 # GPU ms per pass over them (--trace); 1 (default) reports frame 0's. Writes target/gpu-terms/
 # SETTING/*.{exr,json,trace.json} and prints one line per render: scene, variant, relative RMS
 # R, G, B (all) in %, GPU ms of the frame and of the passes each term adds.
-C=0,20,60:0,0,0:30; R=tests/reference/pt; T=target/release/translucent
+. benches/pt_scenes.sh; T=target/release/translucent
 SETTING=${TERMS_SETTING:-default}; O=target/gpu-terms/$SETTING; mkdir -p $O
 FRAMES=${TERMS_FRAMES:-1}
 case $SETTING in
@@ -27,8 +27,6 @@ case $SETTING in
 esac
 VARIANTS=${TERMS_VARIANTS:-"flux-shepard-off flux-shepard-on beam-shepard-off flux-interior-off beam-interior-on"}
 [ "$VARIANTS" = all ] && VARIANTS="flux-shepard-off flux-shepard-on flux-interior-off flux-interior-on beam-shepard-off beam-shepard-on beam-interior-off beam-interior-on"
-F=dir:0.5,-1,-0.5:4,4,4; B=dir:0.2,-0.35,1:5,5,5; S="--camera $C --width 96 --height 96"
-MARBLE="--material marble --eta 1"; SPHERE="--shape sphere --size-mm 20"; BUNNY="--mesh ../shared/meshes/stanford-bunny.obj --size-mm 20"
 run() { name=$1; ref=$2; shift 2
   case " ${TERMS_SCENES:-$name} " in *" $name "*) ;; *) return ;; esac
   for v in $VARIANTS; do
@@ -44,20 +42,4 @@ run() { name=$1; ref=$2; shift 2
     python3 benches/terms_row.py "$name" "$v" $out $((end-start))
   done
 }
-run milk-sphere skimmilk-sphere-dir-eta1.exr $SPHERE --material skimmilk --eta 1 --light $F --no-specular
-run marble-sphere marble-sphere-dir-eta1.exr $SPHERE $MARBLE --light $F --no-specular
-run split-sphere split-sphere-dir-eta1.exr $SPHERE --volume $R/milk-skin-split.vol --eta 1 --light $F --no-specular
-run bunny-front bunny-marble-dir-eta1.exr $BUNNY $MARBLE --light $F --no-specular
-run bunny-side bunny-marble-side-eta1.exr $BUNNY $MARBLE --light dir:1,-0.2,0:5,5,5 --no-specular
-run marble-back marble-sphere-backlit-eta1.exr $SPHERE $MARBLE --light $B --no-specular
-run torus-back marble-torus-backlit-eta1.exr --shape torus --size-mm 20 $MARBLE --light $B --no-specular
-# Constant environment, eta 1.3: specular on (the reflection drawn, as the reference has it).
-run marble-env marble-sphere-env-eta1.3.exr $SPHERE --material marble --eta 1.3 --env-constant 1,1,1 --light dir:0,-1,0:0,0,0
-run plate-back plate-on-base-backlit-eta1.exr --mesh target/pt-shapes/plate-on-base.obj --size-mm 30 $MARBLE --light $B --no-specular
-run ublock-front ublock-marble-dir-eta1.exr --mesh target/pt-shapes/u-block.obj --size-mm 20 $MARBLE --light $F --no-specular
-run ublock-back ublock-marble-backlit-eta1.exr --mesh target/pt-shapes/u-block.obj --size-mm 20 $MARBLE --light $B --no-specular
-run skin1-sphere skin1-sphere-dir-eta1.exr $SPHERE --material skin1 --eta 1 --light $F --no-specular
-# Ketchup: its reference has alpha < 0.999 everywhere (rays cross it unscattered): the skin1 file's mask.
-MASK="--mask-from $R/skin1-sphere-dir-eta1.exr"
-run ketchup-sphere ketchup-sphere-dir-eta1.exr $SPHERE --material ketchup --eta 1 --light $F --no-specular
-MASK=""
+pt_scenes
