@@ -716,8 +716,9 @@ impl GpuMultigrid {
                 rec.coarse();
                 for l in 1..=top {
                     rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3]);
+                    let sweeps = self.params.fmg_sweeps_at(l, top);
                     for _ in 0..self.params.fmg_cycles_at(l, top) {
-                        rec.v_cycle(l, false);
+                        rec.v_cycle_with(l, false, sweeps);
                     }
                 }
             }
@@ -755,24 +756,32 @@ impl GpuMultigrid {
 
     /// Work units of one V-cycle from level `l` (as [`Hierarchy::solve`] counts them).
     fn v_cycle_updates(&self, l: usize) -> u64 {
+        self.v_cycle_updates_with(l, self.sweeps(l))
+    }
+
+    /// [`Self::v_cycle_updates`] with `(pre, post)` smoothing steps on level `l`.
+    fn v_cycle_updates_with(&self, l: usize, (pre, post): (u32, u32)) -> u64 {
         if l == 0 {
             return u64::from(self.coarse_steps + 1) * u64::from(self.levels[0].count);
         }
         let n = u64::from(self.levels[l].count);
-        let sweeps = u64::from(self.sweeps(l).0 + self.sweeps(l).1);
-        n * (sweeps + 3) + self.v_cycle_updates(l - 1)
+        n * u64::from(pre + post + 3) + self.v_cycle_updates(l - 1)
     }
 
     /// Matrix entries one V-cycle from level `l` reads (see [`GpuMultigridReport::matvec_units`]).
     /// `from_zero`: the cycle starts from x = 0 (a coarse correction, or the CG's preconditioner),
     /// so its first smoothing step reads f and no residual.
     fn v_cycle_entries(&self, l: usize, from_zero: bool) -> u64 {
+        self.v_cycle_entries_with(l, from_zero, self.sweeps(l))
+    }
+
+    /// [`Self::v_cycle_entries`] with `(pre, post)` smoothing steps on level `l`.
+    fn v_cycle_entries_with(&self, l: usize, from_zero: bool, (pre, post): (u32, u32)) -> u64 {
         let level = &self.levels[l];
         if l == 0 {
             // The coarsest level always starts from zero (the restriction zeroes it).
             return u64::from(self.coarse_steps.saturating_sub(1)) * level.entries;
         }
-        let (pre, post) = self.sweeps(l);
         // A residual per smoothing step (but a first one from zero) and one before the
         // restriction; restriction and prolongation read the links once each.
         let skipped = u32::from(from_zero && pre > 0);
@@ -807,7 +816,8 @@ impl GpuMultigrid {
                 (1..=top)
                     .map(|l| {
                         2 * u64::from(self.levels[l].count)
-                            + u64::from(self.params.fmg_cycles_at(l, top)) * self.v_cycle_updates(l)
+                            + u64::from(self.params.fmg_cycles_at(l, top))
+                                * self.v_cycle_updates_with(l, self.params.fmg_sweeps_at(l, top))
                     })
                     .sum::<u64>()
                     + self.v_cycle_updates(0)
@@ -863,7 +873,11 @@ impl GpuMultigrid {
                     .map(|l| {
                         2 * self.levels[l].links
                             + u64::from(self.params.fmg_cycles_at(l, top))
-                                * self.v_cycle_entries(l, false)
+                                * self.v_cycle_entries_with(
+                                    l,
+                                    false,
+                                    self.params.fmg_sweeps_at(l, top),
+                                )
                     })
                     .sum::<u64>()
                     + self.v_cycle_entries(0, true)
