@@ -202,6 +202,7 @@ const KRYLOV: usize = 8;
 const CG_START: u32 = 0;
 const CG_APPLY: u32 = 1;
 const CG_STEP: u32 = 2;
+const CG_START_RESIDUAL: u32 = 3;
 const CG_FINISH: u32 = 5;
 /// Modes of `multigrid/check.comp`.
 const CHECK_REFERENCE: u32 = 0;
@@ -722,12 +723,22 @@ impl GpuMultigrid {
                     }
                 }
             }
-            rec.residual_check();
+            let fused = self.fused_start();
+            if fused {
+                // The start's residual, its norm and the CG start in one pass; direct: converged
+                // already, it still moves x into the iterate.
+                rec.direct(KRYLOV, top, CG_START_RESIDUAL, n_top);
+                rec.check(CHECK_RESIDUAL);
+            } else {
+                rec.residual_check();
+            }
             scope(profiler, ctx, cb, None);
             scope(profiler, ctx, cb, Some(PASS_MG_CYCLES));
             if self.params.krylov {
-                // Direct: converged already, the start still moves x into the iterate.
-                rec.direct(KRYLOV, top, CG_START, n_top);
+                if !fused {
+                    // Direct: converged already, the start still moves x into the iterate.
+                    rec.direct(KRYLOV, top, CG_START, n_top);
+                }
                 for _ in 1..max_log {
                     rec.krylov_iteration();
                 }
@@ -752,6 +763,13 @@ impl GpuMultigrid {
         Ok(bytemuck::pod_read_unaligned(
             &bytes[..std::mem::size_of::<MultigridControl>()],
         ))
+    }
+
+    /// Whether the CG starts with one pass forming the start's residual, its norm and the
+    /// iterate (`krylov.comp` mode 3) instead of a residual, a norm and a copy: with CG and a
+    /// finest-level pre-smoother (whose first step from zero does not read the x it leaves).
+    fn fused_start(&self) -> bool {
+        self.params.krylov && self.sweeps(self.top()).0 > 0
     }
 
     /// Work units of one V-cycle from level `l` (as [`Hierarchy::solve`] counts them).
@@ -804,8 +822,13 @@ impl GpuMultigrid {
         // in the same pass).
         let krylov = self.params.krylov;
         let v_updates = self.v_cycle_updates(top) + if krylov { 2 * n_top } else { n_top };
-        // CG: the start and finish passes (x into the iterate and back).
-        let krylov_ends = if krylov { 2 * n_top } else { 0 };
+        // CG: the start and finish passes (x into the iterate and back); the fused start is
+        // also the start's residual and norm (counted below).
+        let krylov_ends = match (krylov, self.fused_start()) {
+            (true, true) => n_top,
+            (true, false) => 2 * n_top,
+            (false, _) => 0,
+        };
         let mut cycles = Vec::new();
         // The start: warm, the residual's norm; cold, the full multigrid pass (f restricted,
         // the coarsest solved, per level a prolongation and a V-cycle) and the residual's norm.
