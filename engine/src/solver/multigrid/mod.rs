@@ -269,9 +269,19 @@ impl MultigridParams {
     /// operator and its storage (wave 6)"): the same cycles, work units and J+ to three digits on
     /// the default scene, spot, agate and the 1e4 contrast, 88-93 bytes per finest node less, and
     /// not slower on lavapipe.
+    ///
+    /// Wave 7 (benches/RESULTS.md, "Interpolation for the coarse correction (wave 7)"): the
+    /// prolongation's inner nodes link to the 8 nearest coarse nodes of either kind with
+    /// linear-exact weights ([`Interpolation::Mixed`]), then one Jacobi step `s = 1` on those
+    /// weights restricted to their links (`pattern_smoothing`), and the Chebyshev interval
+    /// `[0.11, 1] lambda_max`: the start residual 0.064 -> 0.021 and full multigrid + 2 CG
+    /// iterations instead of + 3 on the default scene, spot and nefertiti (52.0 -> 39.8 work units
+    /// on the default scene), the same buffers (2 bytes per node fewer).
     pub fn gpu() -> Self {
         Self {
-            smoother: Smoother::Chebyshev { lower: 0.07 },
+            smoother: Smoother::Chebyshev { lower: 0.11 },
+            interpolation: Interpolation::Mixed,
+            pattern_smoothing: Some((1.0, 1)),
             pre_sweeps: 3,
             post_sweeps: 3,
             coarse_sweeps: Some(2),
