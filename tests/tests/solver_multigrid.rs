@@ -431,8 +431,8 @@ fn a_bad_cycle_spec_is_a_typed_error() {
 
 /// The GPU cycle's interpolation (mixed links, linear weights, one pattern-restricted Jacobi
 /// step) against the bake's Shepard weights, plain V-cycles with the GPU's smoother: measured on
-/// this graph 0.178 against 0.274 per cycle (0.65), 7 against 9 cycles; a smoothing step that
-/// broke the weights (constants not kept, a wrong sign) makes it equal or worse.
+/// this graph 0.178 against 0.274 per cycle (0.65), 7 against 9 cycles; the bound leaves room
+/// for rounding, not for losing most of the gain.
 const PATTERN_SMOOTHED_OVER_SHEPARD: f64 = 0.8;
 /// Row sums of the prolongation kept by the pattern smoothing (f64 rounding of 8 weights).
 const ROW_SUM_KEPT: f64 = 1e-12;
