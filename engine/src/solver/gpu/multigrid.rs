@@ -10,7 +10,8 @@
 //!   `values16`, relative to their row's scale in `diag`'s fourth lane, each row's rounding lumped
 //!   onto its f32 diagonal (`pack_operators`); the coarse operators are Galerkin or the coarse
 //!   graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
-//! - the prolongation as the Shepard links (8 coarse nodes and weights per fine node) and its
+//! - the prolongation as links (8 coarse nodes and weights per fine node: the bake's Shepard
+//!   links or `MultigridParams::interpolation`'s, weights moved by `pattern_smoothing`) and its
 //!   transpose by coarse rows for the restriction (`t_start`, `t_fine`, `t_weight`): both gathers;
 //! - x, f, r and the Chebyshev direction d per node; the finest node -> texel map and the
 //!   right-hand side coefficients `S b / q` (row scale times q_gain on surface rows).
