@@ -15,6 +15,9 @@
 //             `width` workgroup sums
 //   2 step:   dir = z + beta dir, kdir = K z + beta kdir (dir = z, kdir = K z where beta = 0),
 //             sol += alpha dir, R -= alpha kdir, z_old = z, x = 0; partials = R . R
+//   3 start with its residual: sol = x, f = f - K x, partials = f . f (the start's residual
+//             pass, its norm and mode 0 in one pass; x is left as it is: the V-cycle after it
+//             starts with a step from zero, which does not read x)
 //   5 finish: x = sol (the solution the output pass writes and the next warm start reads)
 layout(local_size_x = 64) in;
 // The finest level's entries sit at e - HALF_ENTRIES of `values` (residual.comp: the coarse
@@ -40,6 +43,7 @@ layout(set = 0, binding = 12, std430) buffer KDir { vec4 v[]; } kdir;
 #define MODE_START 0u
 #define MODE_APPLY 1u
 #define MODE_STEP 2u
+#define MODE_START_RESIDUAL 3u
 #define MODE_FINISH 5u
 
 shared vec3 sums[64];
@@ -120,6 +124,17 @@ void main() {
             sol.v[node] = vec4(sol.v[node].rgb + alpha * d, 0.0);
             vec3 rr = f.v[i].rgb - alpha * kd;
             f.v[i] = vec4(rr, 0.0);
+            s = rr * rr;
+        }
+        reduce(s, group);
+        return;
+    }
+    if (pc.mode == MODE_START_RESIDUAL) {
+        vec3 s = vec3(0.0);
+        if (inside) {
+            vec3 rr = f.v[i].rgb - apply_k(i);
+            f.v[i] = vec4(rr, 0.0);
+            sol.v[node] = x.v[i];
             s = rr * rr;
         }
         reduce(s, group);

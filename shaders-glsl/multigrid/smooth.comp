@@ -42,5 +42,6 @@ void main() {
         di += pc.alpha.rgb * d.v[i].rgb;
     }
     d.v[i] = vec4(di, 0.0);
-    x.v[i] = vec4(x.v[i].rgb + di, 0.0);
+    // Mode 1 starts from x = 0: x is not read (the CG's fused start leaves the iterate there).
+    x.v[i] = vec4(pc.mode == 1u ? di : x.v[i].rgb + di, 0.0);
 }

@@ -10,7 +10,8 @@
 //!   `values16`, relative to their row's scale in `diag`'s fourth lane, each row's rounding lumped
 //!   onto its f32 diagonal (`pack_operators`); the coarse operators are Galerkin or the coarse
 //!   graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
-//! - the prolongation as the Shepard links (8 coarse nodes and weights per fine node) and its
+//! - the prolongation as links (8 coarse nodes and weights per fine node: the bake's Shepard
+//!   links or `MultigridParams::interpolation`'s, weights moved by `pattern_smoothing`) and its
 //!   transpose by coarse rows for the restriction (`t_start`, `t_fine`, `t_weight`): both gathers;
 //! - x, f, r and the Chebyshev direction d per node; the finest node -> texel map and the
 //!   right-hand side coefficients `S b / q` (row scale times q_gain on surface rows).
@@ -202,6 +203,7 @@ const KRYLOV: usize = 8;
 const CG_START: u32 = 0;
 const CG_APPLY: u32 = 1;
 const CG_STEP: u32 = 2;
+const CG_START_RESIDUAL: u32 = 3;
 const CG_FINISH: u32 = 5;
 /// Modes of `multigrid/check.comp`.
 const CHECK_REFERENCE: u32 = 0;
@@ -716,17 +718,28 @@ impl GpuMultigrid {
                 rec.coarse();
                 for l in 1..=top {
                     rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3]);
+                    let sweeps = self.params.fmg_sweeps_at(l, top);
                     for _ in 0..self.params.fmg_cycles_at(l, top) {
-                        rec.v_cycle(l, false);
+                        rec.v_cycle_with(l, false, sweeps);
                     }
                 }
             }
-            rec.residual_check();
+            let fused = self.fused_start();
+            if fused {
+                // The start's residual, its norm and the CG start in one pass; direct: converged
+                // already, it still moves x into the iterate.
+                rec.direct(KRYLOV, top, CG_START_RESIDUAL, n_top);
+                rec.check(CHECK_RESIDUAL);
+            } else {
+                rec.residual_check();
+            }
             scope(profiler, ctx, cb, None);
             scope(profiler, ctx, cb, Some(PASS_MG_CYCLES));
             if self.params.krylov {
-                // Direct: converged already, the start still moves x into the iterate.
-                rec.direct(KRYLOV, top, CG_START, n_top);
+                if !fused {
+                    // Direct: converged already, the start still moves x into the iterate.
+                    rec.direct(KRYLOV, top, CG_START, n_top);
+                }
                 for _ in 1..max_log {
                     rec.krylov_iteration();
                 }
@@ -753,26 +766,41 @@ impl GpuMultigrid {
         ))
     }
 
+    /// Whether the CG starts with one pass forming the start's residual, its norm and the
+    /// iterate (`krylov.comp` mode 3) instead of a residual, a norm and a copy: with CG and a
+    /// finest-level pre-smoother (whose first step from zero does not read the x it leaves).
+    fn fused_start(&self) -> bool {
+        self.params.krylov && self.sweeps(self.top()).0 > 0
+    }
+
     /// Work units of one V-cycle from level `l` (as [`Hierarchy::solve`] counts them).
     fn v_cycle_updates(&self, l: usize) -> u64 {
+        self.v_cycle_updates_with(l, self.sweeps(l))
+    }
+
+    /// [`Self::v_cycle_updates`] with `(pre, post)` smoothing steps on level `l`.
+    fn v_cycle_updates_with(&self, l: usize, (pre, post): (u32, u32)) -> u64 {
         if l == 0 {
             return u64::from(self.coarse_steps + 1) * u64::from(self.levels[0].count);
         }
         let n = u64::from(self.levels[l].count);
-        let sweeps = u64::from(self.sweeps(l).0 + self.sweeps(l).1);
-        n * (sweeps + 3) + self.v_cycle_updates(l - 1)
+        n * u64::from(pre + post + 3) + self.v_cycle_updates(l - 1)
     }
 
     /// Matrix entries one V-cycle from level `l` reads (see [`GpuMultigridReport::matvec_units`]).
     /// `from_zero`: the cycle starts from x = 0 (a coarse correction, or the CG's preconditioner),
     /// so its first smoothing step reads f and no residual.
     fn v_cycle_entries(&self, l: usize, from_zero: bool) -> u64 {
+        self.v_cycle_entries_with(l, from_zero, self.sweeps(l))
+    }
+
+    /// [`Self::v_cycle_entries`] with `(pre, post)` smoothing steps on level `l`.
+    fn v_cycle_entries_with(&self, l: usize, from_zero: bool, (pre, post): (u32, u32)) -> u64 {
         let level = &self.levels[l];
         if l == 0 {
             // The coarsest level always starts from zero (the restriction zeroes it).
             return u64::from(self.coarse_steps.saturating_sub(1)) * level.entries;
         }
-        let (pre, post) = self.sweeps(l);
         // A residual per smoothing step (but a first one from zero) and one before the
         // restriction; restriction and prolongation read the links once each.
         let skipped = u32::from(from_zero && pre > 0);
@@ -795,8 +823,13 @@ impl GpuMultigrid {
         // in the same pass).
         let krylov = self.params.krylov;
         let v_updates = self.v_cycle_updates(top) + if krylov { 2 * n_top } else { n_top };
-        // CG: the start and finish passes (x into the iterate and back).
-        let krylov_ends = if krylov { 2 * n_top } else { 0 };
+        // CG: the start and finish passes (x into the iterate and back); the fused start is
+        // also the start's residual and norm (counted below).
+        let krylov_ends = match (krylov, self.fused_start()) {
+            (true, true) => n_top,
+            (true, false) => 2 * n_top,
+            (false, _) => 0,
+        };
         let mut cycles = Vec::new();
         // The start: warm, the residual's norm; cold, the full multigrid pass (f restricted,
         // the coarsest solved, per level a prolongation and a V-cycle) and the residual's norm.
@@ -807,7 +840,8 @@ impl GpuMultigrid {
                 (1..=top)
                     .map(|l| {
                         2 * u64::from(self.levels[l].count)
-                            + u64::from(self.params.fmg_cycles_at(l, top)) * self.v_cycle_updates(l)
+                            + u64::from(self.params.fmg_cycles_at(l, top))
+                                * self.v_cycle_updates_with(l, self.params.fmg_sweeps_at(l, top))
                     })
                     .sum::<u64>()
                     + self.v_cycle_updates(0)
@@ -863,7 +897,11 @@ impl GpuMultigrid {
                     .map(|l| {
                         2 * self.levels[l].links
                             + u64::from(self.params.fmg_cycles_at(l, top))
-                                * self.v_cycle_entries(l, false)
+                                * self.v_cycle_entries_with(
+                                    l,
+                                    false,
+                                    self.params.fmg_sweeps_at(l, top),
+                                )
                     })
                     .sum::<u64>()
                     + self.v_cycle_entries(0, true)

@@ -10,7 +10,10 @@
 //! | `jacobi` | `Smoother::Jacobi { omega }` | `jacobi=0.8` |
 //! | `ctol` | `coarse_tolerance` | `ctol=0.3` |
 //! | `fmg` | `fmg_cycles` | `fmg=2` |
+//! | `fnu` | `fmg_sweeps` (the finest level's V-cycle in the full multigrid start) | `fnu=1/3` |
 //! | `krylov` | `krylov` (0 or 1) | `krylov=0` |
+//! | `psmooth` | `pattern_smoothing` (`S/STEPS`: `S / lambda_max` per Jacobi step on P's links) | `psmooth=0.67/2` |
+//! | `interp` | `interpolation` (`shepard`, `linear`, `mixed`) | `interp=linear` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
@@ -20,7 +23,7 @@
 //! # Ok::<(), translucent::solver::SolverError>(())
 //! ```
 
-use super::{MultigridParams, Smoother};
+use super::{Interpolation, MultigridParams, Smoother};
 use crate::solver::SolverError;
 
 impl MultigridParams {
@@ -51,6 +54,18 @@ impl MultigridParams {
                     p.pre_sweeps = count(pre)?;
                     p.post_sweeps = count(post)?;
                 }
+                "fnu" => {
+                    let (pre, post) = value
+                        .split_once('/')
+                        .ok_or_else(|| bad(format!("fnu: `{value}` is not PRE/POST")))?;
+                    p.fmg_sweeps = Some((count(pre)?, count(post)?));
+                }
+                "psmooth" => {
+                    let (s, steps) = value
+                        .split_once('/')
+                        .ok_or_else(|| bad(format!("psmooth: `{value}` is not S/STEPS")))?;
+                    p.pattern_smoothing = Some((number(s)?, count(steps)?));
+                }
                 "cnu" => p.coarse_sweeps = Some(count(value)?),
                 "cheb" => {
                     p.smoother = Smoother::Chebyshev {
@@ -71,9 +86,21 @@ impl MultigridParams {
                         v => return Err(bad(format!("krylov: `{v}` is not 0 or 1"))),
                     }
                 }
+                "interp" => {
+                    p.interpolation = match value {
+                        "shepard" => Interpolation::Shepard,
+                        "linear" => Interpolation::Linear,
+                        "mixed" => Interpolation::Mixed,
+                        v => {
+                            return Err(bad(format!(
+                                "interp: `{v}` is not shepard, linear or mixed"
+                            )))
+                        }
+                    }
+                }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, krylov)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth)"
                     )))
                 }
             }

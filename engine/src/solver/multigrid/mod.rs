@@ -190,6 +190,11 @@ pub struct MultigridParams {
     /// Smoothed prolongation `P_s = (I - (s / lambda_max) B^-1 K) P` with this `s` (and its
     /// transpose as the restriction); `None`: plain P.
     pub smoothed_prolongation: Option<f64>,
+    /// Galerkin only: the prolongation's weights after `steps` Jacobi steps `P -= (s / lambda_max)
+    /// D^-1 K P` restricted to its links, constants kept ([`Prolongation::pattern_smoothed`]),
+    /// as `(s, steps)`; the links, and so every buffer's size, unchanged. `None`: the weights of
+    /// [`Self::interpolation`].
+    pub pattern_smoothing: Option<(f64, u32)>,
     /// Galerkin coarse operators with their weak entries lumped into the diagonal
     /// ([`SparseOperator::sparsified`] with this threshold): fewer entries per coarse row, a
     /// slightly weaker coarse correction. `None`: the exact Galerkin product.
@@ -210,6 +215,11 @@ pub struct MultigridParams {
     /// prolongation; the finest level gets one, the CG iterations after it are the better use
     /// of its work): the coarse levels are cheap, more cycles there start the finest closer.
     pub fmg_cycles: u32,
+    /// Pre- and post-smoothing steps of the finest level's V-cycle in the cold start's full
+    /// multigrid pass (the one V-cycle after the last prolongation); `None`: the cycle's
+    /// (`pre_sweeps` / `post_sweeps`). Fewer there is a cheaper start: the CG iterations after it
+    /// remove what the start leaves at a better rate per work unit.
+    pub fmg_sweeps: Option<(u32, u32)>,
     /// Lanczos (CG) steps for lambda_max of `B^-1 K` (Chebyshev and the smoothed prolongation).
     pub power_iterations: u32,
 }
@@ -229,6 +239,7 @@ impl Default for MultigridParams {
             interpolation: Interpolation::Shepard,
             surface_blocks: true,
             smoothed_prolongation: None,
+            pattern_smoothing: None,
             sparsify: None,
             coarse_storage: OperatorStorage::F32,
             krylov: true,
@@ -236,6 +247,7 @@ impl Default for MultigridParams {
             max_cycles: 100,
             coarse_tolerance: 1e-3,
             fmg_cycles: 1,
+            fmg_sweeps: None,
             power_iterations: 20,
         }
     }
@@ -257,9 +269,19 @@ impl MultigridParams {
     /// operator and its storage (wave 6)"): the same cycles, work units and J+ to three digits on
     /// the default scene, spot, agate and the 1e4 contrast, 88-93 bytes per finest node less, and
     /// not slower on lavapipe.
+    ///
+    /// Wave 7 (benches/RESULTS.md, "Interpolation for the coarse correction (wave 7)"): the
+    /// prolongation's inner nodes link to the 8 nearest coarse nodes of either kind with
+    /// linear-exact weights ([`Interpolation::Mixed`]), then one Jacobi step `s = 1` on those
+    /// weights restricted to their links (`pattern_smoothing`), and the Chebyshev interval
+    /// `[0.11, 1] lambda_max`: the start residual 0.064 -> 0.021 and full multigrid + 2 CG
+    /// iterations instead of + 3 on the default scene, spot and nefertiti (52.0 -> 39.8 work units
+    /// on the default scene), the same buffers (2 bytes per node fewer).
     pub fn gpu() -> Self {
         Self {
-            smoother: Smoother::Chebyshev { lower: 0.07 },
+            smoother: Smoother::Chebyshev { lower: 0.11 },
+            interpolation: Interpolation::Mixed,
+            pattern_smoothing: Some((1.0, 1)),
             pre_sweeps: 3,
             post_sweeps: 3,
             coarse_sweeps: Some(2),
@@ -274,6 +296,15 @@ impl MultigridParams {
         match self.coarse_sweeps {
             Some(n) if level > 0 && level < finest => (n, n),
             _ => (self.pre_sweeps, self.post_sweeps),
+        }
+    }
+
+    /// Pre- and post-smoothing steps on `level` in the full multigrid pass
+    /// ([`Self::fmg_sweeps`] on the finest level, [`Self::sweeps_at`] elsewhere).
+    pub fn fmg_sweeps_at(&self, level: usize, finest: usize) -> (u32, u32) {
+        match self.fmg_sweeps {
+            Some(s) if level == finest => s,
+            _ => self.sweeps_at(level, finest),
         }
     }
 
@@ -305,6 +336,20 @@ impl MultigridParams {
                     "{} pre + {} post: at least one, at most 64 each",
                     self.pre_sweeps, self.post_sweeps
                 ),
+            );
+        }
+        if let Some((s, steps)) = self.pattern_smoothing {
+            if !(s > 0.0 && s < 2.0) || steps > 16 {
+                return bad(
+                    "pattern_smoothing",
+                    format!("({s}, {steps}): s in (0, 2), at most 16 steps"),
+                );
+            }
+        }
+        if self.fmg_sweeps.is_some_and(|(a, b)| a.max(b) > 64) {
+            return bad(
+                "fmg_sweeps",
+                format!("{:?}: at most 64 each", self.fmg_sweeps),
             );
         }
         if self.coarse_sweeps.is_some_and(|n| n == 0 || n > 64) {
@@ -484,7 +529,11 @@ impl Hierarchy {
             CoarseOperator::Galerkin => {
                 let mut k = SparseOperator::from_level(&finest);
                 let mut down = Vec::with_capacity(graph.levels.len());
-                for p in prolongations.iter().skip(1).rev().flatten() {
+                for p in prolongations.iter_mut().skip(1).rev().flatten() {
+                    if let Some((s, steps)) = params.pattern_smoothing {
+                        let lambda = largest_eigenvalue(&k, params.power_iterations);
+                        *p = p.pattern_smoothed(&k, lambda.map(|l| s / l), steps)?;
+                    }
                     let coarse = match params.sparsify {
                         Some(theta) => p.galerkin(&k).sparsified(theta),
                         None => p.galerkin(&k),
@@ -616,8 +665,9 @@ impl Hierarchy {
                     }
                     work.updates += self.levels[l].node_count() as u64;
                     work.entries += self.levels[l].link_entries();
+                    let sweeps = params.fmg_sweeps_at(l, top);
                     for _ in 0..params.fmg_cycles_at(l, top) {
-                        self.v_cycle(l, &mut up, rhs_l, params, &mut work);
+                        self.v_cycle_with(l, &mut up, rhs_l, params, &mut work, sweeps);
                     }
                     x = up;
                 }
@@ -751,13 +801,27 @@ impl Hierarchy {
         params: &MultigridParams,
         work: &mut Work,
     ) {
+        let sweeps = params.sweeps_at(l, self.levels.len() - 1);
+        self.v_cycle_with(l, x, f, params, work, sweeps);
+    }
+
+    /// [`Self::v_cycle`] with `(pre, post)` smoothing steps on level `l` (the levels below it
+    /// keep the cycle's).
+    fn v_cycle_with(
+        &self,
+        l: usize,
+        x: &mut Field,
+        f: &[[f64; 3]],
+        params: &MultigridParams,
+        work: &mut Work,
+        (pre, post): (u32, u32),
+    ) {
         if l == 0 {
             self.coarse_solve(x, f, params, work);
             return;
         }
         let level = &self.levels[l];
         let n = level.node_count();
-        let (pre, post) = params.sweeps_at(l, self.levels.len() - 1);
         self.smooth(l, x, f, pre, params, work);
         let mut r = vec![[0.0; 3]; n];
         level.operator.residual(x, f, &mut r);

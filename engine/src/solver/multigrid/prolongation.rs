@@ -103,6 +103,91 @@ impl Prolongation {
         });
     }
 
+    /// The prolongation after `steps` Jacobi steps on its weights restricted to its own links
+    /// (energy-minimizing interpolation on a fixed pattern; Wan, Chan & Smith 1999, Mandel,
+    /// Brezina & Vanek 1999): per step `P -= omega D^-1 K P` on the linked entries only, the
+    /// update of each row made mean-free over its links so that `P 1` (constants) is kept.
+    /// `omega` per channel (`s / lambda_max` of `D^-1 K`); the channels' updates are averaged
+    /// (one weight per link serves all three). The links (and so the memory of P, P^T and of the
+    /// Galerkin product's rows) are unchanged: only the weights move toward the operator's.
+    pub fn pattern_smoothed(
+        &self,
+        k: &SparseOperator,
+        omega: [f64; 3],
+        steps: u32,
+    ) -> Result<Self, SolverError> {
+        let mut weights = self.weights.clone();
+        for _ in 0..steps {
+            let next: Vec<[f64; 8]> = (0..k.node_count())
+                .into_par_iter()
+                .map(|i| {
+                    let links = &self.links[i];
+                    let w = &weights[i];
+                    // (K P)_ic for the linked c, per channel.
+                    let mut kp = [[0.0f64; 3]; 8];
+                    let mut add = |j: usize, v: [f64; 3]| {
+                        for (slot, &c) in links.iter().enumerate() {
+                            if c == NO_NODE {
+                                continue;
+                            }
+                            if let Some(q) = self.links[j].iter().position(|&cj| cj == c) {
+                                let wj = weights[j][q];
+                                for ch in 0..3 {
+                                    kp[slot][ch] += v[ch] * wj;
+                                }
+                            }
+                        }
+                    };
+                    add(i, k.diag[i]);
+                    for e in k.row_start[i]..k.row_start[i + 1] {
+                        add(k.cols[e] as usize, k.values[e]);
+                    }
+                    let mut update = [0.0f64; 8];
+                    let mut used = 0usize;
+                    let mut mean = 0.0;
+                    for (slot, &c) in links.iter().enumerate() {
+                        if c == NO_NODE {
+                            continue;
+                        }
+                        let u: f64 = (0..3)
+                            .map(|ch| {
+                                let d = k.diag[i][ch];
+                                if d > 0.0 {
+                                    omega[ch] * kp[slot][ch] / d
+                                } else {
+                                    0.0
+                                }
+                            })
+                            .sum::<f64>()
+                            / 3.0;
+                        update[slot] = u;
+                        mean += u;
+                        used += 1;
+                    }
+                    if used > 0 {
+                        mean /= used as f64;
+                    }
+                    let mut out = *w;
+                    for (slot, &c) in links.iter().enumerate() {
+                        if c != NO_NODE {
+                            out[slot] -= update[slot] - mean;
+                        }
+                    }
+                    out
+                })
+                .collect();
+            weights = next;
+        }
+        Self::new(
+            &ShepardLinks {
+                links: self.links.clone(),
+                weights,
+            },
+            self.links.len(),
+            self.coarse_count(),
+        )
+    }
+
     /// `P^T K P`: the Galerkin coarse operator of `k` (this level's fine operator).
     pub fn galerkin(&self, k: &SparseOperator) -> SparseOperator {
         let nc = self.coarse_count();

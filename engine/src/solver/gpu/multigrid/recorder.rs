@@ -131,12 +131,21 @@ impl Recorder<'_> {
     /// As [`GpuMultigrid::record`].
     pub(super) unsafe fn v_cycle(&self, l: usize, from_zero: bool) {
         // SAFETY: the caller's contract.
+        unsafe { self.v_cycle_with(l, from_zero, self.mg.sweeps(l)) }
+    }
+
+    /// [`Self::v_cycle`] with `(pre, post)` smoothing steps on level `l` (the levels below it
+    /// keep the cycle's): the full multigrid pass's finest V-cycle (`MultigridParams::fmg_sweeps`).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn v_cycle_with(&self, l: usize, from_zero: bool, (pre, post): (u32, u32)) {
+        // SAFETY: the caller's contract.
         unsafe {
             if l == 0 {
                 self.coarse();
                 return;
             }
-            let (pre, post) = self.mg.sweeps(l);
             self.smooth(l, pre, from_zero);
             self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
             self.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
