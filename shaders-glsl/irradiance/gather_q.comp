@@ -351,6 +351,14 @@ void main() {
             beam_particular(transmitted, mu_t, false, beam_s, beam_a, beam_d, k, beta_k, flux);
             k *= attenuation;
             beta_k *= attenuation;
+            // Grazing (h beta > 1, mu_t below about 2/3 at eta 1) the right-hand side turns
+            // negative, which q (clamped at zero) cannot carry while the exit part would still be
+            // added: those channels take nothing (the f64 reference keeps them; with the faces
+            // parallel such a node is mostly a face at an angle to the entry, where the parallel
+            // entry is wrong anyway).
+            bvec3 carried = greaterThanEqual(h * beta_k - k, vec3(0.0));
+            k = mix(vec3(0.0), k, carried);
+            beta_k = mix(vec3(0.0), beta_k, carried);
             // phi_p = K e^{-beta z}, its derivative along this face's inward normal (the
             // entry's outward one, n . n_entry = -1) +beta K: Robin -(phi_p - h dphi_p/dz_in).
             sum += -(k - h * beta_k) / pc.beam_exit.z;
