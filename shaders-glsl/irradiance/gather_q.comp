@@ -21,6 +21,13 @@
 // (transport::second_collision_fit: beta' = sigma_t' / mu_e), single scattering then added whole. Shadow-edge
 // fallback (beam_edge = 1): a light the node's 3x3 PCF sees partly occluded enters as the boundary
 // flux (the flat half-space of the particular solution fails within a mean free path of the edge).
+// Continuation through a wall (beam_continuation = 1; the f64 reference's
+// `Transport::continuation`, DESIGN 2.7's thin walls): a node facing away from a light gets the
+// particular solution of the beam that entered on the light's side, attenuated along the refracted
+// path, K exp(-beta z) at the depth z below the entry face, in its Robin row and exit query (exact
+// for a slab: benches/thinwall/slab_rule.py). The entry is the surface the light's shadow view sees
+// in front of the node (its depth along the light), its normal taken as -n (the wall's faces
+// parallel: exact for a slab); beyond MAX_OPTICAL_DEPTH nothing arrives.
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -77,6 +84,7 @@ layout(push_constant) uniform GatherPush {
     vec4 beam_exit;    // x: (1 - 2 C1) / 4, y: (1 - 3 C2) / 2, z: the flux gain 4 / (1 - 2 C1),
                        // w: 1 = the second-collision source
     vec4 beam_kappa;   // rgb: D of a homogeneous material; w: 1 = Grosjean's D, 0 = 1 / (3 sigma_t')
+    float beam_continuation; // 1: nodes facing away from a light get the beam through the wall
 } pc;
 
 // Quadrature points of second_collision_ratio's integral over mu (as the f64 reference).
@@ -181,6 +189,74 @@ uint cube_face(vec3 d) {
     return d.z >= 0.0 ? 4u : 5u;
 }
 
+// Optical depth beyond which a beam through a wall is extinguished (sources::MAX_OPTICAL_DEPTH).
+const float MAX_OPTICAL_DEPTH = 30.0;
+
+// Distance from p towards the light (unit l) to the surface the shadow view `index` stores in
+// front of p (its centre texel), or -1 where the view holds nothing in front of p. Along the ray
+// the clip coordinates are linear in the distance t, so depth(t) = z(t) / w(t) = stored solves
+// for t in closed form (orthographic and perspective views alike).
+float entry_distance(uint index, vec3 p, vec3 l) {
+    ShadowView v = scene.views[index];
+    vec4 c = v.view_proj * vec4(p, 1.0);
+    vec4 dc = v.view_proj * vec4(l, 0.0);
+    if (c.w <= 0.0) {
+        return -1.0;
+    }
+    vec3 ndc = c.xyz / c.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) {
+        return -1.0;
+    }
+    float size = v.tile.z;
+    ivec2 t = clamp(ivec2(floor((ndc.xy * 0.5 + 0.5) * size)), ivec2(0), ivec2(size) - 1);
+    float stored = texelFetch(shadow_atlas, ivec2(v.tile.xy) + t, 0).r;
+    float denom = dc.z - stored * dc.w;
+    if (stored >= clamp(ndc.z, 0.0, 1.0) || abs(denom) < 1e-20) {
+        return -1.0;
+    }
+    return max((stored * c.w - c.z) / denom, 0.0);
+}
+
+// The particular solution of a beam transmitting `transmitted` (E mu_i T_i per channel, refracted
+// cosine mu_t) into the medium of the node: (K, beta K) with the second-collision fit when on,
+// and the part entering as the boundary flux (`resonance`: near the particular solution's
+// resonance, transport::beam_share; otherwise none, as the f64 continuation). DESIGN 2.7.
+void beam_particular(vec3 transmitted, float mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
+                     vec3 beam_d, out vec3 k, out vec3 beta_k, out vec3 flux) {
+    vec3 sigma_a = beam_a;
+    vec3 sigma_t = beam_s + sigma_a;
+    // The second-collision source scales the whole source, its flux fallback included
+    // (the once-scattered light is the march's, added whole).
+    vec3 gain = pc.beam_exit.w > 0.5
+        ? second_collision_ratio(beam_s, sigma_a, beam_d, mu_t, pc.eta)
+        : vec3(1.0);
+    // The particular solution's cosine: mu_t, or the second collision's fitted mu_e.
+    vec3 mu_p = pc.beam_exit.w > 0.5
+        ? second_collision_depth(beam_s, sigma_a, beam_d, pc.beam_sigma_a.w, mu_t, pc.eta, gain)
+        : vec3(mu_t);
+    vec3 a = sigma_a * (mu_p * mu_p);
+    // D sigma_t'^2 (sigma_t' / 3 with the classical D).
+    vec3 b = beam_d * sigma_t * sigma_t;
+    // Near the resonance the solve cannot cancel a large K: that share of the light
+    // enters as the boundary flux (transport::beam_share, the same smoothstep).
+    vec3 share = resonance
+        ? smoothstep(vec3(RESONANCE_FLUX_BELOW), vec3(RESONANCE_BEAM_ABOVE), abs(a - b) / (a + b))
+        : vec3(1.0);
+    flux = transmitted * (1.0 - share) * gain;
+    vec3 denom = a - b;
+    vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
+    denom = mix(denom, -guard, lessThan(abs(denom), guard));
+    // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
+    // (1 + s~ mu_t) with Q0 over mu_e (transport::second_collision_fit), s~ = s / sigma_t'.
+    vec3 s_mfp = sqrt(sigma_a / beam_d) / sigma_t;
+    vec3 beam_gain = gain * (1.0 + s_mfp * mu_p)
+        / (1.0 + s_mfp * max(mu_t, SECOND_COLLISION_MIN_MU_T));
+    beam_gain = pc.beam_exit.w > 0.5 ? beam_gain : vec3(1.0);
+    vec3 source = beam_s * transmitted * share * beam_gain;
+    k = source * mu_p / denom;
+    beta_k = source * sigma_t / denom;
+}
+
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(texel), pc.extent))) {
@@ -241,7 +317,52 @@ void main() {
             e = light.colour.rgb * falloff / r / r;
         }
         float cos_l = dot(n, l);
-        if (cos_l <= 0.0 || all(equal(e, vec3(0.0)))) {
+        if (all(equal(e, vec3(0.0)))) {
+            continue;
+        }
+        // h = 2 A D: the Robin row's extrapolation length.
+        vec3 h = 2.0 * pc.beam_sigma_a.w * beam_d;
+        if (cos_l <= 0.0) {
+            // Facing away: the beam that entered on the light's side of the wall, if any.
+            if (!beams || pc.beam_continuation < 0.5 || light.views.y == 0u) {
+                continue;
+            }
+            uint view = light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
+            float t = entry_distance(view, p, l);
+            if (t <= 0.0) {
+                continue;
+            }
+            // The entry face parallel to this one (a wall): incidence mu_i = -n.l there.
+            float mu_i = -cos_l;
+            float mu_t = sqrt(max(1.0 - (1.0 - mu_i * mu_i) / (pc.eta * pc.eta), 0.0));
+            vec3 e_in = e;
+            if (kind != LIGHT_DIRECTIONAL) {
+                // The inverse square at the entry, t nearer the light on the same ray.
+                float r = max(length(light.position.xyz - p), 1e-9);
+                float ratio = r / max(r - t, 1e-9);
+                e_in = e * ratio * ratio;
+            }
+            // Jensen's refraction correction: the refracted path to the same depth below the
+            // entry face is t mu_i / mu_t (sources.rs `Arrival::Behind`).
+            vec3 tau = (beam_s + beam_a) * (t * mu_i / max(mu_t, SECOND_COLLISION_MIN_MU_T));
+            vec3 attenuation = mix(exp(-tau), vec3(0.0), greaterThan(tau, vec3(MAX_OPTICAL_DEPTH)));
+            vec3 transmitted = e_in * (mu_i * fresnel_transmittance(pc.eta, mu_i));
+            vec3 k, beta_k, flux;
+            beam_particular(transmitted, mu_t, false, beam_s, beam_a, beam_d, k, beta_k, flux);
+            k *= attenuation;
+            beta_k *= attenuation;
+            // Grazing (h beta > 1, mu_t below about 2/3 at eta 1) the right-hand side turns
+            // negative, which q (clamped at zero) cannot carry while the exit part would still be
+            // added: those channels take nothing (the f64 reference keeps them; with the faces
+            // parallel such a node is mostly a face at an angle to the entry, where the parallel
+            // entry is wrong anyway).
+            bvec3 carried = greaterThanEqual(h * beta_k - k, vec3(0.0));
+            k = mix(vec3(0.0), k, carried);
+            beta_k = mix(vec3(0.0), beta_k, carried);
+            // phi_p = K e^{-beta z}, its derivative along this face's inward normal (the
+            // entry's outward one, n . n_entry = -1) +beta K: Robin -(phi_p - h dphi_p/dz_in).
+            sum += -(k - h * beta_k) / pc.beam_exit.z;
+            part += pc.beam_exit.x * k + pc.beam_exit.y * beam_d * beta_k;
             continue;
         }
         float vis = 1.0;
@@ -260,47 +381,21 @@ void main() {
         // as K = sigma_s' q_l mu_t / (sigma_a mu_t^2 - sigma_t' / 3) and beta K =
         // sigma_s' q_l sigma_t' / (same), finite as mu_t -> 0 (grazing beams at eta = 1).
         float mu_t = sqrt(max(1.0 - (1.0 - cos_l * cos_l) / (pc.eta * pc.eta), 0.0));
-        vec3 sigma_a = beam_a;
-        vec3 sigma_t = beam_s + sigma_a;
-        // The second-collision source scales the whole source, its flux fallback included
-        // (the once-scattered light is the march's, added whole).
-        vec3 gain = pc.beam_exit.w > 0.5
-            ? second_collision_ratio(beam_s, sigma_a, beam_d, mu_t, pc.eta)
-            : vec3(1.0);
-        // The particular solution's cosine: mu_t, or the second collision's fitted mu_e.
-        vec3 mu_p = pc.beam_exit.w > 0.5
-            ? second_collision_depth(beam_s, sigma_a, beam_d, pc.beam_sigma_a.w, mu_t, pc.eta,
-                                     gain)
-            : vec3(mu_t);
         if (pc.beam_edge > 0.5 && vis < 1.0) {
-            // A shadow edge: the flat half-space fails; the boundary flux.
+            // A shadow edge: the flat half-space fails; the boundary flux (scaled as the
+            // second-collision source's flux part).
+            vec3 gain = pc.beam_exit.w > 0.5
+                ? second_collision_ratio(beam_s, beam_a, beam_d, mu_t, pc.eta)
+                : vec3(1.0);
             sum += transmitted * gain;
             continue;
         }
-        vec3 a = sigma_a * (mu_p * mu_p);
-        // D sigma_t'^2 (sigma_t' / 3 with the classical D).
-        vec3 b = beam_d * sigma_t * sigma_t;
-        // Near the resonance the solve cannot cancel a large K: that share of the light
-        // enters as the boundary flux (transport::beam_share, the same smoothstep).
-        vec3 share = smoothstep(vec3(RESONANCE_FLUX_BELOW), vec3(RESONANCE_BEAM_ABOVE),
-                                abs(a - b) / (a + b));
-        sum += transmitted * (1.0 - share) * gain;
-        vec3 denom = a - b;
-        vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
-        denom = mix(denom, -guard, lessThan(abs(denom), guard));
-        // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
-        // (1 + s~ mu_t) with Q0 over mu_e (transport::second_collision_fit), s~ = s / sigma_t'.
-        vec3 s_mfp = sqrt(sigma_a / beam_d) / sigma_t;
-        vec3 beam_gain = gain * (1.0 + s_mfp * mu_p)
-            / (1.0 + s_mfp * max(mu_t, SECOND_COLLISION_MIN_MU_T));
-        beam_gain = pc.beam_exit.w > 0.5 ? beam_gain : vec3(1.0);
-        vec3 source = beam_s * transmitted * share * beam_gain;
-        vec3 k = source * mu_p / denom;
-        vec3 beta_k = source * sigma_t / denom;
-        vec3 d = beam_d;
+        vec3 k, beta_k, flux;
+        beam_particular(transmitted, mu_t, true, beam_s, beam_a, beam_d, k, beta_k, flux);
+        sum += flux;
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
-        sum += -(k + 2.0 * pc.beam_sigma_a.w * d * beta_k) / pc.beam_exit.z;
-        part += pc.beam_exit.x * k - pc.beam_exit.y * d * beta_k;
+        sum += -(k + h * beta_k) / pc.beam_exit.z;
+        part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
     }
 
     uint env = scene.counts.y;

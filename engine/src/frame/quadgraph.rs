@@ -138,6 +138,7 @@ fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource
         local,
         second_collision: params.second_collision,
         shadow_edge_flux: params.shadow_edge_flux,
+        continuation: params.continuation,
     })
 }
 

@@ -104,6 +104,9 @@ pub struct GatherPush {
     /// rgb: the diffusion coefficient D of a homogeneous material; w: 1 for Grosjean's D (the
     /// gather inverts a heterogeneous level's kappa with it), 0 for 1 / (3 sigma_t').
     pub beam_kappa: [f32; 4],
+    /// 1: a node facing away from a light gets the beam through the wall
+    /// ([`BeamSource::continuation`]).
+    pub beam_continuation: f32,
 }
 
 /// The collimated source of DESIGN 2.7 (what the gather needs of the solver's boundary model,
@@ -137,6 +140,13 @@ pub struct BeamSource {
     /// (within about a shadow texel and a half of a shadow edge or the terminator) enters as the
     /// boundary flux.
     pub shadow_edge_flux: bool,
+    /// Continuation through walls (the f64 reference's `Transport::continuation`): a node
+    /// facing away from a light gets the particular solution of the beam that entered on the
+    /// light's side, attenuated along the refracted path (the entry found in the light's shadow
+    /// view, its face taken parallel: exact for a slab). Without it the far face of a thin wall
+    /// knows nothing of the beam (T 1.06-2.3x too bright below 4 mean free paths,
+    /// benches/thinwall/slab_rule.py).
+    pub continuation: bool,
 }
 
 /// One light as `gather_q.comp` reads it (std430, all vec4).
@@ -596,6 +606,10 @@ impl IrradiancePass {
                     if grosjean { 1.0 } else { 0.0 },
                 ]
             }),
+            beam_continuation: match self.beam {
+                Some(b) if b.continuation => 1.0,
+                _ => 0.0,
+            },
         };
         // SAFETY: the caller's contract.
         unsafe {

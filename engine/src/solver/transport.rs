@@ -132,7 +132,11 @@ pub struct Transport {
     /// the path: exact for a slab. Off: only directly lit nodes carry a particular solution.
     pub continuation: bool,
     /// Walls thinner than this many transport mean free paths along the refracted beam fall back
-    /// to the boundary flux (0: never).
+    /// to the boundary flux (0: never, the measured rule). Measured on the slab against Monte
+    /// Carlo (benches/thinwall/slab_rule.py, RESULTS "Thin walls: the beam through the wall"):
+    /// with `continuation` the beam's transmission is within 2% at every thickness from 0.5 to 8
+    /// mean free paths where the flux is 0.84-0.89 above 3 and up to 3.6x below; without
+    /// continuation the beam beats the flux above ~3.3 mean free paths only.
     pub thin_wall_mfp: f64,
     pub single_scattering: SingleScattering,
     pub surface: SurfaceReconstruction,
@@ -174,8 +178,8 @@ impl Transport {
 
     /// What the GPU frame computes with `GpuSolveParams::collimated` (render `--beam-source`): the
     /// moments query, the lights' collimated source at the lit nodes only (no continuation
-    /// through the body, no thin-wall fallback), the environment as a boundary flux, Shepard
-    /// shading weights, no single scattering.
+    /// through the body unless set, as `GpuSolveParams::continuation`; no thin-wall fallback),
+    /// the environment as a boundary flux, Shepard shading weights, no single scattering.
     pub fn gpu_collimated() -> Self {
         Self {
             exit: ExitQuery::Moments,

@@ -81,6 +81,10 @@ pub(super) fn solver_options(args: &RenderArgs, on_gpu: bool) -> anyhow::Result<
     if args.shadow_edge_flux && args.light_source() == solver::transport::Source::BoundaryFlux {
         bail!("--shadow-edge-flux applies to a beam source (--source beam|second)");
     }
+    if args.continuation.is_some() && args.light_source() == solver::transport::Source::BoundaryFlux
+    {
+        bail!("--continuation applies to a beam source (--source beam|second)");
+    }
     if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");
     }

@@ -21,6 +21,11 @@ pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
 pub const DEFAULT_DIFFUSION_COEFFICIENT: translucent::material::DiffusionCoefficient =
     translucent::material::DiffusionCoefficient::Grosjean;
 
+/// `render`'s `--continuation` when not named: whether a beam source's light continues through
+/// walls to the faces turned away from the light (benches/RESULTS.md, "Thin walls: the beam
+/// through the wall").
+pub const DEFAULT_CONTINUATION: bool = false;
+
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
 pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
@@ -90,6 +95,13 @@ impl RenderArgs {
     /// A beam source asked for by name (`--source beam|second`, `--beam-source`).
     pub fn explicit_beam(&self) -> bool {
         self.beam_source || matches!(self.source.as_deref(), Some("beam" | "second"))
+    }
+
+    /// `--continuation` resolved: the given one, else [`DEFAULT_CONTINUATION`].
+    pub fn continuation(&self) -> bool {
+        self.continuation
+            .as_deref()
+            .map_or(DEFAULT_CONTINUATION, |v| v == "on")
     }
 
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on

@@ -46,6 +46,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         ("--precision", args.precision.is_some()),
         ("--source beam|second (--beam-source)", args.explicit_beam()),
         ("--shadow-edge-flux", args.shadow_edge_flux),
+        ("--continuation", args.continuation.is_some()),
         ("--scheme paper", args.scheme != "fv"),
     ] {
         if set {

@@ -151,6 +151,14 @@ pub struct RenderArgs {
     /// (a shadow edge or the terminator) enters as the boundary flux (DESIGN 2.7's fallback).
     #[arg(long)]
     pub shadow_edge_flux: bool,
+    /// With a beam source (GPU and CPU solvers, the same rule; DESIGN 2.7's thin walls): `on`, a
+    /// surface node facing away from a light gets the particular solution of the beam that
+    /// entered on the light's side of the wall, attenuated along the refracted path (exact for a
+    /// slab at any thickness; the GPU finds the entry in the light's shadow map and takes the
+    /// wall's faces parallel); `off`, only lit nodes carry a beam. Default: see
+    /// `defaults::DEFAULT_CONTINUATION`.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
+    pub continuation: Option<String>,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
     /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).
@@ -487,6 +495,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             ..if beams {
                 solver::transport::Transport {
                     source,
+                    continuation: args.continuation(),
                     ..solver::transport::Transport::gpu_collimated()
                 }
             } else {
@@ -540,6 +549,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let base = settings.solve_params();
     let gpu_params = GpuSolveParams {
         shadow_edge_flux: args.shadow_edge_flux,
+        continuation: args.continuation(),
         // The multigrid's coarse operator and cycle as named (`--coarse-*`, `--multigrid-cycle`).
         multigrid: match base.multigrid.as_ref() {
             Some(m) => Some(

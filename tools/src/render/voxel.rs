@@ -63,6 +63,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (args.iterations.is_some(), "--iterations"),
         (args.explicit_beam(), "--source beam|second (--beam-source)"),
         (args.shadow_edge_flux, "--shadow-edge-flux"),
+        (args.continuation.is_some(), "--continuation"),
     ] {
         if given {
             bail!("{name} applies to the QuadGraph method, not --method voxel");
