@@ -33,7 +33,7 @@ pub(super) fn bench_bake(
     baked: &Baked,
     field: &MaterialField,
     scene: &scene::Scene,
-    previous: &scene::Scene,
+    previous: &[scene::Scene],
     solid: &dyn translucent::mesh::Solid,
     frame_desc: &FrameDesc,
     sweep: &Sweep,
@@ -197,22 +197,26 @@ pub(super) struct GpuRun {
 
 /// One configuration through the frame the object ships ([`TranslucentObject`] recorded by a
 /// headless host): a warm-up frame, then `repeats` timed frames of `scene`. Cold: skipping off,
-/// so every frame solves from scratch. Warm: each timed frame follows an untimed one with the
-/// `previous` lights, so every timed solve starts from the solution of the lights a few degrees
-/// away, as in a host whose light moves.
+/// so every frame solves from scratch. Warm: each timed frame follows untimed ones with the
+/// `previous` lights (oldest first, a few degrees apart), so every timed solve starts from the
+/// solutions of a light moving steadily towards `scene`'s, as in a host whose light moves (and
+/// the warm start's extrapolation through the last solutions sees that motion).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run_gpu(
     ctx: &Context,
     graph: &Arc<QuadGraph>,
     field: &MaterialField,
     scene: &scene::Scene,
-    previous: &scene::Scene,
+    previous: &[scene::Scene],
     frame_desc: &FrameDesc,
     config: &Config,
     repeats: u32,
 ) -> anyhow::Result<GpuRun> {
     let params = object_params(config, field, frame_desc);
-    let first = if config.warm { previous } else { scene };
+    let first = match previous.first() {
+        Some(oldest) if config.warm => oldest,
+        _ => scene,
+    };
     let mut object = TranslucentObject::new(ctx, graph.clone(), field, first, &params)?;
     object.set_camera(frame_desc.camera)?;
     let mut host = HeadlessHost::new(ctx, frame_desc.width, frame_desc.height)?;
@@ -220,8 +224,10 @@ pub(super) fn run_gpu(
     let mut last = None;
     for i in 0..=repeats {
         if config.warm {
-            object.set_lights(previous)?;
-            host.render(ctx, &mut object)?;
+            for lights in previous {
+                object.set_lights(lights)?;
+                host.render(ctx, &mut object)?;
+            }
             object.set_lights(scene)?;
         }
         let (captured, report) = host.render(ctx, &mut object)?;

@@ -11,6 +11,7 @@
 //! | `ctol` | `coarse_tolerance` | `ctol=0.3` |
 //! | `fmg` | `fmg_cycles` | `fmg=2` |
 //! | `krylov` | `krylov` (0 or 1) | `krylov=0` |
+//! | `warm` | `warm_start` (last, linear, quadratic) | `warm=last` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
@@ -71,9 +72,14 @@ impl MultigridParams {
                         v => return Err(bad(format!("krylov: `{v}` is not 0 or 1"))),
                     }
                 }
+                "warm" => {
+                    p.warm_start = value
+                        .parse()
+                        .map_err(|_| bad(format!("warm: `{value}` is not last, linear or quadratic")))?
+                }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, krylov)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, krylov, warm)"
                     )))
                 }
             }
