@@ -224,5 +224,6 @@ fn a_light_jump_after_steady_frames_still_converges() {
         &exact(&graph, &field, &jumped),
         &report,
     );
+    drop(solve);
     gpu.finish();
 }
