@@ -26,6 +26,9 @@ pub(super) const FRAME_SCOPES: u64 = 2048;
 /// the block's sweeps and one for its reduction.
 pub(super) const BLOCK: u32 = 8;
 
+/// Per-node RGB values (q, J+).
+type Rgb = [f64; 3];
+
 /// Runs every configuration on one bake: the exact rows first, then the GPU frames.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn bench_bake(
@@ -103,7 +106,7 @@ pub(super) fn bench_bake(
     }
 
     // Per scheme: the first gathered q and its exact J+.
-    let mut same_q: BTreeMap<&'static str, (Vec<[f64; 3]>, Vec<[f64; 3]>)> = BTreeMap::new();
+    let mut same_q: BTreeMap<&'static str, (Vec<Rgb>, Vec<Rgb>)> = BTreeMap::new();
     for config in configs {
         let scheme = scheme_name(config.scheme);
         let family_name = format!(

@@ -142,10 +142,10 @@ impl Sweep {
                 ..translucent::solver::multigrid::MultigridParams::gpu()
             }
             .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))
-                .map_err(|e| BenchError::BadOption {
-                    option: "--multigrid-cycle",
-                    problem: e.to_string(),
-                })?,
+            .map_err(|e| BenchError::BadOption {
+                option: "--multigrid-cycle",
+                problem: e.to_string(),
+            })?,
         };
         // The headless frame's profiler must hold every scope of the largest frame, or the
         // timings would silently leave out the last blocks.

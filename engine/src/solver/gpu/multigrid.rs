@@ -701,10 +701,17 @@ impl GpuMultigrid {
         // The warm start's order: what the kept solutions allow; each warm solve keeps one more
         // (the oldest drops out), a cold one starts a new chain.
         let slots = self.params.warm_start.history();
-        let order = if warm { self.history.get().min(slots) } else { 0 };
+        let order = if warm {
+            self.history.get().min(slots)
+        } else {
+            0
+        };
         self.warm_order.set(order);
-        self.history
-            .set(if warm { (self.history.get() + 1).min(slots) } else { 0 });
+        self.history.set(if warm {
+            (self.history.get() + 1).min(slots)
+        } else {
+            0
+        });
         let top = self.top();
         let mut control: MultigridControl = bytemuck::Zeroable::zeroed();
         for (l, level) in self.levels.iter().enumerate() {

@@ -73,9 +73,9 @@ impl MultigridParams {
                     }
                 }
                 "warm" => {
-                    p.warm_start = value
-                        .parse()
-                        .map_err(|_| bad(format!("warm: `{value}` is not last, linear or quadratic")))?
+                    p.warm_start = value.parse().map_err(|_| {
+                        bad(format!("warm: `{value}` is not last, linear or quadratic"))
+                    })?
                 }
                 k => {
                     return Err(bad(format!(
