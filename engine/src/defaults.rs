@@ -28,7 +28,7 @@ use crate::frame::{BounceMode, ScatterMode, ScatterParams};
 use crate::material::MaterialField;
 use crate::object::ObjectParams;
 use crate::solver::gpu::{GpuSolveParams, HeterogeneousWeights, Precision};
-use crate::solver::multigrid::MultigridParams;
+use crate::solver::multigrid::{MultigridParams, WarmStart};
 use crate::solver::transport::{ExitQuery, Source, SurfaceReconstruction};
 use crate::solver::Scheme;
 
@@ -58,6 +58,11 @@ pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
 /// gets none without casting rays). An object takes the links its graph carries
 /// ([`crate::QuadGraph::bounce`]); a graph without links renders without the bounce.
 pub const BOUNCE: BounceMode = BounceMode::Local;
+
+/// Where the multigrid's warm start starts (benches/RESULTS.md, "Warm start from extrapolated
+/// solutions (wave 7)"): the solution extrapolated through the last two frames' solutions
+/// (a light moving steadily); the first warm frame after a cold one starts from the last.
+pub const WARM_START: WarmStart = WarmStart::Linear;
 
 /// How the levels are used (DESIGN 5.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -101,6 +106,8 @@ pub struct Settings {
     /// One bounce between display vertices ([`crate::frame::bounce`]): [`BOUNCE`] for the
     /// QuadGraph method, off for the others.
     pub bounce: BounceMode,
+    /// The multigrid's warm start ([`WARM_START`]; unused by the cascade).
+    pub warm_start: WarmStart,
 }
 
 impl Settings {
@@ -123,6 +130,7 @@ impl Settings {
             heterogeneous_weights: HeterogeneousWeights::Derived,
             single_scattering: Some(scatter_for(source, SCATTER_SAMPLES, true)),
             bounce: BOUNCE,
+            warm_start: WARM_START,
         }
     }
 
@@ -187,6 +195,7 @@ impl Settings {
             heterogeneous_weights: self.heterogeneous_weights,
             multigrid: (self.schedule == Schedule::Multigrid).then(|| MultigridParams {
                 tolerance: self.tolerance,
+                warm_start: self.warm_start,
                 ..MultigridParams::gpu()
             }),
             ..GpuSolveParams::default()
@@ -229,6 +238,7 @@ impl Settings {
             heterogeneous_weights: s.heterogeneous_weights,
             single_scattering: params.single_scattering,
             bounce: params.bounce,
+            warm_start: s.multigrid.as_ref().map_or(WARM_START, |m| m.warm_start),
         }
     }
 }

@@ -2,7 +2,12 @@
 #extension GL_GOOGLE_include_directive : require
 // The finest level's right-hand side from the gather's q image: f = S b = rhs_coef * q (row scale
 // times q_gain on surface rows, 0 on inner rows), times the exposure like q. Mode 1 (cold start):
-// x = 0 too; mode 0 (warm start): a non-finite x (a diverged last solve) restarts from 0.
+// x = 0 too; mode 0 (warm start): a non-finite x (a diverged last solve) restarts from 0; mode
+// 2 + k (warm start extrapolated, k + 1 earlier solutions kept in x_history, node-major per slot):
+// x = alpha.x x + alpha.y x_history[0] + alpha.z x_history[1] (Newton's backward differences:
+// the last solution, the linear or the quadratic extrapolation), then the slots shift by one
+// (the oldest drops out, the last solution enters slot 0); a non-finite result keeps the last
+// solution.
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
@@ -12,6 +17,11 @@ layout(set = 0, binding = 1, std430) writeonly buffer Fs { vec4 v[]; } f;
 layout(set = 0, binding = 2, std430) buffer Xs { vec4 v[]; } x;
 layout(set = 0, binding = 3, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
 layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { vec4 v[]; } rhs_coef;
+layout(set = 0, binding = 5, std430) buffer XHistory { vec4 v[]; } x_history;
+
+bool finite(vec3 v) {
+    return !(any(isnan(v)) || any(isinf(v)));
+}
 
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
@@ -28,10 +38,22 @@ void main() {
     f.v[i] = vec4(value, 0.0);
     if (pc.mode == 1u) {
         x.v[i] = vec4(0.0);
-    } else {
-        vec3 xi = x.v[i].rgb;
-        if (any(isnan(xi)) || any(isinf(xi))) {
-            x.v[i] = vec4(0.0);
+        return;
+    }
+    vec3 xi = x.v[i].rgb;
+    if (!finite(xi)) {
+        xi = vec3(0.0);
+        x.v[i] = vec4(0.0);
+    }
+    if (pc.mode >= 2u) {
+        uint slots = pc.mode - 1u;
+        vec3 h0 = x_history.v[node].rgb;
+        vec3 h1 = slots > 1u ? x_history.v[pc.count + node].rgb : vec3(0.0);
+        vec3 next = pc.alpha.x * xi + pc.alpha.y * h0 + pc.alpha.z * h1;
+        if (slots > 1u) {
+            x_history.v[pc.count + node] = vec4(h0, 0.0);
         }
+        x_history.v[node] = vec4(xi, 0.0);
+        x.v[i] = vec4(finite(next) ? next : xi, 0.0);
     }
 }

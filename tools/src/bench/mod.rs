@@ -22,10 +22,12 @@
 //! everything but `--iterations` and `--tolerance`, drawn in one colour. The Pareto front (no
 //! configuration both faster and more accurate) is marked in the CSV and the plot.
 //!
-//! A warm start (`--start warm`) alternates the lights between `--warm-degrees` about +Y and
-//! the scene's own every frame, each frame starting from the previous one's solution (a light
-//! swinging a few degrees per frame); only the frames with the scene's own lights are timed and
-//! measured, so cold and warm rows solve the same problem.
+//! A warm start (`--start warm`) turns the lights about +Y in steps of `--warm-degrees` towards
+//! the scene's own: [`WARM_PATH`] untimed frames at -3, -2 and -1 steps, then the timed frame
+//! with the scene's lights, each frame starting from the previous ones' solutions (a light
+//! moving steadily a few degrees per frame, which the warm start's extrapolation assumes); only
+//! the frames with the scene's own lights are timed and measured, so cold and warm rows solve
+//! the same problem.
 //!
 //! Outputs `DIR/bench.csv` and `DIR/bench.png` (`translucent_benches::plot`: log-log, decade
 //! labels, x = solve GPU ms, y = error (a); a second panel with error (c), else (b), when there is
@@ -82,6 +84,9 @@ use sweep::*;
 /// `--schedule`'s default: the library's ([`translucent::defaults::Settings::schedule`]; a unit
 /// test keeps them equal, as clap's default is text).
 const DEFAULT_SCHEDULE: &str = "multigrid";
+/// Untimed frames before each timed warm frame, the lights turning one `--warm-degrees` step
+/// each: enough earlier solutions for the quadratic warm start (`warm=quadratic`: three).
+pub const WARM_PATH: u32 = 3;
 
 /// What the sweep runs where it deliberately differs from `render`'s defaults (said in `--help`
 /// and the README): the boundary-flux source and no single scattering, because errors (a) and
@@ -336,10 +341,14 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         environment,
     };
     scene.validate()?;
-    let previous = scene::Scene {
-        lights: turned(&lights, -args.warm_degrees),
-        environment,
-    };
+    // Oldest first: -WARM_PATH steps, ..., -1 step.
+    let previous: Vec<scene::Scene> = (1..=WARM_PATH)
+        .rev()
+        .map(|k| scene::Scene {
+            lights: turned(&lights, -f64::from(k) * args.warm_degrees),
+            environment,
+        })
+        .collect();
     // (b): a sphere of radius size/2 of a homogeneous material lit only by a constant environment.
     let closed_form = match (&field, environment, args.mesh.is_none()) {
         (MaterialField::Homogeneous(m), Environment::Constant(_), true)

@@ -136,12 +136,16 @@ impl Sweep {
                     option: "--heterogeneous-weights",
                     problem: format!("'{}' (derived or stored)", args.heterogeneous_weights),
                 })?,
-            cycle: translucent::solver::multigrid::MultigridParams::gpu()
-                .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))
-                .map_err(|e| BenchError::BadOption {
-                    option: "--multigrid-cycle",
-                    problem: e.to_string(),
-                })?,
+            // The library's warm start unless the spec names another (`warm=last`).
+            cycle: translucent::solver::multigrid::MultigridParams {
+                warm_start: translucent::defaults::WARM_START,
+                ..translucent::solver::multigrid::MultigridParams::gpu()
+            }
+            .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))
+            .map_err(|e| BenchError::BadOption {
+                option: "--multigrid-cycle",
+                problem: e.to_string(),
+            })?,
         };
         // The headless frame's profiler must hold every scope of the largest frame, or the
         // timings would silently leave out the last blocks.

@@ -555,6 +555,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             Some(m) => Some(
                 MultigridParams {
                     tolerance: m.tolerance,
+                    warm_start: m.warm_start,
                     ..coarse_gpu.clone()
                 }
                 .with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?,

@@ -103,6 +103,7 @@ pub(super) fn gpu_multigrid_json(
     let mut json = serde_json::json!({
         "solver": "gpu",
         "warm": m.warm,
+        "warm_order": m.warm_order,
         "cycles": m.cycles.len(),
         "work_units": m.work_units,
         "matvec_units": m.matvec_units,

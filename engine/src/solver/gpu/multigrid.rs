@@ -19,7 +19,9 @@
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
 //! a sweep): `rhs` (f from the gather's q image), then cold: full multigrid (f restricted to every
 //! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval, then per level
-//! going up: prolongation and one V-cycle) or warm: the last solution. Then V-cycles (smoother:
+//! going up: prolongation and one V-cycle) or warm: the last solution, or with
+//! [`MultigridParams::warm_start`] the polynomial through the last two or three (`rhs` keeps the
+//! earlier solutions of the finest level in `x_history`). Then V-cycles (smoother:
 //! Chebyshev-accelerated block Jacobi, nu1/nu2 steps of `residual` + `smooth`; `restrict`,
 //! `prolong`) until the relative residual of the finest level, `max_c ||f - K x|| / ||f||`, is
 //! below the tolerance: after every cycle `norm` sums squares per workgroup and `check` (one
@@ -63,7 +65,7 @@ use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
     chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, MultigridParams,
-    OperatorStorage, Smoother,
+    OperatorStorage, Smoother, WarmStart,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -140,6 +142,9 @@ pub enum CycleState {
 pub struct GpuMultigridReport {
     /// Started from the last solution (V-cycles only).
     pub warm: bool,
+    /// Order of the warm start's extrapolation (0: the last solution; 1: linear through the last
+    /// two; 2: quadratic through the last three); 0 when cold.
+    pub warm_order: u32,
     /// Cold: the full multigrid pass first, then the V-cycles; warm: the V-cycles (factor against
     /// the starting residual).
     pub cycles: Vec<CycleReport>,
@@ -183,6 +188,11 @@ pub struct GpuMultigrid {
     control: Buffer,
     pipelines: Vec<(ComputePipeline<MultigridPush>, vk::DescriptorSet)>,
     warm: Cell<bool>,
+    /// The warm start's order of the last solve ([`GpuMultigridReport::warm_order`]).
+    warm_order: Cell<u32>,
+    /// Earlier solutions in `x_history` of the chain the finest x continues (0 after a cold
+    /// start: its x was not warm-started from them).
+    history: Cell<u32>,
     bytes: u64,
     /// Bytes per buffer, in [`BUFFER_NAMES`] order, then the control record.
     buffer_bytes: Vec<(&'static str, u64)>,
@@ -205,6 +215,11 @@ const CG_APPLY: u32 = 1;
 const CG_STEP: u32 = 2;
 const CG_START_RESIDUAL: u32 = 3;
 const CG_FINISH: u32 = 5;
+/// Modes of `multigrid/rhs.comp`: a warm start from the last solution, a cold start (x = 0), a
+/// warm start extrapolated through `x_history` (`RHS_EXTRAPOLATE + slots - 1`).
+const RHS_WARM: u32 = 0;
+const RHS_COLD: u32 = 1;
+const RHS_EXTRAPOLATE: u32 = 2;
 /// Modes of `multigrid/check.comp`.
 const CHECK_REFERENCE: u32 = 0;
 const CHECK_RESIDUAL: u32 = 1;
@@ -218,7 +233,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid rhs",
         "multigrid/rhs.comp",
-        &["q", "f", "x", "node_texel", "rhs_coef"],
+        &["q", "f", "x", "node_texel", "rhs_coef", "x_history"],
     ),
     (
         "multigrid residual",
@@ -286,7 +301,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
 ];
 
 /// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 23] = [
+const BUFFER_NAMES: [&str; 24] = [
     "x",
     "f",
     "r",
@@ -310,11 +325,21 @@ const BUFFER_NAMES: [&str; 23] = [
     "z_old",
     "kdir",
     "values16",
+    "x_history",
 ];
 
 /// The buffers the kernels write (the others are written once, from the host).
-const WRITTEN: [&str; 9] = [
-    "x", "f", "r", "d", "partials", "sol", "dir", "z_old", "kdir",
+const WRITTEN: [&str; 10] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "partials",
+    "sol",
+    "dir",
+    "z_old",
+    "kdir",
+    "x_history",
 ];
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
@@ -445,7 +470,9 @@ impl GpuMultigrid {
         let zeros = vec![[0.0f32; 4]; total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
         let krylov_zeros = vec![[0.0f32; 4]; if params.krylov { n_top } else { 0 }];
-        let contents: [Vec<u8>; 23] = [
+        // The warm start's earlier finest solutions (`WarmStart::history` vectors).
+        let history_zeros = vec![[0.0f32; 4]; params.warm_start.history() as usize * n_top];
+        let contents: [Vec<u8>; 24] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
@@ -470,6 +497,7 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&ops.values16).to_vec(),
+            bytemuck::cast_slice(&history_zeros).to_vec(),
         ];
         let mut buffers = Vec::with_capacity(BUFFER_NAMES.len());
         let mut bytes = 0u64;
@@ -561,6 +589,8 @@ impl GpuMultigrid {
             control,
             pipelines,
             warm: Cell::new(false),
+            warm_order: Cell::new(0),
+            history: Cell::new(0),
             bytes,
             buffer_bytes,
         })
@@ -670,6 +700,20 @@ impl GpuMultigrid {
         use vk::AccessFlags2 as A;
         use vk::PipelineStageFlags2 as S;
         self.warm.set(warm);
+        // The warm start's order: what the kept solutions allow; each warm solve keeps one more
+        // (the oldest drops out), a cold one starts a new chain.
+        let slots = self.params.warm_start.history();
+        let order = if warm {
+            self.history.get().min(slots)
+        } else {
+            0
+        };
+        self.warm_order.set(order);
+        self.history.set(if warm {
+            (self.history.get() + 1).min(slots)
+        } else {
+            0
+        });
         let top = self.top();
         let mut control: MultigridControl = bytemuck::Zeroable::zeroed();
         for (l, level) in self.levels.iter().enumerate() {
@@ -708,7 +752,13 @@ impl GpuMultigrid {
             );
             scope(profiler, ctx, cb, Some(PASS_MG_START));
             let n_top = self.levels[top].count;
-            rec.direct(RHS, top, u32::from(!warm), n_top);
+            let rhs_mode = match (warm, slots) {
+                (false, _) => RHS_COLD,
+                (true, 0) => RHS_WARM,
+                (true, n) => RHS_EXTRAPOLATE + n - 1,
+            };
+            let c = WarmStart::coefficients(order).map(f64::from);
+            rec.direct_with(RHS, top, rhs_mode, c, n_top);
             rec.direct(NORM, top, 1, n_top);
             rec.check(CHECK_REFERENCE);
             if !warm {
@@ -833,9 +883,15 @@ impl GpuMultigrid {
         let mut cycles = Vec::new();
         // The start: warm, the residual's norm; cold, the full multigrid pass (f restricted,
         // the coarsest solved, per level a prolongation and a V-cycle) and the residual's norm.
+        // A warm start keeping earlier solutions also reads and shifts them (one pass).
+        let extrapolation = if warm && self.params.warm_start.history() > 0 {
+            n_top
+        } else {
+            0
+        };
         let start = krylov_ends
             + if warm {
-                n_top
+                n_top + extrapolation
             } else {
                 (1..=top)
                     .map(|l| {
@@ -910,6 +966,7 @@ impl GpuMultigrid {
             (start_entries + v_cycles * v_entries) as f64 / top_entries.max(1) as f64;
         Ok(GpuMultigridReport {
             warm,
+            warm_order: self.warm_order.get(),
             start_residual: log.first().copied().unwrap_or(f64::NAN),
             residual,
             converged: state == CycleState::Converged,

@@ -14,6 +14,7 @@
 //! | `krylov` | `krylov` (0 or 1) | `krylov=0` |
 //! | `psmooth` | `pattern_smoothing` (`S/STEPS`: `S / lambda_max` per Jacobi step on P's links) | `psmooth=0.67/2` |
 //! | `interp` | `interpolation` (`shepard`, `linear`, `mixed`) | `interp=linear` |
+//! | `warm` | `warm_start` (last, linear, quadratic) | `warm=last` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
@@ -98,9 +99,14 @@ impl MultigridParams {
                         }
                     }
                 }
+                "warm" => {
+                    p.warm_start = value.parse().map_err(|_| {
+                        bad(format!("warm: `{value}` is not last, linear or quadratic"))
+                    })?
+                }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm)"
                     )))
                 }
             }

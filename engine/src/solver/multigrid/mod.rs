@@ -163,6 +163,61 @@ pub enum Interpolation {
     Mixed,
 }
 
+/// Where a warm-started GPU solve starts (`--multigrid-cycle warm=last|linear|quadratic`): the
+/// last solution, or a polynomial in time through the last two or three solutions (a light moving
+/// steadily changes the solution smoothly: the last solution's error is first order in the step,
+/// the linear extrapolation's second, the quadratic's third). Each order keeps one more finest
+/// vector (16 bytes per finest node); with fewer solutions since the last cold start (the first
+/// warm frames) the order drops to what there is. Measured in benches/RESULTS.md, "Warm start
+/// from extrapolated solutions (wave 7)".
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum WarmStart {
+    /// x_{n-1}.
+    #[default]
+    Last,
+    /// 2 x_{n-1} - x_{n-2}.
+    Linear,
+    /// 3 x_{n-1} - 3 x_{n-2} + x_{n-3}.
+    Quadratic,
+}
+
+impl WarmStart {
+    /// Earlier solutions kept besides the last (the history vectors).
+    pub fn history(self) -> u32 {
+        match self {
+            Self::Last => 0,
+            Self::Linear => 1,
+            Self::Quadratic => 2,
+        }
+    }
+
+    /// The extrapolation's coefficients of x_{n-1}, x_{n-2}, x_{n-3} (Newton's backward
+    /// differences) for `order` (0: the last solution).
+    pub fn coefficients(order: u32) -> [f32; 3] {
+        match order {
+            0 => [1.0, 0.0, 0.0],
+            1 => [2.0, -1.0, 0.0],
+            _ => [3.0, -3.0, 1.0],
+        }
+    }
+}
+
+impl std::str::FromStr for WarmStart {
+    type Err = SolverError;
+
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "last" => Ok(Self::Last),
+            "linear" => Ok(Self::Linear),
+            "quadratic" => Ok(Self::Quadratic),
+            _ => Err(SolverError::BadParameter {
+                name: "warm_start",
+                problem: format!("'{s}' (expected last, linear or quadratic)"),
+            }),
+        }
+    }
+}
+
 /// How a solve starts.
 #[derive(Clone, Copy, Debug)]
 pub enum Start<'a> {
@@ -222,6 +277,8 @@ pub struct MultigridParams {
     pub fmg_sweeps: Option<(u32, u32)>,
     /// Lanczos (CG) steps for lambda_max of `B^-1 K` (Chebyshev and the smoothed prolongation).
     pub power_iterations: u32,
+    /// Where the GPU's warm start starts (the CPU solve takes its start from the caller).
+    pub warm_start: WarmStart,
 }
 
 impl Default for MultigridParams {
@@ -249,6 +306,7 @@ impl Default for MultigridParams {
             fmg_cycles: 1,
             fmg_sweeps: None,
             power_iterations: 20,
+            warm_start: WarmStart::Last,
         }
     }
 }

@@ -40,8 +40,24 @@ impl Recorder<'_> {
     /// # Safety
     /// As [`GpuMultigrid::record`].
     pub(super) unsafe fn direct(&self, kernel: usize, level: usize, mode: u32, invocations: u32) {
+        // SAFETY: the caller's contract.
+        unsafe { self.direct_with(kernel, level, mode, [0.0; 3], invocations) }
+    }
+
+    /// [`Self::direct`] with the push constants' `alpha` (the warm start's coefficients).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn direct_with(
+        &self,
+        kernel: usize,
+        level: usize,
+        mode: u32,
+        alpha: [f64; 3],
+        invocations: u32,
+    ) {
         let (pipeline, set) = &self.mg.pipelines[kernel];
-        let push = self.push(kernel, level, mode, [0.0; 3], [0.0; 3]);
+        let push = self.push(kernel, level, mode, alpha, [0.0; 3]);
         // SAFETY: the caller's contract.
         unsafe {
             // why: every kernel reads what the one before wrote (RAW) and overwrites what
