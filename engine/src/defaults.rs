@@ -25,7 +25,7 @@
 //! ```
 
 use crate::frame::{BounceMode, ScatterMode, ScatterParams};
-use crate::material::MaterialField;
+use crate::material::{DiffusionCoefficient, MaterialField};
 use crate::object::ObjectParams;
 use crate::solver::gpu::{GpuSolveParams, HeterogeneousWeights, Precision};
 use crate::solver::multigrid::MultigridParams;
@@ -58,6 +58,11 @@ pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
 /// gets none without casting rays). An object takes the links its graph carries
 /// ([`crate::QuadGraph::bounce`]); a graph without links renders without the bounce.
 pub const BOUNCE: BounceMode = BounceMode::Local;
+/// The QuadGraph method's diffusion coefficient (benches/RESULTS.md, "Diffusion coefficient at
+/// low albedo": against the path-traced references Grosjean's D is level or better on every
+/// scene with the Shepard surface; it differs from 1 / (3 sigma_t') only at low albedo). The
+/// voxel and dipole methods keep 1 / (3 sigma_t').
+pub const DIFFUSION: DiffusionCoefficient = DiffusionCoefficient::Grosjean;
 
 /// How the levels are used (DESIGN 5.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -101,6 +106,9 @@ pub struct Settings {
     /// One bounce between display vertices ([`crate::frame::bounce`]): [`BOUNCE`] for the
     /// QuadGraph method, off for the others.
     pub bounce: BounceMode,
+    /// The diffusion coefficient D the solve, its sources, the exit query and the bounce use:
+    /// [`DIFFUSION`] for the QuadGraph method, classical for the others (which read none).
+    pub diffusion: DiffusionCoefficient,
 }
 
 impl Settings {
@@ -123,6 +131,7 @@ impl Settings {
             heterogeneous_weights: HeterogeneousWeights::Derived,
             single_scattering: Some(scatter_for(source, SCATTER_SAMPLES, true)),
             bounce: BOUNCE,
+            diffusion: DIFFUSION,
         }
     }
 
@@ -142,6 +151,7 @@ impl Settings {
             crate::frame::MethodKind::QuadGraph => settings,
             _ => Settings {
                 bounce: BounceMode::Off,
+                diffusion: DiffusionCoefficient::Classical,
                 ..settings.with_source(Source::BoundaryFlux)
             },
         }
@@ -199,6 +209,7 @@ impl Settings {
             solve: self.solve_params(),
             single_scattering: self.single_scattering,
             bounce: self.bounce,
+            diffusion: self.diffusion,
             ..ObjectParams::base()
         }
     }
@@ -229,6 +240,7 @@ impl Settings {
             heterogeneous_weights: s.heterogeneous_weights,
             single_scattering: params.single_scattering,
             bounce: params.bounce,
+            diffusion: params.diffusion,
         }
     }
 }
@@ -300,5 +312,12 @@ mod tests {
         assert_eq!(Settings::realtime(true).source, Source::SecondCollision);
         assert_eq!(Settings::realtime(false).source, Source::BoundaryFlux);
         assert_eq!(Settings::realtime(false).schedule, Schedule::Multigrid);
+        // render's QuadGraph D is the library's (it was render's alone before).
+        assert_eq!(ObjectParams::default().diffusion, DIFFUSION);
+        assert_eq!(DIFFUSION, DiffusionCoefficient::Grosjean);
+        assert_eq!(
+            Settings::for_method(crate::frame::MethodKind::Voxel, true).diffusion,
+            DiffusionCoefficient::Classical
+        );
     }
 }

@@ -81,8 +81,8 @@ fn a_tiny_sweep_measures_all_three_errors_and_the_exact_row_is_its_own_zero() {
         // The bench draws one sample per pixel.
         "--supersample",
         "1",
-        // The bench's model: render's quadgraph default is Grosjean's D, the library's (and the
-        // bench's) 1 / (3 sigma_t').
+        // The bench's model: render's (and the library's) QuadGraph default is Grosjean's D; the
+        // bench pins the material's own 1 / (3 sigma_t') for its exact-solution comparisons.
         "--diffusion-coefficient",
         "classical",
     ];

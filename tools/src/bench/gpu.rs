@@ -286,9 +286,11 @@ pub(super) fn run_gpu(
 
 /// The settings one configuration of the sweep runs: the library's real-time defaults for
 /// `field` ([`Settings::for_material`], as `render` and `view` start from) with the swept
-/// options, and two deliberate pins for comparability: the boundary-flux source (errors (a) and
+/// options, and deliberate pins for comparability: the boundary-flux source (errors (a) and
 /// (b) compare J+ with the exact discrete solution and the closed form of the boundary-flux
-/// system) and no single scattering (not part of the solve the bench measures).
+/// system), no single scattering and no bounce (not part of the solve the bench measures), and
+/// the material's own diffusion coefficient (classical: what the exact solution and the closed
+/// form use; render's QuadGraph default is Grosjean's).
 pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings {
     let mut settings = Settings::for_material(field).with_source(Source::BoundaryFlux);
     settings.schedule = if config.multigrid {
@@ -305,6 +307,9 @@ pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings
     settings.single_scattering = None;
     // Pinned: the sweep's errors compare with the diffusion system's exact solution.
     settings.bounce = translucent::frame::BounceMode::Off;
+    // Pinned: the exact solution and the closed form are the material's own D (classical
+    // unless the material says otherwise), not the QuadGraph's real-time default.
+    settings.diffusion = field.diffusion();
     settings
 }
 
