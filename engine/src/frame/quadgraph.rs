@@ -40,7 +40,6 @@ use crate::solver::gpu::edit::StagedEdits;
 use crate::solver::gpu::{
     Deformation, GpuDiffusion, GpuSolveParams, LevelControl, SolvePlan, PASS_EXITANCE, PASS_SOLVE,
 };
-use crate::solver::operator::LevelOperator;
 use crate::solver::SolverError;
 use crate::vk::barrier::Use;
 use crate::vk::{Access, Buffer, BufferDesc, Context, MemoryUse};
@@ -239,8 +238,9 @@ impl QuadGraphMethod {
     }
 
     /// Headless, after the frame completed: residual and energy of the finest level from the
-    /// GPU's phi, computed in f64 with the reference's q (`Scene::surface_irradiance` with
-    /// `occluder`), which the gathered q approximates (fp16, shadow maps instead of rays).
+    /// GPU's phi, computed in f64 with the reference's sources for the solve's light source
+    /// ([`crate::solver::cpu::balance`], lights ray-cast against `occluder`), which the gathered
+    /// q approximates (fp16, shadow maps instead of rays).
     pub fn report(
         &self,
         ctx: &Context,
@@ -248,34 +248,25 @@ impl QuadGraphMethod {
         scene: &Scene,
         occluder: Option<&dyn crate::mesh::Solid>,
     ) -> Result<QuadGraphReport, Error> {
-        let level = self.graph.finest();
-        let boundary = self.solve.boundary();
-        let op =
-            LevelOperator::build_with(level, field, self.solve.params().scheme, boundary.exit)?;
-        let t_env = boundary.diffuse_transmittance();
-        let q = scene.surface_irradiance_with(level, field.eta(), occluder, t_env);
-        let b = op.rhs(&q);
         let phi: Vec<[f64; 3]> = self
             .solve
             .read_phi(ctx, self.graph.levels.len() - 1)?
             .iter()
             .map(|p| p.map(f64::from))
             .collect();
-        let residual = op.residual(&phi, &b);
-        let inner = level.inner_count();
-        let mut energy = Energy::default();
-        for s in 0..level.surface_count() {
-            for c in 0..3 {
-                let m = boundary.flux_exitance(phi[inner + s][c], q[s][c]);
-                energy.transmitted_input[c] += q[s][c] * op.areas[s];
-                energy.exitance[c] += m * op.areas[s];
-            }
-        }
-        for ((mu, p), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
-            for c in 0..3 {
-                energy.absorbed[c] += mu[c] * p[c] * v;
-            }
-        }
+        // The f64 reference's sources for the solve's light source (a beam source's particular
+        // solution and exit query included): the boundary flux alone under-reports a beam
+        // source's exitance (1196 -> 879 with `second`, benches/RESULTS.md "Loose ends").
+        let params = self.solve.params();
+        let (residual, energy) = crate::solver::cpu::balance(
+            &self.graph,
+            field,
+            scene,
+            occluder,
+            params.scheme,
+            params.transport(),
+            &phi,
+        )?;
         Ok(QuadGraphReport {
             residual,
             energy,
