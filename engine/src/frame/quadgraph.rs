@@ -492,19 +492,34 @@ impl Method for QuadGraphMethod {
 }
 
 /// Headless: one solve of `solve` (its q uploaded or gathered before) in its own submission,
-/// through a frame graph with the solve's and the exitance's passes: for tests and benchmarks
-/// of the solver alone (a frame of an object records them through [`QuadGraphMethod`]).
-/// `warm` asks for a warm start ([`GpuDiffusion::plan`] falls back to cold without a solution).
+/// through a frame graph with the staged edits' pass (a heterogeneous material's weights, a
+/// material change: [`GpuDiffusion::take_edits`], as a frame of an object runs them), the
+/// solve's and the exitance's passes: for tests and benchmarks of the solver alone (a frame of
+/// an object records them through [`QuadGraphMethod`]). `warm` asks for a warm start
+/// ([`GpuDiffusion::plan`] falls back to cold without a solution).
 pub fn solve_headless(
     ctx: &Context,
     solve: &mut GpuDiffusion,
     warm: bool,
 ) -> Result<SolvePlan, Error> {
+    let edits = solve.take_edits();
     let plan = solve.plan(warm, false);
     let solve = &*solve;
+    let edits = edits.as_ref();
     let mut result = Ok(());
     ctx.execute("diffusion solve", |cb| {
         let mut graph = FrameGraph::new(ctx);
+        if let Some(edits) = edits {
+            graph
+                .pass(PASS_EDITS)
+                .uses(solve.edit_uses(edits))
+                .record(move |p| {
+                    // SAFETY: inside the pass declaring the edits' uses; `solve` and `edits`
+                    // outlive the waited submission.
+                    unsafe { solve.record_edits(p.ctx, p.cb, edits, p.profiler()) };
+                    Ok(())
+                });
+        }
         graph
             .pass(PASS_SOLVE)
             .uses(solve.solve_uses(None))
