@@ -37,6 +37,7 @@ use crate::render::{
 use crate::scene::Scene;
 use crate::solver::cpu::Energy;
 use crate::solver::gpu::edit::StagedEdits;
+use crate::solver::gpu::multigrid::MultigridControl;
 use crate::solver::gpu::{
     Deformation, GpuDiffusion, GpuSolveParams, LevelControl, SolvePlan, PASS_EXITANCE, PASS_SOLVE,
 };
@@ -77,6 +78,8 @@ pub struct QuadGraphReport {
 struct ControlCopy {
     buffer: Buffer,
     frame: Option<u64>,
+    /// Whether that frame's solve started warm (the multigrid's report counts its start).
+    warm: bool,
 }
 
 /// This frame's work, decided by [`Method::prepare`].
@@ -194,12 +197,13 @@ impl QuadGraphMethod {
                         ctx,
                         &BufferDesc {
                             name: "diffusion control copy",
-                            size: solve.control_buffer().size,
+                            size: solve.control_copy_size(),
                             usage: vk::BufferUsageFlags::TRANSFER_DST,
                             memory: MemoryUse::Readback,
                         },
                     )?,
                     frame: None,
+                    warm: false,
                 })
             })
             .collect::<Result<Vec<_>, Error>>()?;
@@ -384,8 +388,9 @@ impl Method for QuadGraphMethod {
         });
         let slots = self.control_copies.len() as u64;
         let slot = (frame % slots) as usize;
-        if solve.is_some() {
+        if let Some(plan) = &solve {
             self.control_copies[slot].frame = Some(frame);
+            self.control_copies[slot].warm = plan.warm;
         }
         self.prepared = Prepared { edits, solve, slot };
         Ok(out)
@@ -466,12 +471,26 @@ impl Method for QuadGraphMethod {
             };
             slot.frame = None;
             let bytes = slot.buffer.read_bytes()?;
+            let levels_size = self.solve.control_buffer().size as usize;
+            let (levels, rest) = bytes.split_at(levels_size.min(bytes.len()));
+            let multigrid = match &self.solve.multigrid {
+                Some(mg) if rest.len() >= std::mem::size_of::<MultigridControl>() => {
+                    Some(mg.report_of(
+                        &bytemuck::pod_read_unaligned(
+                            &rest[..std::mem::size_of::<MultigridControl>()],
+                        ),
+                        slot.warm,
+                    )?)
+                }
+                _ => None,
+            };
             out.push(CompletedSolve {
                 frame,
-                levels: bytes
+                levels: levels
                     .chunks_exact(std::mem::size_of::<LevelControl>())
                     .map(bytemuck::pod_read_unaligned)
                     .collect(),
+                multigrid,
             });
         }
         out.sort_by_key(|s| s.frame);
