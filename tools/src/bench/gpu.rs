@@ -106,10 +106,20 @@ pub(super) fn bench_bake(
     for config in configs {
         let scheme = scheme_name(config.scheme);
         let family_name = format!(
-            "{bake_name} {scheme} {} {}{}",
+            "{bake_name} {scheme} {} {}{}{}{}",
             precision_name(config.precision),
             if config.warm { "warm" } else { "cold" },
-            if config.multigrid { " multigrid" } else { "" }
+            if config.multigrid { " multigrid" } else { "" },
+            if config.bounce == translucent::frame::BounceMode::Off {
+                String::new()
+            } else {
+                format!(" bounce {}", config.bounce.name())
+            },
+            if config.exit_lobe == translucent::scene::ExitLobe::default() {
+                String::new()
+            } else {
+                format!(" lobe {}", config.exit_lobe.name())
+            }
         );
         progress.set_message(format!(
             "{family_name} cap {} tol {}",
@@ -151,6 +161,8 @@ pub(super) fn bench_bake(
         } else {
             "cascade"
         });
+        row.bounce = Some(config.bounce.name());
+        row.exit_lobe = Some(config.exit_lobe.name());
         row.iterations_cap = Some(config.cap);
         row.tolerance = Some(config.tolerance);
         row.node_updates = Some(match &run.multigrid {
@@ -305,8 +317,9 @@ pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings
     settings.tolerance = translucent::defaults::f32_decimal(config.tolerance);
     settings.heterogeneous_weights = config.weights;
     settings.single_scattering = None;
-    // Pinned: the sweep's errors compare with the diffusion system's exact solution.
-    settings.bounce = translucent::frame::BounceMode::Off;
+    // `--bounce`, default off (pinned for comparability; after the solve, so the errors against
+    // the exact solution read the same J+ either way).
+    settings.bounce = config.bounce;
     // Pinned: the exact solution and the closed form are the material's own D (classical
     // unless the material says otherwise), not the QuadGraph's real-time default.
     settings.diffusion = field.diffusion();
@@ -335,7 +348,7 @@ pub(crate) fn object_params(
         specular: frame_desc.specular,
         roughness: frame_desc.roughness,
         radiance: frame_desc.radiance,
-        exit_lobe: frame_desc.exit_lobe,
+        exit_lobe: config.exit_lobe,
         skip: config.warm,
         ..settings.object_params()
     }
