@@ -25,7 +25,7 @@
 //! ```
 
 use crate::frame::{BounceMode, ScatterMode, ScatterParams};
-use crate::material::MaterialField;
+use crate::material::{DiffusionCoefficient, MaterialField};
 use crate::object::ObjectParams;
 use crate::solver::gpu::{GpuSolveParams, HeterogeneousWeights, Precision};
 use crate::solver::multigrid::{MultigridParams, WarmStart};
@@ -58,6 +58,11 @@ pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
 /// gets none without casting rays). An object takes the links its graph carries
 /// ([`crate::QuadGraph::bounce`]); a graph without links renders without the bounce.
 pub const BOUNCE: BounceMode = BounceMode::Local;
+/// The QuadGraph method's diffusion coefficient (benches/RESULTS.md, "Diffusion coefficient at
+/// low albedo": against the path-traced references Grosjean's D is level or better on every
+/// scene with the Shepard surface; it differs from 1 / (3 sigma_t') only at low albedo). The
+/// voxel and dipole methods keep 1 / (3 sigma_t').
+pub const DIFFUSION: DiffusionCoefficient = DiffusionCoefficient::Grosjean;
 
 /// Where the multigrid's warm start starts (benches/RESULTS.md, "Warm start from extrapolated
 /// solutions (wave 7)"): the solution extrapolated through the last two frames' solutions
@@ -108,6 +113,9 @@ pub struct Settings {
     pub bounce: BounceMode,
     /// The multigrid's warm start ([`WARM_START`]; unused by the cascade).
     pub warm_start: WarmStart,
+    /// The diffusion coefficient D the solve, its sources, the exit query and the bounce use:
+    /// [`DIFFUSION`] for the QuadGraph method, classical for the others (which read none).
+    pub diffusion: DiffusionCoefficient,
 }
 
 impl Settings {
@@ -131,6 +139,7 @@ impl Settings {
             single_scattering: Some(scatter_for(source, SCATTER_SAMPLES, true)),
             bounce: BOUNCE,
             warm_start: WARM_START,
+            diffusion: DIFFUSION,
         }
     }
 
@@ -150,6 +159,7 @@ impl Settings {
             crate::frame::MethodKind::QuadGraph => settings,
             _ => Settings {
                 bounce: BounceMode::Off,
+                diffusion: DiffusionCoefficient::Classical,
                 ..settings.with_source(Source::BoundaryFlux)
             },
         }
@@ -208,6 +218,7 @@ impl Settings {
             solve: self.solve_params(),
             single_scattering: self.single_scattering,
             bounce: self.bounce,
+            diffusion: self.diffusion,
             ..ObjectParams::base()
         }
     }
@@ -239,6 +250,7 @@ impl Settings {
             single_scattering: params.single_scattering,
             bounce: params.bounce,
             warm_start: s.multigrid.as_ref().map_or(WARM_START, |m| m.warm_start),
+            diffusion: params.diffusion,
         }
     }
 }
@@ -310,5 +322,12 @@ mod tests {
         assert_eq!(Settings::realtime(true).source, Source::SecondCollision);
         assert_eq!(Settings::realtime(false).source, Source::BoundaryFlux);
         assert_eq!(Settings::realtime(false).schedule, Schedule::Multigrid);
+        // render's QuadGraph D is the library's (it was render's alone before).
+        assert_eq!(ObjectParams::default().diffusion, DIFFUSION);
+        assert_eq!(DIFFUSION, DiffusionCoefficient::Grosjean);
+        assert_eq!(
+            Settings::for_method(crate::frame::MethodKind::Voxel, true).diffusion,
+            DiffusionCoefficient::Classical
+        );
     }
 }

@@ -121,6 +121,12 @@ pub struct ObjectParams {
     /// them with [`BounceLinks::build`] and store them there, or call [`Self::set_bounce`]);
     /// links without a single link (a convex object) record no pass.
     pub bounce: crate::frame::BounceMode,
+    /// The diffusion coefficient D of the QuadGraph method (solve, sources, exit query, bounce):
+    /// it replaces the material's own ([`MaterialField::with_diffusion`], what the f64 CPU
+    /// solver reads) at creation and in [`TranslucentObject::set_material`]. The other methods
+    /// keep 1 / (3 sigma_t'). Default [`crate::defaults::DIFFUSION`] (Grosjean's), as
+    /// `translucent render` runs.
+    pub diffusion: crate::material::DiffusionCoefficient,
 }
 
 impl Default for ObjectParams {
@@ -157,6 +163,7 @@ impl ObjectParams {
             single_level_nodes: SINGLE_LEVEL_NODES,
             single_scattering: None,
             bounce: crate::frame::BounceMode::Off,
+            diffusion: crate::material::DiffusionCoefficient::Classical,
         }
     }
 }
@@ -262,6 +269,11 @@ impl TranslucentObject {
         }
         check_light_count(scene)?;
         scene.validate()?;
+        let field = &*solved_field(
+            field,
+            matches!(method, MethodDesc::QuadGraph(_)),
+            params.diffusion,
+        );
         let surface = match &method {
             MethodDesc::QuadGraph(graph) => &graph.surface,
             MethodDesc::Exitance { mesh, .. }
@@ -418,6 +430,7 @@ impl TranslucentObject {
     /// A new material (homogeneous or heterogeneous): validated and staged now (a typed error
     /// changes nothing), uploaded by the next frame, which warm-starts the solve.
     pub fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
+        let field = &*self.solved_field(field);
         if let Some(bounce) = &mut self.bounce {
             let r = crate::frame::bounce::vertex_reflectance(
                 field,
@@ -567,13 +580,22 @@ impl TranslucentObject {
             ));
         }
         let r = crate::frame::bounce::vertex_reflectance(
-            field,
+            &self.solved_field(field),
             self.params.solve.exit,
             &self.rest_positions,
         );
         self.bounce = Some(BouncePass::new(ctx, &self.mesh, links, &r)?);
         self.changes.material = true;
         Ok(())
+    }
+
+    /// `field` as this object's method solves it ([`ObjectParams::diffusion`]).
+    fn solved_field<'a>(&self, field: &'a MaterialField) -> std::borrow::Cow<'a, MaterialField> {
+        solved_field(
+            field,
+            self.method.as_any().is::<QuadGraphMethod>(),
+            self.params.diffusion,
+        )
     }
 
     /// The bounce pass, when on.
@@ -984,4 +1006,19 @@ fn check_light_count(scene: &Scene) -> Result<(), Error> {
         ));
     }
     Ok(())
+}
+
+/// The material a method solves: the QuadGraph method's with the object's diffusion
+/// coefficient ([`ObjectParams::diffusion`]), the other methods' as given (they keep 1 / (3
+/// sigma_t')).
+fn solved_field(
+    field: &MaterialField,
+    quadgraph: bool,
+    diffusion: crate::material::DiffusionCoefficient,
+) -> std::borrow::Cow<'_, MaterialField> {
+    if quadgraph && field.diffusion() != diffusion {
+        std::borrow::Cow::Owned(field.clone().with_diffusion(diffusion))
+    } else {
+        std::borrow::Cow::Borrowed(field)
+    }
 }

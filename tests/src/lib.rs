@@ -256,8 +256,8 @@ pub fn relative_difference(actual: &LinearImage, reference: &LinearImage) -> f32
     worst
 }
 
-/// The library's defaults before wave 6: the cascade, the boundary flux, no single scattering
-/// (`ObjectParams::default()` is now the real-time default: multigrid, the second-collision
+/// The library's defaults before wave 6: the cascade, the boundary flux, no single scattering,
+/// the classical D (`ObjectParams::default()` is now the real-time default: multigrid, the second-collision
 /// source, the march). The skip, edit and gather tests were written for it: they count the
 /// cascade's iterations per level, list the passes without the march, and deform (the
 /// multigrid solves the rest pose only).
@@ -266,6 +266,7 @@ pub fn cascade_params() -> translucent::ObjectParams {
     Settings {
         schedule: Schedule::Cascade,
         single_scattering: None,
+        diffusion: translucent::material::DiffusionCoefficient::Classical,
         ..Settings::default()
     }
     .with_source(translucent::solver::transport::Source::BoundaryFlux)
@@ -290,6 +291,8 @@ pub fn quadgraph_object(
             solve: params,
             // why: the solve is the caller's; single scattering (on by default) is not.
             single_scattering: None,
+            // why: the material's own D, as the f64 CPU solver the tests compare with reads it.
+            diffusion: field.diffusion(),
             ..translucent::ObjectParams::default()
         },
     )
@@ -315,6 +318,8 @@ pub fn multilevel_object(
             single_level_nodes: 0,
             // why: the solve is the caller's; single scattering (on by default) is not.
             single_scattering: None,
+            // why: the material's own D, as the f64 CPU solver the tests compare with reads it.
+            diffusion: field.diffusion(),
             ..translucent::ObjectParams::default()
         },
     )

@@ -486,3 +486,53 @@ fn the_homogeneous_specialization_solves_like_the_per_node_path() {
     drop(s);
     gpu.finish();
 }
+
+/// `frame::quadgraph::solve_headless` runs the edits `GpuDiffusion::new` and `set_material`
+/// stage (a heterogeneous material's derived weights, a new material) before its solve, as an
+/// object's frame does: a heterogeneous material solved through it matches the test's own
+/// submission (edits, solve, exitance) bit for bit and the CPU on the same schedule.
+#[test]
+fn solve_headless_runs_the_staged_edits_of_a_heterogeneous_material() {
+    use translucent::frame::quadgraph::solve_headless;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(10, 2);
+    let field = split();
+    let upload = |solve: &mut GpuDiffusion| {
+        for (h, l) in graph.levels.iter().enumerate() {
+            let q: Vec<[f32; 3]> = scene()
+                .surface_irradiance(l, field.eta(), None)
+                .iter()
+                .map(|q| q.map(|v| v as f32))
+                .collect();
+            if h == 0 {
+                solve.set_q_scale(GpuDiffusion::exposure_for(q.iter()));
+            }
+            solve.upload_q(ctx, h, &q).expect("upload q");
+        }
+    };
+    let p = params(Scheme::Fv);
+    let mut headless = GpuDiffusion::new(ctx, &graph, &field, &p).unwrap();
+    assert!(
+        headless.edits_pending(),
+        "a heterogeneous solve stages its weights"
+    );
+    upload(&mut headless);
+    solve_headless(ctx, &mut headless, false).expect("solve_headless");
+    assert!(!headless.edits_pending());
+    let j = headless.read_j_plus(ctx).expect("J+");
+    let mut reference = GpuDiffusion::new(ctx, &graph, &field, &p).unwrap();
+    upload(&mut reference);
+    solve_once(ctx, &mut reference, false);
+    assert_eq!(j, reference.read_j_plus(ctx).expect("J+"));
+    let err = rel_rms(&j, &cpu(&graph, &field, Scheme::Fv));
+    assert!(err <= tol::GPU_VS_EXACT, "{err}");
+    // A material set later is staged and run by the next headless solve as well.
+    headless
+        .set_material(ctx, &graph, &homogeneous("skimmilk"))
+        .expect("set_material");
+    solve_headless(ctx, &mut headless, false).expect("solve_headless");
+    assert!(!headless.edits_pending());
+    drop((headless, reference));
+    gpu.finish();
+}

@@ -275,6 +275,8 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
                 // why: the errors measured here are the solve's, without the march (the library's
                 // default since wave 6).
                 single_scattering: None,
+                // why: the bounds were measured with the material's own (classical) D.
+                diffusion: field.diffusion(),
                 ..ObjectParams::default()
             },
         )
@@ -470,6 +472,8 @@ fn gpu_frame_against_the_path_traced_skin1_and_ketchup_spheres() {
                     single_level_nodes: 0,
                     // why: the solve's error alone, without the march (on by default).
                     single_scattering: None,
+                    // why: the bounds were measured with the material's own (classical) D.
+                    diffusion: field.diffusion(),
                     ..ObjectParams::default()
                 },
             )
@@ -567,6 +571,7 @@ fn default_model_against_the_path_traced_skin1_and_ketchup_spheres_with_either_d
                         skip_front_lit: false,
                         ..ScatterParams::default()
                     }),
+                    diffusion: kind,
                     ..ObjectParams::default()
                 },
             )

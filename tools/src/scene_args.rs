@@ -29,8 +29,9 @@ pub struct SceneArgs {
     #[arg(long, default_value = "physical", value_parser = ["physical", "paper"])]
     pub radiance: String,
     /// Angular shape of the exit radiance: `lambert` (DESIGN 2.6), `p1` (1 + 3/(2A) mu_i), `fitted`
-    /// (half the P1 slope, fitted on Monte Carlo; translucent::scene::ExitLobe).
-    #[arg(long, default_value = "lambert", value_parser = ExitLobe::NAMES)]
+    /// (half the P1 slope, fitted on Monte Carlo; translucent::scene::ExitLobe). `bench` sweeps
+    /// a comma-separated list (`lambert,p1,fitted`); a frame takes one.
+    #[arg(long, default_value = "lambert", value_parser = exit_lobe_list)]
     pub exit_lobe: String,
     /// No Cook-Torrance specular (and no shadow map pass).
     #[arg(long)]
@@ -38,6 +39,29 @@ pub struct SceneArgs {
     /// Exposure multiplier applied before the tone map (PNG only; EXR stays linear).
     #[arg(long, default_value_t = 1.0)]
     pub exposure: f32,
+}
+
+/// `--exit-lobe`'s value: one of [`ExitLobe::NAMES`], or a comma-separated list of them.
+fn exit_lobe_list(text: &str) -> Result<String, String> {
+    for item in text.split(',') {
+        if !ExitLobe::NAMES.contains(&item.trim()) {
+            return Err(format!(
+                "'{item}' is not an exit lobe ({})",
+                ExitLobe::NAMES.join(", ")
+            ));
+        }
+    }
+    Ok(text.to_string())
+}
+
+impl SceneArgs {
+    /// `--exit-lobe`'s lobes (a list for `bench`'s sweep).
+    pub fn exit_lobes(&self) -> anyhow::Result<Vec<ExitLobe>> {
+        self.exit_lobe
+            .split(',')
+            .map(|s| Ok(s.trim().parse()?))
+            .collect()
+    }
 }
 
 fn numbers<const N: usize>(option: &str, text: &str) -> anyhow::Result<[f64; N]> {
@@ -197,7 +221,13 @@ impl SceneArgs {
             } else {
                 RadianceMode::Physical
             },
-            exit_lobe: self.exit_lobe.parse()?,
+            exit_lobe: match self.exit_lobes()?.as_slice() {
+                [one] => *one,
+                _ => anyhow::bail!(
+                    "--exit-lobe {}: one lobe per frame (`translucent bench` sweeps a list)",
+                    self.exit_lobe
+                ),
+            },
             specular: !self.no_specular,
             ..FrameDesc::default()
         })

@@ -37,7 +37,7 @@ iterations_cap,tolerance,iterations_per_level,node_updates,finest_nodes,finest_s
 frame_gpu_ms,cpu_s,gpu_bytes,bytes_per_node,discrete_r,discrete_g,discrete_b,discrete_all,\
 solver_r,solver_g,solver_b,solver_all,\
 closed_form_r,closed_form_g,closed_form_b,closed_form_all,image_r,image_g,image_b,image_all,\
-pareto_solver,pareto_image";
+pareto_solver,pareto_image,bounce,exit_lobe";
 
 fn read_csv(path: &Path) -> Vec<HashMap<String, String>> {
     let text = std::fs::read_to_string(path).expect("bench.csv");
@@ -81,8 +81,8 @@ fn a_tiny_sweep_measures_all_three_errors_and_the_exact_row_is_its_own_zero() {
         // The bench draws one sample per pixel.
         "--supersample",
         "1",
-        // The bench's model: render's quadgraph default is Grosjean's D, the library's (and the
-        // bench's) 1 / (3 sigma_t').
+        // The bench's model: render's (and the library's) QuadGraph default is Grosjean's D; the
+        // bench pins the material's own 1 / (3 sigma_t') for its exact-solution comparisons.
         "--diffusion-coefficient",
         "classical",
     ];
@@ -204,6 +204,113 @@ fn a_tiny_sweep_measures_all_three_errors_and_the_exact_row_is_its_own_zero() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--bounce` and `--exit-lobe` are sweep axes: one GPU row per combination, named in the CSV.
+/// Both act after the solve (the bounce on the displayed exitance, the lobe in the shading), so
+/// the surface nodes' J+ (error (a)) is the same in every row, while the image against the
+/// reference differs: a torus, whose hole gets bounce links (a sphere, convex, gets none).
+#[test]
+fn bounce_and_exit_lobe_are_sweep_axes() {
+    let dir = scratch("bench-axes");
+    let scene = [
+        "--shape",
+        "torus",
+        "--size-mm",
+        "20",
+        "--material",
+        "marble",
+        "--light",
+        "dir:0.3,-1,-0.4:2,2,2",
+        "--camera",
+        "0,30,50:0,0,0:35",
+        "--width",
+        "40",
+        "--height",
+        "32",
+        "--resolution",
+        "12",
+        "--levels",
+        "2",
+        "--no-specular",
+    ];
+    let reference = dir.join("reference.exr");
+    let mut args = vec![
+        "render",
+        "--solver",
+        "cpu",
+        "--supersample",
+        "1",
+        "--diffusion-coefficient",
+        "classical",
+        "--out",
+        reference.to_str().expect("utf-8"),
+    ];
+    args.extend(scene);
+    let out = translucent(&args, &dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out_dir = dir.join("bench");
+    let mut args = vec![
+        "bench",
+        "--tolerance",
+        "1e-3",
+        "--repeats",
+        "1",
+        "--bounce",
+        "off,local",
+        "--exit-lobe",
+        "lambert,p1",
+        "--reference",
+        reference.to_str().expect("utf-8"),
+        "--out",
+        out_dir.to_str().expect("utf-8"),
+    ];
+    args.extend(scene);
+    let out = translucent(&args, &dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = read_csv(&out_dir.join("bench.csv"));
+    let gpu: Vec<_> = rows.iter().filter(|r| r["solver"] == "gpu").collect();
+    let mut combos: Vec<(String, String)> = gpu
+        .iter()
+        .map(|r| (r["bounce"].clone(), r["exit_lobe"].clone()))
+        .collect();
+    combos.sort();
+    assert_eq!(
+        combos,
+        [
+            ("local", "lambert"),
+            ("local", "p1"),
+            ("off", "lambert"),
+            ("off", "p1")
+        ]
+        .map(|(b, l)| (b.to_string(), l.to_string()))
+    );
+    let row = |bounce: &str, lobe: &str| {
+        gpu.iter()
+            .find(|r| r["bounce"] == bounce && r["exit_lobe"] == lobe)
+            .expect("row")
+    };
+    let plain = row("off", "lambert");
+    for (bounce, lobe) in [("local", "lambert"), ("off", "p1"), ("local", "p1")] {
+        let other = row(bounce, lobe);
+        assert_eq!(
+            other["discrete_all"], plain["discrete_all"],
+            "{bounce} {lobe}: J+ of the surface nodes is the solve's"
+        );
+        assert_ne!(
+            other["image_all"], plain["image_all"],
+            "{bounce} {lobe}: the frame differs"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_lists_are_errors_naming_the_option_and_write_nothing() {
     let dir = scratch("bench-bad");
@@ -221,6 +328,8 @@ fn bad_lists_are_errors_naming_the_option_and_write_nothing() {
         (vec!["--precision", "fp8"], "--precision"),
         (vec!["--scheme", "fem"], "--scheme"),
         (vec!["--repeats", "0"], "--repeats"),
+        (vec!["--bounce", "off,twice"], "--bounce"),
+        (vec!["--exit-lobe", "lambert,cosine"], "--exit-lobe"),
         (vec!["--suite", "nope"], "--suite"),
         (
             vec!["--reference", "missing.exr", "--camera", "0,20,60:0,0,0:30"],

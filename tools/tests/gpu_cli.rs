@@ -113,6 +113,46 @@ fn gpu_solver_renders_with_gpu_counted_iterations_and_matches_the_cpu_energy() {
     );
 }
 
+/// A GPU frame's energy report is computed from its phi with the f64 reference's sources for
+/// the frame's light source: with the second-collision beam (render's GPU default) it agrees
+/// with `--solver cpu --source second` on the same scene (it once read the beam's phi through
+/// the boundary flux's exit query and sources: exitance 879 against the CPU's 1196).
+#[test]
+fn gpu_and_cpu_energy_reports_agree_with_the_second_collision_source() {
+    let dir = scratch("gpu-energy-second");
+    let common = [
+        "--source",
+        "second",
+        "--bounce",
+        "off",
+        "--single-scattering",
+        "off",
+        "--tolerance",
+        "1e-6",
+    ];
+    let mut gpu_args = vec!["--solver", "gpu"];
+    gpu_args.extend(common);
+    let gpu = json_of(&render(&dir, &gpu_args));
+    let mut cpu_args = vec!["--solver", "cpu"];
+    cpu_args.extend(common);
+    let cpu = json_of(&render(&dir, &cpu_args));
+    assert_eq!(gpu["source"], cpu["source"]);
+    // The GPU's q is gathered (fp16, shadow maps instead of rays) and its solve stops at the
+    // tolerance; the energies are totals over the surface, so a few percent.
+    const ENERGY_GPU_VS_CPU: f64 = 0.03;
+    let (ge, ce) = (&gpu["energy"], &cpu["energy"]);
+    for key in ["transmitted_input", "exitance", "absorbed"] {
+        let (g, c) = (rgb(&ge[key]), rgb(&ce[key]));
+        println!("{key}: GPU {g:?} CPU {c:?}");
+        for ch in 0..3 {
+            assert!(
+                (g[ch] - c[ch]).abs() <= ENERGY_GPU_VS_CPU * c[ch].abs(),
+                "{key}[{ch}]: GPU {g:?} vs CPU {c:?}"
+            );
+        }
+    }
+}
+
 #[test]
 fn profile_is_in_execution_order_with_a_total_and_in_the_json() {
     let dir = scratch("gpu-profile");

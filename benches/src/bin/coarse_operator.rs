@@ -16,8 +16,6 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use translucent::frame::quadgraph::PASS_EDITS;
-use translucent::frame::FrameGraph;
 use translucent::material::{Coefficients, Material, MaterialField, Procedural};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
@@ -145,34 +143,6 @@ fn variants() -> Vec<(&'static str, MultigridParams)> {
     ]
 }
 
-/// Runs the edits `GpuDiffusion::new` staged (a heterogeneous material's weight derivation) in
-/// their own submission: `solve_headless` records the solve and the exitance only.
-fn apply_edits(ctx: &Context, gpu: &mut GpuDiffusion) -> Result<()> {
-    let Some(edits) = gpu.take_edits() else {
-        return Ok(());
-    };
-    let gpu = &*gpu;
-    let edits = &edits;
-    let mut result = Ok(());
-    ctx.execute("coarse_operator edits", |cb| {
-        let mut graph = FrameGraph::new(ctx);
-        graph
-            .pass(PASS_EDITS)
-            .uses(gpu.edit_uses(edits))
-            .record(move |p| {
-                // SAFETY: inside the pass declaring the edits' uses; `gpu` and `edits` outlive
-                // the waited submission.
-                unsafe { gpu.record_edits(p.ctx, p.cb, edits, p.profiler()) };
-                Ok(())
-            });
-        // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
-        result = unsafe { graph.execute(cb, None, false) }.map(|_| ());
-        Ok(())
-    })?;
-    result?;
-    Ok(())
-}
-
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let scenes: Vec<&str> = if args.is_empty() {
@@ -206,7 +176,6 @@ fn main() -> Result<()> {
             let mut gpu = GpuDiffusion::new(&ctx, &graph, &field, &params)?;
             gpu.set_q_scale(GpuDiffusion::exposure_for(q.iter()));
             gpu.upload_q(&ctx, graph.levels.len() - 1, &q)?;
-            apply_edits(&ctx, &mut gpu)?;
             let mut ms = Vec::new();
             for _ in 0..=repeats {
                 let start = Instant::now();

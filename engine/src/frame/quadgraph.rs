@@ -37,10 +37,10 @@ use crate::render::{
 use crate::scene::Scene;
 use crate::solver::cpu::Energy;
 use crate::solver::gpu::edit::StagedEdits;
+use crate::solver::gpu::multigrid::MultigridControl;
 use crate::solver::gpu::{
     Deformation, GpuDiffusion, GpuSolveParams, LevelControl, SolvePlan, PASS_EXITANCE, PASS_SOLVE,
 };
-use crate::solver::operator::LevelOperator;
 use crate::solver::SolverError;
 use crate::vk::barrier::Use;
 use crate::vk::{Access, Buffer, BufferDesc, Context, MemoryUse};
@@ -78,6 +78,8 @@ pub struct QuadGraphReport {
 struct ControlCopy {
     buffer: Buffer,
     frame: Option<u64>,
+    /// Whether that frame's solve started warm (the multigrid's report counts its start).
+    warm: bool,
 }
 
 /// This frame's work, decided by [`Method::prepare`].
@@ -196,12 +198,13 @@ impl QuadGraphMethod {
                         ctx,
                         &BufferDesc {
                             name: "diffusion control copy",
-                            size: solve.control_buffer().size,
+                            size: solve.control_copy_size(),
                             usage: vk::BufferUsageFlags::TRANSFER_DST,
                             memory: MemoryUse::Readback,
                         },
                     )?,
                     frame: None,
+                    warm: false,
                 })
             })
             .collect::<Result<Vec<_>, Error>>()?;
@@ -240,8 +243,9 @@ impl QuadGraphMethod {
     }
 
     /// Headless, after the frame completed: residual and energy of the finest level from the
-    /// GPU's phi, computed in f64 with the reference's q (`Scene::surface_irradiance` with
-    /// `occluder`), which the gathered q approximates (fp16, shadow maps instead of rays).
+    /// GPU's phi, computed in f64 with the reference's sources for the solve's light source
+    /// ([`crate::solver::cpu::balance`], lights ray-cast against `occluder`), which the gathered
+    /// q approximates (fp16, shadow maps instead of rays).
     pub fn report(
         &self,
         ctx: &Context,
@@ -249,34 +253,25 @@ impl QuadGraphMethod {
         scene: &Scene,
         occluder: Option<&dyn crate::mesh::Solid>,
     ) -> Result<QuadGraphReport, Error> {
-        let level = self.graph.finest();
-        let boundary = self.solve.boundary();
-        let op =
-            LevelOperator::build_with(level, field, self.solve.params().scheme, boundary.exit)?;
-        let t_env = boundary.diffuse_transmittance();
-        let q = scene.surface_irradiance_with(level, field.eta(), occluder, t_env);
-        let b = op.rhs(&q);
         let phi: Vec<[f64; 3]> = self
             .solve
             .read_phi(ctx, self.graph.levels.len() - 1)?
             .iter()
             .map(|p| p.map(f64::from))
             .collect();
-        let residual = op.residual(&phi, &b);
-        let inner = level.inner_count();
-        let mut energy = Energy::default();
-        for s in 0..level.surface_count() {
-            for c in 0..3 {
-                let m = boundary.flux_exitance(phi[inner + s][c], q[s][c]);
-                energy.transmitted_input[c] += q[s][c] * op.areas[s];
-                energy.exitance[c] += m * op.areas[s];
-            }
-        }
-        for ((mu, p), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
-            for c in 0..3 {
-                energy.absorbed[c] += mu[c] * p[c] * v;
-            }
-        }
+        // The f64 reference's sources for the solve's light source (a beam source's particular
+        // solution and exit query included): the boundary flux alone under-reports a beam
+        // source's exitance (1196 -> 879 with `second`, benches/RESULTS.md "Loose ends").
+        let params = self.solve.params();
+        let (residual, energy) = crate::solver::cpu::balance(
+            &self.graph,
+            field,
+            scene,
+            occluder,
+            params.scheme,
+            params.transport(),
+            &phi,
+        )?;
         Ok(QuadGraphReport {
             residual,
             energy,
@@ -394,8 +389,9 @@ impl Method for QuadGraphMethod {
         });
         let slots = self.control_copies.len() as u64;
         let slot = (frame % slots) as usize;
-        if solve.is_some() {
+        if let Some(plan) = &solve {
             self.control_copies[slot].frame = Some(frame);
+            self.control_copies[slot].warm = plan.warm;
         }
         self.prepared = Prepared { edits, solve, slot };
         Ok(out)
@@ -476,12 +472,26 @@ impl Method for QuadGraphMethod {
             };
             slot.frame = None;
             let bytes = slot.buffer.read_bytes()?;
+            let levels_size = self.solve.control_buffer().size as usize;
+            let (levels, rest) = bytes.split_at(levels_size.min(bytes.len()));
+            let multigrid = match &self.solve.multigrid {
+                Some(mg) if rest.len() >= std::mem::size_of::<MultigridControl>() => {
+                    Some(mg.report_of(
+                        &bytemuck::pod_read_unaligned(
+                            &rest[..std::mem::size_of::<MultigridControl>()],
+                        ),
+                        slot.warm,
+                    )?)
+                }
+                _ => None,
+            };
             out.push(CompletedSolve {
                 frame,
-                levels: bytes
+                levels: levels
                     .chunks_exact(std::mem::size_of::<LevelControl>())
                     .map(bytemuck::pod_read_unaligned)
                     .collect(),
+                multigrid,
             });
         }
         out.sort_by_key(|s| s.frame);
@@ -502,19 +512,34 @@ impl Method for QuadGraphMethod {
 }
 
 /// Headless: one solve of `solve` (its q uploaded or gathered before) in its own submission,
-/// through a frame graph with the solve's and the exitance's passes: for tests and benchmarks
-/// of the solver alone (a frame of an object records them through [`QuadGraphMethod`]).
-/// `warm` asks for a warm start ([`GpuDiffusion::plan`] falls back to cold without a solution).
+/// through a frame graph with the staged edits' pass (a heterogeneous material's weights, a
+/// material change: [`GpuDiffusion::take_edits`], as a frame of an object runs them), the
+/// solve's and the exitance's passes: for tests and benchmarks of the solver alone (a frame of
+/// an object records them through [`QuadGraphMethod`]). `warm` asks for a warm start
+/// ([`GpuDiffusion::plan`] falls back to cold without a solution).
 pub fn solve_headless(
     ctx: &Context,
     solve: &mut GpuDiffusion,
     warm: bool,
 ) -> Result<SolvePlan, Error> {
+    let edits = solve.take_edits();
     let plan = solve.plan(warm, false);
     let solve = &*solve;
+    let edits = edits.as_ref();
     let mut result = Ok(());
     ctx.execute("diffusion solve", |cb| {
         let mut graph = FrameGraph::new(ctx);
+        if let Some(edits) = edits {
+            graph
+                .pass(PASS_EDITS)
+                .uses(solve.edit_uses(edits))
+                .record(move |p| {
+                    // SAFETY: inside the pass declaring the edits' uses; `solve` and `edits`
+                    // outlive the waited submission.
+                    unsafe { solve.record_edits(p.ctx, p.cb, edits, p.profiler()) };
+                    Ok(())
+                });
+        }
         graph
             .pass(PASS_SOLVE)
             .uses(solve.solve_uses(None))

@@ -59,8 +59,12 @@ impl std::fmt::Display for SkipReason {
 pub struct CompletedSolve {
     /// The host frame that ran it.
     pub frame: u64,
-    /// Per level, coarsest first.
+    /// Per level, coarsest first (the cascade's counters: a multigrid solve runs none of its
+    /// Jacobi levels and reports 0 there).
     pub levels: Vec<LevelControl>,
+    /// The multigrid schedule's cycles, work units and residual (`None` with the cascade and
+    /// the methods without a solve).
+    pub multigrid: Option<crate::solver::gpu::multigrid::GpuMultigridReport>,
 }
 
 impl CompletedSolve {
@@ -71,6 +75,9 @@ impl CompletedSolve {
     /// Whether every level that iterated stopped at the tolerance before its cap (a stalled
     /// level did not).
     pub fn converged(&self) -> bool {
+        if let Some(mg) = &self.multigrid {
+            return mg.converged;
+        }
         self.levels
             .iter()
             .all(|l| l.iterations == 0 || l.stopped_early == LevelControl::CONVERGED)

@@ -570,6 +570,58 @@ pub fn solve(
     })
 }
 
+/// The finest level's relative residual and energy balance for a given phi (the GPU's, read
+/// back) with the sources and the exit query `transport` makes: what [`solve`] reports for its
+/// own phi, so a GPU frame and the f64 reference report alike for the same light source (the
+/// beam sources' particular solutions included, which the boundary flux alone leaves out).
+// why: the energy sums index several [f64; 3] arrays per channel at once.
+#[allow(clippy::needless_range_loop)]
+pub fn balance(
+    graph: &QuadGraph,
+    material: &MaterialField,
+    scene: &Scene,
+    occluder: Option<&dyn Solid>,
+    scheme: Scheme,
+    transport: Transport,
+    phi: &[[f64; 3]],
+) -> Result<([f64; 3], Energy), SolverError> {
+    let level = graph.levels.last().ok_or(SolverError::EmptyGraph)?;
+    if phi.len() != level.node_count() {
+        return Err(SolverError::BadParameter {
+            name: "phi",
+            problem: format!(
+                "{} values for the finest level's {} nodes",
+                phi.len(),
+                level.node_count()
+            ),
+        });
+    }
+    let op = LevelOperator::build_with(level, material, scheme, transport.exit)?;
+    let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
+    let (sources, row_h) = level_sources(level, material, &model, &op);
+    let inner = level.inner_count();
+    let mut b = vec![[0.0; 3]; level.node_count()];
+    for (s, src) in sources.iter().enumerate() {
+        b[inner + s] = src.rhs;
+    }
+    let residual = op.residual(phi, &b);
+    let exitance = node_exitance(&op, &model.boundary, &sources, &row_h, phi, material, level);
+    let mut energy = Energy::default();
+    for (s, src) in sources.iter().enumerate() {
+        for c in 0..3 {
+            energy.transmitted_input[c] += src.transmitted[c] * op.areas[s];
+            energy.exitance[c] += exitance[s][c] * op.areas[s];
+            energy.absorbed[c] += src.absorbed[c] * op.areas[s];
+        }
+    }
+    for ((mu, phi_i), v) in op.mu.iter().zip(&phi[..inner]).zip(&op.volumes) {
+        for c in 0..3 {
+            energy.absorbed[c] += mu[c] * phi_i[c] * v;
+        }
+    }
+    Ok((residual, energy))
+}
+
 /// Ray origins are lifted this far off a level's surface: enough to miss it under f64 round-off,
 /// far below the lattice scale.
 fn ray_offset(level: &GraphLevel) -> f64 {

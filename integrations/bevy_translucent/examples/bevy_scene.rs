@@ -93,7 +93,7 @@ pub fn render_command() -> String {
          --material {MATERIAL} --light dir:{},{},{}:{ILLUMINANCE},{ILLUMINANCE},{ILLUMINANCE} \
          --env-constant {r},{g},{b} --camera {},{},{}:0,0,0:{FOVY_DEG} --width {WIDTH} --height {HEIGHT} \
          --schedule cascade --source flux --single-scattering off --bounce off \
-         --diffusion-coefficient classical --supersample 1 --out reference.exr",
+         --supersample 1 --out reference.exr",
         d.x, d.y, d.z, e.x, e.y, e.z
     )
 }

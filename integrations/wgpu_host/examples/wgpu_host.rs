@@ -148,7 +148,7 @@ pub fn render_command() -> String {
          --material {MATERIAL} --light dir:{},{},{}:{},{},{} --env-constant {},{},{} \
          --camera {},{},{}:{},{},{}:{} --width {WIDTH} --height {HEIGHT} \
          --schedule cascade --source flux --single-scattering off --bounce off \
-         --diffusion-coefficient classical --supersample 1 --out reference.exr",
+         --supersample 1 --out reference.exr",
         d.x, d.y, d.z, e[0], e[1], e[2], env[0], env[1], env[2], c.eye.x, c.eye.y, c.eye.z,
         c.target.x, c.target.y, c.target.z, c.fovy_deg
     )

@@ -39,6 +39,10 @@ pub(super) struct Row {
     pub(super) image: Option<Errors>,
     pub(super) pareto_solver: bool,
     pub(super) pareto_image: bool,
+    /// GPU rows: `off` or `local` (`--bounce`).
+    pub(super) bounce: Option<&'static str>,
+    /// GPU rows: the exit lobe (`--exit-lobe`).
+    pub(super) exit_lobe: Option<&'static str>,
 }
 
 pub(super) const CSV_HEADER: &str =
@@ -47,7 +51,7 @@ iterations_cap,tolerance,iterations_per_level,node_updates,finest_nodes,finest_s
 frame_gpu_ms,cpu_s,gpu_bytes,bytes_per_node,discrete_r,discrete_g,discrete_b,discrete_all,\
 solver_r,solver_g,solver_b,solver_all,\
 closed_form_r,closed_form_g,closed_form_b,closed_form_all,image_r,image_g,image_b,image_all,\
-pareto_solver,pareto_image";
+pareto_solver,pareto_image,bounce,exit_lobe";
 
 pub(super) fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
     v.map_or(String::new(), |v| v.to_string())
@@ -94,6 +98,8 @@ impl Row {
             image: None,
             pareto_solver: false,
             pareto_image: false,
+            bounce: None,
+            exit_lobe: None,
         }
     }
 
@@ -128,6 +134,8 @@ impl Row {
             errs(self.image.as_ref()),
             self.pareto_solver.to_string(),
             self.pareto_image.to_string(),
+            opt(self.bounce),
+            opt(self.exit_lobe),
         ]
         .join(",")
     }

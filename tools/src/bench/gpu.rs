@@ -110,10 +110,20 @@ pub(super) fn bench_bake(
     for config in configs {
         let scheme = scheme_name(config.scheme);
         let family_name = format!(
-            "{bake_name} {scheme} {} {}{}",
+            "{bake_name} {scheme} {} {}{}{}{}",
             precision_name(config.precision),
             if config.warm { "warm" } else { "cold" },
-            if config.multigrid { " multigrid" } else { "" }
+            if config.multigrid { " multigrid" } else { "" },
+            if config.bounce == translucent::frame::BounceMode::Off {
+                String::new()
+            } else {
+                format!(" bounce {}", config.bounce.name())
+            },
+            if config.exit_lobe == translucent::scene::ExitLobe::default() {
+                String::new()
+            } else {
+                format!(" lobe {}", config.exit_lobe.name())
+            }
         );
         progress.set_message(format!(
             "{family_name} cap {} tol {}",
@@ -166,6 +176,8 @@ pub(super) fn bench_bake(
         } else {
             "cascade"
         });
+        row.bounce = Some(config.bounce.name());
+        row.exit_lobe = Some(config.exit_lobe.name());
         row.iterations_cap = Some(config.cap);
         row.tolerance = Some(config.tolerance);
         row.node_updates = Some(match &run.multigrid {
@@ -307,9 +319,11 @@ pub(super) fn run_gpu(
 
 /// The settings one configuration of the sweep runs: the library's real-time defaults for
 /// `field` ([`Settings::for_material`], as `render` and `view` start from) with the swept
-/// options, and two deliberate pins for comparability: the boundary-flux source (errors (a) and
+/// options, and deliberate pins for comparability: the boundary-flux source (errors (a) and
 /// (b) compare J+ with the exact discrete solution and the closed form of the boundary-flux
-/// system) and no single scattering (not part of the solve the bench measures).
+/// system), no single scattering and no bounce (not part of the solve the bench measures), and
+/// the material's own diffusion coefficient (classical: what the exact solution and the closed
+/// form use; render's QuadGraph default is Grosjean's).
 pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings {
     let mut settings = Settings::for_material(field).with_source(Source::BoundaryFlux);
     settings.schedule = if config.multigrid {
@@ -324,8 +338,12 @@ pub(crate) fn sweep_settings(config: &Config, field: &MaterialField) -> Settings
     settings.tolerance = translucent::defaults::f32_decimal(config.tolerance);
     settings.heterogeneous_weights = config.weights;
     settings.single_scattering = None;
-    // Pinned: the sweep's errors compare with the diffusion system's exact solution.
-    settings.bounce = translucent::frame::BounceMode::Off;
+    // `--bounce`, default off (pinned for comparability; after the solve, so the errors against
+    // the exact solution read the same J+ either way).
+    settings.bounce = config.bounce;
+    // Pinned: the exact solution and the closed form are the material's own D (classical
+    // unless the material says otherwise), not the QuadGraph's real-time default.
+    settings.diffusion = field.diffusion();
     settings
 }
 
@@ -351,7 +369,7 @@ pub(crate) fn object_params(
         specular: frame_desc.specular,
         roughness: frame_desc.roughness,
         radiance: frame_desc.radiance,
-        exit_lobe: frame_desc.exit_lobe,
+        exit_lobe: config.exit_lobe,
         skip: config.warm,
         ..settings.object_params()
     }

@@ -171,6 +171,14 @@ pub struct BenchArgs {
     /// `--scheme`) makes the cascade the default.
     #[arg(long, value_name = "S,..")]
     pub schedule: Option<String>,
+    /// One bounce between display vertices to sweep (`off,local`; DESIGN's `render --bounce`):
+    /// default `off`, pinned for comparability (render's QuadGraph default is `local`). The
+    /// bounce changes the displayed exitance only, so errors (a) and (b) (the surface nodes'
+    /// J+) are the same for both; frame time and error (c) against `--reference` differ. The
+    /// links are built once per bake and stored with it. `--exit-lobe` is a sweep axis as well
+    /// (`lambert,p1,fitted`).
+    #[arg(long, value_name = "off,local", default_value = "off")]
+    pub bounce: String,
     /// The multigrid cycle's smoother and schedule over the defaults, as `render`'s option of the
     /// same name (`nu=3/3,cheb=0.1,fmg=2,..`); one value for the whole sweep.
     #[arg(long, value_name = "KEY=VALUE,..")]
@@ -306,7 +314,12 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
     let configs = sweep.configs();
     // Checked before any work; the lights used are placed by `view` below.
     args.scene.lights()?;
-    let mut frame_desc = args.scene.frame_desc()?;
+    // The exit lobe is a sweep axis (`Config::exit_lobe`): the frame's is set per configuration.
+    let mut frame_desc = crate::scene_args::SceneArgs {
+        exit_lobe: translucent::scene::ExitLobe::default().name().to_string(),
+        ..args.scene.clone()
+    }
+    .frame_desc()?;
     let environment = match (&args.env_constant, &args.env) {
         (Some(text), _) => Environment::Constant(rgb("--env-constant", text)?),
         (None, Some(path)) => Environment::load_exr(path).context("--env")?,
@@ -418,7 +431,7 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
                 });
                 let key = cache::cache_key(&object.surface, &params);
                 let cache_file = cache_dir.join(format!("{}-{key:016x}.qgraph", object.name));
-                let (graph, _, outcome) = cache::bake_cached(
+                let (mut graph, _, outcome) = cache::bake_cached(
                     &cache_file,
                     &object.surface,
                     object.solid.as_ref(),
@@ -428,6 +441,17 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("bake K {k} levels {levels} resolution {resolution}"))?;
                 if let CacheOutcome::Rebuilt(reason) = &outcome {
                     progress.suspend(|| eprintln!("warning: {reason}; baked again"));
+                }
+                if configs
+                    .iter()
+                    .any(|c| c.bounce != translucent::frame::BounceMode::Off)
+                {
+                    progress.set_message(format!("bounce links, resolution {resolution}"));
+                    crate::cache::bounce_links(
+                        &mut graph,
+                        &translucent::frame::BounceParams::default(),
+                        Some((&cache_file, key)),
+                    )?;
                 }
                 let baked = Baked {
                     k,

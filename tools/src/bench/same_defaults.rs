@@ -1,12 +1,14 @@
 //! `render`, `view`, `bench` and the library resolve the same settings for the same inputs
 //! (issue 13: one place for defaults, `translucent::defaults`). Where a command deliberately
 //! differs the test names the difference: bench pins the boundary-flux source, no single
-//! scattering and no bounce (its errors compare with the boundary-flux system's exact solution), and the
+//! scattering, no bounce and the material's own (classical) diffusion coefficient (its errors
+//! compare with the boundary-flux system's exact solution), and the
 //! viewer's single-scattering and precision switches are its state.
 
 use clap::Parser as _;
 use translucent::defaults::{Schedule, Settings};
 use translucent::frame::BounceMode;
+use translucent::material::DiffusionCoefficient;
 use translucent::solver::transport::Source;
 use translucent::ObjectParams;
 
@@ -94,6 +96,13 @@ fn render_view_and_the_library_resolve_the_same_defaults() {
         assert!(r.single_scattering.is_some(), "{material:?}");
     }
     assert_eq!(render(&[]).source, Source::SecondCollision);
+    // Grosjean's D: render's QuadGraph default is the library's (and so the viewer's); the
+    // other methods keep the classical one.
+    assert_eq!(render(&[]).diffusion, DiffusionCoefficient::Grosjean);
+    assert_eq!(
+        render(&["--method", "voxel"]).diffusion,
+        DiffusionCoefficient::Classical
+    );
     // One bounce: the QuadGraph's default; the other methods and the CPU solver have none
     // unless named.
     assert_eq!(render(&[]).bounce, BounceMode::Local);
@@ -137,7 +146,10 @@ fn bench_differs_from_render_only_by_its_documented_pins() {
         assert_eq!(b.source, Source::BoundaryFlux);
         assert_eq!(b.single_scattering, None);
         assert_eq!(b.bounce, BounceMode::Off);
+        assert_eq!(b.diffusion, DiffusionCoefficient::Classical);
         options.extend([
+            "--diffusion-coefficient",
+            "classical",
             "--source",
             "flux",
             "--single-scattering",

@@ -1,7 +1,8 @@
 //! The sweep axes: comma-separated lists parsed into the cross product of configurations.
 
 use glam::DQuat;
-use translucent::scene::Light;
+use translucent::frame::BounceMode;
+use translucent::scene::{ExitLobe, Light};
 use translucent::solver::gpu::{HeterogeneousWeights, Precision};
 use translucent::solver::Scheme;
 
@@ -19,6 +20,11 @@ pub(super) struct Config {
     pub(super) weights: HeterogeneousWeights,
     /// The multigrid schedule's parameters (`MultigridParams::gpu` with `--multigrid-cycle`).
     pub(super) cycle: translucent::solver::multigrid::MultigridParams,
+    /// One bounce between display vertices (`--bounce`; after the solve: J+ of the surface
+    /// nodes, which errors (a) and (b) read, is the same either way).
+    pub(super) bounce: BounceMode,
+    /// The exit radiance's angular shape (`--exit-lobe`; shading only).
+    pub(super) exit_lobe: ExitLobe,
 }
 
 /// The lists, parsed and checked before anything runs.
@@ -35,6 +41,8 @@ pub(super) struct Sweep {
     pub(super) tolerances: Vec<f32>,
     pub(super) weights: HeterogeneousWeights,
     pub(super) cycle: translucent::solver::multigrid::MultigridParams,
+    pub(super) bounces: Vec<BounceMode>,
+    pub(super) exit_lobes: Vec<ExitLobe>,
 }
 
 pub(super) fn list<T>(
@@ -136,6 +144,14 @@ impl Sweep {
                     option: "--heterogeneous-weights",
                     problem: format!("'{}' (derived or stored)", args.heterogeneous_weights),
                 })?,
+            bounces: list("--bounce", &args.bounce, |s| {
+                s.parse::<BounceMode>()
+                    .map_err(|_| "is not a bounce (off, local)".to_string())
+            })?,
+            exit_lobes: list("--exit-lobe", &args.scene.exit_lobe, |s| {
+                s.parse::<ExitLobe>()
+                    .map_err(|_| format!("is not an exit lobe ({})", ExitLobe::NAMES.join(", ")))
+            })?,
             // The library's warm start unless the spec names another (`warm=last`).
             cycle: translucent::solver::multigrid::MultigridParams {
                 warm_start: translucent::defaults::WARM_START,
@@ -194,16 +210,22 @@ impl Sweep {
                                 &self.iterations[..]
                             };
                             for &cap in caps {
-                                out.push(Config {
-                                    scheme,
-                                    precision,
-                                    warm,
-                                    multigrid,
-                                    cap,
-                                    tolerance,
-                                    weights: self.weights,
-                                    cycle: self.cycle.clone(),
-                                });
+                                for &bounce in &self.bounces {
+                                    for &exit_lobe in &self.exit_lobes {
+                                        out.push(Config {
+                                            scheme,
+                                            precision,
+                                            warm,
+                                            multigrid,
+                                            cap,
+                                            tolerance,
+                                            weights: self.weights,
+                                            cycle: self.cycle.clone(),
+                                            bounce,
+                                            exit_lobe,
+                                        });
+                                    }
+                                }
                             }
                         }
                     }

@@ -3,7 +3,6 @@
 
 use anyhow::bail;
 
-use super::defaults::DEFAULT_DIFFUSION_COEFFICIENT;
 use super::RenderArgs;
 use translucent::material::DiffusionCoefficient;
 use translucent::solver;
@@ -59,11 +58,7 @@ pub(super) fn method_options(args: &RenderArgs) -> anyhow::Result<DiffusionCoeff
             );
         }
     }
-    let diffusion: DiffusionCoefficient = match args.diffusion_coefficient.as_deref() {
-        Some(name) => name.parse()?,
-        None if args.method == "quadgraph" => DEFAULT_DIFFUSION_COEFFICIENT,
-        None => DiffusionCoefficient::Classical,
-    };
+    let diffusion = args.diffusion()?;
     if diffusion != DiffusionCoefficient::Classical && args.method != "quadgraph" {
         bail!(
             "--diffusion-coefficient {} applies to --method quadgraph (the voxel and dipole methods keep 1 / (3 sigma_t'))",

@@ -14,13 +14,6 @@ use super::{RenderArgs, DEFAULT_MATERIAL};
 pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
     translucent::defaults::HOMOGENEOUS_SOURCE;
 
-/// `render`'s diffusion coefficient with `--method quadgraph` when none is named
-/// (benches/RESULTS.md, "Diffusion coefficient at low albedo": against the path-traced
-/// references Grosjean's D is level or better on every scene with the Shepard surface; it
-/// differs from 1 / (3 sigma_t') only at low albedo). The library's default stays classical.
-pub const DEFAULT_DIFFUSION_COEFFICIENT: translucent::material::DiffusionCoefficient =
-    translucent::material::DiffusionCoefficient::Grosjean;
-
 /// `render`'s `--continuation` when not named: whether a beam source's light continues through
 /// walls to the faces turned away from the light (benches/RESULTS.md, "Thin walls: the beam
 /// through the wall").
@@ -127,6 +120,15 @@ impl RenderArgs {
         }
     }
 
+    /// `--diffusion-coefficient` resolved: the given one; else the library's for the method
+    /// ([`Settings::for_method`]: Grosjean's for the QuadGraph, classical for the others).
+    pub fn diffusion(&self) -> anyhow::Result<translucent::material::DiffusionCoefficient> {
+        match self.diffusion_coefficient.as_deref() {
+            Some(name) => Ok(name.parse()?),
+            None => Ok(Settings::for_method(self.method_kind(), true).diffusion),
+        }
+    }
+
     /// `--method` as the library's kind (`auto` is resolved before any frame; it reads as the
     /// QuadGraph here).
     pub fn method_kind(&self) -> MethodKind {
@@ -165,6 +167,7 @@ impl RenderArgs {
         settings.heterogeneous_weights = self.heterogeneous_weights.parse()?;
         settings.single_scattering = self.scatter_params()?;
         settings.bounce = self.bounce_mode()?;
+        settings.diffusion = self.diffusion()?;
         Ok(settings)
     }
 

@@ -44,9 +44,7 @@ mod graph_file;
 mod output;
 pub mod voxel;
 
-pub use defaults::{
-    choice_json, resolve_auto, schedule_of, DEFAULT_DIFFUSION_COEFFICIENT, DEFAULT_SOURCE,
-};
+pub use defaults::{choice_json, resolve_auto, schedule_of, DEFAULT_SOURCE};
 pub use graph_file::{load_graph_file, GraphFileError};
 use output::{gpu_bytes_json, gpu_multigrid_json, profile_in_order};
 pub(crate) use output::{supersample_factor, write_output, write_trace};

@@ -1,7 +1,8 @@
 //! `translucent view`: an interactive window on one object (cargo feature `window`, on by
 //! default). Orbit with the left mouse button, zoom with the wheel, turn the key light with the
 //! right button; keys switch material, method, precision, single scattering and skipping
-//! ([`controls::BINDINGS`]); an overlay shows per-pass GPU ms, iterations per level and every
+//! ([`controls::BINDINGS`]); an overlay shows per-pass GPU ms, the solve's iterations per level
+//! (cascade) or cycles and work units (multigrid) and every
 //! skipped pass with its reason.
 //!
 //! Lights: without `--light` the default lights are placed relative to the starting camera
@@ -284,8 +285,8 @@ struct Completed {
     timings: Option<FrameTimes>,
     /// The same of the last frame that solved (so the solve's passes stay in view).
     solve_timings: Option<FrameTimes>,
-    /// The last completed solve: host frame, iterations per level, converged.
-    solve: Option<(u64, Vec<u32>, bool)>,
+    /// The last completed solve (its counters: per level, or the multigrid's cycles).
+    solve: Option<translucent::frame::CompletedSolve>,
 }
 
 /// The window, its Vulkan host, the library's context and the object. `Drop` waits for the GPU
@@ -459,8 +460,8 @@ impl Viewer {
             self.completed.timings = Some((t.frame, passes, total));
         }
         for s in self.object.completed_solves(completed)? {
-            self.log.solve(s.frame, s.iterations(), s.converged());
-            self.completed.solve = Some((s.frame, s.iterations(), s.converged()));
+            self.log.solve(&s);
+            self.completed.solve = Some(s);
         }
         Ok(())
     }
@@ -803,18 +804,7 @@ impl Viewer {
             }
         }
         match &self.completed.solve {
-            Some((frame, iterations, converged)) => lines.push((
-                format!(
-                    "solve of frame {}: iterations per level {iterations:?}{}",
-                    frame - 1,
-                    if *converged { "" } else { " (cap reached)" }
-                ),
-                if *converged {
-                    Colour::Text
-                } else {
-                    Colour::Warning
-                },
-            )),
+            Some(solve) => lines.push(overlay::solve_line(solve)),
             None => lines.push(("no solve completed yet".into(), Colour::Dim)),
         }
         let solve = self

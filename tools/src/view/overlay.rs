@@ -1,5 +1,6 @@
 //! The overlay's text, as a grid of character cells the present shader draws with an 8x8 bitmap
-//! font (`font8x8`'s public-domain glyphs): per pass GPU ms, iterations per level, the skipped
+//! font (`font8x8`'s public-domain glyphs): per pass GPU ms, the solve's iterations per level
+//! (cascade) or cycles and work units (multigrid), the skipped
 //! passes with their reasons, the switches, and the key list. Lines are laid out on the CPU
 //! (a few hundred cells); the GPU reads one `u32` per cell.
 
@@ -79,6 +80,41 @@ pub fn skipped_lines(skipped: &BTreeMap<&'static str, translucent::SkipReason>) 
         .collect()
 }
 
+/// The overlay's line for a completed solve and its colour: per level iterations for the
+/// cascade; cycles, work units and the relative residual for the multigrid schedule, whose
+/// levels run none of the cascade's Jacobi iterations (they would read [0, 0, 0]).
+pub fn solve_line(solve: &translucent::frame::CompletedSolve) -> (String, Colour) {
+    let frame = solve.frame.saturating_sub(1);
+    let converged = solve.converged();
+    let text = match &solve.multigrid {
+        Some(mg) => format!(
+            "solve of frame {frame}: multigrid, {} cycles{}, {:.1} work units, residual {:.1e}{}",
+            mg.cycles.len(),
+            if mg.warm { " (warm)" } else { "" },
+            mg.work_units,
+            mg.residual,
+            if converged {
+                String::new()
+            } else {
+                format!(" ({:?})", mg.state)
+            }
+        ),
+        None => format!(
+            "solve of frame {frame}: iterations per level {:?}{}",
+            solve.iterations(),
+            if converged { "" } else { " (cap reached)" }
+        ),
+    };
+    (
+        text,
+        if converged {
+            Colour::Text
+        } else {
+            Colour::Warning
+        },
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,5 +180,70 @@ mod tests {
         assert_eq!(order[1].1, 5.0);
         assert_eq!(order[2].2, 1, "inner is nested");
         assert_eq!(total, 6.25);
+    }
+
+    fn level(iterations: u32, stopped_early: u32) -> translucent::solver::gpu::LevelControl {
+        translucent::solver::gpu::LevelControl {
+            iterations,
+            stopped_early,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_multigrid_solve_shows_cycles_and_work_units_not_the_cascades_zeros() {
+        use translucent::solver::gpu::multigrid::{CycleState, GpuMultigridReport};
+        use translucent::solver::multigrid::CycleReport;
+        let cycle = |residual: f64, work_units: f64| CycleReport {
+            residual,
+            factor: 0.1,
+            work_units,
+        };
+        let mut solve = translucent::frame::CompletedSolve {
+            frame: 3,
+            levels: vec![level(0, 0); 3],
+            multigrid: Some(GpuMultigridReport {
+                warm: false,
+                cycles: vec![cycle(0.06, 16.7), cycle(6e-3, 12.1), cycle(6e-5, 12.1)],
+                start_residual: 0.06,
+                residual: 6e-5,
+                converged: true,
+                state: CycleState::Converged,
+                work_units: 40.9,
+                matvec_units: 80.0,
+                mean_factor: Some(0.1),
+                coarse_steps: 8,
+            }),
+        };
+        let (text, colour) = solve_line(&solve);
+        assert_eq!(
+            text,
+            "solve of frame 2: multigrid, 3 cycles, 40.9 work units, residual 6.0e-5"
+        );
+        assert_eq!(colour, Colour::Text);
+        assert!(!text.contains("[0, 0, 0]"), "{text}");
+        if let Some(mg) = &mut solve.multigrid {
+            mg.converged = false;
+            mg.state = CycleState::Diverged;
+        }
+        let (text, colour) = solve_line(&solve);
+        assert!(text.ends_with("(Diverged)"), "{text}");
+        assert_eq!(colour, Colour::Warning);
+        // The cascade keeps its iterations per level.
+        let cascade = translucent::frame::CompletedSolve {
+            frame: 3,
+            levels: vec![
+                level(40, translucent::solver::gpu::LevelControl::CONVERGED),
+                level(12, translucent::solver::gpu::LevelControl::CONVERGED),
+            ],
+            multigrid: None,
+        };
+        assert_eq!(
+            solve_line(&cascade),
+            (
+                "solve of frame 2: iterations per level [40, 12]".to_string(),
+                Colour::Text
+            )
+        );
     }
 }

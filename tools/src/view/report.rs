@@ -26,6 +26,10 @@ pub struct FrameEntry {
     pub gpu_ms: Vec<(String, f64)>,
     /// Iterations per level of this frame's solve (known once it completed).
     pub iterations: Option<Vec<u32>>,
+    /// The multigrid schedule's cycles and work units of this frame's solve (known once it
+    /// completed; `None` with the cascade, whose counters are `iterations`).
+    pub cycles: Option<usize>,
+    pub work_units: Option<f64>,
     pub converged: Option<bool>,
     /// Wall-clock ms since the previous frame began recording (what a user feels: with two
     /// frames in flight it includes waiting for the GPU); `None` for the first frame.
@@ -66,6 +70,8 @@ impl FrameEntry {
             "warm_start": self.warm_start,
             "gpu_ms": self.gpu_ms.iter().map(|(n, ms)| json!([n, ms])).collect::<Vec<_>>(),
             "iterations": self.iterations,
+            "cycles": self.cycles,
+            "work_units": self.work_units,
             "converged": self.converged,
             "interval_ms": self.interval_ms,
         })
@@ -95,11 +101,13 @@ impl FrameLog {
         }
     }
 
-    /// Files a completed solve's iterations.
-    pub fn solve(&mut self, host_frame: u64, iterations: Vec<u32>, converged: bool) {
-        if let Some(e) = self.frames.get_mut(&host_frame) {
-            e.iterations = Some(iterations);
-            e.converged = Some(converged);
+    /// Files a completed solve's counters.
+    pub fn solve(&mut self, solve: &translucent::frame::CompletedSolve) {
+        if let Some(e) = self.frames.get_mut(&solve.frame) {
+            e.iterations = Some(solve.iterations());
+            e.cycles = solve.multigrid.as_ref().map(|m| m.cycles.len());
+            e.work_units = solve.multigrid.as_ref().map(|m| m.work_units);
+            e.converged = Some(solve.converged());
         }
     }
 

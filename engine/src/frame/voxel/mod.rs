@@ -414,6 +414,7 @@ impl Method for VoxelMethod {
                     estimate: 0.0,
                     stopped_early: control.converged,
                 }],
+                multigrid: None,
             });
         }
         out.sort_by_key(|s| s.frame);

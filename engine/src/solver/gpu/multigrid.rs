@@ -530,7 +530,9 @@ impl GpuMultigrid {
                 size: std::mem::size_of::<MultigridControl>() as u64,
                 usage: vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::INDIRECT_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST,
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    // A frame's solve copies it for the host (`CompletedSolve::multigrid`).
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
                 memory: MemoryUse::Readback,
             },
         )?;
@@ -861,12 +863,21 @@ impl GpuMultigrid {
 
     /// What the last solve did, from its control record.
     pub fn report(&self) -> Result<GpuMultigridReport, Error> {
-        let c = self.control()?;
+        self.report_of(&self.control()?, self.warm.get())
+    }
+
+    /// The control buffer (a frame's solve copies it for the host: [`Self::report_of`]).
+    pub(crate) fn control_buffer(&self) -> &Buffer {
+        &self.control
+    }
+
+    /// What a solve did from its control record `c` (a copy taken after its frame) and whether
+    /// it started warm.
+    pub fn report_of(&self, c: &MultigridControl, warm: bool) -> Result<GpuMultigridReport, Error> {
         let top = self.top();
         let n_top = u64::from(self.levels[top].count).max(1);
         let logged = (c.logged as usize).min(MAX_LOG);
         let log: Vec<f64> = c.residual[..logged].iter().map(|&v| f64::from(v)).collect();
-        let warm = self.warm.get();
         let per = |u: u64| u as f64 / n_top as f64;
         // A CG iteration: the V-cycle, then the apply (K z and the dots) and step (direction,
         // K dir, iterate and residual) passes; without CG the V-cycle and the residual (its norm

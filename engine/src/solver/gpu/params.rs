@@ -111,6 +111,35 @@ pub struct GpuSolveParams {
     pub heterogeneous_weights: HeterogeneousWeights,
 }
 
+impl GpuSolveParams {
+    /// The f64 reference's transport the GPU frame computes with these parameters (render
+    /// `--solver cpu` with the same `--source`, `--exit-query` and `--surface`): with a beam
+    /// source [`crate::solver::transport::Transport::gpu_collimated`] (the second-collision
+    /// source with `second_collision`), else the boundary flux read by `exit`.
+    pub fn transport(&self) -> crate::solver::transport::Transport {
+        use crate::solver::transport::{Source, Transport};
+        let base = if self.collimated {
+            Transport {
+                source: if self.second_collision {
+                    Source::SecondCollision
+                } else {
+                    Source::Collimated
+                },
+                ..Transport::gpu_collimated()
+            }
+        } else {
+            Transport {
+                exit: self.exit,
+                ..Transport::default()
+            }
+        };
+        Transport {
+            surface: self.surface,
+            ..base
+        }
+    }
+}
+
 impl Default for GpuSolveParams {
     fn default() -> Self {
         Self {

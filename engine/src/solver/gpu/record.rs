@@ -148,6 +148,18 @@ impl GpuDiffusion {
         plan
     }
 
+    /// Bytes of a `copy_to` buffer that takes every record [`Self::record_solve`] copies: the
+    /// levels' control records, then the multigrid's
+    /// ([`super::multigrid::MultigridControl`]) when the schedule is multigrid.
+    pub fn control_copy_size(&self) -> u64 {
+        self.control.size
+            + if self.multigrid.is_some() {
+                MULTIGRID_CONTROL_BYTES
+            } else {
+                0
+            }
+    }
+
     /// What [`Self::record_solve`] uses: every level's state and graph textures, the control
     /// buffer (reset by a transfer, then indirect arguments and reduction records, then copied
     /// into `copy_to` for a read on the host after the frame).
@@ -431,6 +443,38 @@ impl GpuDiffusion {
                         size: self.control.size.min(copy.size),
                     }],
                 );
+                // The multigrid's record (cycles, residuals) after the levels' (see
+                // `Self::control_copy_size`).
+                if let Some(mg) = self
+                    .multigrid
+                    .as_ref()
+                    .filter(|_| copy.size >= self.control_copy_size())
+                {
+                    raw.cmd_copy_buffer(
+                        cb,
+                        mg.control_buffer().raw,
+                        copy.raw,
+                        &[vk::BufferCopy {
+                            src_offset: 0,
+                            dst_offset: self.control.size,
+                            size: MULTIGRID_CONTROL_BYTES,
+                        }],
+                    );
+                    // why: the next solve resets the multigrid's control record, which the graph
+                    // orders after this pass's compute use only: order it after this copy's read
+                    // too (WAR).
+                    barrier::record(
+                        ctx,
+                        cb,
+                        &[raw_barrier(
+                            S::COPY,
+                            A::TRANSFER_READ,
+                            S::ALL_COMMANDS,
+                            A::empty(),
+                        )],
+                        &[],
+                    );
+                }
                 // why: the host reads the copy after the frame's fence (host visibility).
                 barrier::memory(ctx, cb, Access::TransferDst, Access::HostRead);
             }
@@ -633,3 +677,7 @@ impl GpuDiffusion {
         }
     }
 }
+
+/// Bytes of the multigrid's control record a frame's solve copies for the host.
+const MULTIGRID_CONTROL_BYTES: u64 =
+    std::mem::size_of::<super::multigrid::MultigridControl>() as u64;
