@@ -97,7 +97,7 @@ fn centre_to_limb_radiance_follows_the_exit_lobe() {
         }
         assert!(ratios[1] > ratios[2], "P1 is the steeper lobe: {ratios:?}");
 
-        // The per-node lobe follows the vertex stream's diffused share: 0 (own light, also
+        // The per-node lobe follows the vertex stream's diffused share: 0 (own light: Lambert, also
         // what a method without shares gives) and 1 (light diffused from elsewhere: P1).
         let frame = FrameDesc {
             width: SIZE,

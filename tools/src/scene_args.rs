@@ -30,7 +30,7 @@ pub struct SceneArgs {
     pub radiance: String,
     /// Angular shape of the exit radiance: `lambert` (DESIGN 2.6), `p1` (1 + 3/(2A) mu_i), `fitted`
     /// (half the P1 slope, fitted on Monte Carlo), `node` (a slope per surface node: P1 for light
-    /// diffused from elsewhere, 0.2 of it for a node's own; translucent::scene::ExitLobe).
+    /// diffused from elsewhere, Lambert for a node's own; translucent::scene::ExitLobe).
     #[arg(long, default_value = "lambert", value_parser = ExitLobe::NAMES)]
     pub exit_lobe: String,
     /// No Cook-Torrance specular (and no shadow map pass).

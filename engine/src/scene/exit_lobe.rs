@@ -21,8 +21,8 @@
 //!   half-space and slab Monte Carlo (benches/exit_lobe/lobe_mc.py; benches/RESULTS.md "Exit lobe").
 //! - [`ExitLobe::Node`]: a slope per surface node, `b = b_P1 (o + (1 - o) s)`, o =
 //!   [`OWN_SOURCE_SLOPE_SHARE`], s the node's diffused share ([`diffused_share`]): the P1 slope of
-//!   the light that diffused in from elsewhere (s = 1 on unlit nodes: the slab's far face), a
-//!   shallow one where the node's light is its own source (s = 0 on a lit half-space). The share is
+//!   the light that diffused in from elsewhere (s = 1 on unlit nodes: the slab's far face), the
+//!   Lambertian lobe where the node's light is its own source (s = 0 on a lit half-space). The share is
 //!   the P1 radiance's own: inside the boundary L(mu) ~ phi + 3 D phi' mu with, from the node's
 //!   Robin row, D phi' = (phi - rhs) / (2A), so the homogeneous field's slope is b_P1 (1 - rhs /
 //!   phi); the particular solution of a collimated source (DESIGN 2.7) is own light.
@@ -44,10 +44,13 @@ use crate::material::fresnel;
 /// half-space and slab Monte Carlo cases of benches/exit_lobe/lobe_mc.py (RESULTS "Exit lobe").
 pub const FITTED_SLOPE_SHARE: f64 = 0.5;
 
-/// [`ExitLobe::Node`]'s slope share for a node's own (lit) light: the half-space reflection's
-/// best share at eta 1 over benches/exit_lobe/lobe_mc.py's cases (RESULTS "Exit lobe": 0.20,
-/// mean RMS 3.9% against Lambert's 5.7%).
-pub const OWN_SOURCE_SLOPE_SHARE: f64 = 0.2;
+/// [`ExitLobe::Node`]'s slope share for a node's own (lit) light: 0, DESIGN 2.6's Lambertian
+/// lobe. The half-space reflection alone prefers 0.2 at eta 1 (benches/exit_lobe/lobe_mc.py), but
+/// on the references the lit parts lose by it: the back-lit sphere's lit crescent, seen at grazing
+/// angles, is already 20% short in exitance and 0.2 took it 0.80 -> 0.75 of the reference (18.4%
+/// -> 23.0% overall); the front-lit milk, split and skin spheres are best at 0 (RESULTS "Exit
+/// lobe" sweep).
+pub const OWN_SOURCE_SLOPE_SHARE: f64 = 0.0;
 
 /// The angular shape of the exitance's radiance (CLI `--exit-lobe`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -269,8 +272,12 @@ mod tests {
     /// The node lobe's relative RMS against the slab's Monte Carlo shape: the best slope reaches
     /// 1.5% (RESULTS "Exit lobe"), ~1% noise per bin; Lambert is at 30%.
     const SLAB_SHAPE_TOL: f64 = 0.03;
-    /// Against the half-space reflection: the best slope reaches 2.2%, Lambert 8.9%, P1 9.9%.
-    const HALF_SPACE_TOL: f64 = 0.05;
+    /// Against the half-space reflection (the node lobe is Lambertian there): Lambert 8.9%, P1
+    /// 9.9%, the best slope 2.2%.
+    const HALF_SPACE_TOL: f64 = 0.092;
+    /// P1 is this much further from the half space's Monte Carlo than Lambert (measured 1.0
+    /// points): a share read as diffused there fails.
+    const LOBES_APART: f64 = 0.005;
 
     /// Relative RMS over the view bins 80..19 degrees (the grazing-most bin is noisy; as
     /// lobe_mc.py's fit).
@@ -325,7 +332,7 @@ mod tests {
         let (lambert, p1) = (half(ExitLobe::Lambert, lit), half(ExitLobe::P1, lit));
         assert!(node < HALF_SPACE_TOL, "half space: node {node}");
         assert!(
-            node < lambert && node < p1,
+            node <= lambert + QUADRATURE_TOL && node < p1 - LOBES_APART,
             "node {node}, lambert {lambert}, p1 {p1}"
         );
     }
@@ -350,6 +357,7 @@ mod tests {
             assert!(
                 (ExitLobe::Node.slope_at(eta, 0.0) - OWN_SOURCE_SLOPE_SHARE * p1).abs() < 1e-12
             );
+            assert!(ExitLobe::Node.slope_at(eta, 0.5) > ExitLobe::Node.slope_at(eta, 0.0));
             // The other lobes ignore it.
             assert_eq!(ExitLobe::P1.slope_at(eta, 0.0), p1);
         }
