@@ -156,9 +156,9 @@ fn centre_to_limb_radiance_follows_the_exit_lobe() {
 /// The per-node lobe's diffused share (`scene::diffused_share`) on the GPU frame against the f64
 /// CPU reference, per surface node and per display vertex, with render's second-collision source
 /// and with the boundary flux: a marble sphere lit from one side. The f32 solve, fp16 q and the
-/// shadow maps' PCF at the terminator against the CPU's exact n.l are the differences; the share
-/// is in [0, 1], so this is an absolute mean.
-const SHARE_GPU_VS_CPU: f64 = 0.02;
+/// shadow maps' PCF at the terminator against the CPU's exact n.l are the differences (measured
+/// 6e-5 per node, 3e-5 per vertex); the share is in [0, 1], so this is an absolute mean.
+const SHARE_GPU_VS_CPU: f64 = 1e-3;
 
 #[test]
 fn node_shares_match_the_cpu_reference() {
