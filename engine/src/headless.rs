@@ -228,6 +228,12 @@ impl HeadlessRenderer {
         self.object.set_exitance(ctx, exitance)
     }
 
+    /// The per-node exit lobe's diffused share per vertex (one per vertex of the mesh, in
+    /// [0, 1]), read from the next frame on by [`ExitLobe::Node`].
+    pub fn set_diffused_share(&mut self, ctx: &Context, share: &[f32]) -> Result<(), Error> {
+        self.object.set_diffused_share(ctx, share)
+    }
+
     /// Renders one frame, waits for it and reads it back.
     pub fn render_frame(&mut self, ctx: &Context) -> Result<Captured, Error> {
         Ok(self.host.render(ctx, &mut self.object)?.0)

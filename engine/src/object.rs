@@ -555,6 +555,18 @@ impl TranslucentObject {
         Ok(())
     }
 
+    /// The per-node exit lobe's diffused share per display vertex for a given exitance
+    /// ([`FixedExitance::set_diffused_share`]); an error for methods that compute their own.
+    pub fn set_diffused_share(&mut self, ctx: &Context, share: &[f32]) -> Result<(), Error> {
+        let Some(fixed) = self.method_mut::<FixedExitance>() else {
+            return Err(invalid(
+                "diffused share",
+                format!("the {} method computes its own", self.method.name()),
+            ));
+        };
+        fixed.set_diffused_share(ctx, share)
+    }
+
     /// One bounce of exitance between display vertices ([`crate::frame::bounce`]): `links` built
     /// on this object's display mesh ([`BounceLinks::build`] of the method's surface), R_d from
     /// `field` (the material it renders, as given to [`Self::set_material`]) and the solve's exit
@@ -826,7 +838,8 @@ impl TranslucentObject {
             }
         }
         let (uniforms, specular) = self.uniforms(targets.color.extent);
-        let (lobe_slope, lobe_scale) = self.params.exit_lobe.shading_constants(f64::from(self.eta));
+        let [lobe_slope, lobe_k, lobe_own] =
+            self.params.exit_lobe.shading_push(f64::from(self.eta));
         let push = ShadePush {
             eta: self.eta,
             radiance_mode: match self.params.radiance {
@@ -836,7 +849,8 @@ impl TranslucentObject {
             roughness: self.params.roughness,
             specular: u32::from(specular),
             lobe_slope: lobe_slope as f32,
-            lobe_scale: lobe_scale as f32,
+            lobe_k: lobe_k as f32,
+            lobe_own: lobe_own as f32,
         };
 
         let eye = glam::Vec3::from_slice(&uniforms.camera_pos[..3]);
@@ -899,6 +913,10 @@ impl TranslucentObject {
         }
         let before_method = graph.pass_names().len();
         self.method.add_passes(&mut graph, shadows)?;
+        // The per-node exit lobe's share per vertex (only the node lobe reads it).
+        let share = (self.params.exit_lobe == ExitLobe::Node)
+            .then(|| self.method.exit_share())
+            .flatten();
         // The bounce is added in place to the exitance: only on frames whose method wrote a new
         // one (its passes ran), otherwise the last frame's sum stands.
         if let Some(bounce) = &self.bounce {
@@ -940,7 +958,7 @@ impl TranslucentObject {
         let own_depth = self.own_depth.as_ref().filter(|_| targets.depth.is_none());
         let mut shading = graph
             .pass(PASS_SHADING)
-            .uses(self.shading.uses(mesh, scatter.buffer(), shadows))
+            .uses(self.shading.uses(mesh, scatter.buffer(), share, shadows))
             .host(color, COLOR_USE);
         shading = match (host_depth, own_depth) {
             (Some(id), _) => shading.host(id, DEPTH_USE),
@@ -968,6 +986,7 @@ impl TranslucentObject {
                     p.cb,
                     mesh,
                     scatter.buffer(),
+                    share,
                     &attachments,
                     &uniforms,
                     &push,

@@ -3,7 +3,9 @@
 // J+ = (1 + 1/A) phi / 4 - q / (1 + F_dr) for the flux query, M eta^2 / (1 - 2 C1(1/eta)) for the
 // moments query (`Boundary::flux_shading_factors`), unscaled from the exposure (phi and q are stored times
 // q_scale), clamped at 0 for display; clamped nodes are counted per channel. Surface nodes are the
-// rows v < surface_rows that are not padding (padding texels point to themselves). Included with PHI_FORMAT set.
+// rows v < surface_rows that are not padding (padding texels point to themselves). Alpha: the
+// node's diffused share for the per-node exit lobe (scene::diffused_share; 0 off the surface).
+// Included with PHI_FORMAT set.
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, PHI_FORMAT) uniform readonly image2D phi;
@@ -25,7 +27,7 @@ layout(push_constant) uniform JPlusPush {
     float phi_factor;
     float q_factor;
     float particular_factor; // shading input per unit exitance; 0: no collimated source
-    float pad;
+    float flux_gain; // Robin right-hand side per unit q (transport::Boundary::flux_gain)
 } pc;
 
 void main() {
@@ -36,11 +38,27 @@ void main() {
     uint self_index = uint(p.y) * uint(pc.size.x) + uint(p.x);
     bool surface = uint(p.y) < pc.surface_rows && imageLoad(connectivity, p).x != self_index;
     vec3 j = vec3(0.0);
+    float share = 0.0;
     if (surface) {
-        vec3 scaled = pc.phi_factor * imageLoad(phi, p).rgb - pc.q_factor * imageLoad(q, p).rgb;
+        vec3 phi_h = imageLoad(phi, p).rgb;
+        vec3 q_h = imageLoad(q, p).rgb;
+        vec3 homogeneous = pc.phi_factor * phi_h - pc.q_factor * q_h;
+        vec3 scaled = homogeneous;
         if (pc.particular_factor != 0.0) {
             scaled += pc.particular_factor * imageLoad(particular, p).rgb;
         }
+        // The diffused share (scene::diffused_share): per channel the homogeneous field's P1
+        // share 1 - rhs / phi, weighted by its exitance against the node's.
+        float diffused = 0.0;
+        float total = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            float p1 = phi_h[c] > 0.0 ? clamp(1.0 - pc.flux_gain * q_h[c] / phi_h[c], 0.0, 1.0) : 0.0;
+            float m = max(scaled[c], 0.0);
+            diffused += p1 * clamp(homogeneous[c], 0.0, m);
+            total += m;
+        }
+        share = total > 0.0 ? clamp(diffused / total, 0.0, 1.0) : 0.0;
+        share = isnan(share) || isinf(share) ? 0.0 : share;
         vec3 raw = scaled * pc.inv_q_scale;
         for (int c = 0; c < 3; ++c) {
             if (!(raw[c] >= 0.0)) {
@@ -50,5 +68,5 @@ void main() {
         }
         j = raw;
     }
-    imageStore(j_plus, p, vec4(j, surface ? 1.0 : 0.0));
+    imageStore(j_plus, p, vec4(j, share));
 }

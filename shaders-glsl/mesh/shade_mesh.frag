@@ -11,6 +11,7 @@ layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec3 v_exitance;
 layout(location = 3) in vec3 v_scattered;
+layout(location = 4) in float v_share;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -29,9 +30,11 @@ layout(push_constant) uniform ShadePush {
     uint radiance_mode; // 0: physical, 1: paper
     float roughness;    // GGX alpha = roughness^2
     uint specular;      // 1: add Cook-Torrance specular
-    // Exit lobe (scene::ExitLobe): L = L_lambert (1 + b mu_i) / (1 + b K(eta)); 0 and 1: Lambert.
+    // Exit lobe (scene::ExitLobe::shading_push): L = L_lambert (1 + b mu_i) / (1 + b K(eta)),
+    // b = lobe_slope (lobe_own + (1 - lobe_own) s), s the vertex's diffused share; 0: Lambert.
     float lobe_slope;
-    float lobe_scale;
+    float lobe_k;
+    float lobe_own;
 } pc;
 
 layout(location = 0) out vec4 out_radiance;
@@ -62,11 +65,12 @@ void main() {
     }
     float f_t = fresnel_transmittance(pc.eta, n_v);
     float scale = pc.radiance_mode == 0u ? 1.0 / (PI * pc.eta * pc.eta) : 1.0 / PI;
-    // The exit lobe (scene::ExitLobe::factor): mu_i the refracted cosine inside; normalized so the
+    // The exit lobe (scene::ExitLobe::factor_at): mu_i the refracted cosine inside; normalized so the
     // exitance over the hemisphere is unchanged. It shapes the diffusion's J+ only: the march's X
     // is already the single scattering toward this view.
     float mu_i = sqrt(max(1.0 - (1.0 - n_v * n_v) / (pc.eta * pc.eta), 0.0));
-    float lobe = (1.0 + pc.lobe_slope * mu_i) * pc.lobe_scale;
+    float b = pc.lobe_slope * (pc.lobe_own + (1.0 - pc.lobe_own) * clamp(v_share, 0.0, 1.0));
+    float lobe = (1.0 + b * mu_i) / (1.0 + b * pc.lobe_k);
     // Single scattering (DESIGN 2.8) joins the diffusion's J+: L_ss = T_o X / (pi eta^2). As a
     // difference to the flat closed form it may be negative; the sum never is.
     vec3 radiance = f_t * max(lobe * max(v_exitance, vec3(0.0)) + v_scattered, vec3(0.0)) * scale;

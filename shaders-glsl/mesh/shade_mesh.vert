@@ -5,6 +5,8 @@ layout(location = 1) in vec3 normal;
 layout(location = 2) in vec3 exitance;
 // Single scattering X per vertex (DESIGN 2.8; frame::SingleScatteringPass, zero while off).
 layout(location = 3) in vec4 scattered;
+// The per-node exit lobe's diffused share (frame::Method::exit_share; 0 when the method has none).
+layout(location = 4) in float share;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -19,11 +21,13 @@ layout(location = 0) out vec3 v_position;
 layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec3 v_exitance;
 layout(location = 3) out vec3 v_scattered;
+layout(location = 4) out float v_share;
 
 void main() {
     v_position = position;
     v_normal = normal;
     v_exitance = exitance;
     v_scattered = scattered.rgb;
+    v_share = share;
     gl_Position = frame.view_proj * vec4(position, 1.0);
 }

@@ -29,8 +29,9 @@ pub struct SceneArgs {
     #[arg(long, default_value = "physical", value_parser = ["physical", "paper"])]
     pub radiance: String,
     /// Angular shape of the exit radiance: `lambert` (DESIGN 2.6), `p1` (1 + 3/(2A) mu_i), `fitted`
-    /// (half the P1 slope, fitted on Monte Carlo; translucent::scene::ExitLobe). `bench` sweeps
-    /// a comma-separated list (`lambert,p1,fitted`); a frame takes one.
+    /// (half the P1 slope, fitted on Monte Carlo), `node` (a slope per surface node: P1 for light
+    /// diffused from elsewhere, Lambert for a node's own; translucent::scene::ExitLobe). `bench`
+    /// sweeps a comma-separated list (`lambert,p1,fitted,node`); a frame takes one.
     #[arg(long, default_value = "lambert", value_parser = exit_lobe_list)]
     pub exit_lobe: String,
     /// No Cook-Torrance specular (and no shadow map pass).

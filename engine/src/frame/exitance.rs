@@ -30,6 +30,12 @@ pub struct FixedExitance {
     /// New values waiting for the next frame, and the ones being copied this frame.
     staged: Option<Buffer>,
     recording: Option<Buffer>,
+    /// The per-node exit lobe's diffused share per vertex (16 bytes each, the share in the 4th
+    /// float; [`Method::exit_share`]): the one the shading reads, one waiting for the next
+    /// frame, and the one the last frame read (released a frame later).
+    share: Option<Buffer>,
+    share_staged: Option<Buffer>,
+    share_retired: Option<Buffer>,
 }
 
 fn unsupported(what: &str) -> Error {
@@ -47,7 +53,42 @@ impl FixedExitance {
             mesh,
             staged: None,
             recording: None,
+            share: None,
+            share_staged: None,
+            share_retired: None,
         }
+    }
+
+    /// The per-node exit lobe's diffused share per vertex (as many as the mesh has; each in
+    /// [0, 1], e.g. [`crate::solver::CpuSolution::vertex_diffused_share`]), read from the next
+    /// frame on by [`crate::scene::ExitLobe::Node`].
+    pub fn set_diffused_share(&mut self, ctx: &Context, share: &[f32]) -> Result<(), Error> {
+        if share.len() != self.mesh.vertex_count() {
+            return Err(VkError::invalid(
+                "diffused share",
+                format!(
+                    "{} values for {} vertices",
+                    share.len(),
+                    self.mesh.vertex_count()
+                ),
+            )
+            .into());
+        }
+        if let Some(v) = share.iter().position(|s| !(0.0..=1.0).contains(s)) {
+            return Err(VkError::invalid(
+                "diffused share",
+                format!("vertex {v}: {} is not in [0, 1]", share[v]),
+            )
+            .into());
+        }
+        let rows: Vec<[f32; 4]> = share.iter().map(|&s| [0.0, 0.0, 0.0, s]).collect();
+        self.share_staged = Some(Buffer::with_data(
+            ctx,
+            "exit lobe share",
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            &rows,
+        )?);
+        Ok(())
     }
 
     /// New exitance J+ per vertex (as many as the mesh has; finite), drawn from the next frame.
@@ -105,6 +146,10 @@ impl Method for FixedExitance {
     fn prepare(&mut self, _: MethodWork, _: u64) -> Result<MethodFrame, Error> {
         // The last frame's staging buffer is released once that frame completed.
         self.recording = self.staged.take();
+        self.share_retired = match self.share_staged.take() {
+            Some(new) => self.share.replace(new),
+            None => None,
+        };
         let mut out = MethodFrame::default();
         if self.recording.is_none() {
             out.skipped
@@ -154,6 +199,9 @@ impl Method for FixedExitance {
     }
     fn gpu_bytes(&self) -> u64 {
         0
+    }
+    fn exit_share(&self) -> Option<&Buffer> {
+        self.share.as_ref()
     }
     fn as_any(&self) -> &dyn std::any::Any {
         self

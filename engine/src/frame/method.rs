@@ -23,7 +23,7 @@ use crate::material::MaterialField;
 use crate::render::ShadowMaps;
 use crate::scene::Scene;
 use crate::solver::gpu::Deformation;
-use crate::vk::Context;
+use crate::vk::{Buffer, Context};
 use crate::Error;
 
 /// The methods behind `--method` (DESIGN section 8).
@@ -127,6 +127,14 @@ pub trait Method: Send {
 
     /// GPU bytes of the method's resources.
     fn gpu_bytes(&self) -> u64;
+
+    /// The per-node exit lobe's vertex stream ([`crate::scene::ExitLobe::Node`]): 16 bytes per
+    /// display vertex, the diffused share ([`crate::scene::diffused_share`]) in the 4th float,
+    /// written by [`Self::add_passes`]. `None`: the method has no share (the shading reads 0, a
+    /// node's own light).
+    fn exit_share(&self) -> Option<&Buffer> {
+        None
+    }
 
     /// For method-specific reports (e.g. [`super::QuadGraphMethod::report`]).
     fn as_any(&self) -> &dyn std::any::Any;

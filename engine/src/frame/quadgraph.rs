@@ -502,6 +502,10 @@ impl Method for QuadGraphMethod {
         self.solve.bytes().0
     }
 
+    fn exit_share(&self) -> Option<&Buffer> {
+        Some(self.solve.vertex_j_plus_buffer())
+    }
+
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }

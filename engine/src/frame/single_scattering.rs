@@ -269,7 +269,7 @@ impl SingleScatteringPass {
                         format: vk::Format::R32G32B32_SFLOAT,
                         offset: 0,
                     }],
-                    second_stream: None,
+                    extra_streams: &[],
                     color_formats: &[],
                     depth_format: Some(DEPTHS_FORMAT),
                     depth_bias: None,

@@ -68,10 +68,12 @@ pub struct ShadePush {
     pub roughness: f32,
     /// 1: add Cook-Torrance specular.
     pub specular: u32,
-    /// The exit lobe's slope b and scale 1 / (1 + b K(eta)) ([`crate::scene::ExitLobe`]); 0 and 1
-    /// for the Lambertian lobe of DESIGN 2.6.
+    /// The exit lobe ([`crate::scene::ExitLobe::shading_push`]): the slope b at diffused share 1,
+    /// K(eta), and the share of b a node of diffused share 0 keeps (the vertex stream's share s
+    /// gives b (own + (1 - own) s)); 0, K, 1 for the Lambertian lobe of DESIGN 2.6.
     pub lobe_slope: f32,
-    pub lobe_scale: f32,
+    pub lobe_k: f32,
+    pub lobe_own: f32,
 }
 
 /// Where [`MeshPass::record_into`] draws: views already in attachment layouts.
@@ -158,15 +160,26 @@ impl MeshPass {
                     },
                 ],
                 // Single scattering per vertex (DESIGN 2.8, `frame::SingleScatteringPass`): X
-                // added to J+ (zero while the pass is off).
-                second_stream: Some((
-                    16,
-                    &[VertexAttribute {
-                        location: 3,
-                        format: vk::Format::R32G32B32A32_SFLOAT,
-                        offset: 0,
-                    }],
-                )),
+                // added to J+ (zero while the pass is off); then the per-node exit lobe's
+                // diffused share (`frame::Method::exit_share`: the 4th float of 16 bytes).
+                extra_streams: &[
+                    (
+                        16,
+                        &[VertexAttribute {
+                            location: 3,
+                            format: vk::Format::R32G32B32A32_SFLOAT,
+                            offset: 0,
+                        }],
+                    ),
+                    (
+                        16,
+                        &[VertexAttribute {
+                            location: 4,
+                            format: vk::Format::R32_SFLOAT,
+                            offset: 12,
+                        }],
+                    ),
+                ],
                 color_formats: &[color_format],
                 depth_format: Some(depth_format),
                 depth_bias: None,
@@ -237,22 +250,30 @@ impl MeshPass {
     }
 
     /// What [`Self::record_into`] uses besides the attachments: `mesh`'s vertices, the single
-    /// scattering per vertex and the shadow atlas (sampled for the specular term).
+    /// scattering per vertex, the exit lobe's share per vertex (`None`: read from `scattered`,
+    /// whose 4th float is 0) and the shadow atlas (sampled for the specular term).
     pub fn uses<'a>(
         &'a self,
         mesh: &'a GpuMesh,
         scattered: &'a Buffer,
+        share: Option<&'a Buffer>,
         shadows: &'a ShadowMaps,
-    ) -> [Use<'a>; 3] {
-        [
+    ) -> Vec<Use<'a>> {
+        let mut uses = vec![
             Use::buffer(mesh.vertex_buffer(), Access::VertexInput),
             Use::buffer(scattered, Access::VertexInput),
             Use::image(&shadows.atlas, Access::DepthSampledShaders),
-        ]
+        ];
+        if let Some(share) = share {
+            uses.push(Use::buffer(share, Access::VertexInput));
+        }
+        uses
     }
 
     /// Updates the uniforms in the command stream, then draws `mesh` with `scattered` (single
-    /// scattering per vertex, 16 bytes each, at least as many as `mesh` has) into `attachments` (in
+    /// scattering per vertex, 16 bytes each, at least as many as `mesh` has) and `share` (the exit
+    /// lobe's diffused share in the 4th float of 16 bytes per vertex; `None`: `scattered`'s 4th
+    /// float, 0) into `attachments` (in
     /// `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL`, their earlier uses ordered by the
     /// frame graph).
     ///
@@ -270,6 +291,7 @@ impl MeshPass {
         cb: vk::CommandBuffer,
         mesh: &GpuMesh,
         scattered: &Buffer,
+        share: Option<&Buffer>,
         attachments: &ShadeAttachments,
         uniforms: &ShadeUniforms,
         push: &ShadePush,
@@ -329,8 +351,12 @@ impl MeshPass {
             barrier::memory(ctx, cb, Access::TransferDst, Access::GraphicsUniformRead);
             ctx.raw().cmd_begin_rendering(cb, &rendering);
             self.pipeline.bind(ctx, cb, self.set, push, extent);
-            ctx.raw()
-                .cmd_bind_vertex_buffers(cb, 1, &[scattered.raw], &[0]);
+            ctx.raw().cmd_bind_vertex_buffers(
+                cb,
+                1,
+                &[scattered.raw, share.unwrap_or(scattered).raw],
+                &[0, 0],
+            );
             mesh.draw(ctx, cb);
             ctx.raw().cmd_end_rendering(cb);
         }

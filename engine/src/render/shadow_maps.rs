@@ -278,7 +278,7 @@ impl ShadowMaps {
                     format: vk::Format::R32G32B32_SFLOAT,
                     offset: 0,
                 }],
-                second_stream: None,
+                extra_streams: &[],
                 color_formats: &[],
                 depth_format: Some(SHADOW_ATLAS_FORMAT),
                 // Slope-scaled bias against acne on surfaces seen at grazing angles; the gather adds

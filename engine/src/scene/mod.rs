@@ -37,7 +37,9 @@ use crate::quadgraph::graph::GraphLevel;
 pub use camera::{Camera, FOVY_RANGE_DEG, MAX_CAMERA_MM};
 pub use environment::Environment;
 pub use environment_map::equirect_direction;
-pub use exit_lobe::{inside_cosine, ExitLobe, FITTED_SLOPE_SHARE};
+pub use exit_lobe::{
+    diffused_share, inside_cosine, ExitLobe, FITTED_SLOPE_SHARE, OWN_SOURCE_SLOPE_SHARE,
+};
 pub use light::{Light, MAX_LIGHT_COLOUR};
 
 /// A bad light, environment, camera or mode, naming it and the problem.

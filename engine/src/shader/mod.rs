@@ -187,9 +187,9 @@ mod tests {
         assert_eq!(names, vec![("src", 0), ("dst", 1)]);
         let frag = Reflection::new(&embedded("mesh/shade_mesh.frag").expect("embedded"))
             .expect("reflects");
-        // ShadePush: eta, radiance_mode, roughness, specular, lobe_slope, lobe_scale.
-        assert_eq!(frag.push_constant_size, Some(24));
-        assert_eq!(std::mem::size_of::<crate::render::ShadePush>(), 24);
+        // ShadePush: eta, radiance_mode, roughness, specular, lobe_slope, lobe_k, lobe_own.
+        assert_eq!(frag.push_constant_size, Some(28));
+        assert_eq!(std::mem::size_of::<crate::render::ShadePush>(), 28);
         assert!(frag.bindings.iter().any(|b| b.name == "shadow_map"
             && b.descriptor_type == ash::vk::DescriptorType::COMBINED_IMAGE_SAMPLER));
         let uniform = frag

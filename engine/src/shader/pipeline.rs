@@ -670,9 +670,9 @@ pub struct GraphicsPipelineDesc<'a> {
     pub fragment: Option<&'a str>,
     pub vertex_stride: u32,
     pub vertex_attributes: &'a [VertexAttribute],
-    /// A second per-vertex stream (binding 1): its stride and attributes (e.g. the shading's
-    /// single scattering per vertex); `None`: one interleaved buffer.
-    pub second_stream: Option<(u32, &'a [VertexAttribute])>,
+    /// Further per-vertex streams (bindings 1, 2, ..): each its stride and attributes (e.g. the
+    /// shading's single scattering and exit-lobe share per vertex); empty: one interleaved buffer.
+    pub extra_streams: &'a [(u32, &'a [VertexAttribute])],
     pub color_formats: &'a [vk::Format],
     pub depth_format: Option<vk::Format>,
     /// (constant factor, slope factor) for shadow maps.
@@ -754,14 +754,14 @@ impl<P: bytemuck::Pod> GraphicsPipeline<P> {
             .iter()
             .map(|a| attribute(0, a))
             .collect();
-        if let Some((stride, second)) = desc.second_stream {
+        for (binding, (stride, stream)) in (1u32..).zip(desc.extra_streams) {
             vertex_bindings.push(
                 vk::VertexInputBindingDescription::default()
-                    .binding(1)
-                    .stride(stride)
+                    .binding(binding)
+                    .stride(*stride)
                     .input_rate(vk::VertexInputRate::VERTEX),
             );
-            attributes.extend(second.iter().map(|a| attribute(1, a)));
+            attributes.extend(stream.iter().map(|a| attribute(binding, a)));
         }
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vertex_bindings)

@@ -56,7 +56,20 @@ pub fn radiance_with_lobe(
     mode: RadianceMode,
     lobe: ExitLobe,
 ) -> [f64; 3] {
-    let ft = fresnel::transmittance(eta, cos_o) * lobe.factor(eta, cos_o);
+    radiance_with_lobe_at(j_plus, eta, cos_o, mode, lobe, 1.0)
+}
+
+/// [`radiance_with_lobe`] at a vertex of diffused share `share` (the per-node lobe,
+/// [`ExitLobe::Node`]; the other lobes ignore it).
+pub fn radiance_with_lobe_at(
+    j_plus: [f64; 3],
+    eta: f64,
+    cos_o: f64,
+    mode: RadianceMode,
+    lobe: ExitLobe,
+    share: f64,
+) -> [f64; 3] {
+    let ft = fresnel::transmittance(eta, cos_o) * lobe.factor_at(eta, cos_o, share);
     let k = match mode {
         RadianceMode::Physical => ft / (std::f64::consts::PI * eta * eta),
         RadianceMode::Paper => ft / std::f64::consts::PI,
@@ -176,6 +189,12 @@ pub struct CpuSolution {
     pub vertex_exitance: Vec<[f64; 3]>,
     /// Display vertices whose shading value was clamped at zero, per channel.
     pub vertex_clamped: [usize; 3],
+    /// Per finest surface node the per-node exit lobe's diffused share
+    /// ([`crate::scene::diffused_share`]; the GPU's J+ alpha).
+    pub diffused_share: Vec<f64>,
+    /// The same per display vertex through the shading weights (the Shepard surface; zeros for
+    /// the interior and depth-sampled surfaces, which carry none: own light).
+    pub vertex_diffused_share: Vec<f32>,
     /// The finest level's sources per surface node (bounce included).
     pub sources: Vec<LocalSource>,
     pub boundary: Boundary,
@@ -483,6 +502,9 @@ pub fn solve(
     }
 
     let exitance = node_exitance(&op, &boundary, &sources, &row_h, &phi, material, level);
+    let diffused_share = node_diffused_share(
+        &op, &boundary, &sources, &row_h, &phi, material, level, &exitance,
+    );
     let j_plus: Vec<[f64; 3]> = exitance
         .iter()
         .map(|m| m.map(|v| boundary.shading_input(v)))
@@ -501,6 +523,16 @@ pub fn solve(
             energy.absorbed[c] += mu[c] * phi_i[c] * v;
         }
     }
+    let vertex_diffused_share: Vec<f32> = match transport.surface {
+        SurfaceReconstruction::Shepard => {
+            let per_node: Vec<[f64; 3]> = diffused_share.iter().map(|&s| [s; 3]).collect();
+            shade_vertices(graph, &per_node)?
+                .iter()
+                .map(|v| v[0].clamp(0.0, 1.0))
+                .collect()
+        }
+        _ => vec![0.0; graph.surface.positions.len()],
+    };
     let (vertex_j_plus, vertex_exitance, vertex_clamped) = match transport.surface {
         SurfaceReconstruction::Shepard => {
             let v = shade_vertices(graph, &j_plus_clamped)?;
@@ -564,6 +596,8 @@ pub fn solve(
         exitance,
         vertex_exitance,
         vertex_clamped,
+        diffused_share,
+        vertex_diffused_share,
         sources,
         boundary,
         multigrid,
@@ -684,6 +718,39 @@ fn node_exitance(
                     src.q_flux[c],
                 )
             })
+        })
+        .collect()
+}
+
+/// The per-node exit lobe's diffused share of every finest surface node
+/// ([`crate::scene::diffused_share`]): the remainder phi_h against its Robin row's right side, the
+/// remainder's exitance (particular parts left out) against the node's `exitance`.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the same inputs as node_exitance, plus its result"
+)]
+fn node_diffused_share(
+    op: &LevelOperator,
+    boundary: &Boundary,
+    sources: &[LocalSource],
+    row_h: &[[f64; 3]],
+    phi: &[[f64; 3]],
+    material: &MaterialField,
+    level: &GraphLevel,
+    exitance: &[[f64; 3]],
+) -> Vec<f64> {
+    let inner = op.inner_count;
+    (0..sources.len())
+        .into_par_iter()
+        .map(|s| {
+            let src = &sources[s];
+            let d = material.kappa_at(level.positions[level.surface_faces[s].0 as usize]);
+            let phi_h: [f64; 3] = phi[inner + s];
+            let homogeneous = std::array::from_fn(|c| {
+                let dphi_h = (phi_h[c] - src.rhs[c]) / row_h[s][c];
+                boundary.exitance(d[c], phi_h[c], dphi_h, src.q_flux[c])
+            });
+            crate::scene::diffused_share(phi_h, src.rhs, exitance[s], homogeneous)
         })
         .collect()
 }

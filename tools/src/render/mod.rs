@@ -776,6 +776,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             ..frame_desc.clone()
         };
         let mut renderer = HeadlessRenderer::new(&ctx, &mesh, &solver_scene, &supersampled)?;
+        if let Some(s) = &solution {
+            renderer.set_diffused_share(&ctx, &s.vertex_diffused_share)?;
+        }
         for i in 0..args.frames {
             let captured = renderer.render_frame(&ctx)?;
             let iterations: Vec<usize> = match (&solution, i) {

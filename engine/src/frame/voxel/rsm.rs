@@ -182,7 +182,7 @@ impl ReflectiveShadowMaps {
                         offset: std::mem::offset_of!(Vertex, normal) as u32,
                     },
                 ],
-                second_stream: None,
+                extra_streams: &[],
                 color_formats: &[
                     RSM_POSITION_FORMAT,
                     RSM_NORMAL_FORMAT,

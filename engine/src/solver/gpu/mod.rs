@@ -503,7 +503,7 @@ impl GpuDiffusion {
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let vertex_links = Buffer::with_data(ctx, "diffusion vertex links", storage, &links)?;
         let vertex_weights = Buffer::with_data(ctx, "diffusion vertex weights", storage, &weights)?;
-        let vertex_j_plus = Buffer::new(
+        let mut vertex_j_plus = Buffer::new(
             ctx,
             &BufferDesc {
                 name: "diffusion vertex j+",
@@ -512,6 +512,9 @@ impl GpuDiffusion {
                 memory: MemoryUse::Readback,
             },
         )?;
+        // Zeros: the interior surface writes no diffused share (the 4th float per vertex, the
+        // per-node exit lobe's stream), which then reads as own light.
+        vertex_j_plus.write_bytes(0, &vec![0u8; links.len() * 16])?;
         let finest = levels.last().ok_or(SolverError::EmptyGraph)?;
         let j_plus_set = pipelines.j_plus.allocate_set(
             ctx,

@@ -62,7 +62,9 @@ pub struct JPlusPush {
     /// The collimated source (DESIGN 2.7): the shading input per unit exitance, times the
     /// `particular` image's value, is added to J+; 0: not read.
     pub particular_factor: f32,
-    pub pad: f32,
+    /// The Robin right-hand side per unit q ([`crate::solver::transport::Boundary::flux_gain`]),
+    /// for the per-node exit lobe's diffused share (the J+ image's alpha).
+    pub flux_gain: f32,
 }
 
 /// Push constants of `diffusion/vertex_j_plus.comp`.
@@ -74,6 +76,9 @@ pub struct VertexPush {
     /// Floats per vertex in the output buffer and the float offset of J+ in a vertex.
     pub stride: u32,
     pub offset: u32,
+    /// 1: also write the diffused share (the J+ image's alpha) at float offset + 3 (the solver's
+    /// own vec4 buffer only).
+    pub share: u32,
 }
 
 /// Push constants of `diffusion/vertex_interior*.comp`.

@@ -116,4 +116,30 @@ impl GpuDiffusion {
             })
             .collect())
     }
+
+    /// Per surface node of the finest level the diffused share of the per-node exit lobe
+    /// ([`crate::scene::diffused_share`], the J+ image's alpha), in the order of
+    /// [`Self::read_j_plus`].
+    pub fn read_diffused_share(&self, ctx: &Context) -> Result<Vec<f32>, Error> {
+        let l = &self.levels[self.levels.len() - 1];
+        let linear = ImageReadback::capture(ctx, &self.j_plus, Access::ComputeReadWrite)?;
+        Ok(l.packing.texels[l.inner_count..]
+            .iter()
+            .map(|&[u, v]| linear.pixel(u, v)[3])
+            .collect())
+    }
+
+    /// Headless: the per display-vertex diffused share of the last solve (the vertex stream
+    /// [`crate::frame::Method::exit_share`] hands the shading).
+    pub fn read_vertex_diffused_share(&self, ctx: &Context) -> Result<Vec<f32>, Error> {
+        self.sync_host(ctx)?;
+        let b = self.vertex_j_plus.read_bytes()?;
+        Ok(b.chunks_exact(16)
+            .take(self.vertex_count as usize)
+            .map(|c| {
+                let v: [f32; 4] = bytemuck::pod_read_unaligned(c);
+                v[3]
+            })
+            .collect())
+    }
 }

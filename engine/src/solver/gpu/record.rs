@@ -554,7 +554,7 @@ impl GpuDiffusion {
                     } else {
                         0.0
                     },
-                    pad: 0.0,
+                    flux_gain: self.boundary().flux_gain as f32,
                 },
                 [finest.packing.width, finest.packing.surface_rows.max(1), 1],
             );
@@ -577,16 +577,18 @@ impl GpuDiffusion {
     /// As [`Self::record_exitance`], after its J+ pass.
     unsafe fn dispatch_shepard(&self, ctx: &Context, cb: vk::CommandBuffer) {
         let finest = &self.levels[self.levels.len() - 1];
-        let mut targets = vec![(self.vertex_set, 4u32, 0u32)];
+        // Our buffer also takes the diffused share (the per-node exit lobe's vertex stream).
+        let mut targets = vec![(self.vertex_set, 4u32, 0u32, 1u32)];
         if let Some((_, set)) = &self.mesh {
             let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
             targets.push((
                 *set,
                 floats(std::mem::size_of::<Vertex>()),
                 floats(std::mem::offset_of!(Vertex, exitance)),
+                0,
             ));
         }
-        for (set, stride, offset) in targets {
+        for (set, stride, offset, share) in targets {
             // SAFETY: the caller's contract; every set's resources live in `self`.
             unsafe {
                 self.pipelines.vertex.dispatch(
@@ -598,6 +600,7 @@ impl GpuDiffusion {
                         width: finest.packing.width,
                         stride,
                         offset,
+                        share,
                     },
                     [self.vertex_count.max(1), 1, 1],
                 );
