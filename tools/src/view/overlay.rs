@@ -213,6 +213,7 @@ mod tests {
                 matvec_units: 80.0,
                 mean_factor: Some(0.1),
                 coarse_steps: 8,
+                warm_order: 0,
             }),
         };
         let (text, colour) = solve_line(&solve);
