@@ -17,8 +17,8 @@
 //             sol += alpha dir, R -= alpha kdir, z_old = z, x = 0; partials = R . R
 //   5 finish: x = sol (the solution the output pass writes and the next warm start reads)
 layout(local_size_x = 64) in;
-// The finest level's entries sit at e - HALF_ENTRIES of `values` (residual.comp: the coarse
-// levels' fp16 entries come first and live elsewhere).
+// The finest level's entries sit at floats 3 (e - HALF_ENTRIES) of `values` (residual.comp: the
+// coarse levels' fp16 entries come first and live elsewhere).
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
 #include "common.glsl"
@@ -31,7 +31,7 @@ layout(set = 0, binding = 4, std430) buffer Dir { vec4 v[]; } dir;
 layout(set = 0, binding = 5, std430) buffer ZOld { vec4 v[]; } z_old;
 layout(set = 0, binding = 6, std430) readonly buffer RowStart { uint v[]; } row_start;
 layout(set = 0, binding = 7, std430) readonly buffer Cols { uint v[]; } cols;
-layout(set = 0, binding = 8, std430) readonly buffer Values { vec4 v[]; } values;
+layout(set = 0, binding = 8, std430) readonly buffer Values { float v[]; } values;
 layout(set = 0, binding = 9, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 10, std430) writeonly buffer Partials { vec4 v[]; } partials;
 layout(set = 0, binding = 11, std430) readonly buffer Control { MultigridControl c; } control;
@@ -68,7 +68,8 @@ void reduce(vec3 s, uint slot) {
 vec3 apply_k(uint i) {
     vec3 acc = diag.v[i].rgb * x.v[i].rgb;
     for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
-        acc += values.v[e - HALF_ENTRIES].rgb * x.v[cols.v[e]].rgb;
+        uint j = 3u * (e - HALF_ENTRIES);
+        acc += vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]) * x.v[cols.v[e]].rgb;
     }
     return acc;
 }

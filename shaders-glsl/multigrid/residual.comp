@@ -3,7 +3,8 @@
 // r = f - K x on one level (CSR rows, the diagonal apart).
 // Entries below HALF_ENTRIES (the coarse levels' under `--coarse-storage f16`, which come first)
 // are RGB fp16 in `values16` (two uints), relative to the row's scale in diag.a; the others are
-// RGB f32 in `values` at e - HALF_ENTRIES (`solver::gpu::multigrid`, `pack_operators`).
+// RGB f32 in `values`, three floats from 3 (e - HALF_ENTRIES) (`solver::gpu::multigrid`,
+// `pack_operators`).
 layout(local_size_x = 64) in;
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
@@ -14,7 +15,7 @@ layout(set = 0, binding = 1, std430) readonly buffer Fs { vec4 v[]; } f;
 layout(set = 0, binding = 2, std430) writeonly buffer Rs { vec4 v[]; } r;
 layout(set = 0, binding = 3, std430) readonly buffer RowStart { uint v[]; } row_start;
 layout(set = 0, binding = 4, std430) readonly buffer Cols { uint v[]; } cols;
-layout(set = 0, binding = 5, std430) readonly buffer Values { vec4 v[]; } values;
+layout(set = 0, binding = 5, std430) readonly buffer Values { float v[]; } values;
 layout(set = 0, binding = 6, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 7, std430) readonly buffer Values16 { uvec2 v[]; } values16;
 
@@ -37,7 +38,8 @@ void main() {
         acc += d.a * scaled;
     } else {
         for (uint e = first; e < end; ++e) {
-            acc += values.v[e - HALF_ENTRIES].rgb * x.v[cols.v[e]].rgb;
+            uint j = 3u * (e - HALF_ENTRIES);
+            acc += vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]) * x.v[cols.v[e]].rgb;
         }
     }
     r.v[i] = vec4(f.v[i].rgb - acc, 0.0);

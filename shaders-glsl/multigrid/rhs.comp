@@ -11,7 +11,7 @@ layout(set = 0, binding = 0, rgba16f) uniform readonly image2D q;
 layout(set = 0, binding = 1, std430) writeonly buffer Fs { vec4 v[]; } f;
 layout(set = 0, binding = 2, std430) buffer Xs { vec4 v[]; } x;
 layout(set = 0, binding = 3, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
-layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { vec4 v[]; } rhs_coef;
+layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { float v[]; } rhs_coef;
 
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
@@ -19,11 +19,11 @@ void main() {
     }
     uint node = gl_GlobalInvocationID.x;
     uint i = pc.offset + node;
-    vec4 coef = rhs_coef.v[node];
+    float coef = rhs_coef.v[node];
     vec3 value = vec3(0.0);
-    if (coef != vec4(0.0)) {
+    if (coef != 0.0) {
         uint t = node_texel.v[node];
-        value = coef.rgb * imageLoad(q, ivec2(int(t % pc.width), int(t / pc.width))).rgb;
+        value = coef * imageLoad(q, ivec2(int(t % pc.width), int(t / pc.width))).rgb;
     }
     f.v[i] = vec4(value, 0.0);
     if (pc.mode == 1u) {
