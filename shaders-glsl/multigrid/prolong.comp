@@ -6,7 +6,7 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
-layout(set = 0, binding = 0, std430) buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
 // 8 link slots per node (slot 8 i + k); PACKED_LINKS: `coarse node << 8 | weight in 1/255`
 // (LinkStorage::Packed, link_weights unused), else the coarse node and link_weights' f32.
 layout(constant_id = 1) const uint PACKED_LINKS = 1u;
@@ -18,17 +18,17 @@ void main() {
         return;
     }
     uint i = pc.offset + gl_GlobalInvocationID.x;
-    vec3 acc = pc.mode == 1u ? vec3(0.0) : x.v[i].rgb;
+    vec3 acc = pc.mode == 1u ? vec3(0.0) : RGB(x, i);
     for (uint k = 0u; k < 8u; ++k) {
         uint slot = 8u * i + k;
         uint link = links.v[slot];
         if (link != NO_NODE) {
             if (PACKED_LINKS != 0u) {
-                acc += float(link & 255u) / 255.0 * x.v[link >> 8].rgb;
+                acc += float(link & 255u) / 255.0 * RGB(x, link >> 8);
             } else {
-                acc += link_weights.v[slot] * x.v[link].rgb;
+                acc += link_weights.v[slot] * RGB(x, link);
             }
         }
     }
-    x.v[i] = vec4(acc, 0.0);
+    SET_RGB(x, i, acc);
 }

@@ -8,9 +8,9 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
-layout(set = 0, binding = 0, std430) writeonly buffer Xs { vec4 v[]; } x;
-layout(set = 0, binding = 1, std430) buffer Fs { vec4 v[]; } f;
-layout(set = 0, binding = 2, std430) readonly buffer Rs { vec4 v[]; } r;
+layout(set = 0, binding = 0, std430) writeonly buffer Xs { float v[]; } x;
+layout(set = 0, binding = 1, std430) buffer Fs { float v[]; } f;
+layout(set = 0, binding = 2, std430) readonly buffer Rs { float v[]; } r;
 layout(set = 0, binding = 3, std430) readonly buffer TStart { uint v[]; } t_start;
 layout(set = 0, binding = 4, std430) readonly buffer TLink { uint v[]; } t_link;
 // The prolongation's links (prolong.comp): slot 8 i + k of fine node i.
@@ -28,8 +28,8 @@ void main() {
         uint slot = t_link.v[e];
         uint i = slot / 8u;
         float w = PACKED_LINKS != 0u ? float(links.v[slot] & 255u) / 255.0 : link_weights.v[slot];
-        acc += w * (pc.mode == 1u ? f.v[i].rgb : r.v[i].rgb);
+        acc += w * (pc.mode == 1u ? RGB(f, i) : RGB(r, i));
     }
-    f.v[c] = vec4(acc, 0.0);
-    x.v[c] = vec4(0.0);
+    SET_RGB(f, c, acc);
+    SET_RGB(x, c, vec3(0.0));
 }

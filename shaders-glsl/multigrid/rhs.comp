@@ -8,8 +8,8 @@ layout(local_size_x = 64) in;
 #include "common.glsl"
 
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D q;
-layout(set = 0, binding = 1, std430) writeonly buffer Fs { vec4 v[]; } f;
-layout(set = 0, binding = 2, std430) buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 1, std430) writeonly buffer Fs { float v[]; } f;
+layout(set = 0, binding = 2, std430) buffer Xs { float v[]; } x;
 layout(set = 0, binding = 3, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
 layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { float v[]; } rhs_coef;
 
@@ -25,13 +25,13 @@ void main() {
         uint t = node_texel.v[node];
         value = coef * imageLoad(q, ivec2(int(t % pc.width), int(t / pc.width))).rgb;
     }
-    f.v[i] = vec4(value, 0.0);
+    SET_RGB(f, i, value);
     if (pc.mode == 1u) {
-        x.v[i] = vec4(0.0);
+        SET_RGB(x, i, vec3(0.0));
     } else {
-        vec3 xi = x.v[i].rgb;
+        vec3 xi = RGB(x, i);
         if (any(isnan(xi)) || any(isinf(xi))) {
-            x.v[i] = vec4(0.0);
+            SET_RGB(x, i, vec3(0.0));
         }
     }
 }

@@ -15,7 +15,7 @@ use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::multigrid::{CycleState, GpuMultigridReport};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
 use translucent::solver::multigrid::{
-    quantized_links, Hierarchy, LinkStorage, MultigridParams, LINK_WEIGHT_STEPS,
+    quantized_links, Hierarchy, LinkStorage, MultigridParams, VectorStorage, LINK_WEIGHT_STEPS,
 };
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
@@ -30,6 +30,8 @@ const MAX_CYCLES: u32 = 40;
 const SLOTS: u64 = 8;
 /// A buffer is never smaller than this (an empty array still gets a buffer).
 const MIN_BUFFER: u64 = 16;
+/// The two vector layouts run the same f32 operations: J+ equal up to f32 noise.
+const SAME_OPERATIONS: f64 = 1e-6;
 /// One rounding of a weight to 1/255 steps, with the node's sum kept: at most one step.
 const QUANTIZATION: f64 = 1.0 / LINK_WEIGHT_STEPS as f64;
 
@@ -59,6 +61,7 @@ fn scene() -> Scene {
 fn multigrid(links: LinkStorage) -> MultigridParams {
     MultigridParams {
         link_storage: links,
+        vector_storage: VectorStorage::Rgb,
         max_cycles: MAX_CYCLES,
         ..MultigridParams::gpu()
     }
@@ -136,6 +139,57 @@ fn packed_links_reach_the_exact_solve_on_the_1e4_contrast() {
 fn packed_links_reach_the_exact_solve_in_skim_milk() {
     let field = MaterialField::Homogeneous(Material::preset("skimmilk").unwrap());
     packed_links_match_f32_links("skim milk", &field);
+}
+
+/// The per-node vectors take three floats per node with [`VectorStorage::Rgb`], four with
+/// [`VectorStorage::Rgba`], and give the same solve.
+#[test]
+fn rgb_vectors_take_three_floats_and_solve_as_rgba() {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake();
+    let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    let mut results = Vec::new();
+    for (vectors, floats) in [(VectorStorage::Rgba, 4u64), (VectorStorage::Rgb, 3)] {
+        let mg = MultigridParams {
+            vector_storage: vectors,
+            ..multigrid(LinkStorage::Packed)
+        };
+        let h = Hierarchy::build(&graph, &field, solver::Scheme::Fv, &mg).expect("cpu");
+        let nodes: u64 = h.levels.iter().map(|l| l.node_count() as u64).sum();
+        let finest = h.levels.last().unwrap().node_count() as u64;
+        let mut solve = GpuDiffusion::new(ctx, &graph, &field, &params(mg)).expect("solve");
+        let by_buffer = solve.multigrid_bytes_by_buffer();
+        for (name, n) in [
+            ("x", nodes),
+            ("d", nodes),
+            ("partner_value", nodes),
+            ("dir", finest),
+        ] {
+            let got = by_buffer.iter().find(|&&(b, _)| b == name).map(|&(_, b)| b);
+            assert_eq!(got, Some(4 * floats * n), "{vectors:?}: {name}");
+        }
+        let (j, report) = cold_solve(ctx, &mut solve, &graph, &field);
+        assert_eq!(
+            report.state,
+            CycleState::Converged,
+            "{vectors:?}: {report:?}"
+        );
+        results.push((j, report.cycles.len()));
+        drop(solve);
+    }
+    // The same f32 operations in either layout.
+    assert_eq!(results[0].1, results[1].1, "cycles");
+    let diff = rel_rms(
+        &results[1].0,
+        &results[0]
+            .0
+            .iter()
+            .map(|v| v.map(f64::from))
+            .collect::<Vec<_>>(),
+    );
+    assert!(diff <= SAME_OPERATIONS, "rgb against rgba: {diff:.2e}");
+    gpu.finish();
 }
 
 /// The link and restriction buffers from the CPU hierarchy: 8 slots per node of every level

@@ -15,7 +15,9 @@
 //!   1/255` each, the hierarchy built with the same quantized weights) and its transpose by coarse
 //!   rows for the restriction (`t_start`, `t_link`: the slots of the links into each coarse node,
 //!   whose weights it reads): both gathers;
-//! - x, f, r and the Chebyshev direction d per node; the finest node -> texel map and the
+//! - x, f, r and the Chebyshev direction d per node, RGB in three floats (so the CG's vectors
+//!   and `partner_value`; four with [`VectorStorage::Rgba`], `--vector-storage rgba`); the finest
+//!   node -> texel map and the
 //!   right-hand side coefficients `S b / q` (row scale times q_gain on surface rows, one float).
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
@@ -65,7 +67,7 @@ use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
     chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, LinkStorage,
-    MultigridParams, OperatorStorage, Smoother, LINK_WEIGHT_STEPS,
+    MultigridParams, OperatorStorage, Smoother, VectorStorage, LINK_WEIGHT_STEPS,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -312,6 +314,19 @@ const BUFFER_NAMES: [&str; 22] = [
     "values16",
 ];
 
+/// The per-node RGB vectors, `VectorStorage`'s stride each (`VECTOR_STRIDE` in `common.glsl`).
+const VECTORS: [&str; 9] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "sol",
+    "dir",
+    "z_old",
+    "kdir",
+    "partner_value",
+];
+
 /// The buffers the kernels write (the others are written once, from the host).
 const WRITTEN: [&str; 9] = [
     "x", "f", "r", "d", "partials", "sol", "dir", "z_old", "kdir",
@@ -363,7 +378,7 @@ impl GpuMultigrid {
         if total >= u32::MAX as usize {
             return Err(too_big("the node count"));
         }
-        let ops = pack_operators(hierarchy, &offsets, params.coarse_storage)?;
+        let ops = pack_operators(hierarchy, &offsets, params)?;
         let packed = params.link_storage == LinkStorage::Packed;
         if packed && total >= (NO_NODE >> 8) as usize {
             return Err(too_big("a packed link's node (24 bits)"));
@@ -479,9 +494,14 @@ impl GpuMultigrid {
             })
             .collect();
         let partials = (n_top as u32).div_ceil(GROUP);
-        let zeros = vec![[0.0f32; 4]; total];
+        // Every per-node RGB vector takes `stride` floats (`RGB` in `common.glsl`).
+        let stride: usize = match params.vector_storage {
+            VectorStorage::Rgb => 3,
+            VectorStorage::Rgba => 4,
+        };
+        let zeros = vec![0.0f32; stride * total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
-        let krylov_zeros = vec![[0.0f32; 4]; if params.krylov { n_top } else { 0 }];
+        let krylov_zeros = vec![0.0f32; if params.krylov { stride * n_top } else { 0 }];
         let contents: [Vec<u8>; 22] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
@@ -547,20 +567,26 @@ impl GpuMultigrid {
         let mut pipelines = Vec::with_capacity(KERNELS.len());
         for (name, shader, bindings) in KERNELS {
             // The operator readers learn where the fp16 entries end (`pack_operators`), the link
-            // readers whether the links are packed.
-            let constants: &[SpecConstant] = if bindings.contains(&"values") {
-                &[SpecConstant {
+            // readers whether the links are packed, the vector readers the vectors' stride.
+            let mut constants = Vec::new();
+            if bindings.contains(&"values") {
+                constants.push(SpecConstant {
                     id: 0,
                     value: ops.half_entries,
-                }]
-            } else if bindings.contains(&"links") {
-                &[SpecConstant {
+                });
+            }
+            if bindings.contains(&"links") {
+                constants.push(SpecConstant {
                     id: 1,
                     value: u32::from(packed),
-                }]
-            } else {
-                &[]
-            };
+                });
+            }
+            if bindings.iter().any(|b| VECTORS.contains(b)) {
+                constants.push(SpecConstant {
+                    id: 2,
+                    value: stride as u32,
+                });
+            }
             let pipeline = ComputePipeline::new_specialized(
                 ctx,
                 &ComputePipelineDesc {
@@ -569,7 +595,7 @@ impl GpuMultigrid {
                     bindings,
                     max_sets: 1,
                 },
-                constants,
+                &constants,
             )?;
             let writes: Vec<DescriptorWrite<'_>> = bindings
                 .iter()
@@ -945,7 +971,8 @@ struct PackedOperators {
     /// the row's scale of its fp16 entries in the fourth lane (0 where unused).
     diag: Vec<[f32; 4]>,
     partner: Vec<u32>,
-    partner_value: Vec<[f32; 4]>,
+    /// RGB, the vectors' stride of floats per node.
+    partner_value: Vec<f32>,
 }
 
 /// The row of `values16` and its effective f32 values (what `residual.comp` multiplies with):
@@ -966,8 +993,13 @@ fn half_entry(v: [f64; 3], scale: f64) -> ([u32; 2], [f64; 3]) {
 fn pack_operators(
     hierarchy: &Hierarchy,
     offsets: &[usize],
-    storage: OperatorStorage,
+    params: &MultigridParams,
 ) -> Result<PackedOperators, Error> {
+    let storage = params.coarse_storage;
+    let stride = match params.vector_storage {
+        VectorStorage::Rgb => 3,
+        VectorStorage::Rgba => 4,
+    };
     let total = offsets.last().copied().unwrap_or(0);
     let top = hierarchy.levels.len().saturating_sub(1);
     let mut out = PackedOperators {
@@ -978,7 +1010,7 @@ fn pack_operators(
         half_entries: 0,
         diag: Vec::with_capacity(total),
         partner: Vec::with_capacity(total),
-        partner_value: Vec::with_capacity(total),
+        partner_value: Vec::with_capacity(stride * total),
     };
     for (l, level) in hierarchy.levels.iter().enumerate() {
         let k = &level.operator;
@@ -1011,8 +1043,8 @@ fn pack_operators(
             let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
             out.partner
                 .push(if p == NO_NODE { NO_NODE } else { p + off });
-            out.partner_value
-                .push(k.partner_value.get(i).copied().map_or([0.0; 4], rgb));
+            let pv = k.partner_value.get(i).copied().map_or([0.0; 4], rgb);
+            out.partner_value.extend_from_slice(&pv[..stride]);
         }
         out.cols.extend(k.cols.iter().map(|&c| c + off));
         if half {

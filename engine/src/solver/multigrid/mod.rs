@@ -173,6 +173,30 @@ impl std::str::FromStr for LinkStorage {
     }
 }
 
+/// How the GPU stores its per-node RGB vectors (x, f, r, d, the CG's, `partner_value`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum VectorStorage {
+    /// Three floats per node (12 bytes).
+    #[default]
+    Rgb,
+    /// Four floats per node, the fourth unused (16 bytes).
+    Rgba,
+}
+
+impl std::str::FromStr for VectorStorage {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "rgb" => Ok(Self::Rgb),
+            "rgba" => Ok(Self::Rgba),
+            _ => Err(SolverError::BadParameter {
+                name: "vector_storage",
+                problem: format!("'{s}' (expected rgb or rgba)"),
+            }),
+        }
+    }
+}
+
 /// Steps of a packed link weight (8 bits).
 pub const LINK_WEIGHT_STEPS: u32 = 255;
 
@@ -279,6 +303,8 @@ pub struct MultigridParams {
     /// How the GPU stores the prolongation's links; [`LinkStorage::Packed`] also quantizes the
     /// hierarchy's weights (the CPU solve with these params applies the same prolongation).
     pub link_storage: LinkStorage,
+    /// How the GPU stores its per-node vectors (the CPU solve is f64 either way).
+    pub vector_storage: VectorStorage,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -315,6 +341,7 @@ impl Default for MultigridParams {
             sparsify: None,
             coarse_storage: OperatorStorage::F32,
             link_storage: LinkStorage::F32,
+            vector_storage: VectorStorage::Rgb,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,
@@ -341,6 +368,11 @@ impl MultigridParams {
     /// operator and its storage (wave 6)"): the same cycles, work units and J+ to three digits on
     /// the default scene, spot, agate and the 1e4 contrast, 88-93 bytes per finest node less, and
     /// not slower on lavapipe.
+    ///
+    /// Wave 7 (benches/RESULTS.md, "Multigrid storage (wave 7)"): packed links
+    /// ([`LinkStorage::Packed`]) and RGB vectors without a padding lane ([`VectorStorage::Rgb`]):
+    /// the same cycles, work units and residual on the default scene, spot and nefertiti, 97 + 39
+    /// bytes per finest node less, not measurably slower on lavapipe.
     pub fn gpu() -> Self {
         Self {
             smoother: Smoother::Chebyshev { lower: 0.07 },
@@ -350,6 +382,7 @@ impl MultigridParams {
             coarse_tolerance: 0.3,
             coarse_storage: OperatorStorage::F16,
             link_storage: LinkStorage::Packed,
+            vector_storage: VectorStorage::Rgb,
             ..Self::default()
         }
     }
