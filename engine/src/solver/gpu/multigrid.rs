@@ -16,9 +16,9 @@
 //!   rows for the restriction (`t_start`, `t_link`: the slots of the links into each coarse node,
 //!   whose weights it reads): both gathers;
 //! - x, f, r and the Chebyshev direction d per node, RGB in three floats (so the CG's vectors
-//!   and `partner_value`; four with [`VectorStorage::Rgba`], `--vector-storage rgba`); the finest
-//!   node -> texel map and the
-//!   right-hand side coefficients `S b / q` (row scale times q_gain on surface rows, one float).
+//!   and `partner_value`; four with `VectorStorage::Rgba`, `--vector-storage rgba`); the finest
+//!   node -> texel map and the right-hand side coefficients `S b / q` (row scale times q_gain on
+//!   surface rows, one float).
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
 //! a sweep): `rhs` (f from the gather's q image), then cold: full multigrid (f restricted to every
@@ -67,7 +67,7 @@ use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
     chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, LinkStorage,
-    MultigridParams, OperatorStorage, Smoother, VectorStorage, LINK_WEIGHT_STEPS,
+    MultigridParams, OperatorStorage, Smoother, LINK_WEIGHT_STEPS,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -495,10 +495,7 @@ impl GpuMultigrid {
             .collect();
         let partials = (n_top as u32).div_ceil(GROUP);
         // Every per-node RGB vector takes `stride` floats (`RGB` in `common.glsl`).
-        let stride: usize = match params.vector_storage {
-            VectorStorage::Rgb => 3,
-            VectorStorage::Rgba => 4,
-        };
+        let stride = params.vector_storage.floats();
         let zeros = vec![0.0f32; stride * total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
         let krylov_zeros = vec![0.0f32; if params.krylov { stride * n_top } else { 0 }];
@@ -996,10 +993,7 @@ fn pack_operators(
     params: &MultigridParams,
 ) -> Result<PackedOperators, Error> {
     let storage = params.coarse_storage;
-    let stride = match params.vector_storage {
-        VectorStorage::Rgb => 3,
-        VectorStorage::Rgba => 4,
-    };
+    let stride = params.vector_storage.floats();
     let total = offsets.last().copied().unwrap_or(0);
     let top = hierarchy.levels.len().saturating_sub(1);
     let mut out = PackedOperators {

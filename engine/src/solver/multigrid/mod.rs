@@ -183,6 +183,16 @@ pub enum VectorStorage {
     Rgba,
 }
 
+impl VectorStorage {
+    /// Floats per node (`VECTOR_STRIDE` in `shaders-glsl/multigrid/common.glsl`).
+    pub fn floats(self) -> usize {
+        match self {
+            Self::Rgb => 3,
+            Self::Rgba => 4,
+        }
+    }
+}
+
 impl std::str::FromStr for VectorStorage {
     type Err = SolverError;
     fn from_str(s: &str) -> Result<Self, SolverError> {
