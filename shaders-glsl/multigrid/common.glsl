@@ -3,6 +3,22 @@
 // vectors live in one buffer each, level `l` at node offset `offset`; one invocation per node.
 
 #define NO_NODE 0xffffffffu
+
+// The per-node RGB vectors (x, f, r, d, the CG's, partner_value) are float arrays, node i at
+// floats VECTOR_STRIDE i: 3 (VectorStorage::Rgb, no padding lane) or 4 (VectorStorage::Rgba)
+// (`solver::gpu::multigrid`, benches/RESULTS.md "Multigrid storage (wave 7)").
+layout(constant_id = 2) const uint VECTOR_STRIDE = 3u;
+#define RGB(buf, i) \
+    vec3(buf.v[VECTOR_STRIDE * (i)], buf.v[VECTOR_STRIDE * (i) + 1u], \
+         buf.v[VECTOR_STRIDE * (i) + 2u])
+#define SET_RGB(buf, i, value) \
+    do { \
+        uint at_ = VECTOR_STRIDE * (i); \
+        vec3 rgb_ = (value); \
+        buf.v[at_] = rgb_.x; \
+        buf.v[at_ + 1u] = rgb_.y; \
+        buf.v[at_ + 2u] = rgb_.z; \
+    } while (false)
 #define MAX_LEVELS 8
 #define MAX_LOG 64
 

@@ -20,25 +20,25 @@
 //             starts with a step from zero, which does not read x)
 //   5 finish: x = sol (the solution the output pass writes and the next warm start reads)
 layout(local_size_x = 64) in;
-// The finest level's entries sit at e - HALF_ENTRIES of `values` (residual.comp: the coarse
-// levels' fp16 entries come first and live elsewhere).
+// The finest level's entries sit at floats 3 (e - HALF_ENTRIES) of `values` (residual.comp: the
+// coarse levels' fp16 entries come first and live elsewhere).
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
 #include "common.glsl"
 
-layout(set = 0, binding = 0, std430) buffer Xs { vec4 v[]; } x;
-layout(set = 0, binding = 1, std430) buffer Fs { vec4 v[]; } f;
-layout(set = 0, binding = 2, std430) buffer Rs { vec4 v[]; } r;
-layout(set = 0, binding = 3, std430) buffer Sol { vec4 v[]; } sol;
-layout(set = 0, binding = 4, std430) buffer Dir { vec4 v[]; } dir;
-layout(set = 0, binding = 5, std430) buffer ZOld { vec4 v[]; } z_old;
+layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
+layout(set = 0, binding = 1, std430) buffer Fs { float v[]; } f;
+layout(set = 0, binding = 2, std430) buffer Rs { float v[]; } r;
+layout(set = 0, binding = 3, std430) buffer Sol { float v[]; } sol;
+layout(set = 0, binding = 4, std430) buffer Dir { float v[]; } dir;
+layout(set = 0, binding = 5, std430) buffer ZOld { float v[]; } z_old;
 layout(set = 0, binding = 6, std430) readonly buffer RowStart { uint v[]; } row_start;
 layout(set = 0, binding = 7, std430) readonly buffer Cols { uint v[]; } cols;
-layout(set = 0, binding = 8, std430) readonly buffer Values { vec4 v[]; } values;
+layout(set = 0, binding = 8, std430) readonly buffer Values { float v[]; } values;
 layout(set = 0, binding = 9, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 10, std430) writeonly buffer Partials { vec4 v[]; } partials;
 layout(set = 0, binding = 11, std430) readonly buffer Control { MultigridControl c; } control;
-layout(set = 0, binding = 12, std430) buffer KDir { vec4 v[]; } kdir;
+layout(set = 0, binding = 12, std430) buffer KDir { float v[]; } kdir;
 
 #define MODE_START 0u
 #define MODE_APPLY 1u
@@ -70,9 +70,10 @@ void reduce(vec3 s, uint slot) {
 
 // (K v)_i of the finest level's operator for v = x (z) of the concatenated vectors.
 vec3 apply_k(uint i) {
-    vec3 acc = diag.v[i].rgb * x.v[i].rgb;
+    vec3 acc = diag.v[i].rgb * RGB(x, i);
     for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
-        acc += values.v[e - HALF_ENTRIES].rgb * x.v[cols.v[e]].rgb;
+        uint j = 3u * (e - HALF_ENTRIES);
+        acc += vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]) * RGB(x, cols.v[e]);
     }
     return acc;
 }
@@ -88,16 +89,16 @@ void main() {
         vec3 zkz = vec3(0.0);
         vec3 zkd = vec3(0.0);
         if (inside) {
-            vec3 z = x.v[i].rgb;
+            vec3 z = RGB(x, i);
             vec3 kz = apply_k(i);
-            r.v[i] = vec4(kz, 0.0);
-            vec3 rr = f.v[i].rgb;
+            SET_RGB(r, i, kz);
+            vec3 rr = RGB(f, i);
             rz = rr * z;
-            rz_old = rr * z_old.v[node].rgb;
+            rz_old = rr * RGB(z_old, node);
             zkz = z * kz;
             // kdir holds K dir of the last direction (stale before the first: beta = 0 then,
             // and the check ignores this sum).
-            zkd = z * kdir.v[node].rgb;
+            zkd = z * RGB(kdir, node);
         }
         reduce(rz, group);
         reduce(rz_old, pc.width + group);
@@ -108,22 +109,22 @@ void main() {
     if (pc.mode == MODE_STEP) {
         vec3 s = vec3(0.0);
         if (inside) {
-            vec3 z = x.v[i].rgb;
-            vec3 kz = r.v[i].rgb;
+            vec3 z = RGB(x, i);
+            vec3 kz = RGB(r, i);
             vec3 beta = control.c.beta.rgb;
             vec3 alpha = control.c.alpha.rgb;
             // beta = 0 (the first direction) must not multiply a stale (possibly non-finite)
             // dir or kdir.
             bvec3 first = equal(beta, vec3(0.0));
-            vec3 d = mix(z + beta * dir.v[node].rgb, z, first);
-            vec3 kd = mix(kz + beta * kdir.v[node].rgb, kz, first);
-            dir.v[node] = vec4(d, 0.0);
-            kdir.v[node] = vec4(kd, 0.0);
-            z_old.v[node] = vec4(z, 0.0);
-            x.v[i] = vec4(0.0);
-            sol.v[node] = vec4(sol.v[node].rgb + alpha * d, 0.0);
-            vec3 rr = f.v[i].rgb - alpha * kd;
-            f.v[i] = vec4(rr, 0.0);
+            vec3 d = mix(z + beta * RGB(dir, node), z, first);
+            vec3 kd = mix(kz + beta * RGB(kdir, node), kz, first);
+            SET_RGB(dir, node, d);
+            SET_RGB(kdir, node, kd);
+            SET_RGB(z_old, node, z);
+            SET_RGB(x, i, vec3(0.0));
+            SET_RGB(sol, node, RGB(sol, node) + alpha * d);
+            vec3 rr = RGB(f, i) - alpha * kd;
+            SET_RGB(f, i, rr);
             s = rr * rr;
         }
         reduce(s, group);
@@ -132,9 +133,9 @@ void main() {
     if (pc.mode == MODE_START_RESIDUAL) {
         vec3 s = vec3(0.0);
         if (inside) {
-            vec3 rr = f.v[i].rgb - apply_k(i);
-            f.v[i] = vec4(rr, 0.0);
-            sol.v[node] = x.v[i];
+            vec3 rr = RGB(f, i) - apply_k(i);
+            SET_RGB(f, i, rr);
+            SET_RGB(sol, node, RGB(x, i));
             s = rr * rr;
         }
         reduce(s, group);
@@ -144,10 +145,10 @@ void main() {
         return;
     }
     if (pc.mode == MODE_START) {
-        sol.v[node] = x.v[i];
-        f.v[i] = r.v[i];
-        x.v[i] = vec4(0.0);
+        SET_RGB(sol, node, RGB(x, i));
+        SET_RGB(f, i, RGB(r, i));
+        SET_RGB(x, i, vec3(0.0));
     } else if (pc.mode == MODE_FINISH) {
-        x.v[i] = sol.v[node];
+        SET_RGB(x, i, RGB(sol, node));
     }
 }

@@ -6,8 +6,8 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
-layout(set = 0, binding = 0, std430) readonly buffer Fs { vec4 v[]; } f;
-layout(set = 0, binding = 1, std430) readonly buffer Rs { vec4 v[]; } r;
+layout(set = 0, binding = 0, std430) readonly buffer Fs { float v[]; } f;
+layout(set = 0, binding = 1, std430) readonly buffer Rs { float v[]; } r;
 layout(set = 0, binding = 2, std430) writeonly buffer Partials { vec4 v[]; } partials;
 
 shared vec3 sums[64];
@@ -17,7 +17,7 @@ void main() {
     vec3 s = vec3(0.0);
     if (gl_GlobalInvocationID.x < pc.count) {
         uint i = pc.offset + gl_GlobalInvocationID.x;
-        vec3 v = pc.mode == 1u ? f.v[i].rgb : r.v[i].rgb;
+        vec3 v = pc.mode == 1u ? RGB(f, i) : RGB(r, i);
         s = v * v;
     }
     sums[lid] = s;

@@ -7,7 +7,7 @@ layout(local_size_x = 64) in;
 #include "common.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform writeonly image2D phi;
-layout(set = 0, binding = 1, std430) readonly buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 1, std430) readonly buffer Xs { float v[]; } x;
 layout(set = 0, binding = 2, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
 
 void main() {
@@ -15,7 +15,7 @@ void main() {
         return;
     }
     uint node = gl_GlobalInvocationID.x;
-    vec3 v = x.v[pc.offset + node].rgb;
+    vec3 v = RGB(x, pc.offset + node);
     bvec3 bad = bvec3(isnan(v.r) || isinf(v.r), isnan(v.g) || isinf(v.g), isnan(v.b) || isinf(v.b));
     v = mix(v, vec3(0.0), bad);
     uint t = node_texel.v[node];

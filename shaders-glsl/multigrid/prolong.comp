@@ -6,24 +6,29 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
-layout(set = 0, binding = 0, std430) buffer Xs { vec4 v[]; } x;
-layout(set = 0, binding = 1, std430) readonly buffer Links { uvec4 v[]; } links;
-layout(set = 0, binding = 2, std430) readonly buffer LinkWeights { vec4 v[]; } link_weights;
+layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
+// 8 link slots per node (slot 8 i + k); PACKED_LINKS: `coarse node << 8 | weight in 1/255`
+// (LinkStorage::Packed, link_weights unused), else the coarse node and link_weights' f32.
+layout(constant_id = 1) const uint PACKED_LINKS = 1u;
+layout(set = 0, binding = 1, std430) readonly buffer Links { uint v[]; } links;
+layout(set = 0, binding = 2, std430) readonly buffer LinkWeights { float v[]; } link_weights;
 
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
         return;
     }
     uint i = pc.offset + gl_GlobalInvocationID.x;
-    vec3 acc = pc.mode == 1u ? vec3(0.0) : x.v[i].rgb;
-    for (uint h = 0u; h < 2u; ++h) {
-        uvec4 l = links.v[2u * i + h];
-        vec4 w = link_weights.v[2u * i + h];
-        for (int k = 0; k < 4; ++k) {
-            if (l[k] != NO_NODE) {
-                acc += w[k] * x.v[l[k]].rgb;
+    vec3 acc = pc.mode == 1u ? vec3(0.0) : RGB(x, i);
+    for (uint k = 0u; k < 8u; ++k) {
+        uint slot = 8u * i + k;
+        uint link = links.v[slot];
+        if (link != NO_NODE) {
+            if (PACKED_LINKS != 0u) {
+                acc += float(link & 255u) / 255.0 * RGB(x, link >> 8);
+            } else {
+                acc += link_weights.v[slot] * RGB(x, link);
             }
         }
     }
-    x.v[i] = vec4(acc, 0.0);
+    SET_RGB(x, i, acc);
 }

@@ -13,11 +13,11 @@ layout(local_size_x = 64) in;
 #include "common.glsl"
 
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D q;
-layout(set = 0, binding = 1, std430) writeonly buffer Fs { vec4 v[]; } f;
-layout(set = 0, binding = 2, std430) buffer Xs { vec4 v[]; } x;
+layout(set = 0, binding = 1, std430) writeonly buffer Fs { float v[]; } f;
+layout(set = 0, binding = 2, std430) buffer Xs { float v[]; } x;
 layout(set = 0, binding = 3, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
-layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { vec4 v[]; } rhs_coef;
-layout(set = 0, binding = 5, std430) buffer XHistory { vec4 v[]; } x_history;
+layout(set = 0, binding = 4, std430) readonly buffer RhsCoef { float v[]; } rhs_coef;
+layout(set = 0, binding = 5, std430) buffer XHistory { float v[]; } x_history;
 
 bool finite(vec3 v) {
     return !(any(isnan(v)) || any(isinf(v)));
@@ -29,31 +29,31 @@ void main() {
     }
     uint node = gl_GlobalInvocationID.x;
     uint i = pc.offset + node;
-    vec4 coef = rhs_coef.v[node];
+    float coef = rhs_coef.v[node];
     vec3 value = vec3(0.0);
-    if (coef != vec4(0.0)) {
+    if (coef != 0.0) {
         uint t = node_texel.v[node];
-        value = coef.rgb * imageLoad(q, ivec2(int(t % pc.width), int(t / pc.width))).rgb;
+        value = coef * imageLoad(q, ivec2(int(t % pc.width), int(t / pc.width))).rgb;
     }
-    f.v[i] = vec4(value, 0.0);
+    SET_RGB(f, i, value);
     if (pc.mode == 1u) {
-        x.v[i] = vec4(0.0);
+        SET_RGB(x, i, vec3(0.0));
         return;
     }
-    vec3 xi = x.v[i].rgb;
+    vec3 xi = RGB(x, i);
     if (!finite(xi)) {
         xi = vec3(0.0);
-        x.v[i] = vec4(0.0);
+        SET_RGB(x, i, vec3(0.0));
     }
     if (pc.mode >= 2u) {
         uint slots = pc.mode - 1u;
-        vec3 h0 = x_history.v[node].rgb;
-        vec3 h1 = slots > 1u ? x_history.v[pc.count + node].rgb : vec3(0.0);
+        vec3 h0 = RGB(x_history, node);
+        vec3 h1 = slots > 1u ? RGB(x_history, pc.count + node) : vec3(0.0);
         vec3 next = pc.alpha.x * xi + pc.alpha.y * h0 + pc.alpha.z * h1;
         if (slots > 1u) {
-            x_history.v[pc.count + node] = vec4(h0, 0.0);
+            SET_RGB(x_history, pc.count + node, h0);
         }
-        x_history.v[node] = vec4(xi, 0.0);
-        x.v[i] = vec4(finite(next) ? next : xi, 0.0);
+        SET_RGB(x_history, node, xi);
+        SET_RGB(x, i, finite(next) ? next : xi);
     }
 }

@@ -8,16 +8,16 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 
-layout(set = 0, binding = 0, std430) buffer Xs { vec4 v[]; } x;
-layout(set = 0, binding = 1, std430) buffer Ds { vec4 v[]; } d;
-layout(set = 0, binding = 2, std430) readonly buffer Rs { vec4 v[]; } r;
+layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
+layout(set = 0, binding = 1, std430) buffer Ds { float v[]; } d;
+layout(set = 0, binding = 2, std430) readonly buffer Rs { float v[]; } r;
 layout(set = 0, binding = 3, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 4, std430) readonly buffer Partner { uint v[]; } partner;
-layout(set = 0, binding = 5, std430) readonly buffer PartnerValue { vec4 v[]; } partner_value;
-layout(set = 0, binding = 6, std430) readonly buffer Fs { vec4 v[]; } f;
+layout(set = 0, binding = 5, std430) readonly buffer PartnerValue { float v[]; } partner_value;
+layout(set = 0, binding = 6, std430) readonly buffer Fs { float v[]; } f;
 
 vec3 residual(uint j) {
-    return pc.mode == 1u ? f.v[j].rgb : r.v[j].rgb;
+    return pc.mode == 1u ? RGB(f, j) : RGB(r, j);
 }
 
 void main() {
@@ -30,7 +30,7 @@ void main() {
     vec3 z;
     uint p = partner.v[i];
     if (p != NO_NODE) {
-        vec3 b = partner_value.v[i].rgb;
+        vec3 b = RGB(partner_value, i);
         vec3 dp = diag.v[p].rgb;
         z = (dp * ri - b * residual(p)) / (a * dp - b * b);
     } else {
@@ -39,9 +39,9 @@ void main() {
     // alpha = 0 on a first step: d may hold the last visit's values.
     vec3 di = pc.beta.rgb * z;
     if (pc.alpha != vec4(0.0)) {
-        di += pc.alpha.rgb * d.v[i].rgb;
+        di += pc.alpha.rgb * RGB(d, i);
     }
-    d.v[i] = vec4(di, 0.0);
+    SET_RGB(d, i, di);
     // Mode 1 starts from x = 0: x is not read (the CG's fused start leaves the iterate there).
-    x.v[i] = vec4(pc.mode == 1u ? di : x.v[i].rgb + di, 0.0);
+    SET_RGB(x, i, pc.mode == 1u ? di : RGB(x, i) + di);
 }

@@ -73,6 +73,29 @@ fn coarse_options_are_reported_and_fp16_entries_take_fewer_bytes() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--link-storage` and `--vector-storage` (benches/RESULTS.md "Multigrid storage (wave 7)"):
+/// named in the JSON, the defaults (packed links, RGB vectors) smaller than the wide layouts for
+/// the same cycles.
+#[test]
+fn storage_options_are_reported_and_the_defaults_take_fewer_bytes() {
+    let dir = scratch("storage");
+    let narrow = json_of(&render(&dir, &[]));
+    let wide = json_of(&render(
+        &dir,
+        &["--link-storage", "f32", "--vector-storage", "rgba"],
+    ));
+    assert_eq!(narrow["link_storage"], "packed", "the default: {narrow}");
+    assert_eq!(narrow["vector_storage"], "rgb", "the default");
+    assert_eq!(wide["link_storage"], "f32");
+    assert_eq!(wide["vector_storage"], "rgba");
+    for json in [&narrow, &wide] {
+        assert_eq!(json["multigrid"]["state"], "Converged", "{json}");
+    }
+    assert_eq!(narrow["multigrid"]["cycles"], wide["multigrid"]["cycles"]);
+    assert!(multigrid_per_node(&narrow) < multigrid_per_node(&wide));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn coarse_options_need_the_multigrid_schedule() {
     let dir = scratch("coarse-cascade");
@@ -80,6 +103,8 @@ fn coarse_options_need_the_multigrid_schedule() {
         ["--coarse-operator", "rediscretized"],
         ["--coarse-storage", "f32"],
         ["--coarse-drop", "0.02"],
+        ["--link-storage", "f32"],
+        ["--vector-storage", "rgba"],
     ] {
         let out = render(
             &dir,

@@ -196,6 +196,17 @@ pub struct RenderArgs {
     /// finest level stays f32.
     #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
     pub coarse_storage: Option<String>,
+    /// How the GPU multigrid stores the prolongation's links (its transpose, the restriction,
+    /// reads the same links): `packed` (the default: one u32 per link, `node << 8 | weight in
+    /// 1/255`, the hierarchy built with the same quantized weights) or `f32` (node and f32 weight).
+    /// benches/RESULTS.md, "Multigrid storage (wave 7)".
+    #[arg(long, value_name = "packed|f32", value_parser = ["packed", "f32"])]
+    pub link_storage: Option<String>,
+    /// How the GPU multigrid stores its per-node RGB vectors (x, f, r, d, the CG's): `rgb` (the
+    /// default: 12 bytes, no padding lane) or `rgba` (16 bytes, the fourth float unused).
+    /// benches/RESULTS.md, "Multigrid storage (wave 7)".
+    #[arg(long, value_name = "rgb|rgba", value_parser = ["rgb", "rgba"])]
+    pub vector_storage: Option<String>,
     /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
     /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
     #[arg(long, value_name = "THETA")]
@@ -351,9 +362,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if !multigrid
         && (args.coarse_operator.is_some()
             || args.coarse_storage.is_some()
+            || args.link_storage.is_some()
+            || args.vector_storage.is_some()
             || args.coarse_drop.is_some())
     {
-        bail!("--coarse-operator, --coarse-storage and --coarse-drop shape the multigrid's coarse levels: add --schedule multigrid");
+        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
     }
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
@@ -883,6 +896,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // The multigrid's coarse operator and the GPU's storage of its coarse entries.
             "coarse_operator": multigrid.then(|| format!("{:?}", coarse_gpu.coarse).to_lowercase()),
             "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
+            "link_storage": multigrid.then(|| format!("{:?}", coarse_gpu.link_storage).to_lowercase()),
+            "vector_storage": multigrid.then(|| format!("{:?}", coarse_gpu.vector_storage).to_lowercase()),
             "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             // `--diffusion-coefficient`: which D the solve used.
@@ -940,7 +955,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// `base` with the coarse-level options of `args` (`--coarse-operator`, `--coarse-storage`,
-/// `--coarse-drop`), checked.
+/// `--link-storage`, `--vector-storage`, `--coarse-drop`), checked.
 fn coarse_params(args: &RenderArgs, base: MultigridParams) -> anyhow::Result<MultigridParams> {
     let params = MultigridParams {
         coarse: match &args.coarse_operator {
@@ -950,6 +965,14 @@ fn coarse_params(args: &RenderArgs, base: MultigridParams) -> anyhow::Result<Mul
         coarse_storage: match &args.coarse_storage {
             Some(name) => name.parse()?,
             None => base.coarse_storage,
+        },
+        link_storage: match &args.link_storage {
+            Some(name) => name.parse()?,
+            None => base.link_storage,
+        },
+        vector_storage: match &args.vector_storage {
+            Some(name) => name.parse()?,
+            None => base.vector_storage,
         },
         sparsify: args.coarse_drop.filter(|&t| t > 0.0).or(base.sparsify),
         ..base

@@ -4,17 +4,22 @@
 //! Built on the CPU at creation and on every material change ([`GpuDiffusion::set_material`]):
 //! the [`Hierarchy`] (Galerkin coarse operators `P^T K P`, Lanczos bounds of `B^-1 K`), uploaded
 //! as storage buffers, every level's vectors concatenated (level `l` at node offset `offset_l`):
-//! - the operators in compressed rows (`row_start`, `cols`, `values` RGB f32, `diag`), with the
-//!   2x2 surface-node/cell blocks of the smoother (`partner`, `partner_value`); with
-//!   [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels' entries are RGB fp16 in
-//!   `values16`, relative to their row's scale in `diag`'s fourth lane, each row's rounding lumped
-//!   onto its f32 diagonal (`pack_operators`); the coarse operators are Galerkin or the coarse
-//!   graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
-//! - the prolongation as links (8 coarse nodes and weights per fine node: the bake's Shepard
-//!   links or `MultigridParams::interpolation`'s, weights moved by `pattern_smoothing`) and its
-//!   transpose by coarse rows for the restriction (`t_start`, `t_fine`, `t_weight`): both gathers;
-//! - x, f, r and the Chebyshev direction d per node; the finest node -> texel map and the
-//!   right-hand side coefficients `S b / q` (row scale times q_gain on surface rows).
+//! - the operators in compressed rows (`row_start`, `cols`, `values` RGB f32 in three floats,
+//!   `diag`), with the 2x2 surface-node/cell blocks of the smoother (`partner`,
+//!   `partner_value`); with [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels'
+//!   entries are RGB fp16 in `values16`, relative to their row's scale in `diag`'s fourth lane,
+//!   each row's rounding lumped onto its f32 diagonal (`pack_operators`); the coarse operators
+//!   are Galerkin or the coarse graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
+//! - the prolongation as links (8 link slots per fine node: the bake's Shepard links or
+//!   `MultigridParams::interpolation`'s, weights moved by `pattern_smoothing`; with
+//!   [`LinkStorage::Packed`], `--link-storage packed`, one u32 `coarse node << 8 | weight in
+//!   1/255` each, the hierarchy built with the same quantized weights) and its transpose by coarse
+//!   rows for the restriction (`t_start`, `t_link`: the slots of the links into each coarse node,
+//!   whose weights it reads): both gathers;
+//! - x, f, r and the Chebyshev direction d per node, RGB in three floats (so the CG's vectors
+//!   and `partner_value`; four with `VectorStorage::Rgba`, `--vector-storage rgba`); the finest
+//!   node -> texel map and the right-hand side coefficients `S b / q` (row scale times q_gain on
+//!   surface rows, one float).
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
 //! a sweep): `rhs` (f from the gather's q image), then cold: full multigrid (f restricted to every
@@ -64,8 +69,8 @@ use super::record::scope;
 use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
-    chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, MultigridParams,
-    OperatorStorage, Smoother, WarmStart,
+    chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, LinkStorage,
+    MultigridParams, OperatorStorage, Smoother, WarmStart, LINK_WEIGHT_STEPS,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -257,7 +262,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
     (
         "multigrid restrict",
         "multigrid/restrict.comp",
-        &["x", "f", "r", "t_start", "t_fine", "t_weight"],
+        &["x", "f", "r", "t_start", "t_link", "links", "link_weights"],
     ),
     (
         "multigrid prolong",
@@ -301,7 +306,7 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
 ];
 
 /// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 24] = [
+const BUFFER_NAMES: [&str; 23] = [
     "x",
     "f",
     "r",
@@ -315,8 +320,7 @@ const BUFFER_NAMES: [&str; 24] = [
     "links",
     "link_weights",
     "t_start",
-    "t_fine",
-    "t_weight",
+    "t_link",
     "node_texel",
     "rhs_coef",
     "partials",
@@ -325,6 +329,20 @@ const BUFFER_NAMES: [&str; 24] = [
     "z_old",
     "kdir",
     "values16",
+    "x_history",
+];
+
+/// The per-node RGB vectors, `VectorStorage`'s stride each (`VECTOR_STRIDE` in `common.glsl`).
+const VECTORS: [&str; 10] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "sol",
+    "dir",
+    "z_old",
+    "kdir",
+    "partner_value",
     "x_history",
 ];
 
@@ -388,59 +406,97 @@ impl GpuMultigrid {
         if total >= u32::MAX as usize {
             return Err(too_big("the node count"));
         }
-        let ops = pack_operators(hierarchy, &offsets, params.coarse_storage)?;
-        let mut links: Vec<[u32; 4]> = Vec::with_capacity(2 * total);
-        let mut link_weights: Vec<[f32; 4]> = Vec::with_capacity(2 * total);
+        let ops = pack_operators(hierarchy, &offsets, params)?;
+        let packed = params.link_storage == LinkStorage::Packed;
+        if packed && total >= (NO_NODE >> 8) as usize {
+            return Err(too_big("a packed link's node (24 bits)"));
+        }
+        // The prolongation: 8 link slots per node (slot `8 i + k`), every level (the coarsest's
+        // empty); packed, one u32 `coarse node << 8 | weight in 1/255` per slot, else the node
+        // and an f32 weight.
+        let mut links: Vec<u32> = Vec::with_capacity(8 * total);
+        let mut link_weights: Vec<f32> = Vec::with_capacity(if packed { 0 } else { 8 * total });
         for (l, level) in hierarchy.levels.iter().enumerate() {
             let k = &level.operator;
             match (&level.prolongation, l.checked_sub(1)) {
                 (Some(p), Some(coarse)) => {
                     let coarse_off = offsets[coarse] as u32;
                     for (lk, w) in p.links.iter().zip(&p.weights) {
-                        let global = lk.map(|c| {
-                            if c == NO_NODE {
+                        for (&c, &wc) in lk.iter().zip(w) {
+                            let global = if c == NO_NODE {
                                 NO_NODE
                             } else {
                                 c + coarse_off
+                            };
+                            if !packed {
+                                links.push(global);
+                                link_weights.push(wc as f32);
+                            } else if global == NO_NODE {
+                                links.push(NO_NODE);
+                            } else {
+                                // `quantized_links` made `wc` a multiple of 1 / 255.
+                                let steps = (wc * f64::from(LINK_WEIGHT_STEPS)).round() as u32;
+                                links.push(global << 8 | steps.min(LINK_WEIGHT_STEPS));
                             }
-                        });
-                        links.push([global[0], global[1], global[2], global[3]]);
-                        links.push([global[4], global[5], global[6], global[7]]);
-                        link_weights.push([w[0] as f32, w[1] as f32, w[2] as f32, w[3] as f32]);
-                        link_weights.push([w[4] as f32, w[5] as f32, w[6] as f32, w[7] as f32]);
+                        }
                     }
                 }
                 _ => {
-                    for _ in 0..2 * k.node_count() {
-                        links.push([NO_NODE; 4]);
-                        link_weights.push([0.0; 4]);
+                    links.extend(std::iter::repeat_n(NO_NODE, 8 * k.node_count()));
+                    if !packed {
+                        link_weights.extend(std::iter::repeat_n(0.0, 8 * k.node_count()));
                     }
                 }
             }
         }
-        // Restriction by coarse rows: level l's rows gather from level l + 1.
+        // Restriction by coarse rows: level l's rows gather from level l + 1, each entry the
+        // slot of the fine node's link to the row (the fine node is `slot / 8`, the weight the
+        // link's): P^T without a copy of its weights.
         let mut t_start: Vec<u32> = Vec::with_capacity(total + 1);
-        let mut t_fine: Vec<u32> = Vec::new();
-        let mut t_weight: Vec<f32> = Vec::new();
+        let mut t_link: Vec<u32> = Vec::new();
         for (l, level) in hierarchy.levels.iter().enumerate() {
             let finer = hierarchy
                 .levels
                 .get(l + 1)
                 .and_then(|f| f.prolongation.as_ref());
-            let base = t_fine.len();
+            let base = t_link.len();
             match finer {
                 Some(p) => {
                     for c in 0..level.node_count() {
-                        t_start.push((base + p.t_start[c]) as u32);
+                        t_start.push(
+                            u32::try_from(base + p.t_start[c])
+                                .map_err(|_| too_big("the restriction"))?,
+                        );
                     }
-                    let fine_off = offsets[l + 1] as u32;
-                    t_fine.extend(p.t_fine.iter().map(|&i| i + fine_off));
-                    t_weight.extend(p.t_weight.iter().map(|&w| w as f32));
+                    let fine_off = offsets[l + 1];
+                    for c in 0..level.node_count() {
+                        // A fine node linking c twice comes twice, slots in order.
+                        let mut last: Option<(usize, usize)> = None;
+                        for e in p.t_start[c]..p.t_start[c + 1] {
+                            let fine = p.t_fine[e] as usize;
+                            let from = match last {
+                                Some((f, k)) if f == fine => k + 1,
+                                _ => 0,
+                            };
+                            let k = (from..8)
+                                .find(|&k| p.links[fine][k] as usize == c)
+                                .ok_or_else(|| {
+                                    Error::Solver(SolverError::BadGraph {
+                                        level: l + 1,
+                                        problem: format!("node {fine} has no link to {c}"),
+                                    })
+                                })?;
+                            last = Some((fine, k));
+                            let slot = 8 * (fine_off + fine) + k;
+                            t_link
+                                .push(u32::try_from(slot).map_err(|_| too_big("the link slots"))?);
+                        }
+                    }
                 }
                 None => t_start.extend(std::iter::repeat_n(base as u32, level.node_count())),
             }
         }
-        t_start.push(u32::try_from(t_fine.len()).map_err(|_| too_big("the restriction"))?);
+        t_start.push(u32::try_from(t_link.len()).map_err(|_| too_big("the restriction"))?);
         // The finest level's texels and right-hand side coefficients.
         let top = n_levels - 1;
         let finest = &hierarchy.finest;
@@ -456,23 +512,24 @@ impl GpuMultigrid {
             .iter()
             .map(|&[u, v]| v * packing.width + u)
             .collect();
-        let rhs_coef: Vec<[f32; 4]> = (0..n_top)
+        let rhs_coef: Vec<f32> = (0..n_top)
             .map(|i| {
                 if i >= finest.inner_count {
-                    let c = (finest.row_scale[i] * finest.q_gain) as f32;
-                    [c, c, c, 0.0]
+                    (finest.row_scale[i] * finest.q_gain) as f32
                 } else {
-                    [0.0; 4]
+                    0.0
                 }
             })
             .collect();
         let partials = (n_top as u32).div_ceil(GROUP);
-        let zeros = vec![[0.0f32; 4]; total];
+        // Every per-node RGB vector takes `stride` floats (`RGB` in `common.glsl`).
+        let stride = params.vector_storage.floats();
+        let zeros = vec![0.0f32; stride * total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
-        let krylov_zeros = vec![[0.0f32; 4]; if params.krylov { n_top } else { 0 }];
+        let krylov_zeros = vec![0.0f32; if params.krylov { stride * n_top } else { 0 }];
         // The warm start's earlier finest solutions (`WarmStart::history` vectors).
-        let history_zeros = vec![[0.0f32; 4]; params.warm_start.history() as usize * n_top];
-        let contents: [Vec<u8>; 24] = [
+        let history_zeros = vec![0.0f32; stride * params.warm_start.history() as usize * n_top];
+        let contents: [Vec<u8>; 23] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
@@ -486,8 +543,7 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&links).to_vec(),
             bytemuck::cast_slice(&link_weights).to_vec(),
             bytemuck::cast_slice(&t_start).to_vec(),
-            bytemuck::cast_slice(&t_fine).to_vec(),
-            bytemuck::cast_slice(&t_weight).to_vec(),
+            bytemuck::cast_slice(&t_link).to_vec(),
             bytemuck::cast_slice(&node_texel).to_vec(),
             bytemuck::cast_slice(&rhs_coef).to_vec(),
             // CG_SUMS blocks: the CG apply pass's k-th sum goes at `k * partials`.
@@ -540,15 +596,27 @@ impl GpuMultigrid {
         buffer_bytes.push(("control", control.size));
         let mut pipelines = Vec::with_capacity(KERNELS.len());
         for (name, shader, bindings) in KERNELS {
-            // The operator readers learn where the fp16 entries end (`pack_operators`).
-            let constants: &[SpecConstant] = if bindings.contains(&"values") {
-                &[SpecConstant {
+            // The operator readers learn where the fp16 entries end (`pack_operators`), the link
+            // readers whether the links are packed, the vector readers the vectors' stride.
+            let mut constants = Vec::new();
+            if bindings.contains(&"values") {
+                constants.push(SpecConstant {
                     id: 0,
                     value: ops.half_entries,
-                }]
-            } else {
-                &[]
-            };
+                });
+            }
+            if bindings.contains(&"links") {
+                constants.push(SpecConstant {
+                    id: 1,
+                    value: u32::from(packed),
+                });
+            }
+            if bindings.iter().any(|b| VECTORS.contains(b)) {
+                constants.push(SpecConstant {
+                    id: 2,
+                    value: stride as u32,
+                });
+            }
             let pipeline = ComputePipeline::new_specialized(
                 ctx,
                 &ComputePipelineDesc {
@@ -557,7 +625,7 @@ impl GpuMultigrid {
                     bindings,
                     max_sets: 1,
                 },
-                constants,
+                &constants,
             )?;
             let writes: Vec<DescriptorWrite<'_>> = bindings
                 .iter()
@@ -996,9 +1064,9 @@ impl GpuMultigrid {
 struct PackedOperators {
     row_start: Vec<u32>,
     cols: Vec<u32>,
-    /// RGB f32 entries: all of them, or with fp16 coarse levels the finest level's only (entry
-    /// `e` at `e - half_entries`).
-    values: Vec<[f32; 4]>,
+    /// RGB f32 entries, three floats each (no fourth lane): all of them, or with fp16 coarse
+    /// levels the finest level's only (entry `e` at floats `3 (e - half_entries)..`).
+    values: Vec<f32>,
     /// RGB fp16 entries (r|g, b|0) of the coarse levels relative to their row's scale `diag.a`.
     values16: Vec<[u32; 2]>,
     /// Entries stored in `values16`: those of every level below the finest (0 with f32 storage).
@@ -1007,7 +1075,8 @@ struct PackedOperators {
     /// the row's scale of its fp16 entries in the fourth lane (0 where unused).
     diag: Vec<[f32; 4]>,
     partner: Vec<u32>,
-    partner_value: Vec<[f32; 4]>,
+    /// RGB, the vectors' stride of floats per node.
+    partner_value: Vec<f32>,
 }
 
 /// The row of `values16` and its effective f32 values (what `residual.comp` multiplies with):
@@ -1028,8 +1097,10 @@ fn half_entry(v: [f64; 3], scale: f64) -> ([u32; 2], [f64; 3]) {
 fn pack_operators(
     hierarchy: &Hierarchy,
     offsets: &[usize],
-    storage: OperatorStorage,
+    params: &MultigridParams,
 ) -> Result<PackedOperators, Error> {
+    let storage = params.coarse_storage;
+    let stride = params.vector_storage.floats();
     let total = offsets.last().copied().unwrap_or(0);
     let top = hierarchy.levels.len().saturating_sub(1);
     let mut out = PackedOperators {
@@ -1040,7 +1111,7 @@ fn pack_operators(
         half_entries: 0,
         diag: Vec::with_capacity(total),
         partner: Vec::with_capacity(total),
-        partner_value: Vec::with_capacity(total),
+        partner_value: Vec::with_capacity(stride * total),
     };
     for (l, level) in hierarchy.levels.iter().enumerate() {
         let k = &level.operator;
@@ -1066,14 +1137,15 @@ fn pack_operators(
                 d = rgb(diag);
                 d[3] = scale as f32;
             } else {
-                out.values.extend(row.map(|e| rgb(k.values[e])));
+                out.values
+                    .extend(row.flat_map(|e| k.values[e].map(|v| v as f32)));
             }
             out.diag.push(d);
             let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
             out.partner
                 .push(if p == NO_NODE { NO_NODE } else { p + off });
-            out.partner_value
-                .push(k.partner_value.get(i).copied().map_or([0.0; 4], rgb));
+            let pv = k.partner_value.get(i).copied().map_or([0.0; 4], rgb);
+            out.partner_value.extend_from_slice(&pv[..stride]);
         }
         out.cols.extend(k.cols.iter().map(|&c| c + off));
         if half {

@@ -146,6 +146,120 @@ impl std::str::FromStr for OperatorStorage {
     }
 }
 
+/// How the GPU stores the prolongation's links (and so the restriction, which reads them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum LinkStorage {
+    /// A u32 coarse node and an f32 weight per link (8 bytes).
+    #[default]
+    F32,
+    /// One u32 per link, `coarse node << 8 | weight in 1/255` (4 bytes), as the cascade's packed
+    /// links; the hierarchy's weights are quantized to the same 1/255 steps (each node's steps
+    /// summing to 255, so constants are still prolongated exactly) before the Galerkin product,
+    /// so the coarse operators are those of the prolongation the GPU applies.
+    Packed,
+}
+
+impl std::str::FromStr for LinkStorage {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "f32" => Ok(Self::F32),
+            "packed" => Ok(Self::Packed),
+            _ => Err(SolverError::BadParameter {
+                name: "link_storage",
+                problem: format!("'{s}' (expected f32 or packed)"),
+            }),
+        }
+    }
+}
+
+/// How the GPU stores its per-node RGB vectors (x, f, r, d, the CG's, `partner_value`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum VectorStorage {
+    /// Three floats per node (12 bytes).
+    #[default]
+    Rgb,
+    /// Four floats per node, the fourth unused (16 bytes).
+    Rgba,
+}
+
+impl VectorStorage {
+    /// Floats per node (`VECTOR_STRIDE` in `shaders-glsl/multigrid/common.glsl`).
+    pub fn floats(self) -> usize {
+        match self {
+            Self::Rgb => 3,
+            Self::Rgba => 4,
+        }
+    }
+}
+
+impl std::str::FromStr for VectorStorage {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "rgb" => Ok(Self::Rgb),
+            "rgba" => Ok(Self::Rgba),
+            _ => Err(SolverError::BadParameter {
+                name: "vector_storage",
+                problem: format!("'{s}' (expected rgb or rgba)"),
+            }),
+        }
+    }
+}
+
+/// Steps of a packed link weight (8 bits).
+pub const LINK_WEIGHT_STEPS: u32 = 255;
+
+/// `links` with every node's weights rounded to multiples of `1 / LINK_WEIGHT_STEPS`, the steps
+/// of a node summing to the rounded sum of its weights (largest remainders first); an error for a
+/// weight outside `[0, 1]` (linear interpolation's negative weights do not pack).
+pub fn quantized_links(links: &ShepardLinks) -> Result<ShepardLinks, SolverError> {
+    let steps = f64::from(LINK_WEIGHT_STEPS);
+    let mut weights = Vec::with_capacity(links.weights.len());
+    for (node, (l, w)) in links.links.iter().zip(&links.weights).enumerate() {
+        let mut q = [0.0f64; 8];
+        let mut remainder = [0.0f64; 8];
+        let mut sum = 0.0;
+        for k in 0..8 {
+            if l[k] == NO_NODE {
+                continue;
+            }
+            if !(0.0..=1.0 + 1e-9).contains(&w[k]) {
+                return Err(SolverError::BadParameter {
+                    name: "link_storage",
+                    problem: format!(
+                        "node {node}'s link weight {} is outside [0, 1]: packed links take \
+                         Shepard interpolation only",
+                        w[k]
+                    ),
+                });
+            }
+            let scaled = w[k].min(1.0) * steps;
+            q[k] = scaled.floor();
+            remainder[k] = scaled - q[k];
+            sum += w[k];
+        }
+        let target = (sum.min(1.0) * steps).round();
+        let mut order: Vec<usize> = (0..8).filter(|&k| l[k] != NO_NODE).collect();
+        order.sort_by(|&a, &b| remainder[b].total_cmp(&remainder[a]));
+        let mut missing = target - q.iter().sum::<f64>();
+        for &k in order.iter().cycle().take(8 * order.len()) {
+            if missing < 0.5 {
+                break;
+            }
+            if q[k] < steps {
+                q[k] += 1.0;
+                missing -= 1.0;
+            }
+        }
+        weights.push(q.map(|v| v / steps));
+    }
+    Ok(ShepardLinks {
+        links: links.links.clone(),
+        weights,
+    })
+}
+
 /// The weights of the prolongation's links.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum Interpolation {
@@ -256,6 +370,11 @@ pub struct MultigridParams {
     pub sparsify: Option<f64>,
     /// How the GPU stores the coarse levels' off-diagonal entries (the CPU solve is f64 either way).
     pub coarse_storage: OperatorStorage,
+    /// How the GPU stores the prolongation's links; [`LinkStorage::Packed`] also quantizes the
+    /// hierarchy's weights (the CPU solve with these params applies the same prolongation).
+    pub link_storage: LinkStorage,
+    /// How the GPU stores its per-node vectors (the CPU solve is f64 either way).
+    pub vector_storage: VectorStorage,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -299,6 +418,8 @@ impl Default for MultigridParams {
             pattern_smoothing: None,
             sparsify: None,
             coarse_storage: OperatorStorage::F32,
+            link_storage: LinkStorage::F32,
+            vector_storage: VectorStorage::Rgb,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,
@@ -335,6 +456,11 @@ impl MultigridParams {
     /// `[0.11, 1] lambda_max`: the start residual 0.064 -> 0.021 and full multigrid + 2 CG
     /// iterations instead of + 3 on the default scene, spot and nefertiti (52.0 -> 39.8 work units
     /// on the default scene), the same buffers (2 bytes per node fewer).
+    ///
+    /// Wave 7 (benches/RESULTS.md, "Multigrid storage (wave 7)"): packed links
+    /// ([`LinkStorage::Packed`]) and RGB vectors without a padding lane ([`VectorStorage::Rgb`]):
+    /// the same cycles, work units and residual on the default scene, spot and nefertiti, 97 + 39
+    /// bytes per finest node less, not measurably slower on lavapipe.
     pub fn gpu() -> Self {
         Self {
             smoother: Smoother::Chebyshev { lower: 0.11 },
@@ -345,6 +471,8 @@ impl MultigridParams {
             coarse_sweeps: Some(2),
             coarse_tolerance: 0.3,
             coarse_storage: OperatorStorage::F16,
+            link_storage: LinkStorage::Packed,
+            vector_storage: VectorStorage::Rgb,
             ..Self::default()
         }
     }
@@ -567,6 +695,10 @@ impl Hierarchy {
                         level,
                         &graph.levels[h - 1],
                     ),
+                };
+                let links = match params.link_storage {
+                    LinkStorage::F32 => links,
+                    LinkStorage::Packed => quantized_links(&links).map_err(|e| e.at_level(h))?,
                 };
                 Some(
                     Prolongation::new(&links, level.node_count(), graph.levels[h - 1].node_count())
