@@ -8,6 +8,9 @@
 // floats VECTOR_STRIDE i: 3 (VectorStorage::Rgb, no padding lane) or 4 (VectorStorage::Rgba)
 // (`solver::gpu::multigrid`, benches/RESULTS.md "Multigrid storage (wave 7)").
 layout(constant_id = 2) const uint VECTOR_STRIDE = 3u;
+// A packed prolongation link's weight: its low 8 bits `c` hold (c - 85) / 85
+// (LINK_WEIGHT_ZERO, LINK_WEIGHT_STEPS in solver/multigrid/mod.rs), the coarse node the rest.
+#define LINK_WEIGHT(link) (float(int((link) & 255u) - 85) / 85.0)
 #define RGB(buf, i) \
     vec3(buf.v[VECTOR_STRIDE * (i)], buf.v[VECTOR_STRIDE * (i) + 1u], \
          buf.v[VECTOR_STRIDE * (i) + 2u])

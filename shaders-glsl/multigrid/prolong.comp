@@ -24,7 +24,7 @@ void main() {
         uint link = links.v[slot];
         if (link != NO_NODE) {
             if (PACKED_LINKS != 0u) {
-                acc += float(link & 255u) / 255.0 * RGB(x, link >> 8);
+                acc += LINK_WEIGHT(link) * RGB(x, link >> 8);
             } else {
                 acc += link_weights.v[slot] * RGB(x, link);
             }

@@ -27,7 +27,7 @@ void main() {
     for (uint e = t_start.v[c]; e < t_start.v[c + 1u]; ++e) {
         uint slot = t_link.v[e];
         uint i = slot / 8u;
-        float w = PACKED_LINKS != 0u ? float(links.v[slot] & 255u) / 255.0 : link_weights.v[slot];
+        float w = PACKED_LINKS != 0u ? LINK_WEIGHT(links.v[slot]) : link_weights.v[slot];
         acc += w * (pc.mode == 1u ? RGB(f, i) : RGB(r, i));
     }
     SET_RGB(f, c, acc);

@@ -282,8 +282,8 @@ fn quantized_links_keep_each_nodes_sum_on_whole_steps() {
     }
     let negative = ShepardLinks {
         links: vec![[0, 1, NO_NODE, NO_NODE, NO_NODE, NO_NODE, NO_NODE, NO_NODE]],
-        weights: vec![[1.2, -0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]],
+        weights: vec![[2.5, -1.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]],
     };
-    let err = quantized_links(&negative).expect_err("a negative weight does not pack");
+    let err = quantized_links(&negative).expect_err("a weight outside [-1, 2] does not pack");
     assert!(err.to_string().contains("link_storage"), "{err}");
 }

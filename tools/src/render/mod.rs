@@ -197,10 +197,11 @@ pub struct RenderArgs {
     #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
     pub coarse_storage: Option<String>,
     /// How the GPU multigrid stores the prolongation's links (its transpose, the restriction,
-    /// reads the same links): `packed` (the default: one u32 per link, `node << 8 | weight in
-    /// 1/255`, the hierarchy built with the same quantized weights) or `f32` (node and f32 weight).
+    /// reads the same links): `f32` (the default: node and f32 weight) or `packed` (one u32 per
+    /// link, `node << 8 | code`, weight `(code - 85) / 85`, the hierarchy built with the same
+    /// quantized weights: 37 bytes per node less, a CG iteration more on the default scene).
     /// benches/RESULTS.md, "Multigrid storage (wave 7)".
-    #[arg(long, value_name = "packed|f32", value_parser = ["packed", "f32"])]
+    #[arg(long, value_name = "f32|packed", value_parser = ["f32", "packed"])]
     pub link_storage: Option<String>,
     /// How the GPU multigrid stores its per-node RGB vectors (x, f, r, d, the CG's): `rgb` (the
     /// default: 12 bytes, no padding lane) or `rgba` (16 bytes, the fourth float unused).

@@ -12,8 +12,8 @@
 //!   are Galerkin or the coarse graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
 //! - the prolongation as links (8 link slots per fine node: the bake's Shepard links or
 //!   `MultigridParams::interpolation`'s, weights moved by `pattern_smoothing`; with
-//!   [`LinkStorage::Packed`], `--link-storage packed`, one u32 `coarse node << 8 | weight in
-//!   1/255` each, the hierarchy built with the same quantized weights) and its transpose by coarse
+//!   [`LinkStorage::Packed`], `--link-storage packed`, one u32 `coarse node << 8 | code`
+//!   each, weight `(code - 85) / 85`, the hierarchy built with the same quantized weights) and its transpose by coarse
 //!   rows for the restriction (`t_start`, `t_link`: the slots of the links into each coarse node,
 //!   whose weights it reads): both gathers;
 //! - x, f, r and the Chebyshev direction d per node, RGB in three floats (so the CG's vectors
@@ -70,7 +70,7 @@ use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
     chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, LinkStorage,
-    MultigridParams, OperatorStorage, Smoother, WarmStart, LINK_WEIGHT_STEPS,
+    MultigridParams, OperatorStorage, Smoother, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -412,7 +412,7 @@ impl GpuMultigrid {
             return Err(too_big("a packed link's node (24 bits)"));
         }
         // The prolongation: 8 link slots per node (slot `8 i + k`), every level (the coarsest's
-        // empty); packed, one u32 `coarse node << 8 | weight in 1/255` per slot, else the node
+        // empty); packed, one u32 `coarse node << 8 | code` (weight `(code - 85) / 85`) per slot, else the node
         // and an f32 weight.
         let mut links: Vec<u32> = Vec::with_capacity(8 * total);
         let mut link_weights: Vec<f32> = Vec::with_capacity(if packed { 0 } else { 8 * total });
@@ -434,9 +434,11 @@ impl GpuMultigrid {
                             } else if global == NO_NODE {
                                 links.push(NO_NODE);
                             } else {
-                                // `quantized_links` made `wc` a multiple of 1 / 255.
-                                let steps = (wc * f64::from(LINK_WEIGHT_STEPS)).round() as u32;
-                                links.push(global << 8 | steps.min(LINK_WEIGHT_STEPS));
+                                // `quantized_links` made `wc` a whole number of steps in the
+                                // 8-bit code's range.
+                                let steps = (wc * f64::from(LINK_WEIGHT_STEPS)).round() as i64
+                                    + i64::from(LINK_WEIGHT_ZERO);
+                                links.push(global << 8 | steps.clamp(0, 255) as u32);
                             }
                         }
                     }

@@ -152,10 +152,11 @@ pub enum LinkStorage {
     /// A u32 coarse node and an f32 weight per link (8 bytes).
     #[default]
     F32,
-    /// One u32 per link, `coarse node << 8 | weight in 1/255` (4 bytes), as the cascade's packed
-    /// links; the hierarchy's weights are quantized to the same 1/255 steps (each node's steps
-    /// summing to 255, so constants are still prolongated exactly) before the Galerkin product,
-    /// so the coarse operators are those of the prolongation the GPU applies.
+    /// One u32 per link, `coarse node << 8 | code` (weight `(code - 85) / 85`, from -1 to 2: the
+    /// mixed interpolation's smoothed weights reach -0.95 and 1.96) (4 bytes), as the cascade's
+    /// packed links; the hierarchy's weights are quantized to the same 1/85 steps (each node's
+    /// steps summing to its rounded sum, so constants are still prolongated exactly) before the
+    /// Galerkin product, so the coarse operators are those of the prolongation the GPU applies.
     Packed,
 }
 
@@ -207,14 +208,22 @@ impl std::str::FromStr for VectorStorage {
     }
 }
 
-/// Steps of a packed link weight (8 bits).
-pub const LINK_WEIGHT_STEPS: u32 = 255;
+/// Steps per unit of a packed link weight: an 8-bit code `c` is the weight
+/// `(c - LINK_WEIGHT_ZERO) / LINK_WEIGHT_STEPS`, so weights from -1 to 2 pack (the mixed
+/// interpolation's pattern-smoothed weights reach -0.95 and 1.96 on the default scene, spot and
+/// nefertiti) and a node's sum stays on whole steps.
+pub const LINK_WEIGHT_STEPS: u32 = 85;
+/// The code of a zero link weight (see [`LINK_WEIGHT_STEPS`]).
+pub const LINK_WEIGHT_ZERO: u32 = 85;
 
 /// `links` with every node's weights rounded to multiples of `1 / LINK_WEIGHT_STEPS`, the steps
 /// of a node summing to the rounded sum of its weights (largest remainders first); an error for a
-/// weight outside `[0, 1]` (linear interpolation's negative weights do not pack).
+/// weight the 8-bit code cannot hold (below `-LINK_WEIGHT_ZERO / LINK_WEIGHT_STEPS` or above
+/// `(255 - LINK_WEIGHT_ZERO) / LINK_WEIGHT_STEPS`).
 pub fn quantized_links(links: &ShepardLinks) -> Result<ShepardLinks, SolverError> {
     let steps = f64::from(LINK_WEIGHT_STEPS);
+    let lowest = -f64::from(LINK_WEIGHT_ZERO);
+    let highest = f64::from(255 - LINK_WEIGHT_ZERO);
     let mut weights = Vec::with_capacity(links.weights.len());
     for (node, (l, w)) in links.links.iter().zip(&links.weights).enumerate() {
         let mut q = [0.0f64; 8];
@@ -224,22 +233,24 @@ pub fn quantized_links(links: &ShepardLinks) -> Result<ShepardLinks, SolverError
             if l[k] == NO_NODE {
                 continue;
             }
-            if !(0.0..=1.0 + 1e-9).contains(&w[k]) {
+            let scaled = w[k] * steps;
+            if !(lowest - 1e-9..=highest - 1.0 + 1e-9).contains(&scaled) {
                 return Err(SolverError::BadParameter {
                     name: "link_storage",
                     problem: format!(
-                        "node {node}'s link weight {} is outside [0, 1]: packed links take \
-                         Shepard interpolation only",
-                        w[k]
+                        "node {node}'s link weight {} is outside [{:.3}, {:.3}]: packed links \
+                         do not hold it (use link_storage f32)",
+                        w[k],
+                        lowest / steps,
+                        (highest - 1.0) / steps
                     ),
                 });
             }
-            let scaled = w[k].min(1.0) * steps;
             q[k] = scaled.floor();
             remainder[k] = scaled - q[k];
             sum += w[k];
         }
-        let target = (sum.min(1.0) * steps).round();
+        let target = (sum * steps).round();
         let mut order: Vec<usize> = (0..8).filter(|&k| l[k] != NO_NODE).collect();
         order.sort_by(|&a, &b| remainder[b].total_cmp(&remainder[a]));
         let mut missing = target - q.iter().sum::<f64>();
@@ -247,7 +258,7 @@ pub fn quantized_links(links: &ShepardLinks) -> Result<ShepardLinks, SolverError
             if missing < 0.5 {
                 break;
             }
-            if q[k] < steps {
+            if q[k] < highest {
                 q[k] += 1.0;
                 missing -= 1.0;
             }
@@ -457,10 +468,12 @@ impl MultigridParams {
     /// iterations instead of + 3 on the default scene, spot and nefertiti (52.0 -> 39.8 work units
     /// on the default scene), the same buffers (2 bytes per node fewer).
     ///
-    /// Wave 7 (benches/RESULTS.md, "Multigrid storage (wave 7)"): packed links
-    /// ([`LinkStorage::Packed`]) and RGB vectors without a padding lane ([`VectorStorage::Rgb`]):
-    /// the same cycles, work units and residual on the default scene, spot and nefertiti, 97 + 39
-    /// bytes per finest node less, not measurably slower on lavapipe.
+    /// Wave 7 (benches/RESULTS.md, "Multigrid storage (wave 7)"): RGB vectors without a padding
+    /// lane ([`VectorStorage::Rgb`]) and the restriction reading the prolongation's own links:
+    /// the same cycles, work units and residual, ~100 bytes per finest node less, not measurably
+    /// slower on lavapipe. The links stay f32: packed 8-bit weights over the mixed interpolation's
+    /// range [-1, 2] (steps of 1/85) cost the default scene a third CG iteration (39.8 -> 51.8
+    /// work units) for 37 bytes per node ([`LinkStorage::Packed`], `--link-storage packed`).
     pub fn gpu() -> Self {
         Self {
             smoother: Smoother::Chebyshev { lower: 0.11 },
@@ -471,7 +484,6 @@ impl MultigridParams {
             coarse_sweeps: Some(2),
             coarse_tolerance: 0.3,
             coarse_storage: OperatorStorage::F16,
-            link_storage: LinkStorage::Packed,
             vector_storage: VectorStorage::Rgb,
             ..Self::default()
         }
