@@ -439,7 +439,7 @@ fn mean_curvatures(
                 let j = j as usize;
                 let dx = anchors[j] - x;
                 let len2 = dx.length_squared();
-                if j == v || normals[j].dot(n) <= 0.0 || !(len2 > 0.0) {
+                if j == v || normals[j].dot(n) <= 0.0 || len2 <= 0.0 || len2.is_nan() {
                     continue;
                 }
                 let w = (1.0 - d2 / (reach * 1.0001)).powi(2);
