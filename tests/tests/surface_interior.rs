@@ -259,18 +259,20 @@ fn interior_albedo_matches_the_sphere_closed_form() {
         // ratio of the means of their CPU counterparts.
         let f_ext = 1.0 - m.eta * m.eta * (1.0 - fresnel::diffuse_reflectance(m.eta));
         let q = std::f64::consts::PI * env * (1.0 - f_ext);
-        let n = solution.vertex_exitance.len() as f64;
-        let mean =
-            |v: &dyn Fn(usize) -> f64| (0..solution.vertex_exitance.len()).map(v).sum::<f64>() / n;
+        let mean = |rows: &[[f64; 3]]| -> [f64; 3] {
+            let n = rows.len() as f64;
+            std::array::from_fn(|c| rows.iter().map(|r| r[c]).sum::<f64>() / n)
+        };
+        let exitance = mean(&solution.vertex_exitance);
+        let shaded = mean(&widen(&solution.vertex_j_plus));
+        let shaded_gpu = mean(&widen(&on_gpu));
         for c in 0..3 {
             let exact = Homogeneous::channel(&m, c).sphere_albedo(10.0);
             if exact <= 0.0 {
                 continue; // the model's negative J+ (ketchup green, blue): clamped, no albedo
             }
-            let albedo = mean(&|v| solution.vertex_exitance[v][c]) / q;
-            let to_exitance = mean(&|v| solution.vertex_exitance[v][c])
-                / mean(&|v| f64::from(solution.vertex_j_plus[v][c]));
-            let albedo_gpu = mean(&|v| f64::from(on_gpu[v][c])) * to_exitance / q;
+            let albedo = exitance[c] / q;
+            let albedo_gpu = shaded_gpu[c] * (exitance[c] / shaded[c]) / q;
             let (err, err_gpu) = (albedo / exact - 1.0, albedo_gpu / exact - 1.0);
             println!(
                 "{preset} channel {c}: albedo {albedo:.4} (GPU {albedo_gpu:.4}), closed form \

@@ -11,7 +11,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{scratch, translucent};
+use common::{json_of, scratch, translucent};
 use translucent::material::{DiffusionCoefficient, Material};
 use translucent::solver::transport::{Boundary, ExitQuery, Optics};
 
@@ -114,6 +114,7 @@ fn environment_spheres_are_flat_and_match_the_closed_form_at_the_defaults() {
                 &size,
                 "--height",
                 &size,
+                "--json",
                 "--out",
                 exr.to_str().expect("utf-8 path"),
             ],
@@ -123,6 +124,18 @@ fn environment_spheres_are_flat_and_match_the_closed_form_at_the_defaults() {
             out.status.success(),
             "{preset}: {}",
             String::from_utf8_lossy(&out.stderr)
+        );
+        // `--surface auto` resolves per material: the interior reconstruction where the lattice
+        // would show (skin1, ketchup), Shepard for marble.
+        let expected = if preset == "marble" {
+            "shepard"
+        } else {
+            "interior"
+        };
+        assert_eq!(
+            json_of(&out)["surface"],
+            expected,
+            "{preset}: --surface auto"
         );
         let pixels = read(&exr);
         let mut albedo: [Vec<f64>; 3] = Default::default();

@@ -885,6 +885,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 solver::transport::Source::SecondCollision => "second",
             },
             "exit_lobe": frame_desc.exit_lobe.name(),
+            // `--surface`, resolved (`auto` picks per material and spacing).
+            "surface": match surface {
+                solver::transport::SurfaceReconstruction::Interior => "interior",
+                solver::transport::SurfaceReconstruction::Shepard => "shepard",
+                solver::transport::SurfaceReconstruction::DepthSample => "depth-sample",
+            },
             "multigrid": match &last_gpu_multigrid {
                 Some(m) => Some(gpu_multigrid_json(m)),
                 None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({
