@@ -69,6 +69,43 @@ pub const DIFFUSION: DiffusionCoefficient = DiffusionCoefficient::Grosjean;
 /// (a light moving steadily); the first warm frame after a cold one starts from the last.
 pub const WARM_START: WarmStart = WarmStart::Linear;
 
+/// [`surface_for`]: the interior reconstruction where a channel's diffusion length 1/s is
+/// shorter than this many finest spacings' inverse, i.e. s * spacing above it (issue 12 item 4,
+/// benches/RESULTS.md "Surface auto and the curved profile"): there the Shepard interpolation of
+/// the surface nodes' J+ draws the lattice (skin1's per-pixel CV 5-26% in green and blue, ketchup's
+/// blotches and clamped channels; s * spacing 0.85-1.2 at the auto resolution) while the interior
+/// one is flat and within 0.4% of the sphere's closed form. Below it (marble, milk: 0.1-0.25)
+/// both are flat to 0.6% and Shepard is closer to the path-traced back-lit references (2-4 points).
+pub const INTERIOR_ABOVE_S_SPACING: f64 = 0.5;
+
+/// The display surface's reconstruction for `field` on a finest lattice of `spacing_mm`: the
+/// interior one where the largest s = sqrt(sigma_a / D) of a homogeneous material's channels
+/// times the spacing exceeds [`INTERIOR_ABOVE_S_SPACING`], Shepard otherwise (heterogeneous
+/// fields included: measured there only on the milk | skin1 split sphere, where Shepard is 0.8
+/// points closer to its reference).
+pub fn surface_for(field: &MaterialField, spacing_mm: f64) -> SurfaceReconstruction {
+    let MaterialField::Homogeneous(m) = field else {
+        return SurfaceReconstruction::Shepard;
+    };
+    let diffusion = field.diffusion();
+    let largest_s = (0..3)
+        .map(|c| {
+            crate::solver::transport::Optics {
+                sigma_s: m.sigma_s[c],
+                sigma_a: m.sigma_a[c],
+                diffusion,
+            }
+            .s()
+        })
+        .filter(|s| s.is_finite())
+        .fold(0.0, f64::max);
+    if largest_s * spacing_mm > INTERIOR_ABOVE_S_SPACING {
+        SurfaceReconstruction::Interior
+    } else {
+        SurfaceReconstruction::Shepard
+    }
+}
+
 /// How the levels are used (DESIGN 5.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Schedule {

@@ -6,9 +6,11 @@
 //            weights (the bake's `SurfaceSamples::sources`: up to 16 surface nodes within 1.5
 //            finest spacings, so a scan's bumps do not show through the nodes' cosines; the
 //            lattice is in phi_s - phi_k, which is no longer read);
-//   phi0, dphi0 = the local 1D profile phi'' = s^2 phi through p at `depth` with the Robin
-//            condition phi - h dphi/dz_in = rhs = flux_gain q at z = 0 (h = 2 A D, s = sqrt(mu / D),
-//            D and mu of the tetrahedron holding the sample: `solver::transport::profile_from_sample`);
+//   phi0, dphi0 = the local 1D profile through p at `depth` on a surface of mean curvature H:
+//            g = phi (1 - H z), g'' = s^2 g, Robin g(0) (1 - h H) - h g'(0) = rhs = flux_gain q,
+//            phi0 = g(0), dphi0 = g'(0) + H g(0) (h = 2 A D, s = sqrt(mu / D), D and mu of the
+//            tetrahedron holding the sample: `solver::transport::curved_profile_from_sample`,
+//            H clamped to PROFILE_CURVATURE_LIMIT / depth);
 //   M      = the exit query (flux: (1 - F_dr)((1 + 1/A) phi0 / 4 - q / (1 + F_dr)); moments:
 //            (1 - 2 C1) phi0 / 4 + (1 - 3 C2) D dphi0 / 2) + P;
 //   X      = M times the shading input per unit exitance, unscaled from the exposure, clamped at 0
@@ -29,9 +31,13 @@ layout(set = 0, binding = 6, std430) readonly buffer SourceWeights { vec4 weight
 // Per vertex 4 uvec4: 16 linear texel indices of the sample's inner nodes; 4 vec4: their weights.
 layout(set = 0, binding = 7, std430) readonly buffer SampleNodes { uvec4 nodes[]; } sample_nodes;
 layout(set = 0, binding = 8, std430) readonly buffer SampleWeights { vec4 weights[]; } sample_weights;
-// Per vertex: x the sample cell's linear texel index, y the sample depth (mm, float bits).
+// Per vertex: x the sample cell's linear texel index, y the sample depth (mm, float bits), z the
+// smoothed surface's mean curvature (1/mm, float bits, positive where convex).
 layout(set = 0, binding = 9, std430) readonly buffer SampleCells { uvec4 cells[]; } sample_cells;
 layout(set = 0, binding = 10, std430) writeonly buffer VertexJPlus { float values[]; } vertex_j_plus;
+
+// `solver::transport::PROFILE_CURVATURE_LIMIT`.
+const float PROFILE_CURVATURE_LIMIT = 0.5;
 
 layout(push_constant) uniform InteriorPush {
     uint count;
@@ -82,6 +88,7 @@ void main() {
     }
     uvec4 cell = sample_cells.cells[v];
     float depth = uintBitsToFloat(cell.y);
+    float curvature = uintBitsToFloat(cell.z);
     vec3 d = pc.kappa.rgb;
     vec3 sigma_a = pc.mu.rgb;
     if (pc.kappa.a > 0.5) {
@@ -97,8 +104,12 @@ void main() {
         // sinh(s depth) / s with its s -> 0 limit; cosh (exp overflow: far beyond any sample).
         float sinh_over_s = x < 1e-3 ? depth * (1.0 + x * x / 6.0) : sinh(min(x, 80.0)) / s;
         float cosh_x = cosh(min(x, 80.0));
-        float phi0 = (p[c] + rhs[c] * sinh_over_s / h) / (cosh_x + sinh_over_s / h);
-        float dphi0 = (phi0 - rhs[c]) / h;
+        float limit = depth > 0.0 ? PROFILE_CURVATURE_LIMIT / depth : 0.0;
+        float k = clamp(curvature, -limit, limit);
+        float g0 = (p[c] * (1.0 - k * depth) + rhs[c] * sinh_over_s / h)
+            / (cosh_x + (1.0 - h * k) * sinh_over_s / h);
+        float phi0 = g0;
+        float dphi0 = (g0 * (1.0 - h * k) - rhs[c]) / h + k * g0;
         m[c] = pc.exit.x * phi0 + pc.exit.y * d[c] * dphi0 - pc.exit.z * qv[c];
     }
     vec3 raw = (m * pc.scale.y + part * pc.scale.y) * pc.scale.x;

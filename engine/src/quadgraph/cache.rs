@@ -32,7 +32,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -387,6 +387,8 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
     w.u32s(&g.samples.cell.iter().map(|&c| [c]).collect::<Vec<_>>());
     w.u32s(&g.samples.sources);
     w.f64s(&g.samples.source_weights);
+    // Format 6: the vertices' mean curvature (the interior profile's curvature term).
+    w.f64s(&g.samples.curvature.iter().map(|&k| [k]).collect::<Vec<_>>());
     w.len(g.levels.len());
     for l in &g.levels {
         w.f64(l.spacing);
@@ -449,7 +451,9 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     let cell: Vec<[u32; 1]> = r.u32s()?;
     let sources = r.u32s()?;
     let source_weights = r.f64s()?;
+    let curvature: Vec<[f64; 1]> = r.f64s()?;
     let samples = SurfaceSamples {
+        curvature: curvature.into_iter().map(|[k]| k).collect(),
         depth: depth.into_iter().map(|[d]| d).collect(),
         nodes,
         weights,
@@ -620,7 +624,8 @@ fn check(g: &QuadGraph) -> Result<(), String> {
             || samples.weights.len() != nv
             || samples.cell.len() != nv
             || samples.sources.len() != nv
-            || samples.source_weights.len() != nv)
+            || samples.source_weights.len() != nv
+            || samples.curvature.len() != nv)
     {
         return Err("surface samples do not match the surface's vertices".into());
     }
@@ -632,6 +637,7 @@ fn check(g: &QuadGraph) -> Result<(), String> {
             .try_for_each(|&i| in_range("surface sample node", i, finest_inner))?;
     }
     if samples.depth.iter().any(|d| !(d.is_finite() && *d >= 0.0))
+        || samples.curvature.iter().any(|k| !k.is_finite())
         || samples.weights.iter().flatten().any(|w| !w.is_finite())
         || samples
             .source_weights

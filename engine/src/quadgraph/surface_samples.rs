@@ -74,6 +74,18 @@ pub const SOURCE_NODES: usize = 16;
 /// depth averages the sources over about that depth, and so must the profile's boundary.
 pub const SOURCE_SPACINGS: f64 = 1.5;
 
+/// The mean curvature at a vertex: the normal curvature (n_j - n_v) . (x_j - x_v) / |x_j -
+/// x_v|^2 towards each vertex j within this many finest spacings, averaged (weights (1 - (d /
+/// R)^2)^2; the average over directions of the normal curvature is (k1 + k2) / 2), with the
+/// smoothed normals and the smoothed surface points, so a scan's bumps finer than the lattice
+/// (which diffusion does not resolve) do not enter. At least [`CURVATURE_NEIGHBOURS`] nearest
+/// vertices where fewer lie within the radius (a display mesh coarser than the lattice).
+pub const CURVATURE_SPACINGS: f64 = 2.0;
+const CURVATURE_NEIGHBOURS: std::num::NonZero<usize> = match std::num::NonZero::new(8) {
+    Some(n) => n,
+    None => unreachable!(),
+};
+
 /// Graph rings searched around the sample's tetrahedron for candidates.
 const RINGS: usize = 3;
 
@@ -94,6 +106,10 @@ pub struct SurfaceSamples {
     pub sources: Vec<[u32; SOURCE_NODES]>,
     /// ...and their weights (summing to 1): see [`SOURCE_SPACINGS`].
     pub source_weights: Vec<[f64; SOURCE_NODES]>,
+    /// Mean curvature H = (k1 + k2) / 2 of the smoothed surface at the vertex (1/mm, positive
+    /// where convex): the 1D profile's curvature term (`solver::transport::
+    /// curved_profile_from_sample`); see [`CURVATURE_SPACINGS`].
+    pub curvature: Vec<f64>,
 }
 
 impl SurfaceSamples {
@@ -385,6 +401,61 @@ fn source_weights(
     out
 }
 
+/// Per vertex, the mean curvature of the smoothed surface (points `anchors`, unit normals
+/// `normals`) over `radius` (see [`CURVATURE_SPACINGS`]); 0 where no neighbour determines it.
+fn mean_curvatures(
+    tree: &ImmutableKdTree<f64, u32, 3, 32>,
+    positions: &[DVec3],
+    anchors: &[DVec3],
+    normals: &[DVec3],
+    radius: f64,
+) -> Vec<f64> {
+    if positions.is_empty() || radius.is_nan() || radius <= 0.0 {
+        return vec![0.0; positions.len()];
+    }
+    (0..positions.len())
+        .into_par_iter()
+        .map(|v| {
+            let (x, n) = (anchors[v], normals[v]);
+            let query = positions[v].to_array();
+            let mut near: Vec<(f64, u32)> = tree
+                .within_unsorted::<SquaredEuclidean>(&query, radius * radius)
+                .into_iter()
+                .map(|nb| (nb.distance, nb.item))
+                .collect();
+            if near.len() <= CURVATURE_NEIGHBOURS.get() {
+                near = tree
+                    .nearest_n::<SquaredEuclidean>(&query, CURVATURE_NEIGHBOURS.saturating_add(1))
+                    .into_iter()
+                    .map(|nb| (nb.distance, nb.item))
+                    .collect();
+            }
+            let reach = near
+                .iter()
+                .map(|&(d2, _)| d2)
+                .fold(radius * radius, f64::max);
+            let (mut sum, mut total) = (0.0, 0.0);
+            for (d2, j) in near {
+                let j = j as usize;
+                let dx = anchors[j] - x;
+                let len2 = dx.length_squared();
+                if j == v || normals[j].dot(n) <= 0.0 || len2 <= 0.0 || len2.is_nan() {
+                    continue;
+                }
+                let w = (1.0 - d2 / (reach * 1.0001)).powi(2);
+                sum += w * (normals[j] - n).dot(dx) / len2;
+                total += w;
+            }
+            let h = sum / total;
+            if total > 0.0 && h.is_finite() {
+                h
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// The distance from `x` along `-n` to where the ray first leaves `solid` (a crossing whose
 /// outward normal faces along the ray), up to `reach`; crossings into the solid on the way (the
 /// smoothed surface point `x` may lie just outside a scan's dimple) are stepped over.
@@ -448,6 +519,13 @@ pub fn surface_samples(
         SURFACE_SPACINGS * h,
     );
     let sources = source_weights(finest, &anchors, &normals, SOURCE_SPACINGS * h);
+    let curvature = mean_curvatures(
+        &vertex_tree,
+        &surface.positions,
+        &anchors,
+        &normals,
+        CURVATURE_SPACINGS * h,
+    );
     let per_vertex: Vec<(f64, [u32; SAMPLE_NODES], [f64; SAMPLE_NODES], u32)> = anchors
         .par_iter()
         .zip(&normals)
@@ -493,7 +571,10 @@ pub fn surface_samples(
             (depth, ids, weights, cell as u32)
         })
         .collect();
-    let mut out = SurfaceSamples::default();
+    let mut out = SurfaceSamples {
+        curvature,
+        ..Default::default()
+    };
     for (ids, w) in sources {
         out.sources.push(ids);
         out.source_weights.push(w);

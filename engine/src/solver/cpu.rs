@@ -35,7 +35,9 @@ use super::krylov::{self, KrylovReport};
 use super::multigrid::{Hierarchy, MultigridParams, MultigridReport, Start};
 use super::operator::{check_level, LevelOperator, Scheme};
 use super::sources::{LocalSource, SourceModel};
-use super::transport::{profile_from_sample, Boundary, Optics, SurfaceReconstruction, Transport};
+use super::transport::{
+    curved_profile_from_sample, Boundary, Optics, SurfaceReconstruction, Transport,
+};
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};
 use crate::mesh::Solid;
@@ -797,10 +799,17 @@ pub fn reconstruct_vertices(
                 src.add(&e);
             }
             let p = samples.interpolate(v, phi_h);
+            let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
             std::array::from_fn(|c| {
                 let o = optics[c];
-                let (phi0, dphi0) =
-                    profile_from_sample(o.s(), h[c], samples.depth[v], p[c], src.rhs[c]);
+                let (phi0, dphi0) = curved_profile_from_sample(
+                    o.s(),
+                    h[c],
+                    samples.depth[v],
+                    p[c],
+                    src.rhs[c],
+                    curvature,
+                );
                 boundary.exitance(
                     o.d(),
                     phi0 + src.phi_p[c],
@@ -864,12 +873,19 @@ pub fn interior_vertices(
                 samples.source_average(v, &q),
                 samples.source_average(v, &part),
             );
+            let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
             std::array::from_fn(|c| {
                 let (d, h) = (kappa[c], 2.0 * boundary.a * kappa[c]);
                 let s = (here.mu()[c] / d).sqrt();
                 let qv = q_v[c];
-                let (phi0, dphi0) =
-                    profile_from_sample(s, h, samples.depth[v], p[c], boundary.flux_gain * qv);
+                let (phi0, dphi0) = curved_profile_from_sample(
+                    s,
+                    h,
+                    samples.depth[v],
+                    p[c],
+                    boundary.flux_gain * qv,
+                    curvature,
+                );
                 boundary.exitance(d, phi0, dphi0, qv) + part_v[c]
             })
         })

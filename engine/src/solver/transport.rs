@@ -607,12 +607,48 @@ pub fn refract_inward(d: DVec3, n: DVec3, eta: f64) -> DVec3 {
 /// s^2 phi_h, phi_h - h dphi_h = `rhs_h` at z = 0 and phi_h(`depth`) = `p` (the interior
 /// sample). Returns (phi_h(0), dphi_h(0)).
 pub fn profile_from_sample(s: f64, h: f64, depth: f64, p: f64, rhs_h: f64) -> (f64, f64) {
+    curved_profile_from_sample(s, h, depth, p, rhs_h, 0.0)
+}
+
+/// The largest |H depth| the curved profile uses: beyond it (a feature smaller than about
+/// twice the sample depth) the curvature is clamped, the profile's one-term expansion no longer
+/// holds and g = phi (1 - H z) would approach a sign change before the sample. It also keeps
+/// the denominator of g(0) positive for any h (1 - h H >= -h / (2 depth)).
+pub const PROFILE_CURVATURE_LIMIT: f64 = 0.5;
+
+/// [`profile_from_sample`] on a curved surface of mean curvature `curvature` H ((k1 + k2) / 2,
+/// 1/mm, positive where the surface is convex), issue 12 item 4: near the surface the
+/// Laplacian along the inward depth z is phi'' - 2 H phi' (to first order in H z), exactly that
+/// of g = phi (1 - H z) with g'' = s^2 g (on a sphere of radius R = 1/H: phi = u(r) / r, the
+/// closed form's -1/R of DESIGN 2). Robin g(0) (1 - h H) - h g'(0) = `rhs_h`, g(`depth`) =
+/// `p` (1 - H depth); returns phi(0) = g(0) and dphi/dz_in(0) = g'(0) + H g(0). A planar
+/// profile darkens a convex lit surface (its exitance 2-11% low on skin1 spheres of 10 mm).
+pub fn curved_profile_from_sample(
+    s: f64,
+    h: f64,
+    depth: f64,
+    p: f64,
+    rhs_h: f64,
+    curvature: f64,
+) -> (f64, f64) {
+    let limit = if depth > 0.0 {
+        PROFILE_CURVATURE_LIMIT / depth
+    } else {
+        0.0
+    };
+    let k = if curvature.is_finite() {
+        curvature.clamp(-limit, limit)
+    } else {
+        0.0
+    };
     let x = s * depth;
     let cosh = x.cosh();
     // sinh(s depth) / s, with its s -> 0 limit.
     let sinh_over_s = if x < 1e-6 { depth } else { x.sinh() / s };
-    let phi0 = (p + rhs_h * sinh_over_s / h) / (cosh + sinh_over_s / h);
-    (phi0, (phi0 - rhs_h) / h)
+    let g_depth = p * (1.0 - k * depth);
+    let g0 = (g_depth + rhs_h * sinh_over_s / h) / (cosh + (1.0 - h * k) * sinh_over_s / h);
+    let dg0 = (g0 * (1.0 - h * k) - rhs_h) / h;
+    (g0, dg0 + k * g0)
 }
 
 #[cfg(test)]
@@ -791,6 +827,28 @@ mod tests {
         assert!((phi0 - a).abs() < 1e-12 && (dphi0 - b).abs() < 1e-12);
         let (phi0, _) = profile_from_sample(0.0, h, depth, a + b * depth, a - h * b);
         assert!((phi0 - a).abs() < 1e-12);
+    }
+
+    #[test]
+    fn curved_profile_reproduces_the_sphere_solution() {
+        // Inside a sphere of radius R: phi = sinh(s r) / r, z = R - r inward, H = 1 / R.
+        let (s, h, radius, depth): (f64, f64, f64, f64) = (0.9, 0.3, 10.0, 1.2);
+        let phi = |z: f64| (s * (radius - z)).sinh() / (radius - z);
+        let dphi = |z: f64| {
+            let r = radius - z;
+            -(s * (s * r).cosh() / r - (s * r).sinh() / (r * r))
+        };
+        let rhs = phi(0.0) - h * dphi(0.0);
+        let (phi0, dphi0) = curved_profile_from_sample(s, h, depth, phi(depth), rhs, 1.0 / radius);
+        assert!((phi0 / phi(0.0) - 1.0).abs() < 1e-12, "{phi0} {}", phi(0.0));
+        assert!(
+            (dphi0 / dphi(0.0) - 1.0).abs() < 1e-12,
+            "{dphi0} {}",
+            dphi(0.0)
+        );
+        // The planar profile misses it by more than a percent here.
+        let (flat, _) = profile_from_sample(s, h, depth, phi(depth), rhs);
+        assert!((flat / phi(0.0) - 1.0).abs() > 1e-2, "{flat}");
     }
 
     #[test]

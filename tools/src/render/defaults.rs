@@ -163,12 +163,29 @@ impl RenderArgs {
         if let Some(n) = self.iterations {
             settings.cascade_iterations = u32::try_from(n).context("--iterations: too large")?;
         }
-        settings.surface = self.surface.parse()?;
+        // `auto` needs the lattice spacing: `surface_for` resolves it after the bake.
+        if self.surface != "auto" {
+            settings.surface = self.surface.parse()?;
+        }
         settings.heterogeneous_weights = self.heterogeneous_weights.parse()?;
         settings.single_scattering = self.scatter_params()?;
         settings.bounce = self.bounce_mode()?;
         settings.diffusion = self.diffusion()?;
         Ok(settings)
+    }
+
+    /// `--surface` resolved for `field` on a finest lattice of `spacing_mm`: the one named, or
+    /// with `auto` (the default) the library's rule [`translucent::defaults::surface_for`].
+    pub fn surface_for(
+        &self,
+        field: &translucent::material::MaterialField,
+        spacing_mm: f64,
+    ) -> anyhow::Result<translucent::solver::transport::SurfaceReconstruction> {
+        if self.surface == "auto" {
+            Ok(translucent::defaults::surface_for(field, spacing_mm))
+        } else {
+            Ok(self.surface.parse()?)
+        }
     }
 
     /// `--bounce` resolved: the given mode; else the library's for the method

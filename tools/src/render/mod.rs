@@ -165,11 +165,14 @@ pub struct RenderArgs {
     pub exit_query: Option<String>,
     /// How the display vertices get their exitance (GPU and CPU solvers, same formulas):
     /// `interior` (phi at a point a fixed depth inside, interpolated from the tetrahedra around
-    /// it, extended to the surface by the local 1D profile; DESIGN 2.6, issue 12 item 4: no
-    /// lattice rings or blotches on skin and ketchup) or `shepard` (the default: each surface
-    /// node's J+ through the shading weights; closer to the path-traced references on the
-    /// bunny and the back-lit scenes so far, benches/RESULTS.md "Smooth surfaces").
-    #[arg(long, value_name = "interior|shepard", default_value = "shepard", value_parser = ["interior", "shepard"])]
+    /// it, extended to the surface by the local 1D profile with the surface's mean curvature;
+    /// DESIGN 2.6, issue 12 item 4: no lattice rings or blotches, the sphere's closed-form albedo
+    /// within 0.4%), `shepard` (each surface node's J+ through the shading weights; closer to the
+    /// path-traced back-lit references for long diffusion lengths) or `auto` (the default:
+    /// interior where a channel's s = sqrt(sigma_a / D) times the lattice spacing exceeds 0.5,
+    /// as skin1 and ketchup at the auto resolution, Shepard otherwise; benches/RESULTS.md
+    /// "Surface auto and the curved profile").
+    #[arg(long, value_name = "auto|interior|shepard", default_value = "auto", value_parser = ["auto", "interior", "shepard"])]
     pub surface: String,
     /// The diffusion coefficient D of the QuadGraph method (GPU and CPU solvers, the solve, the
     /// sources and the exit query alike; `material::DiffusionCoefficient`): `grosjean` (the
@@ -492,7 +495,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Solve on the CPU (f64 reference), or below on the GPU.
     let exit_query: solver::transport::ExitQuery =
         args.exit_query.as_deref().unwrap_or("flux").parse()?;
-    let surface: solver::transport::SurfaceReconstruction = args.surface.parse()?;
+    let surface = args.surface_for(&field, resolution.spacing_mm)?;
     let source = args.light_source();
     let beams = source != solver::transport::Source::BoundaryFlux;
     let solve_params = CpuSolveParams {
@@ -557,7 +560,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         ..ContextDesc::default()
     })?;
     // The library's real-time defaults, changed by the options given (`defaults.rs`).
-    let settings = args.settings()?;
+    let mut settings = args.settings()?;
+    settings.surface = surface;
     let base = settings.solve_params();
     let gpu_params = GpuSolveParams {
         shadow_edge_flux: args.shadow_edge_flux,
@@ -909,6 +913,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 solver::transport::Source::SecondCollision => "second",
             },
             "exit_lobe": frame_desc.exit_lobe.name(),
+            // `--surface`, resolved (`auto` picks per material and spacing).
+            "surface": match surface {
+                solver::transport::SurfaceReconstruction::Interior => "interior",
+                solver::transport::SurfaceReconstruction::Shepard => "shepard",
+                solver::transport::SurfaceReconstruction::DepthSample => "depth-sample",
+            },
             "multigrid": match &last_gpu_multigrid {
                 Some(m) => Some(gpu_multigrid_json(m)),
                 None => solution.as_ref().and_then(|s| s.multigrid.as_ref()).map(|m| serde_json::json!({

@@ -90,13 +90,20 @@ impl GpuDiffusion {
             }
             let cell = samples.cell[v];
             let depth = samples.depth[v];
-            if cell as usize >= finest.inner_count || !(depth.is_finite() && depth >= 0.0) {
-                return Err(bad(v, "its cell out of range or its depth not finite"));
+            let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
+            if cell as usize >= finest.inner_count
+                || !(depth.is_finite() && depth >= 0.0)
+                || !curvature.is_finite()
+            {
+                return Err(bad(
+                    v,
+                    "its cell out of range or its depth or curvature not finite",
+                ));
             }
             cells.push([
                 finest.packing.linear_index(cell),
                 (depth as f32).to_bits(),
-                0,
+                (curvature as f32).to_bits(),
                 0,
             ]);
         }
