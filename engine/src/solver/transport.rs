@@ -642,11 +642,13 @@ pub fn curved_profile_from_sample(
         0.0
     };
     let x = s * depth;
-    let cosh = x.cosh();
-    // sinh(s depth) / s, with its s -> 0 limit.
-    let sinh_over_s = if x < 1e-6 { depth } else { x.sinh() / s };
+    // Numerator and denominator divided by cosh(s depth), which overflows for a strongly
+    // absorbing material (s depth beyond ~710): tanh(s depth) / s with its s -> 0 limit, and
+    // 1 / cosh(s depth), which goes to 0 there (the sample no longer reaches the surface).
+    let tanh_over_s = if x < 1e-6 { depth } else { x.tanh() / s };
+    let sech = if x > 700.0 { 0.0 } else { 1.0 / x.cosh() };
     let g_depth = p * (1.0 - k * depth);
-    let g0 = (g_depth + rhs_h * sinh_over_s / h) / (cosh + (1.0 - h * k) * sinh_over_s / h);
+    let g0 = (g_depth * sech + rhs_h * tanh_over_s / h) / (1.0 + (1.0 - h * k) * tanh_over_s / h);
     let dg0 = (g0 * (1.0 - h * k) - rhs_h) / h;
     (g0, dg0 + k * g0)
 }
@@ -827,6 +829,19 @@ mod tests {
         assert!((phi0 - a).abs() < 1e-12 && (dphi0 - b).abs() < 1e-12);
         let (phi0, _) = profile_from_sample(0.0, h, depth, a + b * depth, a - h * b);
         assert!((phi0 - a).abs() < 1e-12);
+    }
+
+    #[test]
+    fn profile_of_a_strongly_absorbing_material_is_finite() {
+        // s depth = 1.7e4: cosh overflows; the sample no longer reaches the surface, which
+        // takes the half-space's own value rhs / (1 + h (s - H)).
+        let (s, h, depth, k) = (1.7e4, 0.3, 1.0, 0.1);
+        for curvature in [0.0, k] {
+            let (phi0, dphi0) = curved_profile_from_sample(s, h, depth, 2.0, 1.0, curvature);
+            assert!(phi0.is_finite() && dphi0.is_finite(), "{phi0} {dphi0}");
+            let expected = 1.0 / (1.0 + h * (s - curvature));
+            assert!((phi0 / expected - 1.0).abs() < 1e-9, "{phi0} {expected}");
+        }
     }
 
     #[test]
