@@ -304,10 +304,12 @@ fn gpu_frame_matches_the_path_traced_marble_sphere_in_an_environment() {
 /// (measured 0.1-0.9% on the milk sphere at resolution 24), not to round-off.
 const COLLIMATED_BALANCE: f64 = 0.02;
 
-/// The collimated source's error on the milk sphere (measured 8.6%) and its gain over the
-/// boundary flux (measured 3.3 points): bounds with ~1 point of room for the bake's noise.
-const COLLIMATED_MILK: f64 = 0.095;
-const COLLIMATED_GAIN: f64 = 0.025;
+/// The collimated source's error on the milk sphere (measured 8.6%; 10.1% since the depth-sampled
+/// surface's profile has the curvature term of wave 7, exact on the sphere's closed form) and
+/// its gain over the boundary flux (measured 3.3, now 1.8 points): bounds with ~1 point of room
+/// for the bake's noise.
+const COLLIMATED_MILK: f64 = 0.11;
+const COLLIMATED_GAIN: f64 = 0.01;
 
 /// The opt-in beam source against `skimmilk-sphere-dir-eta1.exr` (the scene where the boundary
 /// flux is worst): the CPU f64 solution, shaded by the same pass.
@@ -405,11 +407,15 @@ fn committed_references_have_their_commands() {
 /// RESULTS.md "All references, term by term": 20.0, 16.6, 42.9, 39.3). The model's error, not
 /// an accuracy target (issue 12 wants far less): bounds about one reference-noise level
 /// (1.1-1.6%) above, so a regression of the chain for absorbing channels (the presets, the
-/// clamping of negative J+, the interior profile) fails while noise does not.
+/// clamping of negative J+, the interior profile) fails while noise does not. Wave 7: the
+/// interior profile's curvature term (exact against the sphere's closed form: constant-
+/// environment albedo within 0.4%) brightens the convex lit side: interior 16.0 -> 20.3% (skin1)
+/// and 36.5 -> 45.2% (ketchup) against these front-lit eta-1 references (the diffusion model's
+/// own excess for absorbing channels, which the planar profile's darkening used to hide).
 const SKIN1_SHEPARD: f64 = 0.225;
-const SKIN1_INTERIOR: f64 = 0.175;
+const SKIN1_INTERIOR: f64 = 0.215;
 const KETCHUP_SHEPARD: f64 = 0.44;
-const KETCHUP_INTERIOR: f64 = 0.38;
+const KETCHUP_INTERIOR: f64 = 0.465;
 /// Skin1's image against ketchup's reference: far above any bound (measured below).
 const WRONG_MATERIAL: f64 = 0.5;
 
