@@ -6,6 +6,7 @@ use anyhow::bail;
 use super::RenderArgs;
 use translucent::material::DiffusionCoefficient;
 use translucent::solver;
+use translucent::solver::multigrid::MultigridParams;
 
 use super::output::check_writable;
 
@@ -106,4 +107,34 @@ pub(super) fn solver_options(args: &RenderArgs, on_gpu: bool) -> anyhow::Result<
         bail!("--no-skip applies to the GPU solver (--solver gpu)");
     }
     Ok(())
+}
+
+/// `base` with the coarse-level options of `args` (`--coarse-operator`, `--coarse-storage`,
+/// `--link-storage`, `--vector-storage`, `--coarse-drop`), checked.
+pub(super) fn coarse_params(
+    args: &RenderArgs,
+    base: MultigridParams,
+) -> anyhow::Result<MultigridParams> {
+    let params = MultigridParams {
+        coarse: match &args.coarse_operator {
+            Some(name) => name.parse()?,
+            None => base.coarse,
+        },
+        coarse_storage: match &args.coarse_storage {
+            Some(name) => name.parse()?,
+            None => base.coarse_storage,
+        },
+        link_storage: match &args.link_storage {
+            Some(name) => name.parse()?,
+            None => base.link_storage,
+        },
+        vector_storage: match &args.vector_storage {
+            Some(name) => name.parse()?,
+            None => base.vector_storage,
+        },
+        sparsify: args.coarse_drop.filter(|&t| t > 0.0).or(base.sparsify),
+        ..base
+    };
+    params.validate()?;
+    Ok(params)
 }

@@ -361,8 +361,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     checks::solver_options(args, on_gpu)?;
     let schedule = schedule_of(args);
     let multigrid = schedule == "multigrid";
-    let coarse_gpu = coarse_params(args, MultigridParams::gpu())?;
-    let coarse_cpu = coarse_params(args, MultigridParams::default())?;
+    let coarse_gpu = checks::coarse_params(args, MultigridParams::gpu())?;
+    let coarse_cpu = checks::coarse_params(args, MultigridParams::default())?;
     if !multigrid
         && (args.coarse_operator.is_some()
             || args.coarse_storage.is_some()
@@ -963,33 +963,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("{} validation message(s) (printed above)", messages.len());
     }
     Ok(())
-}
-
-/// `base` with the coarse-level options of `args` (`--coarse-operator`, `--coarse-storage`,
-/// `--link-storage`, `--vector-storage`, `--coarse-drop`), checked.
-fn coarse_params(args: &RenderArgs, base: MultigridParams) -> anyhow::Result<MultigridParams> {
-    let params = MultigridParams {
-        coarse: match &args.coarse_operator {
-            Some(name) => name.parse()?,
-            None => base.coarse,
-        },
-        coarse_storage: match &args.coarse_storage {
-            Some(name) => name.parse()?,
-            None => base.coarse_storage,
-        },
-        link_storage: match &args.link_storage {
-            Some(name) => name.parse()?,
-            None => base.link_storage,
-        },
-        vector_storage: match &args.vector_storage {
-            Some(name) => name.parse()?,
-            None => base.vector_storage,
-        },
-        sparsify: args.coarse_drop.filter(|&t| t > 0.0).or(base.sparsify),
-        ..base
-    };
-    params.validate()?;
-    Ok(params)
 }
 
 /// `lights` rotated about +Y by `degrees` (directions and positions).
