@@ -145,6 +145,18 @@ impl Row {
         self.image.or(self.closed_form).and_then(|e| e[3])
     }
 
+    /// What the solve did: iterations per level for the cascade, work units (node updates per
+    /// finest node) for the multigrid, whose per-level iteration counters stay at zero.
+    fn work(&self) -> String {
+        match (self.schedule, self.node_updates) {
+            (Some("multigrid"), Some(updates)) if self.finest_nodes > 0 => format!(
+                "{:.1} work units",
+                updates as f64 / self.finest_nodes as f64
+            ),
+            _ => format!("iterations {:?}", self.iterations),
+        }
+    }
+
     pub(super) fn summary(&self) -> String {
         let e = |v: Option<&Errors>| {
             v.and_then(|e| e[3])
@@ -152,12 +164,12 @@ impl Row {
         };
         let ms = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.1}"));
         format!(
-            "{:<5} {:<40} cap {:>5} tol {:>7} | iterations {:?} | solve {} ms, frame {} ms | error: discrete {}, solver {}, closed form {}, image {}",
+            "{:<5} {:<40} cap {:>5} tol {:>7} | {} | solve {} ms, frame {} ms | error: discrete {}, solver {}, closed form {}, image {}",
             self.solver,
             self.family_name,
             opt(self.iterations_cap),
             opt(self.tolerance),
-            self.iterations,
+            self.work(),
             ms(self.solve_gpu_ms),
             ms(self.frame_gpu_ms),
             e(Some(&self.discrete)),
@@ -165,5 +177,31 @@ impl Row {
             e(self.closed_form.as_ref()),
             e(self.image.as_ref()),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_summary_names_work_units_for_the_multigrid_and_iterations_for_the_cascade() {
+        let mut row = Row::empty();
+        row.iterations = vec![0, 0, 0];
+        row.node_updates = Some(3975);
+        row.finest_nodes = 100;
+        row.schedule = Some("multigrid");
+        assert!(
+            row.summary().contains("| 39.8 work units |"),
+            "{}",
+            row.summary()
+        );
+        row.schedule = Some("cascade");
+        row.iterations = vec![184, 336, 608];
+        assert!(
+            row.summary().contains("| iterations [184, 336, 608] |"),
+            "{}",
+            row.summary()
+        );
     }
 }
