@@ -58,6 +58,10 @@ pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
 /// gets none without casting rays). An object takes the links its graph carries
 /// ([`crate::QuadGraph::bounce`]); a graph without links renders without the bounce.
 pub const BOUNCE: BounceMode = BounceMode::Local;
+/// Bounces per new exitance of that pass (`render --bounces`; benches/RESULTS.md, "Thin walls:
+/// the plate's foot and interreflection"): 1 is light that left the surface once and entered it
+/// again.
+pub const BOUNCES: u32 = 1;
 /// The QuadGraph method's diffusion coefficient (benches/RESULTS.md, "Diffusion coefficient at
 /// low albedo": against the path-traced references Grosjean's D is level or better on every
 /// scene with the Shepard surface; it differs from 1 / (3 sigma_t') only at low albedo). The
