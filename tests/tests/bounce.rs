@@ -1,6 +1,6 @@
-//! One bounce of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
-//! pass `bounce` against its f64 reference (`BounceLinks::apply`) on two facing boxes, applied
-//! once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
+//! Bounces of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
+//! pass `bounce` against its f64 reference (`BounceLinks::apply_bounces`) on two facing boxes,
+//! several bounces solving their interreflection, applied once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
 //! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph.
 
 use glam::DVec3;
@@ -14,9 +14,6 @@ use translucent::scene::{Camera, Environment, Scene};
 use translucent::solver::gpu::GpuSolveParams;
 use translucent::{MethodDesc, ObjectParams, QuadGraph, TranslucentObject};
 use translucent_tests::{quadgraph_object, render_once, GpuTest};
-
-/// f32 sums of up to 32 links against the f64 reference, relative to the value.
-const GPU_VS_F64: f32 = 1e-5;
 
 fn marble() -> MaterialField {
     MaterialField::Homogeneous(Material::preset("marble").expect("marble"))
@@ -123,13 +120,14 @@ fn facing_boxes_match_the_f64_bounce_once_per_exitance() {
     let (captured, report) = render_once(&gpu.ctx, &mut object, 48, 48);
     assert!(report.passes.contains(&PASS_BOUNCE), "{:?}", report.passes);
     let got = read_exitance(&gpu, &object);
-    let expected = links.apply(&x, &r);
+    // The object's default bounces per exitance.
+    let expected = links.apply_bounces(&x, &r, translucent::defaults::BOUNCES);
     let mut raised = 0;
     for (v, (g, e)) in got.iter().zip(&expected).enumerate() {
         for c in 0..3 {
             assert!(g[c].is_finite(), "vertex {v}: {g:?}");
             assert!(
-                (g[c] - e[c]).abs() <= GPU_VS_F64 * e[c].max(1.0),
+                (g[c] - e[c]).abs() <= GPU_VS_F64_BOUNCES * e[c].max(1.0),
                 "vertex {v} channel {c}: GPU {} against f64 {}",
                 g[c],
                 e[c]
@@ -233,7 +231,7 @@ fn a_convex_sphere_gets_nothing_and_a_torus_hole_gets_the_f64_bounce() {
     let (plain, passes) = quadgraph_exitance(&gpu, &torus, None);
     assert!(!passes.contains(&PASS_BOUNCE), "{passes:?}");
     let (bounced, _) = quadgraph_exitance(&gpu, &torus, Some(&links));
-    let expected = links.apply(&plain, &r(&torus));
+    let expected = links.apply_bounces(&plain, &r(&torus), translucent::defaults::BOUNCES);
     let mut raised = 0;
     for (v, (g, e)) in bounced.iter().zip(&expected).enumerate() {
         for c in 0..3 {
