@@ -231,6 +231,8 @@ pub struct TranslucentObject {
     method_choice: Option<crate::frame::MethodChoice>,
     /// One bounce of exitance between display vertices ([`Self::set_bounce`]); `None`: off.
     bounce: Option<BouncePass>,
+    /// Bounces per new exitance of that pass ([`Self::set_bounces`]).
+    bounces: u32,
 }
 
 fn invalid(what: &str, problem: String) -> Error {
@@ -395,6 +397,7 @@ impl TranslucentObject {
             last_frame: None,
             method_choice: None,
             bounce: None,
+            bounces: crate::defaults::BOUNCES,
         };
         // No link (a convex object): no pass to record.
         if let Some(links) = bounce_links.as_ref().filter(|l| l.link_count() > 0) {
@@ -597,8 +600,31 @@ impl TranslucentObject {
             self.params.solve.exit,
             &self.rest_positions,
         );
-        self.bounce = Some(BouncePass::new(ctx, &self.mesh, links, &r)?);
+        let mut pass = BouncePass::new(ctx, &self.mesh, links, &r)?;
+        pass.set_bounces(self.bounces)?;
+        self.bounce = Some(pass);
         self.changes.material = true;
+        Ok(())
+    }
+
+    /// Bounces per new exitance of the bounce pass ([`crate::frame::bounce::BouncePass::set_bounces`],
+    /// default [`crate::defaults::BOUNCES`]), kept for a pass [`Self::set_bounce`] makes later;
+    /// a count outside [`crate::frame::bounce::BOUNCE_RANGE`] is a typed error. From the next
+    /// solve on.
+    pub fn set_bounces(&mut self, bounces: u32) -> Result<(), Error> {
+        if let Some(pass) = &mut self.bounce {
+            pass.set_bounces(bounces)?;
+            self.changes.material = true;
+        } else if !crate::frame::bounce::BOUNCE_RANGE.contains(&bounces) {
+            return Err(invalid(
+                "bounces",
+                format!(
+                    "{bounces} bounces, outside {:?}",
+                    crate::frame::bounce::BOUNCE_RANGE
+                ),
+            ));
+        }
+        self.bounces = bounces;
         Ok(())
     }
 

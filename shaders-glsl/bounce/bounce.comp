@@ -1,11 +1,14 @@
 #version 460
-// One bounce of exitance between display vertices (issue 12 item 5; engine/src/frame/bounce.rs):
+// Bounces of exitance between display vertices (issue 12 item 5; engine/src/frame/bounce.rs):
 // light that leaves the surface at y crosses the air (eta = 1 outside) and enters it again at x.
 // mode 0 (gather): E_b(x) = sum_y F(x, y) X(y) over x's sparse links (F the form factor from the
 //   bake's ray casts, X the display vertex's exitance value, floats [v * stride + offset, +3)).
-// mode 1 (local): X(x) += R_d(x) E_b(x), R_d the half-space's total diffuse reflectance for
-//   diffuse incidence (the re-entering light leaves near where it entered). X and the shading's
-//   exitance share one scale, so F and R_d need no unit conversion.
+// mode 2 (first gather): the same, and X(x) saved as X_0(x), the method's exitance.
+// mode 1 (local): X(x) = X_0(x) + R_d(x) E_b(x), R_d the half-space's total diffuse reflectance
+//   for diffuse incidence (the re-entering light leaves near where it entered). X and the
+//   shading's exitance share one scale, so F and R_d need no unit conversion.
+// One bounce is modes 2, 1; each further bounce 0, 1 (Jacobi on X = X_0 + R_d F X: light that
+// re-entered leaves again and reaches other vertices, a concave corner's interreflection).
 layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0, std430) buffer Vertices { float data[]; } vertices;
@@ -13,6 +16,7 @@ layout(set = 0, binding = 0, std430) buffer Vertices { float data[]; } vertices;
 layout(set = 0, binding = 1, std430) readonly buffer Offsets { uint data[]; } offsets;
 layout(set = 0, binding = 2, std430) readonly buffer Links { uvec2 data[]; } links;
 layout(set = 0, binding = 3, std430) readonly buffer Reflectance { vec4 data[]; } reflectance;
+// [0, count): E_b per vertex; [count, 2 count): X_0, the exitance before any bounce.
 layout(set = 0, binding = 4, std430) buffer Irradiance { vec4 data[]; } irradiance;
 
 layout(push_constant) uniform BouncePush {
@@ -38,7 +42,10 @@ void main() {
     if (v >= pc.count) {
         return;
     }
-    if (pc.mode == 0u) {
+    if (pc.mode != 1u) {
+        if (pc.mode == 2u) {
+            irradiance.data[pc.count + v] = vec4(exitance(v), 0.0);
+        }
         vec3 e = vec3(0.0);
         for (uint k = offsets.data[v]; k < offsets.data[v + 1u]; ++k) {
             uvec2 l = links.data[k];
@@ -46,7 +53,7 @@ void main() {
         }
         irradiance.data[v] = vec4(clean(e), 0.0);
     } else {
-        vec3 x = exitance(v) + reflectance.data[v].rgb * irradiance.data[v].rgb;
+        vec3 x = irradiance.data[pc.count + v].rgb + reflectance.data[v].rgb * irradiance.data[v].rgb;
         x = clean(x);
         uint base = v * pc.stride + pc.offset;
         vertices.data[base] = x.r;

@@ -1,6 +1,6 @@
-//! One bounce of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
-//! pass `bounce` against its f64 reference (`BounceLinks::apply`) on two facing boxes, applied
-//! once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
+//! Bounces of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
+//! pass `bounce` against its f64 reference (`BounceLinks::apply_bounces`) on two facing boxes,
+//! several bounces solving their interreflection, applied once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
 //! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph.
 
 use glam::DVec3;
@@ -14,9 +14,6 @@ use translucent::scene::{Camera, Environment, Scene};
 use translucent::solver::gpu::GpuSolveParams;
 use translucent::{MethodDesc, ObjectParams, QuadGraph, TranslucentObject};
 use translucent_tests::{quadgraph_object, render_once, GpuTest};
-
-/// f32 sums of up to 32 links against the f64 reference, relative to the value.
-const GPU_VS_F64: f32 = 1e-5;
 
 fn marble() -> MaterialField {
     MaterialField::Homogeneous(Material::preset("marble").expect("marble"))
@@ -123,13 +120,14 @@ fn facing_boxes_match_the_f64_bounce_once_per_exitance() {
     let (captured, report) = render_once(&gpu.ctx, &mut object, 48, 48);
     assert!(report.passes.contains(&PASS_BOUNCE), "{:?}", report.passes);
     let got = read_exitance(&gpu, &object);
-    let expected = links.apply(&x, &r);
+    // The object's default bounces per exitance.
+    let expected = links.apply_bounces(&x, &r, translucent::defaults::BOUNCES);
     let mut raised = 0;
     for (v, (g, e)) in got.iter().zip(&expected).enumerate() {
         for c in 0..3 {
             assert!(g[c].is_finite(), "vertex {v}: {g:?}");
             assert!(
-                (g[c] - e[c]).abs() <= GPU_VS_F64 * e[c].max(1.0),
+                (g[c] - e[c]).abs() <= GPU_VS_F64_BOUNCES * e[c].max(1.0),
                 "vertex {v} channel {c}: GPU {} against f64 {}",
                 g[c],
                 e[c]
@@ -233,7 +231,7 @@ fn a_convex_sphere_gets_nothing_and_a_torus_hole_gets_the_f64_bounce() {
     let (plain, passes) = quadgraph_exitance(&gpu, &torus, None);
     assert!(!passes.contains(&PASS_BOUNCE), "{passes:?}");
     let (bounced, _) = quadgraph_exitance(&gpu, &torus, Some(&links));
-    let expected = links.apply(&plain, &r(&torus));
+    let expected = links.apply_bounces(&plain, &r(&torus), translucent::defaults::BOUNCES);
     let mut raised = 0;
     for (v, (g, e)) in bounced.iter().zip(&expected).enumerate() {
         for c in 0..3 {
@@ -377,4 +375,109 @@ fn the_sphere_is_convex_and_the_torus_is_not() {
     });
     assert!(!is_convex(&torus.surface));
     assert!(!is_convex(&facing_boxes()));
+}
+
+/// f32 sums over several bounces (each re-reads the last one's f32 exitance) against the f64
+/// recurrence, relative to the value.
+const GPU_VS_F64_BOUNCES: f32 = 1e-4;
+/// Relative residual of X = X_0 + R_d F X the interreflection must reach: R_d F is ~0.55 at
+/// the facing squares' centres, so 16 bounces leave 0.55^16 ~ 1e-4 of it.
+const FIXED_POINT_TOL: f64 = 1e-3;
+/// What one bounce leaves of that residual at the centres (R_d F)^2 / (1 + R_d F) ~ 0.2: a pass
+/// that bounces once fails [`FIXED_POINT_TOL`] by far.
+const ONE_BOUNCE_RESIDUAL: f64 = 0.1;
+
+/// The largest relative residual of X = X_0 + R_d F max(X, 0) over the vertices that have links.
+fn interreflection_residual(
+    links: &BounceLinks,
+    first: &[[f32; 3]],
+    r: &[[f32; 3]],
+    x: &[[f32; 3]],
+) -> f64 {
+    let mut worst = 0.0f64;
+    for v in 0..links.vertex_count() {
+        if links.incoming(v).is_empty() {
+            continue;
+        }
+        for c in 0..3 {
+            let e: f64 = links
+                .incoming(v)
+                .iter()
+                .map(|&(y, w)| f64::from(w) * f64::from(x[y as usize][c].max(0.0)))
+                .sum();
+            let want = f64::from(first[v][c]) + f64::from(r[v][c]) * e;
+            worst = worst.max((f64::from(x[v][c]) - want).abs() / want.max(1e-6));
+        }
+    }
+    worst
+}
+
+/// Several bounces (issue 12, the back-lit plate's foot: light that left the plate enters the
+/// base, leaves it and enters the plate again): the GPU pass's recurrence equals the f64
+/// reference's, and enough bounces solve the interreflection X = X_0 + R_d F X between the
+/// facing boxes, which one bounce does not; a count outside the range is a typed error.
+#[test]
+fn facing_boxes_interreflect_over_several_bounces_as_the_f64_reference() {
+    use translucent::frame::bounce::BOUNCE_RANGE;
+    let gpu = GpuTest::new();
+    let mesh = facing_boxes();
+    let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
+    let field = marble();
+    let r = vertex_reflectance(&field, ObjectParams::default().solve.exit, &mesh.positions);
+    let x = pattern(&mesh);
+    // The f64 recurrence: 16 bounces reach the fixed point, one does not.
+    let once = links.apply(&x, &r);
+    let many = links.apply_bounces(&x, &r, *BOUNCE_RANGE.end());
+    let one_residual = interreflection_residual(&links, &x, &r, &once);
+    let many_residual = interreflection_residual(&links, &x, &r, &many);
+    assert!(
+        one_residual > ONE_BOUNCE_RESIDUAL,
+        "one bounce: {one_residual}"
+    );
+    assert!(
+        many_residual < FIXED_POINT_TOL,
+        "{} bounces: {many_residual}",
+        BOUNCE_RANGE.end()
+    );
+    // The GPU pass, four bounces set after the links.
+    let bounces = 4;
+    let mut object = fixed_object(&gpu, &mesh);
+    object
+        .set_bounce(&gpu.ctx, Some(&links), &field)
+        .expect("bounce");
+    object.set_bounces(bounces).expect("bounces");
+    assert_eq!(object.bounce().map(|b| b.bounces()), Some(bounces));
+    object.set_exitance(&gpu.ctx, &x).expect("exitance");
+    let (captured, report) = render_once(&gpu.ctx, &mut object, 48, 48);
+    assert!(report.passes.contains(&PASS_BOUNCE), "{:?}", report.passes);
+    let got = read_exitance(&gpu, &object);
+    let expected = links.apply_bounces(&x, &r, bounces);
+    let mut above_once = 0;
+    for (v, (g, e)) in got.iter().zip(&expected).enumerate() {
+        for c in 0..3 {
+            assert!(
+                g[c].is_finite() && (g[c] - e[c]).abs() <= GPU_VS_F64_BOUNCES * e[c].max(1.0),
+                "vertex {v} channel {c}: GPU {} against f64 {}",
+                g[c],
+                e[c]
+            );
+        }
+        above_once += usize::from(g[0] > once[v][0] * 1.01);
+    }
+    assert!(above_once > 0, "four bounces add nothing to one");
+    assert!(captured
+        .image
+        .pixels
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite()));
+    for bad in [0, BOUNCE_RANGE.end() + 1] {
+        assert!(
+            matches!(object.set_bounces(bad), Err(translucent::Error::Render(_))),
+            "{bad}"
+        );
+    }
+    assert_eq!(object.bounce().map(|b| b.bounces()), Some(bounces));
+    drop(object);
+    gpu.finish();
 }

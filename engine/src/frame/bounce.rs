@@ -63,6 +63,9 @@ const CONVEX_TOL: f64 = 1e-9;
 pub const RAY_RANGE: std::ops::RangeInclusive<u32> = 1..=4096;
 /// Links per vertex accepted.
 pub const LINK_RANGE: std::ops::RangeInclusive<u32> = 1..=256;
+/// Bounces per new exitance accepted ([`BouncePass::set_bounces`]): each costs two dispatches
+/// over the display vertices.
+pub const BOUNCE_RANGE: std::ops::RangeInclusive<u32> = 1..=16;
 
 /// `render --bounce`: whether and how light re-enters the object.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -268,27 +271,45 @@ impl BounceLinks {
         &self.links[a..b]
     }
 
-    /// GPU bytes of the links (offsets + links + the pass's per-vertex irradiance and R_d).
+    /// GPU bytes of the links (offsets + links + the pass's per-vertex irradiance, the
+    /// exitance before the bounces, and R_d: 16 bytes each).
     pub fn bytes(&self) -> u64 {
-        (self.offsets.len() * 4 + self.links.len() * 8 + self.vertex_count() * 32) as u64
+        (self.offsets.len() * 4 + self.links.len() * 8 + self.vertex_count() * 48) as u64
     }
 
-    /// The f64 reference of the pass: X(x) + R_d(x) sum_y F(x, y) X(y), never below zero.
+    /// The f64 reference of one bounce: X(x) + R_d(x) sum_y F(x, y) X(y), never below zero.
     pub fn apply(&self, exitance: &[[f32; 3]], reflectance: &[[f32; 3]]) -> Vec<[f32; 3]> {
-        (0..self.vertex_count())
-            .map(|v| {
-                let mut e = [0.0f64; 3];
-                for &(y, w) in self.incoming(v) {
-                    for (c, ec) in e.iter_mut().enumerate() {
-                        *ec += f64::from(w) * f64::from(exitance[y as usize][c].max(0.0));
+        self.apply_bounces(exitance, reflectance, 1)
+    }
+
+    /// The f64 reference of the pass with `bounces` bounces (the GPU's recurrence): X_0 the
+    /// method's exitance, X_k(x) = max(X_0(x) + R_d(x) sum_y F(x, y) max(X_{k-1}(y), 0), 0).
+    /// Light that re-entered at y leaves again and reaches x: Jacobi on X = X_0 + R_d F X, which
+    /// converges (F's rows sum to the visible form factor, at most 1, and R_d < 1).
+    pub fn apply_bounces(
+        &self,
+        exitance: &[[f32; 3]],
+        reflectance: &[[f32; 3]],
+        bounces: u32,
+    ) -> Vec<[f32; 3]> {
+        let first: Vec<[f64; 3]> = exitance.iter().map(|x| x.map(f64::from)).collect();
+        let mut x = first.clone();
+        for _ in 0..bounces {
+            x = (0..self.vertex_count())
+                .map(|v| {
+                    let mut e = [0.0f64; 3];
+                    for &(y, w) in self.incoming(v) {
+                        for (c, ec) in e.iter_mut().enumerate() {
+                            *ec += f64::from(w) * x[y as usize][c].max(0.0);
+                        }
                     }
-                }
-                std::array::from_fn(|c| {
-                    (f64::from(exitance[v][c]) + f64::from(reflectance[v][c]) * e[c]).max(0.0)
-                        as f32
+                    std::array::from_fn(|c| {
+                        (first[v][c] + f64::from(reflectance[v][c]) * e[c]).max(0.0)
+                    })
                 })
-            })
-            .collect()
+                .collect();
+        }
+        x.iter().map(|v| v.map(|c| c as f32)).collect()
     }
 }
 
@@ -415,7 +436,8 @@ pub struct BouncePush {
     /// Floats per vertex of the exitance buffer, and the exitance's first float.
     pub stride: u32,
     pub offset: u32,
-    /// 0: gather E_b; 1: add R_d E_b.
+    /// 0: gather E_b; 2: gather E_b and save the exitance as X_0 (the first bounce);
+    /// 1: X = X_0 + R_d E_b.
     pub mode: u32,
 }
 
@@ -430,11 +452,13 @@ pub struct BouncePass {
     vertex_count: u32,
     link_count: usize,
     bytes: u64,
+    bounces: u32,
 }
 
 impl BouncePass {
     /// The pass for `mesh` (its vertex buffer is read and written in place) with `links` built
-    /// on its vertices and `reflectance` R_d per vertex.
+    /// on its vertices and `reflectance` R_d per vertex; [`crate::defaults::BOUNCES`] bounces
+    /// ([`Self::set_bounces`]).
     pub fn new(
         ctx: &Context,
         mesh: &GpuMesh,
@@ -493,7 +517,8 @@ impl BouncePass {
             ctx,
             "bounce irradiance",
             storage | vk::BufferUsageFlags::TRANSFER_SRC,
-            &vec![[0.0f32; 4]; n.max(1)],
+            // E_b, then X_0 (the exitance before the bounces).
+            &vec![[0.0f32; 4]; 2 * n.max(1)],
         )?;
         let set = pipeline.allocate_set(
             ctx,
@@ -530,7 +555,31 @@ impl BouncePass {
             vertex_count: n as u32,
             link_count: links.link_count(),
             bytes: links.bytes(),
+            bounces: crate::defaults::BOUNCES,
         })
+    }
+
+    /// Bounces per new exitance, in [`BOUNCE_RANGE`]: 1 is light that left the surface once
+    /// and entered it again; each more lets that light leave and enter again (a concave
+    /// corner's interreflection). Takes effect from the next frame that records the pass.
+    pub fn set_bounces(&mut self, bounces: u32) -> Result<(), Error> {
+        if !BOUNCE_RANGE.contains(&bounces) {
+            return Err(invalid(
+                "bounces",
+                format!(
+                    "{bounces} bounces, outside {}..={}",
+                    BOUNCE_RANGE.start(),
+                    BOUNCE_RANGE.end()
+                ),
+            ));
+        }
+        self.bounces = bounces;
+        Ok(())
+    }
+
+    /// Bounces per new exitance.
+    pub fn bounces(&self) -> u32 {
+        self.bounces
     }
 
     fn padded(reflectance: &[[f32; 3]]) -> Result<Vec<[f32; 4]>, Error> {
@@ -598,7 +647,7 @@ impl BouncePass {
         ]
     }
 
-    /// Records the gather and the local re-emission.
+    /// Records the gather and the local re-emission, once per bounce.
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
@@ -614,11 +663,20 @@ impl BouncePass {
         let groups = [self.vertex_count.max(1), 1, 1];
         // SAFETY: the caller's contract; the set's buffers live in `self` and the mesh.
         unsafe {
-            self.pipeline.dispatch(ctx, cb, self.set, &push(0), groups);
-            // why: the re-emission writes the exitance the gather read, and reads the gathered
-            // irradiance (WAR on the vertices, RAW on the irradiance).
-            barrier::memory(ctx, cb, Access::ComputeReadWrite, Access::ComputeReadWrite);
-            self.pipeline.dispatch(ctx, cb, self.set, &push(1), groups);
+            for bounce in 0..self.bounces {
+                if bounce > 0 {
+                    // why: this gather reads the exitance the last re-emission wrote and
+                    // overwrites the irradiance it read (RAW on the vertices, WAR on E_b).
+                    barrier::memory(ctx, cb, Access::ComputeReadWrite, Access::ComputeReadWrite);
+                }
+                let gather = if bounce == 0 { 2 } else { 0 };
+                self.pipeline
+                    .dispatch(ctx, cb, self.set, &push(gather), groups);
+                // why: the re-emission writes the exitance the gather read, and reads the
+                // gathered irradiance and X_0 (WAR on the vertices, RAW on the irradiance).
+                barrier::memory(ctx, cb, Access::ComputeReadWrite, Access::ComputeReadWrite);
+                self.pipeline.dispatch(ctx, cb, self.set, &push(1), groups);
+            }
         }
     }
 }

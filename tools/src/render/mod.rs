@@ -235,6 +235,12 @@ pub struct RenderArgs {
     /// and of `--solver cpu` (benches/RESULTS.md, "One bounce between surface points").
     #[arg(long, value_name = "off|local", value_parser = ["off", "local"])]
     pub bounce: Option<String>,
+    /// Bounces per solve of `--bounce local` (1..=16): 1 is light that left the surface once and
+    /// entered it again; each more lets it leave and enter again (a concave corner's
+    /// interreflection: the back-lit plate's foot, benches/RESULTS.md "Thin walls: the plate's
+    /// foot and interreflection"). Two dispatches over the display vertices each.
+    #[arg(long, value_name = "N", default_value_t = translucent::defaults::BOUNCES)]
+    pub bounces: u32,
     /// Rays per display vertex of `--bounce local`'s links (1..=4096).
     #[arg(long, value_name = "N", default_value_t = translucent::frame::BounceParams::default().rays)]
     pub bounce_rays: u32,
@@ -619,6 +625,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         };
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
+        translucent.set_bounces(args.bounces)?;
         if let (Some((params, build_s, stored)), Some(links)) =
             (bounce_links, graph.bounce.as_ref())
         {
@@ -644,6 +651,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             }
             bounce_json = Some(serde_json::json!({
                 "mode": "local",
+                "bounces": args.bounces,
                 "rays": params.rays,
                 "max_links": params.max_links,
                 "links": links.link_count(),
