@@ -16,6 +16,7 @@ mu_c = float(ncam @ -d)                                        # cos angle to th
 MAT = {'R': (2.19, 0.0021), 'G': (2.62, 0.0041), 'B': (3.0, 0.0071)}
 N = int(sys.argv[1]) if len(sys.argv) > 1 else 4000; L = 240
 mu, wmu = np.polynomial.legendre.leggauss(600)
+Q_OVERRIDE = None  # the boundary flux per Gauss node of mu for src 'flux' (benches/crescent)
 
 def legendre_table(x, L):
     P = np.zeros((L + 1,) + np.shape(x)); P[0] = 1; P[1] = x
@@ -57,7 +58,7 @@ def solve(ch, src):
     r = np.arange(N + 1) * h
     q_l = np.zeros(L + 1); Q = np.zeros((L + 1, N + 1))
     if src == 'flux':
-        q = E * np.maximum(0, mu); q_l = (2 * ls + 1) / 2 * (Pmu * (q * wmu)).sum(1)
+        q = E * np.maximum(0, mu) if Q_OVERRIDE is None else Q_OVERRIDE; q_l = (2 * ls + 1) / 2 * (Pmu * (q * wmu)).sum(1)
     elif src in ('beam', 'beam_curv'):
         # DESIGN 2.7 as the code does it: planar particular solution K exp(-beta z) moved into the
         # Robin row (phi_h - 2 D phi_h' = -K (1 + 2 D beta)); far side phi = phi_h.

@@ -1,6 +1,10 @@
 # The code's `second` source (two-moment fit, planar particular solution in the Robin row) in the
 # continuous axisymmetric sphere solve of benches/backlit/sphere_diffusion.py, per ring against
-# the Monte Carlo's orders >= 2 (ring_mc.py). Variants of the grazing treatment.
+# the Monte Carlo's orders >= 2 (ring_mc.py, files target/crescent/ring_{R,G,B}.npy).
+# usage: sphere_second.py VARIANT.. with VARIANT: `plain` (the code's fit), `first_power` (the
+# pre-fit first x r), `flux<MU0` (the fit fading to the boundary flux below MU0), `flux` (all
+# orders, against all), `vol:SRC` (a volume source of benches/backlit/sphere_diffusion.py: first,
+# planar, curv_lit, shift, mue; all orders, against all).
 import sys, numpy as np
 ARGS = sys.argv[1:]; sys.path.insert(0, 'benches/backlit'); sys.argv = ['x', '1500']
 import sphere_diffusion as sd
@@ -19,10 +23,18 @@ def fit(ss, sa, mut):
 def run(ch, variant):
     ss, sa = sd.MAT[ch]; st = ss + sa; D = 1 / (3 * st)
     mu = sd.mu; lit = mu > 0; mut = np.maximum(mu, 1e-6)
+    irr_mu = mu  # the surface irradiance / E
+    if variant.startswith('upstream'):
+        # the beam's first collisions moved downstream by the lateral mean free path: the node
+        # takes the light of its upstream point (cosine mu + c (1 - mu^2)), with the map's
+        # Jacobian (mu + c (1 - 3 mu^2) in all), c = H / sigma_t' (H = 1/R), scaled by C
+        c = float(variant[8:] or 1) / (R * st)
+        up = mu + c * (1 - mu ** 2); irr_mu = np.maximum(mu + c * (1 - 3 * mu ** 2), 0)
+        lit = (up > 0) & (irr_mu > 0); mut = np.maximum(up, 1e-6)
     ratio, gain, mue = fit(ss, sa, mut)
     if variant == 'first_power':   # the beam (gain 1, mu_t) scaled by r: the pre-fit code
         gain, mue = ratio, mut
-    beta = st / mue; Q0 = gain * ss * E * mu / mue
+    beta = st / mue; Q0 = gain * ss * E * irr_mu / mue
     K = Q0 / (sa - D * beta ** 2) * lit
     q = -K * (1 + 2 * D * beta) / 4
     qf = np.zeros_like(mu)
@@ -31,11 +43,9 @@ def run(ch, variant):
         qf = (1 - w) * ratio * E * mu * lit; q = w * q + qf; K = w * K
     if variant == 'flux':
         qf = E * mu * lit; q = qf; K = 0 * K
-    qm = np.where(lit, q / np.maximum(mu, 1e-30), 0)
-    orig_E, orig_w = sd.E, sd.wmu
-    sd.E = 1.0; sd.wmu = orig_w * qm
+    sd.Q_OVERRIDE = np.where(lit, q, 0)
     _, f, _ = sd.solve(ch, 'flux')
-    sd.E, sd.wmu = orig_E, orig_w
+    sd.Q_OVERRIDE = None
     mus = np.linspace(-1, 1, 4001); P = sd.legendre_table(mus, sd.L); phi = (f[:, None] * P).sum(0)
     return mus, phi / 2 + np.interp(mus, mu, K) / 2 - np.interp(mus, mu, qf)
 edges = np.linspace(-1, 1, 41)
