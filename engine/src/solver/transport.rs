@@ -146,6 +146,10 @@ pub struct Transport {
     /// With a beam source and the moments query, the environment enters as beams too (a
     /// quadrature of directions); `false`: as a boundary flux (what the GPU gather does).
     pub environment_beams: bool,
+    /// With a beam source: each surface node's beam is taken from upstream on the curved surface
+    /// ([`upstream_beam`]; the curvature along the light's tangent from a probe one mean free
+    /// path upstream). CPU only so far (benches/RESULTS.md, "The back-lit crescent").
+    pub upstream_beam: bool,
 }
 
 impl Default for Transport {
@@ -160,6 +164,7 @@ impl Default for Transport {
             surface: SurfaceReconstruction::Shepard,
             bounce_rays: 0,
             environment_beams: true,
+            upstream_beam: false,
         }
     }
 }
