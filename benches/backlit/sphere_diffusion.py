@@ -2,7 +2,12 @@
 Legendre expansion in theta (axis = toward the light) x finite differences in r (u = r f_l).
 Sources: 'flux' = DESIGN 2 boundary flux (Robin rhs 4q); 'first' = first-collision volume source
 sigma_s' E exp(-sigma_t' s) (all scattering orders in diffusion); 'second' = second-collision source
-(sigma_s' x uncollided fluence of once-scattered light, locally-plane half-space approximation)."""
+(sigma_s' x uncollided fluence of once-scattered light, locally-plane half-space approximation).
+First-collision geometries (benches/crescent, issue 12 wave 8): 'planar' = the planar model's
+placement (below each lit surface point along its normal, decay sigma_t'/mu with the point's own
+cosine), 'curv_lit' = the true chord length back to the surface but only below lit points,
+'shift' = 'planar' taken from one lateral mean free path upstream, 'mue[C]' = 'planar' with the
+depth's curvature term mu + C / (R sigma_t'), power kept."""
 import numpy as np, sys
 R = 10.0; E = 5.0
 d = np.array([0.2, -0.35, 1.0]); d /= np.linalg.norm(d)       # light travel direction
@@ -11,6 +16,7 @@ mu_c = float(ncam @ -d)                                        # cos angle to th
 MAT = {'R': (2.19, 0.0021), 'G': (2.62, 0.0041), 'B': (3.0, 0.0071)}
 N = int(sys.argv[1]) if len(sys.argv) > 1 else 4000; L = 240
 mu, wmu = np.polynomial.legendre.leggauss(600)
+Q_OVERRIDE = None  # the boundary flux per Gauss node of mu for src 'flux' (benches/crescent)
 
 def legendre_table(x, L):
     P = np.zeros((L + 1,) + np.shape(x)); P[0] = 1; P[1] = x
@@ -52,7 +58,7 @@ def solve(ch, src):
     r = np.arange(N + 1) * h
     q_l = np.zeros(L + 1); Q = np.zeros((L + 1, N + 1))
     if src == 'flux':
-        q = E * np.maximum(0, mu); q_l = (2 * ls + 1) / 2 * (Pmu * (q * wmu)).sum(1)
+        q = E * np.maximum(0, mu) if Q_OVERRIDE is None else Q_OVERRIDE; q_l = (2 * ls + 1) / 2 * (Pmu * (q * wmu)).sum(1)
     elif src in ('beam', 'beam_curv'):
         # DESIGN 2.7 as the code does it: planar particular solution K exp(-beta z) moved into the
         # Robin row (phi_h - 2 D phi_h' = -K (1 + 2 D beta)); far side phi = phi_h.
@@ -67,6 +73,27 @@ def solve(ch, src):
         s = np.sqrt(np.maximum(R**2 - rho2, 0)) - z   # path length inside from entry point
         if src == 'first':
             dens = ss * E * np.exp(-st * s)
+        elif src in ('curv_lit', 'shift'):
+            m_ = mu[None, :] + 0 * rr; zz = R - rr
+            if src == 'curv_lit':
+                # exact chord length back to the surface along the light, only below lit points
+                sx = -(R - zz) * m_ + np.sqrt(np.maximum((R - zz) ** 2 * m_ ** 2 + 2 * R * zz - zz ** 2, 0))
+                dens = ss * E * np.exp(-st * sx) * (m_ > 0)
+            else:
+                # planar profile of the point one lateral mean free path upstream (toward the light)
+                th = np.arccos(np.clip(m_, -1, 1)) - np.sqrt(np.maximum(1 - np.maximum(m_, 0) ** 2, 0)) / st / R
+                mup = np.cos(np.maximum(th, 0))
+                dens = ss * E * np.exp(-st * zz / np.maximum(mup, 1e-6)) * (mup > 0)
+        elif src.startswith('mue'):
+            c_ = float(src[3:] or 1)
+            m_ = mu[None, :] + 0 * rr; zz = R - rr
+            me = np.maximum(m_, 0) + c_ / (R * st)
+            dens = ss * E * (m_ / me) * np.exp(-st * zz / me) * (m_ > 0)
+        elif src == 'planar':
+            # the first collision as the planar model places it: below each surface point along its
+            # normal, decay sigma_t' / mu with mu the point's own cosine to the light
+            mp = np.maximum(mu[None, :], 1e-6) + 0 * rr
+            dens = ss * E * np.exp(-st * (R - rr) / mp) * (mu[None, :] > 0)
         elif src == 'first_r':
             # the code's `second`: first-collision shape times r(mu_t) (transport::second_collision_ratio, eta 1)
             mui = np.sqrt(np.maximum(R**2 - rho2, 0)) / R

@@ -146,6 +146,10 @@ pub struct Transport {
     /// With a beam source and the moments query, the environment enters as beams too (a
     /// quadrature of directions); `false`: as a boundary flux (what the GPU gather does).
     pub environment_beams: bool,
+    /// With a beam source: each surface node's beam is taken from upstream on the curved surface
+    /// ([`upstream_beam`]; the curvature along the light's tangent from a probe one mean free
+    /// path upstream). CPU only so far (benches/RESULTS.md, "The back-lit crescent").
+    pub upstream_beam: bool,
 }
 
 impl Default for Transport {
@@ -160,6 +164,7 @@ impl Default for Transport {
             surface: SurfaceReconstruction::Shepard,
             bounce_rays: 0,
             environment_beams: true,
+            upstream_beam: false,
         }
     }
 }
@@ -653,6 +658,51 @@ pub fn curved_profile_from_sample(
     (g0, dg0 + k * g0)
 }
 
+/// The largest |c| = |H| / (eta sigma_t') [`upstream_beam`] uses: the first order in the
+/// curvature over a mean free path holds for c << 1 (at c = 0.5 the lit pole would keep nothing);
+/// a smaller feature (an edge of a mesh, an ear) is clamped to it.
+pub const UPSTREAM_SHIFT_LIMIT: f64 = 0.2;
+
+/// A beam entering a curved surface, as a surface node's source sees it (issue 12, the back-lit
+/// crescent: benches/RESULTS.md "The back-lit crescent, term by term"). A beam travels a lateral
+/// mean free path sqrt(1 - mu_t^2) / sigma_t' = sin(theta_i) / (eta sigma_t') along the surface
+/// before its first collision, so the light that collides below a node entered upstream, where
+/// (on a surface of mean curvature H, convex > 0) the cosine to the light is larger by the angle
+/// turned, a = H sin(theta_i) / (eta sigma_t'): to first order in c = H / (eta sigma_t'),
+/// mu_up = mu + c (1 - mu^2), and the map's area ratio (1 - c mu)^2 spreads it over a wider
+/// area, so the node's irradiance factor (what replaces mu_i in E mu_i) is
+/// mu + c (1 - 3 mu^2), which conserves the lit power of a sphere to O(c^2) and lights the
+/// unlit side within about c of the terminator. The planar model (c = 0) puts every first
+/// collision below its entry node: on the 10 mm marble sphere its exitance is 0.70 of the
+/// transport's at the terminator, with this shift 0.97-1.03 on every ring
+/// (`benches/crescent/sphere_second.py plain upstream`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpstreamBeam {
+    /// The cosine to the light where the beam entered: the incidence of its Fresnel
+    /// transmittance and refraction.
+    pub mu_up: f64,
+    /// Replaces mu_i in the surface irradiance E mu_i (0 where the node receives nothing).
+    pub irradiance: f64,
+}
+
+/// See [`UpstreamBeam`]; `mu` = n . l at the node (may be negative near the terminator),
+/// `curvature` H (1/mm), `sigma_t` = sigma_t' (1/mm) of the node's channel.
+pub fn upstream_beam(mu: f64, curvature: f64, sigma_t: f64, eta: f64) -> UpstreamBeam {
+    let c = if curvature.is_finite() && sigma_t > 0.0 && eta > 0.0 {
+        (curvature / (eta * sigma_t)).clamp(-UPSTREAM_SHIFT_LIMIT, UPSTREAM_SHIFT_LIMIT)
+    } else {
+        0.0
+    };
+    let mu = mu.clamp(-1.0, 1.0);
+    let mu_up = (mu + c * (1.0 - mu * mu)).min(1.0);
+    let irradiance = if mu_up > 0.0 {
+        (mu + c * (1.0 - 3.0 * mu * mu)).max(0.0)
+    } else {
+        0.0
+    };
+    UpstreamBeam { mu_up, irradiance }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -885,5 +935,40 @@ mod tests {
         let sin_i = 0.6;
         let sin_t = (t - n * t.dot(n)).length();
         assert!((sin_t - sin_i / 1.5).abs() < 1e-12 && t.dot(n) < 0.0);
+    }
+
+    /// The sphere's lit power with the upstream shift is 1/2 (per 2 pi R^2 E) up to c^2 / 2:
+    /// within c^2 (the shift without the area ratio, mu + c (1 - mu^2), is off by 2c/3).
+    #[test]
+    fn upstream_beam_keeps_the_sphere_lit_power_and_the_plane() {
+        for mu in [-0.5, -0.01, 0.0, 0.3, 1.0] {
+            let b = upstream_beam(mu, 0.0, 2.6, 1.3);
+            assert_eq!(b.mu_up, mu);
+            assert_eq!(b.irradiance, f64::max(mu, 0.0));
+        }
+        // Marble red on a 10 mm sphere (c = 0.046), a 2 mm sphere (0.23, clamped to the limit).
+        for (radius, sigma_t) in [(10.0_f64, 2.1921_f64), (10.0, 3.0071), (2.0, 2.1921)] {
+            let c = (1.0 / (radius * sigma_t)).min(UPSTREAM_SHIFT_LIMIT);
+            const N: usize = 200_000;
+            let power: f64 = (0..N)
+                .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
+                .map(|mu| upstream_beam(mu, 1.0 / radius, sigma_t, 1.0).irradiance * 2.0 / N as f64)
+                .sum();
+            assert!(
+                (power - 0.5).abs() <= c * c,
+                "R {radius}: power {power}, c {c}"
+            );
+            // The unlit side within about c of the terminator is lit; beyond it nothing.
+            assert!(upstream_beam(-0.5 * c, 1.0 / radius, sigma_t, 1.0).irradiance > 0.0);
+            assert_eq!(
+                upstream_beam(-2.0 * c, 1.0 / radius, sigma_t, 1.0).irradiance,
+                0.0
+            );
+        }
+        // Never NaN, never negative, for any input.
+        for h in [f64::NAN, f64::INFINITY, -1e9, 1e9] {
+            let b = upstream_beam(0.5, h, 2.0, 1.0);
+            assert!(b.mu_up.is_finite() && b.irradiance >= 0.0);
+        }
     }
 }

@@ -157,6 +157,10 @@ pub struct RenderArgs {
     /// `defaults::DEFAULT_CONTINUATION`.
     #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
     pub continuation: Option<String>,
+    /// With a beam source and `--solver cpu` (an experiment, not on the GPU yet): each surface
+    /// node's beam is taken from upstream on the curved surface (`transport::upstream_beam`).
+    #[arg(long)]
+    pub upstream_beam: bool,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
     /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).
@@ -517,6 +521,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 solver::transport::Transport {
                     source,
                     continuation: args.continuation(),
+                    upstream_beam: args.upstream_beam,
                     ..solver::transport::Transport::gpu_collimated()
                 }
             } else {
