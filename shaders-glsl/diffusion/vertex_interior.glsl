@@ -6,7 +6,10 @@
 //            weights (the bake's `SurfaceSamples::sources`: up to 16 surface nodes within 1.5
 //            finest spacings, so a scan's bumps do not show through the nodes' cosines; the
 //            lattice is in phi_s - phi_k, which is no longer read);
-//   phi0, dphi0 = the local 1D profile through p at `depth` on a surface of mean curvature H:
+//   p'     = p read back onto the profile: the weights are exact for linear phi only, and the
+//            profile's Hessian over the nodes' second moments adds (phi_zz m_nn - kappa phi_z
+//            m_tt) / 2, linear in (p', rhs) (`solver::transport::sample_on_profile`);
+//   phi0, dphi0 = the local 1D profile through p' at `depth` on a surface of mean curvature H:
 //            g = phi (1 - H z), g'' = s^2 g, Robin g(0) (1 - h H) - h g'(0) = rhs = flux_gain q,
 //            phi0 = g(0), dphi0 = g'(0) + H g(0) (h = 2 A D, s = sqrt(mu / D), D and mu of the
 //            tetrahedron holding the sample: `solver::transport::curved_profile_from_sample`,
@@ -32,12 +35,47 @@ layout(set = 0, binding = 6, std430) readonly buffer SourceWeights { vec4 weight
 layout(set = 0, binding = 7, std430) readonly buffer SampleNodes { uvec4 nodes[]; } sample_nodes;
 layout(set = 0, binding = 8, std430) readonly buffer SampleWeights { vec4 weights[]; } sample_weights;
 // Per vertex: x the sample cell's linear texel index, y the sample depth (mm, float bits), z the
-// smoothed surface's mean curvature (1/mm, float bits, positive where convex).
+// smoothed surface's mean curvature (1/mm, float bits, positive where convex), w the sample
+// nodes' second moments (m_nn, m_tt) in mm^2 as two halves (`SurfaceSamples::spread`).
 layout(set = 0, binding = 9, std430) readonly buffer SampleCells { uvec4 cells[]; } sample_cells;
 layout(set = 0, binding = 10, std430) writeonly buffer VertexJPlus { float values[]; } vertex_j_plus;
 
 // `solver::transport::PROFILE_CURVATURE_LIMIT`.
 const float PROFILE_CURVATURE_LIMIT = 0.5;
+// `solver::transport::SAMPLE_CORRECTION_LIMIT`.
+const float SAMPLE_CORRECTION_LIMIT = 0.25;
+
+// g(0) of the curved profile through phi = p at `depth` with Robin right-hand side rhs
+// (`solver::transport::curved_profile_from_sample`; k already clamped).
+float profile_g0(float p, float rhs, float s, float h, float depth, float k) {
+    float x = s * depth;
+    // sinh(s depth) / s with its s -> 0 limit; cosh (exp overflow: far beyond any sample).
+    float sinh_over_s = x < 1e-3 ? depth * (1.0 + x * x / 6.0) : sinh(min(x, 80.0)) / s;
+    float cosh_x = cosh(min(x, 80.0));
+    return (p * (1.0 - k * depth) + rhs * sinh_over_s / h)
+        / (cosh_x + (1.0 - h * k) * sinh_over_s / h);
+}
+
+// The bias (phi_zz m_nn - kappa phi_z m_tt) / 2 that the sample's linear weights add to the
+// profile through (p, rhs) (`solver::transport::sample_on_profile`).
+float profile_bias(float p, float rhs, float s, float h, float depth, float k, vec2 spread) {
+    float g0 = profile_g0(p, rhs, s, h, depth, k);
+    float x = s * depth;
+    float ck = 1.0 - k * depth;
+    float gd = p * ck;
+    float dgd;
+    if (x < 1e-6) {
+        dgd = (gd - g0) / max(depth, 1e-30);
+    } else if (x > 80.0) {
+        dgd = s * gd;
+    } else {
+        dgd = s * (gd / tanh(x) - g0 / sinh(x));
+    }
+    float kappa = k / ck;
+    float phi_z = (dgd + k * p) / ck;
+    float phi_zz = s * s * p + 2.0 * kappa * phi_z;
+    return 0.5 * (phi_zz * spread.x - kappa * phi_z * spread.y);
+}
 
 layout(push_constant) uniform InteriorPush {
     uint count;
@@ -89,6 +127,7 @@ void main() {
     uvec4 cell = sample_cells.cells[v];
     float depth = uintBitsToFloat(cell.y);
     float curvature = uintBitsToFloat(cell.z);
+    vec2 spread = unpackHalf2x16(cell.w);
     vec3 d = pc.kappa.rgb;
     vec3 sigma_a = pc.mu.rgb;
     if (pc.kappa.a > 0.5) {
@@ -100,14 +139,24 @@ void main() {
     for (int c = 0; c < 3; ++c) {
         float h = pc.mu.a * d[c];
         float s = sqrt(max(sigma_a[c], 0.0) / max(d[c], 1e-30));
-        float x = s * depth;
-        // sinh(s depth) / s with its s -> 0 limit; cosh (exp overflow: far beyond any sample).
-        float sinh_over_s = x < 1e-3 ? depth * (1.0 + x * x / 6.0) : sinh(min(x, 80.0)) / s;
-        float cosh_x = cosh(min(x, 80.0));
         float limit = depth > 0.0 ? PROFILE_CURVATURE_LIMIT / depth : 0.0;
         float k = clamp(curvature, -limit, limit);
-        float g0 = (p[c] * (1.0 - k * depth) + rhs[c] * sinh_over_s / h)
-            / (cosh_x + (1.0 - h * k) * sinh_over_s / h);
+        // The sample read back onto the profile: the linear weights' bias is linear in (p, rhs).
+        float p_sample = p[c];
+        if (spread.x != 0.0 || spread.y != 0.0) {
+            float b_p = profile_bias(1.0, 0.0, s, h, depth, k, spread);
+            float b_r = profile_bias(0.0, 1.0, s, h, depth, k, spread);
+            if (abs(b_p) > SAMPLE_CORRECTION_LIMIT) {
+                float f = SAMPLE_CORRECTION_LIMIT / abs(b_p);
+                b_p *= f;
+                b_r *= f;
+            }
+            float corrected = (p[c] - rhs[c] * b_r) / (1.0 + b_p);
+            if (!isnan(corrected) && !isinf(corrected)) {
+                p_sample = corrected;
+            }
+        }
+        float g0 = profile_g0(p_sample, rhs[c], s, h, depth, k);
         float phi0 = g0;
         float dphi0 = (g0 * (1.0 - h * k) - rhs[c]) / h + k * g0;
         m[c] = pc.exit.x * phi0 + pc.exit.y * d[c] * dphi0 - pc.exit.z * qv[c];

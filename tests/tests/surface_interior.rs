@@ -219,9 +219,11 @@ fn interior_reconstruction_is_flat_where_the_exact_exitance_is() {
 
 /// Albedo of the interior reconstruction on a sphere (R = 10 mm) under a constant environment
 /// against the closed form of DESIGN 2 (the bound: 1%), marble, skin1 and ketchup, f64
-/// CPU and GPU. Measured at 16 cells with the curved profile: marble 0.00%, skin1 +0.08 /
-/// +0.37 / +0.12%, ketchup red +0.25% (the planar profile: marble -0.6 / -1.1 / -1.7%, skin1
-/// down to -14.5%, ketchup red -5.7%: it ignores the closed form's -1/R).
+/// CPU and GPU. Measured at 16 cells with the curved profile and the sample read back onto it
+/// (`transport::sample_on_profile`): marble -0.03 / -0.05 / -0.07%, skin1 -0.12 / -0.11 /
+/// -0.10%, ketchup red -0.01% (without the read-back: marble 0.00%, skin1 +0.08 / +0.37 /
+/// +0.12%, ketchup red +0.25%; the planar profile: marble -0.6 / -1.1 / -1.7%, skin1 down to
+/// -14.5%, ketchup red -5.7%: it ignores the closed form's -1/R).
 const ALBEDO: f64 = 0.01;
 
 #[test]

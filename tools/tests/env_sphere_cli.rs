@@ -5,7 +5,8 @@
 //! to the model's closed form on the sphere (DESIGN 2, 2.5-2.6: phi = alpha sinh(s r) / r, the
 //! Robin condition and the exit query of the render's boundary). The shepard surface fails both
 //! (its blotches follow the lattice: per-pixel CV 5-26% on skin1's green and blue).
-//! `tools/env_sphere_exr.py` prints the same numbers for any image.
+//! Ketchup's green and blue have a negative closed-form J+ (the model's limit): they must
+//! display 0. `tools/env_sphere_exr.py` prints the same numbers for any image.
 
 mod common;
 
@@ -27,15 +28,14 @@ const PIXELS: usize = 64;
 /// above it marble is flat to 0.06%).
 const MIN_COS: f64 = 0.3;
 
-/// The bounds: per-pixel coefficient of variation and albedo against the closed form.
+/// The bounds: per-pixel coefficient of variation and albedo against the closed form,
+/// on every channel whose closed form is positive. Measured (64 px, lavapipe): CV marble
+/// 0.23-0.58%, skin1 0.14 / 0.23 / 0.55%, ketchup red 0.17%; albedo marble -0.1%, skin1 -0.25 /
+/// -0.17 / +0.51%, ketchup red -0.19%. Skin1's blue (albedo 0.048, a small difference of the
+/// exit query's two terms: 1% on phi(0) is 12% on it) was +2.85% before the interior sample was
+/// read back onto its profile (`solver::transport::sample_on_profile`).
 const FLAT: f64 = 0.01;
 const ALBEDO: f64 = 0.01;
-
-/// Channels whose closed-form albedo is below this are checked for flatness only: skin1's blue
-/// (albedo 0.048, a diffusion length of 0.8 mm at the auto resolution's 0.67 mm spacing) is
-/// +3.1% off (the lattice's own error on phi at the sample depth; shepard +25%), and ketchup's
-/// green and blue have a negative closed-form J+ (the model's limit), displayed as 0.
-const ALBEDO_CHECKED_ABOVE: f64 = 0.1;
 
 /// The model's sphere albedo M / q for channel `c` (render's default exit query: the moments
 /// query with the second-collision source; its default D: Grosjean's).
@@ -171,12 +171,12 @@ fn environment_spheres_are_flat_and_match_the_closed_form_at_the_defaults() {
                 "{preset} channel {c}: a pixel is negative or not finite"
             );
             assert!(cv <= FLAT, "{preset} channel {c}: per-pixel CV {cv}");
-            if exact >= ALBEDO_CHECKED_ABOVE {
+            if exact > 0.0 {
                 assert!(
                     (mean / exact - 1.0).abs() <= ALBEDO,
                     "{preset} channel {c}: albedo {mean} against the closed form {exact}"
                 );
-            } else if exact <= 0.0 {
+            } else {
                 assert!(
                     mean == 0.0,
                     "{preset} channel {c}: negative J+ not displayed as 0"

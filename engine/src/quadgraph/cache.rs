@@ -32,7 +32,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -389,6 +389,8 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
     w.f64s(&g.samples.source_weights);
     // Format 6: the vertices' mean curvature (the interior profile's curvature term).
     w.f64s(&g.samples.curvature.iter().map(|&k| [k]).collect::<Vec<_>>());
+    // Format 7: the sample nodes' second moments (the interior sample's profile correction).
+    w.f64s(&g.samples.spread);
     w.len(g.levels.len());
     for l in &g.levels {
         w.f64(l.spacing);
@@ -452,8 +454,10 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     let sources = r.u32s()?;
     let source_weights = r.f64s()?;
     let curvature: Vec<[f64; 1]> = r.f64s()?;
+    let spread: Vec<[f64; 2]> = r.f64s()?;
     let samples = SurfaceSamples {
         curvature: curvature.into_iter().map(|[k]| k).collect(),
+        spread,
         depth: depth.into_iter().map(|[d]| d).collect(),
         nodes,
         weights,
@@ -625,7 +629,8 @@ fn check(g: &QuadGraph) -> Result<(), String> {
             || samples.cell.len() != nv
             || samples.sources.len() != nv
             || samples.source_weights.len() != nv
-            || samples.curvature.len() != nv)
+            || samples.curvature.len() != nv
+            || samples.spread.len() != nv)
     {
         return Err("surface samples do not match the surface's vertices".into());
     }
@@ -638,6 +643,7 @@ fn check(g: &QuadGraph) -> Result<(), String> {
     }
     if samples.depth.iter().any(|d| !(d.is_finite() && *d >= 0.0))
         || samples.curvature.iter().any(|k| !k.is_finite())
+        || samples.spread.iter().flatten().any(|m| !m.is_finite())
         || samples.weights.iter().flatten().any(|w| !w.is_finite())
         || samples
             .source_weights

@@ -110,6 +110,11 @@ pub struct SurfaceSamples {
     /// where convex): the 1D profile's curvature term (`solver::transport::
     /// curved_profile_from_sample`); see [`CURVATURE_SPACINGS`].
     pub curvature: Vec<f64>,
+    /// The sample nodes' second moments about the sample point, weighted by their weights:
+    /// (sum_k w_k ((x_k - x) . n)^2, sum_k w_k |(x_k - x) x n|^2) in mm^2, n the sample's normal.
+    /// The weights are exact for a linear field only; the profile's curvature
+    /// (`solver::transport::sample_on_profile`) is read back out of the sample with these.
+    pub spread: Vec<[f64; 2]>,
 }
 
 impl SurfaceSamples {
@@ -526,7 +531,8 @@ pub fn surface_samples(
         &normals,
         CURVATURE_SPACINGS * h,
     );
-    let per_vertex: Vec<(f64, [u32; SAMPLE_NODES], [f64; SAMPLE_NODES], u32)> = anchors
+    type Sample = (f64, [u32; SAMPLE_NODES], [f64; SAMPLE_NODES], u32, [f64; 2]);
+    let per_vertex: Vec<Sample> = anchors
         .par_iter()
         .zip(&normals)
         .map(|(&x, &n)| {
@@ -562,13 +568,20 @@ pub fn surface_samples(
                 .map(|&k| finest.positions[k as usize])
                 .collect();
             let w = mls_weights(&points, p);
+            let mut spread = [0.0; 2];
+            for (q, wk) in points.iter().zip(&w) {
+                let dx = *q - p;
+                let along = dx.dot(n);
+                spread[0] += wk * along * along;
+                spread[1] += wk * (dx.length_squared() - along * along);
+            }
             let mut ids = [NO_NODE; SAMPLE_NODES];
             let mut weights = [0.0; SAMPLE_NODES];
             for (slot, (&k, &wk)) in candidates.iter().zip(&w).enumerate() {
                 ids[slot] = k;
                 weights[slot] = wk;
             }
-            (depth, ids, weights, cell as u32)
+            (depth, ids, weights, cell as u32, spread)
         })
         .collect();
     let mut out = SurfaceSamples {
@@ -579,7 +592,8 @@ pub fn surface_samples(
         out.sources.push(ids);
         out.source_weights.push(w);
     }
-    for (depth, ids, w, cell) in per_vertex {
+    for (depth, ids, w, cell, spread) in per_vertex {
+        out.spread.push(spread);
         out.depth.push(depth);
         out.nodes.push(ids);
         out.weights.push(w);

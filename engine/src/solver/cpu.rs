@@ -40,7 +40,8 @@ use super::multigrid::{Hierarchy, MultigridParams, MultigridReport, Start};
 use super::operator::{check_level, LevelOperator, Scheme};
 use super::sources::{LocalSource, SourceModel};
 use super::transport::{
-    curved_profile_from_sample, Boundary, Optics, SurfaceReconstruction, Transport,
+    curved_profile_from_sample, sample_on_profile, Boundary, Optics, SurfaceReconstruction,
+    Transport,
 };
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};

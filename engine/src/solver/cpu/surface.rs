@@ -47,16 +47,13 @@ pub fn reconstruct_vertices(
             }
             let p = samples.interpolate(v, phi_h);
             let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
+            let spread = samples.spread.get(v).copied().unwrap_or_default();
             std::array::from_fn(|c| {
                 let o = optics[c];
-                let (phi0, dphi0) = curved_profile_from_sample(
-                    o.s(),
-                    h[c],
-                    samples.depth[v],
-                    p[c],
-                    src.rhs[c],
-                    curvature,
-                );
+                let depth = samples.depth[v];
+                let p = sample_on_profile(o.s(), h[c], depth, p[c], src.rhs[c], curvature, spread);
+                let (phi0, dphi0) =
+                    curved_profile_from_sample(o.s(), h[c], depth, p, src.rhs[c], curvature);
                 boundary.exitance(
                     o.d(),
                     phi0 + src.phi_p[c],
@@ -121,18 +118,14 @@ pub fn interior_vertices(
                 samples.source_average(v, &part),
             );
             let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
+            let spread = samples.spread.get(v).copied().unwrap_or_default();
             std::array::from_fn(|c| {
                 let (d, h) = (kappa[c], 2.0 * boundary.a * kappa[c]);
                 let s = (here.mu()[c] / d).sqrt();
                 let qv = q_v[c];
-                let (phi0, dphi0) = curved_profile_from_sample(
-                    s,
-                    h,
-                    samples.depth[v],
-                    p[c],
-                    boundary.flux_gain * qv,
-                    curvature,
-                );
+                let (depth, rhs) = (samples.depth[v], boundary.flux_gain * qv);
+                let p = sample_on_profile(s, h, depth, p[c], rhs, curvature, spread);
+                let (phi0, dphi0) = curved_profile_from_sample(s, h, depth, p, rhs, curvature);
                 boundary.exitance(d, phi0, dphi0, qv) + part_v[c]
             })
         })

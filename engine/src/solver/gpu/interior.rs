@@ -100,11 +100,18 @@ impl GpuDiffusion {
                     "its cell out of range or its depth or curvature not finite",
                 ));
             }
+            // The sample nodes' second moments (mm^2, well inside half precision's range),
+            // two halves in one word as GLSL's unpackHalf2x16 reads them.
+            let [m_nn, m_tt] = samples.spread.get(v).copied().unwrap_or_default();
+            if !(m_nn.is_finite() && m_tt.is_finite()) {
+                return Err(bad(v, "its sample spread not finite"));
+            }
+            let half = |x: f64| u32::from(half::f16::from_f64(x).to_bits());
             cells.push([
                 finest.packing.linear_index(cell),
                 (depth as f32).to_bits(),
                 (curvature as f32).to_bits(),
-                0,
+                half(m_nn) | (half(m_tt) << 16),
             ]);
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
