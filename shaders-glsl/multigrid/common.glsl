@@ -32,7 +32,7 @@ layout(push_constant) uniform MultigridPush {
     uint offset;
     // Kernel-specific switch (see each kernel).
     uint mode;
-    // Finest level: texture width (rhs, output); check and krylov: number of partial sums.
+    // Finest level: texture width (rhs, output, graph_operator.glsl); check: number of partial sums.
     uint width;
     // Chebyshev / damped Jacobi step: d = alpha d + beta B^-1 r (per channel).
     vec4 alpha;
@@ -41,8 +41,13 @@ layout(push_constant) uniform MultigridPush {
     float tolerance;
     // check: stop after this many logged residuals.
     uint max_log;
-    uint pad0;
-    uint pad1;
+    // krylov: workgroup sums per block of `partials`.
+    uint sums;
+    // The finest level's graph (graph_operator.glsl): texel rows holding surface nodes, and the
+    // homogeneous material's kappa (2A in a) and mu (q_gain in a), as the cascade's LevelPush.
+    uint surface_rows;
+    vec4 kappa;
+    vec4 mu_gain;
 } pc;
 
 struct MultigridControl {

@@ -211,6 +211,11 @@ pub struct RenderArgs {
     /// benches/RESULTS.md, "Multigrid storage (wave 7)".
     #[arg(long, value_name = "rgb|rgba", value_parser = ["rgb", "rgba"])]
     pub vector_storage: Option<String>,
+    /// Where the GPU multigrid's finest level reads its operator from: `csr` (its own compressed
+    /// rows) or `graph` (matrix-free from the cascade's graph textures, ~58 bytes per node less).
+    /// benches/RESULTS.md, "Matrix-free finest level (wave 8)".
+    #[arg(long, value_name = "csr|graph", value_parser = ["csr", "graph"])]
+    pub finest_operator: Option<String>,
     /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
     /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
     #[arg(long, value_name = "THETA")]
@@ -368,9 +373,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             || args.coarse_storage.is_some()
             || args.link_storage.is_some()
             || args.vector_storage.is_some()
+            || args.finest_operator.is_some()
             || args.coarse_drop.is_some())
     {
-        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
+        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage, --finest-operator and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
     }
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
@@ -903,6 +909,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
             "link_storage": multigrid.then(|| format!("{:?}", coarse_gpu.link_storage).to_lowercase()),
             "vector_storage": multigrid.then(|| format!("{:?}", coarse_gpu.vector_storage).to_lowercase()),
+            "finest_operator": multigrid.then(|| format!("{:?}", coarse_gpu.finest_operator).to_lowercase()),
             "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             // `--diffusion-coefficient`: which D the solve used.

@@ -68,8 +68,8 @@ mod smoothers;
 mod sparse;
 
 pub use options::{
-    quantized_links, CoarseOperator, Interpolation, LinkStorage, OperatorStorage, VectorStorage,
-    WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    quantized_links, CoarseOperator, FinestOperator, Interpolation, LinkStorage, OperatorStorage,
+    VectorStorage, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
 };
 pub use prolongation::{linear_links, mixed_links, Prolongation};
 use smoothers::*;
@@ -142,6 +142,8 @@ pub struct MultigridParams {
     pub link_storage: LinkStorage,
     /// How the GPU stores its per-node vectors (the CPU solve is f64 either way).
     pub vector_storage: VectorStorage,
+    /// Where the GPU's finest level reads its operator from (the CPU solve uses its rows).
+    pub finest_operator: FinestOperator,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -187,6 +189,7 @@ impl Default for MultigridParams {
             coarse_storage: OperatorStorage::F32,
             link_storage: LinkStorage::F32,
             vector_storage: VectorStorage::Rgb,
+            finest_operator: FinestOperator::Csr,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,
