@@ -22,6 +22,28 @@ layout(constant_id = 2) const uint VECTOR_STRIDE = 3u;
         buf.v[at_ + 1u] = rgb_.y; \
         buf.v[at_ + 2u] = rgb_.z; \
     } while (false)
+// The vectors that tolerate fp16 (UpdateStorage::F16, `--update-storage f16`: the smoother's
+// update d and the CG's last z, `z_old`) are uint arrays: fp16 RGB in two uints (r|g, b|0) per
+// node, or (F32) the bits of VECTOR_STRIDE floats as RGB above.
+layout(constant_id = 8) const bool HALF_UPDATES = false;
+#define LOAD_UPDATE(buf, i) \
+    (HALF_UPDATES ? vec3(unpackHalf2x16(buf.v[2u * (i)]), unpackHalf2x16(buf.v[2u * (i) + 1u]).x) \
+                  : uintBitsToFloat(uvec3(buf.v[VECTOR_STRIDE * (i)], \
+                                          buf.v[VECTOR_STRIDE * (i) + 1u], \
+                                          buf.v[VECTOR_STRIDE * (i) + 2u])))
+#define STORE_UPDATE(buf, i, value) \
+    do { \
+        vec3 u_ = (value); \
+        if (HALF_UPDATES) { \
+            buf.v[2u * (i)] = packHalf2x16(u_.xy); \
+            buf.v[2u * (i) + 1u] = packHalf2x16(vec2(u_.z, 0.0)); \
+        } else { \
+            uint at_ = VECTOR_STRIDE * (i); \
+            buf.v[at_] = floatBitsToUint(u_.x); \
+            buf.v[at_ + 1u] = floatBitsToUint(u_.y); \
+            buf.v[at_ + 2u] = floatBitsToUint(u_.z); \
+        } \
+    } while (false)
 #define MAX_LEVELS 8
 #define MAX_LOG 64
 

@@ -32,7 +32,7 @@ layout(set = 0, binding = 1, std430) buffer Fs { float v[]; } f;
 layout(set = 0, binding = 2, std430) buffer Rs { float v[]; } r;
 layout(set = 0, binding = 3, std430) buffer Sol { float v[]; } sol;
 layout(set = 0, binding = 4, std430) buffer Dir { float v[]; } dir;
-layout(set = 0, binding = 5, std430) buffer ZOld { float v[]; } z_old;
+layout(set = 0, binding = 5, std430) buffer ZOld { uint v[]; } z_old;
 layout(set = 0, binding = 6, std430) readonly buffer RowStart { uint v[]; } row_start;
 layout(set = 0, binding = 7, std430) readonly buffer Cols { uint v[]; } cols;
 layout(set = 0, binding = 8, std430) readonly buffer Values { float v[]; } values;
@@ -100,7 +100,7 @@ void main() {
             SET_RGB(r, i, kz);
             vec3 rr = RGB(f, i);
             rz = rr * z;
-            rz_old = rr * RGB(z_old, node);
+            rz_old = rr * LOAD_UPDATE(z_old, node);
             zkz = z * kz;
             // kdir holds K dir of the last direction (stale before the first: beta = 0 then,
             // and the check ignores this sum).
@@ -126,7 +126,7 @@ void main() {
             vec3 kd = mix(kz + beta * RGB(kdir, node), kz, first);
             SET_RGB(dir, node, d);
             SET_RGB(kdir, node, kd);
-            SET_RGB(z_old, node, z);
+            STORE_UPDATE(z_old, node, z);
             SET_RGB(x, i, vec3(0.0));
             SET_RGB(sol, node, RGB(sol, node) + alpha * d);
             vec3 rr = RGB(f, i) - alpha * kd;

@@ -216,6 +216,11 @@ pub struct RenderArgs {
     /// benches/RESULTS.md, "Matrix-free finest level (wave 8)".
     #[arg(long, value_name = "csr|graph", value_parser = ["csr", "graph"])]
     pub finest_operator: Option<String>,
+    /// How the GPU multigrid stores the smoother's update d and the CG's last z: `f32` (as the
+    /// other vectors) or `f16` (RGB fp16 in 8 bytes). benches/RESULTS.md, "Matrix-free finest
+    /// level (wave 8)".
+    #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
+    pub update_storage: Option<String>,
     /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
     /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
     #[arg(long, value_name = "THETA")]
@@ -374,9 +379,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             || args.link_storage.is_some()
             || args.vector_storage.is_some()
             || args.finest_operator.is_some()
+            || args.update_storage.is_some()
             || args.coarse_drop.is_some())
     {
-        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage, --finest-operator and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
+        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage, --finest-operator, --update-storage and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
     }
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
@@ -909,7 +915,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
             "link_storage": multigrid.then(|| format!("{:?}", coarse_gpu.link_storage).to_lowercase()),
             "vector_storage": multigrid.then(|| format!("{:?}", coarse_gpu.vector_storage).to_lowercase()),
-            "finest_operator": multigrid.then(|| format!("{:?}", coarse_gpu.finest_operator).to_lowercase()),
+            // The finest level's operator (`--finest-operator`) and the fp16 vectors
+            // (`--update-storage`), one object (the macro's recursion limit).
+            "finest_storage": multigrid.then(|| serde_json::json!({
+                "operator": format!("{:?}", coarse_gpu.finest_operator).to_lowercase(),
+                "updates": format!("{:?}", coarse_gpu.update_storage).to_lowercase(),
+            })),
             "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             // `--diffusion-coefficient`: which D the solve used.

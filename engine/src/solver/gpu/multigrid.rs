@@ -70,7 +70,8 @@ use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
     chebyshev_coefficients, eigenvalue_bounds, CycleReport, FinestOperator, Hierarchy, LinkStorage,
-    MultigridParams, OperatorStorage, Smoother, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    MultigridParams, OperatorStorage, Smoother, UpdateStorage, WarmStart, LINK_WEIGHT_STEPS,
+    LINK_WEIGHT_ZERO,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -583,13 +584,25 @@ impl GpuMultigrid {
         let zeros = vec![0.0f32; stride * total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
         let krylov_zeros = vec![0.0f32; if params.krylov { stride * n_top } else { 0 }];
+        // d and z_old: fp16 RGB in two u32 per node, or as the other vectors.
+        let half_updates = params.update_storage == UpdateStorage::F16;
+        let update_floats = if half_updates { 2 } else { stride };
+        let d_zeros = vec![0.0f32; update_floats * total];
+        let z_old_zeros = vec![
+            0.0f32;
+            if params.krylov {
+                update_floats * n_top
+            } else {
+                0
+            }
+        ];
         // The warm start's earlier finest solutions (`WarmStart::history` vectors).
         let history_zeros = vec![0.0f32; stride * params.warm_start.history() as usize * n_top];
         let contents: [Vec<u8>; 24] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
-            bytemuck::cast_slice(&zeros).to_vec(),
+            bytemuck::cast_slice(&d_zeros).to_vec(),
             bytemuck::cast_slice(&ops.row_start).to_vec(),
             bytemuck::cast_slice(&ops.cols).to_vec(),
             bytemuck::cast_slice(&ops.values).to_vec(),
@@ -606,7 +619,7 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&vec![[0.0f32; 4]; CG_SUMS * partials as usize]).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
-            bytemuck::cast_slice(&krylov_zeros).to_vec(),
+            bytemuck::cast_slice(&z_old_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&ops.values16).to_vec(),
             bytemuck::cast_slice(&history_zeros).to_vec(),
@@ -673,6 +686,9 @@ impl GpuMultigrid {
                     id: 2,
                     value: stride as u32,
                 });
+            }
+            if bindings.contains(&"d") || bindings.contains(&"z_old") {
+                constants.push(SpecConstant::bool(8, half_updates));
             }
             if bindings.contains(&"connectivity") {
                 // graph_operator.glsl: graph_weights.glsl's three at 3, 4, 5, then the switch

@@ -69,7 +69,7 @@ mod sparse;
 
 pub use options::{
     quantized_links, CoarseOperator, FinestOperator, Interpolation, LinkStorage, OperatorStorage,
-    VectorStorage, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    UpdateStorage, VectorStorage, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
 };
 pub use prolongation::{linear_links, mixed_links, Prolongation};
 use smoothers::*;
@@ -144,6 +144,8 @@ pub struct MultigridParams {
     pub vector_storage: VectorStorage,
     /// Where the GPU's finest level reads its operator from (the CPU solve uses its rows).
     pub finest_operator: FinestOperator,
+    /// How the GPU stores the smoother's update and the CG's last z (fp16 or as the vectors).
+    pub update_storage: UpdateStorage,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -190,6 +192,7 @@ impl Default for MultigridParams {
             link_storage: LinkStorage::F32,
             vector_storage: VectorStorage::Rgb,
             finest_operator: FinestOperator::Csr,
+            update_storage: UpdateStorage::F32,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,

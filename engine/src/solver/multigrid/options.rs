@@ -113,6 +113,32 @@ impl std::str::FromStr for FinestOperator {
     }
 }
 
+/// How the GPU stores the per-node vectors that tolerate fp16: the smoother's update `d` (every
+/// level) and the CG's last preconditioned residual `z_old` (read only by the flexible CG's
+/// `R . z_old`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum UpdateStorage {
+    /// As the other vectors ([`VectorStorage`]).
+    #[default]
+    F32,
+    /// RGB fp16 in two u32 per node (8 bytes).
+    F16,
+}
+
+impl std::str::FromStr for UpdateStorage {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "f32" => Ok(Self::F32),
+            "f16" => Ok(Self::F16),
+            _ => Err(SolverError::BadParameter {
+                name: "update_storage",
+                problem: format!("'{s}' (expected f32 or f16)"),
+            }),
+        }
+    }
+}
+
 /// How the GPU stores its per-node RGB vectors (x, f, r, d, the CG's, `partner_value`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum VectorStorage {
