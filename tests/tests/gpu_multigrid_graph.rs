@@ -5,7 +5,8 @@
 //! longer uploaded. Checked here: both passes equal the CSR's (and the f64 operator's) on a random
 //! vector for a homogeneous material, a heterogeneous one with derived weights and one with
 //! stored weights; converged solves give the CSR path's J+ in the same cycles and reach the f64
-//! exact solve; the finest rows' bytes are gone. Validation (with synchronization validation) is
+//! exact solve; the finest rows' bytes are gone. fp16 `d` and `z_old` (`UpdateStorage::F16`)
+//! take 8 bytes per node and solve in the same cycles. Validation (with synchronization validation) is
 //! on and any message fails.
 
 use translucent::material::{Material, MaterialField};
@@ -14,7 +15,7 @@ use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::multigrid::{CycleState, FinestProducts, GpuMultigridReport};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams, HeterogeneousWeights};
-use translucent::solver::multigrid::{FinestOperator, Hierarchy, MultigridParams};
+use translucent::solver::multigrid::{FinestOperator, Hierarchy, MultigridParams, UpdateStorage};
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
@@ -237,4 +238,60 @@ fn graph_operator_equals_the_csr_on_the_1e4_contrast_with_stored_weights() {
         &kappa_contrast_field(),
         HeterogeneousWeights::Stored,
     );
+}
+
+/// fp16 updates against f32 ones: the same cycles (the measured rule for keeping them, benches/
+/// RESULTS.md "Matrix-free finest level (wave 8)"), both at the exact solve, 8 bytes per node.
+fn half_updates_keep_the_cycles(what: &str, field: &MaterialField) {
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake();
+    let exact = solver::solve(&graph, field, &scene(), None, &CpuSolveParams::default())
+        .expect("exact")
+        .j_plus_clamped;
+    let mut cycles = Vec::new();
+    for updates in [UpdateStorage::F32, UpdateStorage::F16] {
+        let mg = MultigridParams {
+            update_storage: updates,
+            ..multigrid(FinestOperator::Graph)
+        };
+        let h = Hierarchy::build(&graph, field, solver::Scheme::Fv, &mg).expect("cpu");
+        let nodes: u64 = h.levels.iter().map(|l| l.node_count() as u64).sum();
+        let p = GpuSolveParams {
+            multigrid: Some(mg),
+            ..params(FinestOperator::Graph, HeterogeneousWeights::default())
+        };
+        let mut solve = GpuDiffusion::new(ctx, &graph, field, &p).expect("solve");
+        let d = solve
+            .multigrid_bytes_by_buffer()
+            .iter()
+            .find(|&&(b, _)| b == "d")
+            .map(|&(_, b)| b);
+        let per_node = if updates == UpdateStorage::F16 { 8 } else { 12 };
+        assert_eq!(d, Some(per_node * nodes), "{what} {updates:?}: d");
+        let (j, report) = cold_solve(ctx, &mut solve, &graph, field);
+        let err = rel_rms(&j, &exact);
+        println!(
+            "{what}, {updates:?} updates: J+ vs exact {err:.2e}; {} cycles, {:.1} work units, residual {:.2e}",
+            report.cycles.len(),
+            report.work_units,
+            report.residual,
+        );
+        assert_eq!(report.state, CycleState::Converged, "{what} {updates:?}");
+        assert!(err <= tol::GPU_VS_EXACT, "{what} {updates:?}: J+ {err:.2e}");
+        cycles.push(report.cycles.len());
+    }
+    assert_eq!(cycles[0], cycles[1], "{what}: cycles f32, f16");
+    gpu.finish();
+}
+
+#[test]
+fn half_updates_keep_the_cycles_in_marble() {
+    let field = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    half_updates_keep_the_cycles("marble", &field);
+}
+
+#[test]
+fn half_updates_keep_the_cycles_on_the_1e4_contrast() {
+    half_updates_keep_the_cycles("1e4 contrast", &kappa_contrast_field());
 }
