@@ -211,14 +211,11 @@ pub struct RenderArgs {
     /// benches/RESULTS.md, "Multigrid storage (wave 7)".
     #[arg(long, value_name = "rgb|rgba", value_parser = ["rgb", "rgba"])]
     pub vector_storage: Option<String>,
-    /// Where the GPU multigrid's finest level reads its operator from: `csr` (its own compressed
-    /// rows) or `graph` (matrix-free from the cascade's graph textures, ~58 bytes per node less).
-    /// benches/RESULTS.md, "Matrix-free finest level (wave 8)".
+    /// The GPU multigrid's finest operator: `graph` (default: matrix-free from the cascade's graph
+    /// textures) or `csr` (its own rows). RESULTS "Matrix-free finest level (wave 8)".
     #[arg(long, value_name = "csr|graph", value_parser = ["csr", "graph"])]
     pub finest_operator: Option<String>,
-    /// How the GPU multigrid stores the smoother's update d and the CG's last z: `f32` (as the
-    /// other vectors) or `f16` (RGB fp16 in 8 bytes). benches/RESULTS.md, "Matrix-free finest
-    /// level (wave 8)".
+    /// The GPU multigrid's smoother update d and CG's last z: `f16` (default, 8 bytes) or `f32`.
     #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
     pub update_storage: Option<String>,
     /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto

@@ -6,7 +6,9 @@
 //! as storage buffers, every level's vectors concatenated (level `l` at node offset `offset_l`):
 //! - the operators in compressed rows (`row_start`, `cols`, `values` RGB f32 in three floats,
 //!   `diag`), with the 2x2 surface-node/cell blocks of the smoother (`partner`,
-//!   `partner_value`); with [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels'
+//!   `partner_value`); the finest level's rows only with [`FinestOperator::Csr`]:
+//!   [`FinestOperator::Graph`] (`multigrid/graph_operator.glsl`) reads its `K x` from the
+//!   cascade's graph textures ([`FinestGraph`]); with [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels'
 //!   entries are RGB fp16 in `values16`, relative to their row's scale in `diag`'s fourth lane,
 //!   each row's rounding lumped onto its f32 diagonal (`pack_operators`); the coarse operators
 //!   are Galerkin or the coarse graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
@@ -17,8 +19,9 @@
 //!   rows for the restriction (`t_start`, `t_link`: the slots of the links into each coarse node,
 //!   whose weights it reads): both gathers;
 //! - x, f, r and the Chebyshev direction d per node, RGB in three floats (so the CG's vectors
-//!   and `partner_value`; four with `VectorStorage::Rgba`, `--vector-storage rgba`); the finest
-//!   node -> texel map and the right-hand side coefficients `S b / q` (row scale times q_gain on
+//!   and `partner_value`; four with `VectorStorage::Rgba`, `--vector-storage rgba`; d and the
+//!   CG's `z_old` RGB fp16 in two u32 with [`UpdateStorage::F16`]); the finest node -> texel map
+//!   (and back, `texel_node`, for the graph) and the right-hand side coefficients `S b / q` (row scale times q_gain on
 //!   surface rows, one float).
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
