@@ -55,16 +55,16 @@ fn per_node(json: &serde_json::Value, part: &str) -> f64 {
 #[test]
 fn matrix_free_finest_level_and_half_updates_take_fewer_bytes() {
     let dir = scratch("finest");
-    let csr = render(&dir, &[]);
-    let graph = render(&dir, &["--finest-operator", "graph"]);
-    let both = render(
+    let csr = render(
         &dir,
-        &["--finest-operator", "graph", "--update-storage", "f16"],
+        &["--finest-operator", "csr", "--update-storage", "f32"],
     );
-    assert_eq!(csr["finest_storage"]["operator"], "csr", "the default");
-    assert_eq!(csr["finest_storage"]["updates"], "f32", "the default");
-    assert_eq!(both["finest_storage"]["operator"], "graph");
-    assert_eq!(both["finest_storage"]["updates"], "f16");
+    let graph = render(&dir, &["--update-storage", "f32"]);
+    let both = render(&dir, &[]);
+    assert_eq!(csr["finest_storage"]["operator"], "csr");
+    assert_eq!(csr["finest_storage"]["updates"], "f32");
+    assert_eq!(graph["finest_storage"]["operator"], "graph", "the default");
+    assert_eq!(both["finest_storage"]["updates"], "f16", "the default");
     for json in [&csr, &graph, &both] {
         assert_eq!(json["multigrid"]["state"], "Converged", "{json}");
         assert_eq!(json["multigrid"]["cycles"], csr["multigrid"]["cycles"]);
