@@ -16,18 +16,28 @@
 //   edit/derive_weights.comp derives the stored ones (same operations, same order): 48 bytes per
 //   texel less, 8 texel reads per node instead of 3. PAPER (constant_id 2) selects the paper
 //   scheme's form there.
-// Include after graph_common.glsl.
+// Include after graph_common.glsl (or a kernel's own `pc` with width, kappa and mu_gain, and
+// `texel_of`).
 #ifndef GRAPH_WEIGHTS_GLSL
 #define GRAPH_WEIGHTS_GLSL
 
-layout(constant_id = 0) const bool HOMOGENEOUS = false;
-layout(constant_id = 1) const bool DERIVED = false;
-layout(constant_id = 2) const bool PAPER = false;
+// A kernel with constants and bindings of its own at these numbers moves them (the multigrid's
+// matrix-free finest level, multigrid/graph_operator.glsl): define both before the include.
+#ifndef GRAPH_WEIGHTS_CONSTANT_ID
+#define GRAPH_WEIGHTS_CONSTANT_ID 0
+#endif
+#ifndef GRAPH_WEIGHTS_BINDING
+#define GRAPH_WEIGHTS_BINDING 10
+#endif
 
-layout(set = 0, binding = 10, rgba32f) uniform readonly image2D weight_geo;
-layout(set = 0, binding = 11, rgba32f) uniform readonly image2D weight_r;
-layout(set = 0, binding = 12, rgba32f) uniform readonly image2D weight_g;
-layout(set = 0, binding = 13, rgba32f) uniform readonly image2D weight_b;
+layout(constant_id = GRAPH_WEIGHTS_CONSTANT_ID) const bool HOMOGENEOUS = false;
+layout(constant_id = GRAPH_WEIGHTS_CONSTANT_ID + 1) const bool DERIVED = false;
+layout(constant_id = GRAPH_WEIGHTS_CONSTANT_ID + 2) const bool PAPER = false;
+
+layout(set = 0, binding = GRAPH_WEIGHTS_BINDING, rgba32f) uniform readonly image2D weight_geo;
+layout(set = 0, binding = GRAPH_WEIGHTS_BINDING + 1, rgba32f) uniform readonly image2D weight_r;
+layout(set = 0, binding = GRAPH_WEIGHTS_BINDING + 2, rgba32f) uniform readonly image2D weight_g;
+layout(set = 0, binding = GRAPH_WEIGHTS_BINDING + 3, rgba32f) uniform readonly image2D weight_b;
 
 // Heterogeneous, DERIVED: edit/derive_weights.comp's formulas, read from the fractions, kappa and mu.
 void derived_weights(ivec2 p, uvec4 nb, bool surface, out vec3 w[4], out vec3 gain) {

@@ -22,6 +22,28 @@ layout(constant_id = 2) const uint VECTOR_STRIDE = 3u;
         buf.v[at_ + 1u] = rgb_.y; \
         buf.v[at_ + 2u] = rgb_.z; \
     } while (false)
+// The vectors that tolerate fp16 (UpdateStorage::F16, `--update-storage f16`: the smoother's
+// update d and the CG's last z, `z_old`) are uint arrays: fp16 RGB in two uints (r|g, b|0) per
+// node, or (F32) the bits of VECTOR_STRIDE floats as RGB above.
+layout(constant_id = 8) const bool HALF_UPDATES = false;
+#define LOAD_UPDATE(buf, i) \
+    (HALF_UPDATES ? vec3(unpackHalf2x16(buf.v[2u * (i)]), unpackHalf2x16(buf.v[2u * (i) + 1u]).x) \
+                  : uintBitsToFloat(uvec3(buf.v[VECTOR_STRIDE * (i)], \
+                                          buf.v[VECTOR_STRIDE * (i) + 1u], \
+                                          buf.v[VECTOR_STRIDE * (i) + 2u])))
+#define STORE_UPDATE(buf, i, value) \
+    do { \
+        vec3 u_ = (value); \
+        if (HALF_UPDATES) { \
+            buf.v[2u * (i)] = packHalf2x16(u_.xy); \
+            buf.v[2u * (i) + 1u] = packHalf2x16(vec2(u_.z, 0.0)); \
+        } else { \
+            uint at_ = VECTOR_STRIDE * (i); \
+            buf.v[at_] = floatBitsToUint(u_.x); \
+            buf.v[at_ + 1u] = floatBitsToUint(u_.y); \
+            buf.v[at_ + 2u] = floatBitsToUint(u_.z); \
+        } \
+    } while (false)
 #define MAX_LEVELS 8
 #define MAX_LOG 64
 
@@ -32,7 +54,7 @@ layout(push_constant) uniform MultigridPush {
     uint offset;
     // Kernel-specific switch (see each kernel).
     uint mode;
-    // Finest level: texture width (rhs, output); check and krylov: number of partial sums.
+    // Finest level: texture width (rhs, output, graph_operator.glsl); check: number of partial sums.
     uint width;
     // Chebyshev / damped Jacobi step: d = alpha d + beta B^-1 r (per channel).
     vec4 alpha;
@@ -41,8 +63,13 @@ layout(push_constant) uniform MultigridPush {
     float tolerance;
     // check: stop after this many logged residuals.
     uint max_log;
-    uint pad0;
-    uint pad1;
+    // krylov: workgroup sums per block of `partials`.
+    uint sums;
+    // The finest level's graph (graph_operator.glsl): texel rows holding surface nodes, and the
+    // homogeneous material's kappa (2A in a) and mu (q_gain in a), as the cascade's LevelPush.
+    uint surface_rows;
+    vec4 kappa;
+    vec4 mu_gain;
 } pc;
 
 struct MultigridControl {

@@ -12,7 +12,7 @@
 // Modes:
 //   0 start:  sol = x, f = f - K x (= r, the start's residual), x = 0
 //   1 apply:  r = K z; partials (R . z, R . z_old, z . K z, z . K dir_old), four blocks of
-//             `width` workgroup sums
+//             `sums` workgroup sums
 //   2 step:   dir = z + beta dir, kdir = K z + beta kdir (dir = z, kdir = K z where beta = 0),
 //             sol += alpha dir, R -= alpha kdir, z_old = z, x = 0; partials = R . R
 //   3 start with its residual: sol = x, f = f - K x, partials = f . f (the start's residual
@@ -21,7 +21,8 @@
 //   5 finish: x = sol (the solution the output pass writes and the next warm start reads)
 layout(local_size_x = 64) in;
 // The finest level's entries sit at floats 3 (e - HALF_ENTRIES) of `values` (residual.comp: the
-// coarse levels' fp16 entries come first and live elsewhere).
+// coarse levels' fp16 entries come first and live elsewhere); under GRAPH_FINEST K comes from
+// the cascade's graph textures (graph_operator.glsl) instead.
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
 #include "common.glsl"
@@ -31,7 +32,7 @@ layout(set = 0, binding = 1, std430) buffer Fs { float v[]; } f;
 layout(set = 0, binding = 2, std430) buffer Rs { float v[]; } r;
 layout(set = 0, binding = 3, std430) buffer Sol { float v[]; } sol;
 layout(set = 0, binding = 4, std430) buffer Dir { float v[]; } dir;
-layout(set = 0, binding = 5, std430) buffer ZOld { float v[]; } z_old;
+layout(set = 0, binding = 5, std430) buffer ZOld { uint v[]; } z_old;
 layout(set = 0, binding = 6, std430) readonly buffer RowStart { uint v[]; } row_start;
 layout(set = 0, binding = 7, std430) readonly buffer Cols { uint v[]; } cols;
 layout(set = 0, binding = 8, std430) readonly buffer Values { float v[]; } values;
@@ -39,6 +40,8 @@ layout(set = 0, binding = 9, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 10, std430) writeonly buffer Partials { vec4 v[]; } partials;
 layout(set = 0, binding = 11, std430) readonly buffer Control { MultigridControl c; } control;
 layout(set = 0, binding = 12, std430) buffer KDir { float v[]; } kdir;
+
+#include "graph_operator.glsl"
 
 #define MODE_START 0u
 #define MODE_APPLY 1u
@@ -70,6 +73,9 @@ void reduce(vec3 s, uint slot) {
 
 // (K v)_i of the finest level's operator for v = x (z) of the concatenated vectors.
 vec3 apply_k(uint i) {
+    if (reads_graph(pc.offset)) {
+        return graph_apply(i - pc.offset, i, diag.v[i].rgb);
+    }
     vec3 acc = diag.v[i].rgb * RGB(x, i);
     for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
         uint j = 3u * (e - HALF_ENTRIES);
@@ -94,16 +100,16 @@ void main() {
             SET_RGB(r, i, kz);
             vec3 rr = RGB(f, i);
             rz = rr * z;
-            rz_old = rr * RGB(z_old, node);
+            rz_old = rr * LOAD_UPDATE(z_old, node);
             zkz = z * kz;
             // kdir holds K dir of the last direction (stale before the first: beta = 0 then,
             // and the check ignores this sum).
             zkd = z * RGB(kdir, node);
         }
         reduce(rz, group);
-        reduce(rz_old, pc.width + group);
-        reduce(zkz, 2u * pc.width + group);
-        reduce(zkd, 3u * pc.width + group);
+        reduce(rz_old, pc.sums + group);
+        reduce(zkz, 2u * pc.sums + group);
+        reduce(zkd, 3u * pc.sums + group);
         return;
     }
     if (pc.mode == MODE_STEP) {
@@ -120,7 +126,7 @@ void main() {
             vec3 kd = mix(kz + beta * RGB(kdir, node), kz, first);
             SET_RGB(dir, node, d);
             SET_RGB(kdir, node, kd);
-            SET_RGB(z_old, node, z);
+            STORE_UPDATE(z_old, node, z);
             SET_RGB(x, i, vec3(0.0));
             SET_RGB(sol, node, RGB(sol, node) + alpha * d);
             vec3 rr = RGB(f, i) - alpha * kd;

@@ -4,7 +4,8 @@
 // Entries below HALF_ENTRIES (the coarse levels' under `--coarse-storage f16`, which come first)
 // are RGB fp16 in `values16` (two uints), relative to the row's scale in diag.a; the others are
 // RGB f32 in `values`, three floats from 3 (e - HALF_ENTRIES) (`solver::gpu::multigrid`,
-// `pack_operators`).
+// `pack_operators`). The finest level under GRAPH_FINEST: K from the cascade's graph textures
+// (graph_operator.glsl), its rows not stored.
 layout(local_size_x = 64) in;
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
 
@@ -19,12 +20,18 @@ layout(set = 0, binding = 5, std430) readonly buffer Values { float v[]; } value
 layout(set = 0, binding = 6, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 7, std430) readonly buffer Values16 { uvec2 v[]; } values16;
 
+#include "graph_operator.glsl"
+
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
         return;
     }
     uint i = pc.offset + gl_GlobalInvocationID.x;
     vec4 d = diag.v[i];
+    if (reads_graph(pc.offset)) {
+        SET_RGB(r, i, RGB(f, i) - graph_apply(gl_GlobalInvocationID.x, i, d.rgb));
+        return;
+    }
     uint first = row_start.v[i];
     uint end = row_start.v[i + 1u];
     vec3 acc = d.rgb * RGB(x, i);

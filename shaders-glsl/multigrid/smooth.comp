@@ -9,7 +9,7 @@ layout(local_size_x = 64) in;
 #include "common.glsl"
 
 layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
-layout(set = 0, binding = 1, std430) buffer Ds { float v[]; } d;
+layout(set = 0, binding = 1, std430) buffer Ds { uint v[]; } d;
 layout(set = 0, binding = 2, std430) readonly buffer Rs { float v[]; } r;
 layout(set = 0, binding = 3, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 4, std430) readonly buffer Partner { uint v[]; } partner;
@@ -39,9 +39,9 @@ void main() {
     // alpha = 0 on a first step: d may hold the last visit's values.
     vec3 di = pc.beta.rgb * z;
     if (pc.alpha != vec4(0.0)) {
-        di += pc.alpha.rgb * RGB(d, i);
+        di += pc.alpha.rgb * LOAD_UPDATE(d, i);
     }
-    SET_RGB(d, i, di);
+    STORE_UPDATE(d, i, di);
     // Mode 1 starts from x = 0: x is not read (the CG's fused start leaves the iterate there).
     SET_RGB(x, i, pc.mode == 1u ? di : RGB(x, i) + di);
 }

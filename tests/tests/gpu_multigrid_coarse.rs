@@ -13,7 +13,9 @@ use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::multigrid::{CycleState, GpuMultigridReport};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
-use translucent::solver::multigrid::{CoarseOperator, Hierarchy, MultigridParams, OperatorStorage};
+use translucent::solver::multigrid::{
+    CoarseOperator, FinestOperator, Hierarchy, MultigridParams, OperatorStorage,
+};
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
@@ -284,7 +286,11 @@ fn multigrid_bytes_follow_the_operator_layout() {
         (CoarseOperator::Galerkin, OperatorStorage::F16),
         (CoarseOperator::Rediscretized, OperatorStorage::F32),
     ] {
-        let mg = multigrid(coarse, storage);
+        // The finest rows stored (the layout checked here; the default reads the graph).
+        let mg = MultigridParams {
+            finest_operator: FinestOperator::Csr,
+            ..multigrid(coarse, storage)
+        };
         let solve = GpuDiffusion::new(ctx, &graph, &field, &params(mg.clone())).expect("solve");
         let by_buffer = solve.multigrid_bytes_by_buffer();
         let total: u64 = by_buffer.iter().map(|&(_, b)| b).sum();

@@ -15,7 +15,8 @@ use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::multigrid::{CycleState, GpuMultigridReport};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
 use translucent::solver::multigrid::{
-    quantized_links, Hierarchy, LinkStorage, MultigridParams, VectorStorage, LINK_WEIGHT_STEPS,
+    quantized_links, FinestOperator, Hierarchy, LinkStorage, MultigridParams, UpdateStorage,
+    VectorStorage, LINK_WEIGHT_STEPS,
 };
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
@@ -62,6 +63,9 @@ fn multigrid(links: LinkStorage) -> MultigridParams {
     MultigridParams {
         link_storage: links,
         vector_storage: VectorStorage::Rgb,
+        // The finest rows and f32 updates: the layout these tests check.
+        finest_operator: FinestOperator::Csr,
+        update_storage: UpdateStorage::F32,
         max_cycles: MAX_CYCLES,
         ..MultigridParams::gpu()
     }

@@ -115,7 +115,7 @@ pub(super) fn solver_options(args: &RenderArgs, on_gpu: bool) -> anyhow::Result<
 }
 
 /// `base` with the coarse-level options of `args` (`--coarse-operator`, `--coarse-storage`,
-/// `--link-storage`, `--vector-storage`, `--coarse-drop`), checked.
+/// `--link-storage`, `--vector-storage`, `--finest-operator`, `--update-storage`, `--coarse-drop`), checked.
 pub(super) fn coarse_params(
     args: &RenderArgs,
     base: MultigridParams,
@@ -136,6 +136,14 @@ pub(super) fn coarse_params(
         vector_storage: match &args.vector_storage {
             Some(name) => name.parse()?,
             None => base.vector_storage,
+        },
+        finest_operator: match &args.finest_operator {
+            Some(name) => name.parse()?,
+            None => base.finest_operator,
+        },
+        update_storage: match &args.update_storage {
+            Some(name) => name.parse()?,
+            None => base.update_storage,
         },
         sparsify: args.coarse_drop.filter(|&t| t > 0.0).or(base.sparsify),
         ..base

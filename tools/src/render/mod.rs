@@ -215,6 +215,13 @@ pub struct RenderArgs {
     /// benches/RESULTS.md, "Multigrid storage (wave 7)".
     #[arg(long, value_name = "rgb|rgba", value_parser = ["rgb", "rgba"])]
     pub vector_storage: Option<String>,
+    /// The GPU multigrid's finest operator: `graph` (default: matrix-free from the cascade's graph
+    /// textures) or `csr` (its own rows). RESULTS "Matrix-free finest level (wave 8)".
+    #[arg(long, value_name = "csr|graph", value_parser = ["csr", "graph"])]
+    pub finest_operator: Option<String>,
+    /// The GPU multigrid's smoother update d and CG's last z: `f16` (default, 8 bytes) or `f32`.
+    #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
+    pub update_storage: Option<String>,
     /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
     /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
     #[arg(long, value_name = "THETA")]
@@ -378,9 +385,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             || args.coarse_storage.is_some()
             || args.link_storage.is_some()
             || args.vector_storage.is_some()
+            || args.finest_operator.is_some()
+            || args.update_storage.is_some()
             || args.coarse_drop.is_some())
     {
-        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
+        bail!("--coarse-operator, --coarse-storage, --link-storage, --vector-storage, --finest-operator, --update-storage and --coarse-drop shape the multigrid's storage: add --schedule multigrid");
     }
     if multigrid && on_gpu && args.precision.as_deref() == Some("fp16") {
         bail!("--schedule multigrid keeps phi in fp32: use --precision mixed or fp32 (or --schedule cascade)");
@@ -916,6 +925,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
             "link_storage": multigrid.then(|| format!("{:?}", coarse_gpu.link_storage).to_lowercase()),
             "vector_storage": multigrid.then(|| format!("{:?}", coarse_gpu.vector_storage).to_lowercase()),
+            // The finest level's operator (`--finest-operator`) and the fp16 vectors
+            // (`--update-storage`), one object (the macro's recursion limit).
+            "finest_storage": multigrid.then(|| serde_json::json!({
+                "operator": format!("{:?}", coarse_gpu.finest_operator).to_lowercase(),
+                "updates": format!("{:?}", coarse_gpu.update_storage).to_lowercase(),
+            })),
             "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             // `--diffusion-coefficient`: which D the solve used.

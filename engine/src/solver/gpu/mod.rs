@@ -87,6 +87,7 @@ use crate::material::MaterialField;
 use crate::mesh::GpuMesh;
 use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
+use crate::solver::multigrid::FinestOperator;
 use crate::vk::{
     barrier, Access, Buffer, BufferDesc, Context, Image, ImageDesc, ImageReadback, MemoryUse,
 };
@@ -168,6 +169,26 @@ impl GpuLevel {
             surface_rows: self.packing.surface_rows,
             kappa: [0.0; 4],
             mu_gain: [0.0; 4],
+        }
+    }
+    /// The images bound to `graph_weights.glsl`'s `weight_r`, `weight_g`, `weight_b` in a
+    /// material variant: `poison` (homogeneous), the fv fractions, kappa and mu (derived), or the
+    /// stored per-channel weights.
+    pub(crate) fn weight_images<'a>(
+        &'a self,
+        poison: &'a Image,
+        homogeneous: bool,
+        derived: bool,
+    ) -> Result<[&'a Image; 3], Error> {
+        match (&self.weights, homogeneous, &self.frac, &self.material) {
+            (_, true, _, _) => Ok([poison; 3]),
+            // graph_weights.glsl's DERIVED bindings: fractions, kappa, mu.
+            (_, false, Some(frac), Some([kappa, mu])) if derived => Ok([frac, kappa, mu]),
+            (Some(w), false, _, _) if !derived => Ok([&w[0], &w[1], &w[2]]),
+            _ => Err(bad_param(
+                "material",
+                "heterogeneous variant without per-channel weights".into(),
+            )),
         }
     }
     pub(crate) fn extent(&self) -> [u32; 3] {
@@ -420,7 +441,7 @@ impl GpuDiffusion {
                 texels,
                 levels.last(),
                 finest,
-                params.multigrid.is_some(),
+                params.multigrid.as_ref().map(|m| m.finest_operator),
             )?;
             levels.push(gpu);
         }
@@ -684,18 +705,7 @@ impl GpuDiffusion {
                 continue;
             }
             let derived = self.params.heterogeneous_weights == HeterogeneousWeights::Derived;
-            let weights: [&Image; 3] = match (&l.weights, homogeneous, &l.frac, &l.material) {
-                (_, true, _, _) => [&self.poison; 3],
-                // graph_weights.glsl's DERIVED bindings: fractions, kappa, mu.
-                (_, false, Some(frac), Some([kappa, mu])) if derived => [frac, kappa, mu],
-                (Some(w), false, _, _) if !derived => [&w[0], &w[1], &w[2]],
-                _ => {
-                    return Err(bad_param(
-                        "material",
-                        "heterogeneous variant without per-channel weights".into(),
-                    ))
-                }
-            };
+            let weights = l.weight_images(&self.poison, homogeneous, derived)?;
             let weight_writes = [
                 DescriptorWrite::storage_image("weight_geo", &l.geo),
                 DescriptorWrite::storage_image("weight_r", weights[0]),

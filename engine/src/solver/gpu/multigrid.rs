@@ -6,7 +6,9 @@
 //! as storage buffers, every level's vectors concatenated (level `l` at node offset `offset_l`):
 //! - the operators in compressed rows (`row_start`, `cols`, `values` RGB f32 in three floats,
 //!   `diag`), with the 2x2 surface-node/cell blocks of the smoother (`partner`,
-//!   `partner_value`); with [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels'
+//!   `partner_value`); the finest level's rows only with [`FinestOperator::Csr`]:
+//!   [`FinestOperator::Graph`] (`multigrid/graph_operator.glsl`) reads its `K x` from the
+//!   cascade's graph textures ([`FinestGraph`]); with [`OperatorStorage::F16`] (`--coarse-storage f16`) the coarse levels'
 //!   entries are RGB fp16 in `values16`, relative to their row's scale in `diag`'s fourth lane,
 //!   each row's rounding lumped onto its f32 diagonal (`pack_operators`); the coarse operators
 //!   are Galerkin or the coarse graphs' own (`MultigridParams::coarse`, `--coarse-operator`);
@@ -17,8 +19,9 @@
 //!   rows for the restriction (`t_start`, `t_link`: the slots of the links into each coarse node,
 //!   whose weights it reads): both gathers;
 //! - x, f, r and the Chebyshev direction d per node, RGB in three floats (so the CG's vectors
-//!   and `partner_value`; four with `VectorStorage::Rgba`, `--vector-storage rgba`); the finest
-//!   node -> texel map and the right-hand side coefficients `S b / q` (row scale times q_gain on
+//!   and `partner_value`; four with `VectorStorage::Rgba`, `--vector-storage rgba`; d and the
+//!   CG's `z_old` RGB fp16 in two u32 with [`UpdateStorage::F16`]); the finest node -> texel map
+//!   (and back, `texel_node`, for the graph) and the right-hand side coefficients `S b / q` (row scale times q_gain on
 //!   surface rows, one float).
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
@@ -69,8 +72,9 @@ use super::record::scope;
 use crate::quadgraph::graph::{Packing, NO_NODE};
 use crate::shader::{ComputePipeline, ComputePipelineDesc, DescriptorWrite, SpecConstant};
 use crate::solver::multigrid::{
-    chebyshev_coefficients, eigenvalue_bounds, CycleReport, Hierarchy, LinkStorage,
-    MultigridParams, OperatorStorage, Smoother, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    chebyshev_coefficients, eigenvalue_bounds, CycleReport, FinestOperator, Hierarchy, LinkStorage,
+    MultigridParams, OperatorStorage, Smoother, UpdateStorage, WarmStart, LINK_WEIGHT_STEPS,
+    LINK_WEIGHT_ZERO,
 };
 use crate::solver::SolverError;
 use crate::vk::barrier::{self, Use};
@@ -79,9 +83,11 @@ use crate::Error;
 
 /// Profiler scopes and debug labels of the cycle.
 mod pack;
+mod probe;
 mod recorder;
 mod report;
 use pack::pack_operators;
+pub use probe::FinestProducts;
 use recorder::Recorder;
 
 pub const PASS_MG_START: &str = "multigrid start";
@@ -114,8 +120,28 @@ pub struct MultigridPush {
     pub beta: [f32; 4],
     pub tolerance: f32,
     pub max_log: u32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// krylov: workgroup sums per block of `partials`.
+    pub sums: u32,
+    /// The finest level's graph ([`FinestGraph`]): texel rows of surface nodes, the homogeneous
+    /// material's kappa (2A in the fourth lane) and mu (q_gain), as the cascade's `LevelPush`.
+    pub surface_rows: u32,
+    pub kappa: [f32; 4],
+    pub mu_gain: [f32; 4],
+}
+
+/// The finest level's graph textures, which [`FinestOperator::Graph`] reads its operator from
+/// (`multigrid/graph_operator.glsl`): bound as the cascade's sweeps bind them.
+pub struct FinestGraph<'a> {
+    pub connectivity: &'a Image,
+    /// `weight_geo`, `weight_r`, `weight_g`, `weight_b` (`diffusion/graph_weights.glsl`).
+    pub weights: [&'a Image; 4],
+    /// `graph_weights.glsl`'s HOMOGENEOUS, DERIVED and PAPER.
+    pub homogeneous: bool,
+    pub derived: bool,
+    pub paper: bool,
+    /// The push constants of the homogeneous path (kappa and 2A, mu and q_gain).
+    pub kappa: [f32; 4],
+    pub mu_gain: [f32; 4],
 }
 
 /// The control record the GPU writes (`MultigridControl` in `common.glsl`).
@@ -191,6 +217,11 @@ pub struct GpuMultigrid {
     levels: Vec<Level>,
     coarse_steps: u32,
     width: u32,
+    /// The finest level's graph push constants ([`MultigridPush::surface_rows`], `kappa`,
+    /// `mu_gain`).
+    surface_rows: u32,
+    kappa: [f32; 4],
+    mu_gain: [f32; 4],
     partials: u32,
     buffers: Vec<Buffer>,
     control: Buffer,
@@ -255,6 +286,13 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
             "values",
             "diag",
             "values16",
+            "connectivity",
+            "node_texel",
+            "texel_node",
+            "weight_geo",
+            "weight_r",
+            "weight_g",
+            "weight_b",
         ],
     ),
     (
@@ -304,12 +342,19 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
             "partials",
             "control",
             "kdir",
+            "connectivity",
+            "node_texel",
+            "texel_node",
+            "weight_geo",
+            "weight_r",
+            "weight_g",
+            "weight_b",
         ],
     ),
 ];
 
 /// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 23] = [
+const BUFFER_NAMES: [&str; 24] = [
     "x",
     "f",
     "r",
@@ -333,6 +378,7 @@ const BUFFER_NAMES: [&str; 23] = [
     "kdir",
     "values16",
     "x_history",
+    "texel_node",
 ];
 
 /// The per-node RGB vectors, `VectorStorage`'s stride each (`VECTOR_STRIDE` in `common.glsl`).
@@ -376,7 +422,8 @@ fn too_big(what: &str) -> Error {
 
 impl GpuMultigrid {
     /// Uploads `hierarchy` (built with `params`); `q` and `phi` are the finest level's q image
-    /// (RGBA16F) and phi image (RGBA32F) laid out by `packing`.
+    /// (RGBA16F) and phi image (RGBA32F) laid out by `packing`, `graph` its graph textures (read
+    /// under [`FinestOperator::Graph`], bound either way).
     pub fn new(
         ctx: &Context,
         hierarchy: &Hierarchy,
@@ -384,6 +431,7 @@ impl GpuMultigrid {
         packing: &Packing,
         q: &Image,
         phi: &Image,
+        graph: &FinestGraph<'_>,
     ) -> Result<Self, Error> {
         let n_levels = hierarchy.levels.len();
         if n_levels == 0 || n_levels > MAX_LEVELS {
@@ -409,6 +457,7 @@ impl GpuMultigrid {
         if total >= u32::MAX as usize {
             return Err(too_big("the node count"));
         }
+        let graph_finest = params.finest_operator == FinestOperator::Graph;
         let ops = pack_operators(hierarchy, &offsets, params)?;
         let packed = params.link_storage == LinkStorage::Packed;
         if packed && total >= (NO_NODE >> 8) as usize {
@@ -526,19 +575,37 @@ impl GpuMultigrid {
                 }
             })
             .collect();
+        // The matrix-free finest level's map from its neighbours' texels back to nodes.
+        let texel_node = if graph_finest {
+            packing.texel_nodes()
+        } else {
+            Vec::new()
+        };
         let partials = (n_top as u32).div_ceil(GROUP);
         // Every per-node RGB vector takes `stride` floats (`RGB` in `common.glsl`).
         let stride = params.vector_storage.floats();
         let zeros = vec![0.0f32; stride * total];
         // The conjugate gradients' vectors (finest level only; none without `krylov`).
         let krylov_zeros = vec![0.0f32; if params.krylov { stride * n_top } else { 0 }];
+        // d and z_old: fp16 RGB in two u32 per node, or as the other vectors.
+        let half_updates = params.update_storage == UpdateStorage::F16;
+        let update_floats = if half_updates { 2 } else { stride };
+        let d_zeros = vec![0.0f32; update_floats * total];
+        let z_old_zeros = vec![
+            0.0f32;
+            if params.krylov {
+                update_floats * n_top
+            } else {
+                0
+            }
+        ];
         // The warm start's earlier finest solutions (`WarmStart::history` vectors).
         let history_zeros = vec![0.0f32; stride * params.warm_start.history() as usize * n_top];
-        let contents: [Vec<u8>; 23] = [
+        let contents: [Vec<u8>; 24] = [
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&zeros).to_vec(),
-            bytemuck::cast_slice(&zeros).to_vec(),
+            bytemuck::cast_slice(&d_zeros).to_vec(),
             bytemuck::cast_slice(&ops.row_start).to_vec(),
             bytemuck::cast_slice(&ops.cols).to_vec(),
             bytemuck::cast_slice(&ops.values).to_vec(),
@@ -555,10 +622,11 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&vec![[0.0f32; 4]; CG_SUMS * partials as usize]).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
-            bytemuck::cast_slice(&krylov_zeros).to_vec(),
+            bytemuck::cast_slice(&z_old_zeros).to_vec(),
             bytemuck::cast_slice(&krylov_zeros).to_vec(),
             bytemuck::cast_slice(&ops.values16).to_vec(),
             bytemuck::cast_slice(&history_zeros).to_vec(),
+            bytemuck::cast_slice(&texel_node).to_vec(),
         ];
         let mut buffers = Vec::with_capacity(BUFFER_NAMES.len());
         let mut bytes = 0u64;
@@ -622,6 +690,23 @@ impl GpuMultigrid {
                     value: stride as u32,
                 });
             }
+            if bindings.contains(&"d") || bindings.contains(&"z_old") {
+                constants.push(SpecConstant::bool(8, half_updates));
+            }
+            if bindings.contains(&"connectivity") {
+                // graph_operator.glsl: graph_weights.glsl's three at 3, 4, 5, then the switch
+                // and the finest level's offset.
+                constants.extend([
+                    SpecConstant::bool(3, graph.homogeneous),
+                    SpecConstant::bool(4, graph.derived),
+                    SpecConstant::bool(5, graph.paper),
+                    SpecConstant::bool(6, graph_finest),
+                    SpecConstant {
+                        id: 7,
+                        value: offsets[top] as u32,
+                    },
+                ]);
+            }
             let pipeline = ComputePipeline::new_specialized(
                 ctx,
                 &ComputePipelineDesc {
@@ -637,6 +722,13 @@ impl GpuMultigrid {
                 .map(|&b| match b {
                     "q" => DescriptorWrite::storage_image("q", q),
                     "phi" => DescriptorWrite::storage_image("phi", phi),
+                    "connectivity" => {
+                        DescriptorWrite::storage_image("connectivity", graph.connectivity)
+                    }
+                    "weight_geo" => DescriptorWrite::storage_image("weight_geo", graph.weights[0]),
+                    "weight_r" => DescriptorWrite::storage_image("weight_r", graph.weights[1]),
+                    "weight_g" => DescriptorWrite::storage_image("weight_g", graph.weights[2]),
+                    "weight_b" => DescriptorWrite::storage_image("weight_b", graph.weights[3]),
                     "control" => DescriptorWrite::StorageBuffer {
                         name: "control",
                         buffer: &control,
@@ -659,6 +751,9 @@ impl GpuMultigrid {
             levels,
             coarse_steps,
             width: packing.width,
+            surface_rows: packing.surface_rows,
+            kappa: graph.kappa,
+            mu_gain: graph.mu_gain,
             partials,
             buffers,
             control,
@@ -799,6 +894,10 @@ impl GpuMultigrid {
             width: self.width,
             tolerance,
             max_log,
+            sums: self.partials,
+            surface_rows: self.surface_rows,
+            kappa: self.kappa,
+            mu_gain: self.mu_gain,
             ..Default::default()
         };
         let rec = Recorder {

@@ -40,6 +40,23 @@ impl GpuDiffusion {
         Ok(Some(mg.report()?))
     }
 
+    /// Headless, between solves: the finest level's `f - K x` and `K x` as the multigrid's
+    /// kernels form them ([`multigrid::GpuMultigrid::apply_finest`]; `None` with the cascade).
+    /// The next solve starts cold.
+    pub fn multigrid_apply_finest(
+        &mut self,
+        ctx: &Context,
+        x: &[[f32; 3]],
+        f: &[[f32; 3]],
+    ) -> Result<Option<multigrid::FinestProducts>, Error> {
+        self.sync_host(ctx)?;
+        self.solved = false;
+        match &mut self.multigrid {
+            Some(mg) => Ok(Some(mg.apply_finest(ctx, x, f)?)),
+            None => Ok(None),
+        }
+    }
+
     /// Headless: Jacobi iterations run per level (the GPU's counter).
     pub fn iterations_run(&self, ctx: &Context) -> Result<Vec<u32>, Error> {
         Ok(self.control(ctx)?.iter().map(|c| c.iterations).collect())

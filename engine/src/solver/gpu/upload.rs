@@ -4,7 +4,9 @@
 //! runs: its state, residual, saved phi, links and (on coarse levels) graph are then 1x1
 //! placeholders ([`placeholder`]), bound in the descriptor sets but never dispatched over. What
 //! that schedule reads stays full size: q on every level (the gather writes it), and on the
-//! finest level phi (the multigrid's output) and the connectivity (the J+ pass).
+//! finest level phi (the multigrid's output) and the connectivity (the J+ pass); with the
+//! matrix-free finest operator (`FinestOperator::Graph`) also the finest level's geometric
+//! factors, which its `K x` reads (`multigrid/graph_operator.glsl`).
 
 use super::bytes::{image_bytes, texel_bytes};
 use super::*;
@@ -17,8 +19,10 @@ impl GpuDiffusion {
         t: LevelTexels,
         coarser: Option<&GpuLevel>,
         finest: bool,
-        multigrid: bool,
+        multigrid: Option<FinestOperator>,
     ) -> Result<GpuLevel, Error> {
+        let graph_finest = finest && multigrid == Some(FinestOperator::Graph);
+        let multigrid = multigrid.is_some();
         use vk::Format as F;
         let p = &t.packing;
         let one = placeholder();
@@ -69,7 +73,12 @@ impl GpuDiffusion {
             if finest { p } else { cascade },
             F::R32G32B32A32_UINT,
         )?;
-        let geo = image(ctx, "diffusion weight geo", cascade, F::R32G32B32A32_SFLOAT)?;
+        let geo = image(
+            ctx,
+            "diffusion weight geo",
+            if graph_finest { p } else { cascade },
+            F::R32G32B32A32_SFLOAT,
+        )?;
         // The coarsest level links to nothing (its init is zero, its warm start corrects nothing).
         let linked = if coarser.is_some() { cascade } else { &one };
         let links = [

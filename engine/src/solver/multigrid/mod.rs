@@ -68,8 +68,8 @@ mod smoothers;
 mod sparse;
 
 pub use options::{
-    quantized_links, CoarseOperator, Interpolation, LinkStorage, OperatorStorage, VectorStorage,
-    WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    quantized_links, CoarseOperator, FinestOperator, Interpolation, LinkStorage, OperatorStorage,
+    UpdateStorage, VectorStorage, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
 };
 pub use prolongation::{linear_links, mixed_links, Prolongation};
 use smoothers::*;
@@ -142,6 +142,10 @@ pub struct MultigridParams {
     pub link_storage: LinkStorage,
     /// How the GPU stores its per-node vectors (the CPU solve is f64 either way).
     pub vector_storage: VectorStorage,
+    /// Where the GPU's finest level reads its operator from (the CPU solve uses its rows).
+    pub finest_operator: FinestOperator,
+    /// How the GPU stores the smoother's update and the CG's last z (fp16 or as the vectors).
+    pub update_storage: UpdateStorage,
     /// Accelerate the V-cycles with (flexible) conjugate gradients: one V-cycle preconditions
     /// each CG iteration. Two dot products per cycle, one more vector (the search direction).
     pub krylov: bool,
@@ -187,6 +191,8 @@ impl Default for MultigridParams {
             coarse_storage: OperatorStorage::F32,
             link_storage: LinkStorage::F32,
             vector_storage: VectorStorage::Rgb,
+            finest_operator: FinestOperator::Csr,
+            update_storage: UpdateStorage::F32,
             krylov: true,
             tolerance: 1e-4,
             max_cycles: 100,
@@ -230,6 +236,13 @@ impl MultigridParams {
     /// slower on lavapipe. The links stay f32: packed 8-bit weights over the mixed interpolation's
     /// range [-1, 2] (steps of 1/85) cost the default scene a third CG iteration (39.8 -> 51.8
     /// work units) for 37 bytes per node ([`LinkStorage::Packed`], `--link-storage packed`).
+    ///
+    /// Wave 8 (benches/RESULTS.md, "Matrix-free finest level (wave 8)"): the finest level's
+    /// operator read from the cascade's graph textures ([`FinestOperator::Graph`]: 40 bytes per
+    /// node less on the default scene, K x equal to the rows' to 1e-7) and the smoother's update
+    /// and the CG's last z in fp16 ([`UpdateStorage::F16`]: 8.7 bytes less): the same cycles,
+    /// work units and residual to 5 digits on the default scene, spot, nefertiti, marble and the
+    /// 1e4 contrast; not measurably slower on lavapipe.
     pub fn gpu() -> Self {
         Self {
             smoother: Smoother::Chebyshev { lower: 0.11 },
@@ -241,6 +254,8 @@ impl MultigridParams {
             coarse_tolerance: 0.3,
             coarse_storage: OperatorStorage::F16,
             vector_storage: VectorStorage::Rgb,
+            finest_operator: FinestOperator::Graph,
+            update_storage: UpdateStorage::F16,
             ..Self::default()
         }
     }

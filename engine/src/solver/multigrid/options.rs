@@ -85,6 +85,60 @@ impl std::str::FromStr for LinkStorage {
     }
 }
 
+/// Where the GPU multigrid's finest level reads its operator `K = S A` from (the residual and the
+/// CG's `K z`; the coarse levels keep their compressed rows).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum FinestOperator {
+    /// Its own compressed rows (`row_start`, `cols`, `values`: ~62 bytes per finest node).
+    #[default]
+    Csr,
+    /// Matrix-free from the cascade's graph textures (connectivity and weights, which the
+    /// Jacobi sweeps read already) and the diagonal: `(K x)_i = K_ii (x_i - sum_k w_ik x_nbr)`
+    /// (`shaders-glsl/multigrid/graph_operator.glsl`); one u32 per texel maps the neighbours'
+    /// texels back to nodes.
+    Graph,
+}
+
+impl std::str::FromStr for FinestOperator {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "csr" => Ok(Self::Csr),
+            "graph" => Ok(Self::Graph),
+            _ => Err(SolverError::BadParameter {
+                name: "finest_operator",
+                problem: format!("'{s}' (expected csr or graph)"),
+            }),
+        }
+    }
+}
+
+/// How the GPU stores the per-node vectors that tolerate fp16: the smoother's update `d` (every
+/// level) and the CG's last preconditioned residual `z_old` (read only by the flexible CG's
+/// `R . z_old`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum UpdateStorage {
+    /// As the other vectors ([`VectorStorage`]).
+    #[default]
+    F32,
+    /// RGB fp16 in two u32 per node (8 bytes).
+    F16,
+}
+
+impl std::str::FromStr for UpdateStorage {
+    type Err = SolverError;
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        match s {
+            "f32" => Ok(Self::F32),
+            "f16" => Ok(Self::F16),
+            _ => Err(SolverError::BadParameter {
+                name: "update_storage",
+                problem: format!("'{s}' (expected f32 or f16)"),
+            }),
+        }
+    }
+}
+
 /// How the GPU stores its per-node RGB vectors (x, f, r, d, the CG's, `partner_value`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum VectorStorage {

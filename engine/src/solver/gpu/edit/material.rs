@@ -20,7 +20,7 @@ impl GpuDiffusion {
             if self.levels[h].frac.is_some() {
                 continue;
             }
-            let cascade = self.cascade_packing(h);
+            let cascade = self.graph_packing(h);
             let l = &mut self.levels[h];
             l.frac = Some(image(
                 ctx,
@@ -124,6 +124,21 @@ impl GpuDiffusion {
         self.ensure_variant(ctx, false)
     }
 
+    /// The packing of level `h`'s graph factors (geometry, fv fractions): the cascade's, and
+    /// full size on the finest level for the multigrid's matrix-free finest operator
+    /// (`FinestOperator::Graph`, which reads them).
+    pub(crate) fn graph_packing(&self, h: usize) -> crate::quadgraph::graph::Packing {
+        let graph =
+            self.params.multigrid.as_ref().is_some_and(|m| {
+                m.finest_operator == crate::solver::multigrid::FinestOperator::Graph
+            });
+        if graph && h + 1 == self.levels.len() {
+            self.levels[h].packing.clone()
+        } else {
+            self.cascade_packing(h)
+        }
+    }
+
     /// The packing of level `h`'s cascade-only textures: a 1x1 placeholder under the multigrid
     /// schedule (`upload.rs`).
     pub(crate) fn cascade_packing(&self, h: usize) -> crate::quadgraph::graph::Packing {
@@ -214,6 +229,20 @@ impl GpuDiffusion {
             &mg,
         )?;
         let finest = self.levels.last().ok_or(SolverError::EmptyGraph)?;
+        // The cascade's graph of the finest level (the matrix-free finest operator,
+        // `FinestOperator::Graph`): a heterogeneous material's weights derived in the kernel
+        // from the fv fractions, kappa and mu (the multigrid derives no weight textures).
+        let derived = !self.homogeneous;
+        let [r, g, b] = finest.weight_images(&self.poison, self.homogeneous, derived)?;
+        let graph = crate::solver::gpu::multigrid::FinestGraph {
+            connectivity: &finest.connectivity,
+            weights: [&finest.geo, r, g, b],
+            homogeneous: self.homogeneous,
+            derived,
+            paper: self.params.scheme == crate::solver::operator::Scheme::Paper,
+            kappa: self.kappa,
+            mu_gain: self.mu_gain,
+        };
         self.multigrid = Some(crate::solver::gpu::multigrid::GpuMultigrid::new(
             ctx,
             &hierarchy,
@@ -221,6 +250,7 @@ impl GpuDiffusion {
             &finest.packing,
             &finest.q,
             finest.result(),
+            &graph,
         )?);
         self.solved = false;
         Ok(())

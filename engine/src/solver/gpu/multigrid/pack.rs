@@ -57,32 +57,38 @@ pub(super) fn pack_operators(
         partner: Vec::with_capacity(total),
         partner_value: Vec::with_capacity(stride * total),
     };
+    // The matrix-free finest level (`FinestOperator::Graph`) keeps its diagonal and partners, not
+    // its rows: `row_start` then ends with the coarse levels' rows.
+    let graph_finest = params.finest_operator == FinestOperator::Graph;
     for (l, level) in hierarchy.levels.iter().enumerate() {
         let k = &level.operator;
+        let rows = !(graph_finest && l == top);
         let half = storage == OperatorStorage::F16 && l < top;
         let base = out.cols.len();
         let off = offsets[l] as u32;
         for i in 0..k.node_count() {
-            let start = base + k.row_start[i];
-            out.row_start
-                .push(u32::try_from(start).map_err(|_| too_big("the operator"))?);
-            let row = k.row_start[i]..k.row_start[i + 1];
             let mut d = rgb(k.diag[i]);
-            if half {
-                let scale = f64::from(d[0].max(d[1]).max(d[2]));
-                let mut diag = k.diag[i];
-                for e in row {
-                    let (bits, effective) = half_entry(k.values[e], scale);
-                    out.values16.push(bits);
-                    for c in 0..3 {
-                        diag[c] += k.values[e][c] - effective[c];
+            if rows {
+                let start = base + k.row_start[i];
+                out.row_start
+                    .push(u32::try_from(start).map_err(|_| too_big("the operator"))?);
+                let row = k.row_start[i]..k.row_start[i + 1];
+                if half {
+                    let scale = f64::from(d[0].max(d[1]).max(d[2]));
+                    let mut diag = k.diag[i];
+                    for e in row {
+                        let (bits, effective) = half_entry(k.values[e], scale);
+                        out.values16.push(bits);
+                        for c in 0..3 {
+                            diag[c] += k.values[e][c] - effective[c];
+                        }
                     }
+                    d = rgb(diag);
+                    d[3] = scale as f32;
+                } else {
+                    out.values
+                        .extend(row.flat_map(|e| k.values[e].map(|v| v as f32)));
                 }
-                d = rgb(diag);
-                d[3] = scale as f32;
-            } else {
-                out.values
-                    .extend(row.flat_map(|e| k.values[e].map(|v| v as f32)));
             }
             out.diag.push(d);
             let p = k.partner.get(i).copied().unwrap_or(NO_NODE);
@@ -91,7 +97,9 @@ pub(super) fn pack_operators(
             let pv = k.partner_value.get(i).copied().map_or([0.0; 4], rgb);
             out.partner_value.extend_from_slice(&pv[..stride]);
         }
-        out.cols.extend(k.cols.iter().map(|&c| c + off));
+        if rows {
+            out.cols.extend(k.cols.iter().map(|&c| c + off));
+        }
         if half {
             out.half_entries =
                 u32::try_from(out.cols.len()).map_err(|_| too_big("the operator"))?;

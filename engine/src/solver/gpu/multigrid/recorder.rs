@@ -13,7 +13,6 @@ pub(super) struct Recorder<'a> {
 impl Recorder<'_> {
     pub(super) fn push(
         &self,
-        kernel: usize,
         level: usize,
         mode: u32,
         alpha: [f64; 3],
@@ -27,12 +26,6 @@ impl Recorder<'_> {
             mode,
             alpha: f(alpha),
             beta: f(beta),
-            // The krylov kernel's second partial sums start after the first.
-            width: if kernel == KRYLOV {
-                self.mg.partials
-            } else {
-                self.base.width
-            },
             ..self.base
         }
     }
@@ -57,7 +50,7 @@ impl Recorder<'_> {
         invocations: u32,
     ) {
         let (pipeline, set) = &self.mg.pipelines[kernel];
-        let push = self.push(kernel, level, mode, alpha, [0.0; 3]);
+        let push = self.push(level, mode, alpha, [0.0; 3]);
         // SAFETY: the caller's contract.
         unsafe {
             // why: every kernel reads what the one before wrote (RAW) and overwrites what
@@ -86,7 +79,7 @@ impl Recorder<'_> {
         beta: [f64; 3],
     ) {
         let (pipeline, set) = &self.mg.pipelines[kernel];
-        let push = self.push(kernel, level, mode, alpha, beta);
+        let push = self.push(level, mode, alpha, beta);
         let offset = (level * std::mem::size_of::<[u32; 4]>()) as u64;
         // SAFETY: the caller's contract.
         unsafe {
