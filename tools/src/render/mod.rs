@@ -211,8 +211,8 @@ pub struct RenderArgs {
     /// benches/RESULTS.md, "Multigrid storage (wave 7)".
     #[arg(long, value_name = "rgb|rgba", value_parser = ["rgb", "rgba"])]
     pub vector_storage: Option<String>,
-    /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
-    /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
+    /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped so
+    /// every row sums as before (`MultigridParams::sparsify`, `--multigrid-cycle drop=`); 0 drops none.
     #[arg(long, value_name = "THETA")]
     pub coarse_drop: Option<f64>,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
@@ -903,7 +903,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             "coarse_storage": multigrid.then(|| format!("{:?}", coarse_gpu.coarse_storage).to_lowercase()),
             "link_storage": multigrid.then(|| format!("{:?}", coarse_gpu.link_storage).to_lowercase()),
             "vector_storage": multigrid.then(|| format!("{:?}", coarse_gpu.vector_storage).to_lowercase()),
-            "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
+            "coarse_drop": if multigrid { coarse_gpu.with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             // `--diffusion-coefficient`: which D the solve used.
             "diffusion_coefficient": field.diffusion().name(),
