@@ -26,11 +26,14 @@ const SYMMETRY_KEPT: f64 = 1e-12;
 /// the margin is f64 rounding.
 const ENERGY_MARGIN: f64 = 1e-9;
 /// Off-diagonal entries per row of each sparsified coarse level at most this share of the
-/// Galerkin level's (measured at theta 0.05 on this graph: see `SPARSE_ROW_SHARE_MEASURED`).
+/// Galerkin level's (measured at theta 0.05 on this graph: 36.1 of 90.1 on level 0, 22.8 of
+/// 59.5 on level 1, 0.40 and 0.38; nothing dropped gives 1).
 const MAX_ROW_SHARE: f64 = 0.5;
-/// Mean factor per cycle on the 1e4 contrast with the sparsified coarse levels (plain
-/// V-cycles and with CG).
-const MAX_FACTOR_CONTRAST: [f64; 2] = [0.75, 0.45];
+/// Mean factor per cycle on the 1e4 contrast with the sparsified coarse levels (theta 0.05, the
+/// default path weight 1), plain V-cycles and with CG: measured 0.415 and 0.215 (the exact
+/// Galerkin levels: 0.235 and 0.167; path weight 2: 0.620 and 0.319); a coarse operator that
+/// lost the contrast diverges (the re-discretized one) or stalls near 1.
+const MAX_FACTOR_CONTRAST: [f64; 2] = [0.55, 0.32];
 /// Relative residual the convergence tests solve to.
 const TOLERANCE: f64 = 1e-6;
 
@@ -190,6 +193,23 @@ fn contrast_1e4_converges_with_sparsified_coarse_operators() {
         );
         assert!(mean < max_factor, "mean factor {mean:.3} >= {max_factor}");
     }
+}
+
+#[test]
+fn path_weights_below_one_and_unknown_lumpings_are_typed_errors() {
+    let gpu = MultigridParams::gpu();
+    // Below 1 a dropped edge lowers its ends' diagonals: measured to reach 0 on the contrast.
+    assert!(gpu.with_cycle_spec("drop=0.02,pathw=0.5").is_err());
+    assert!(gpu.with_cycle_spec("drop=0.02,lump=nearest").is_err());
+    assert!(gpu.with_cycle_spec("drop=1.5").is_err());
+    let p = gpu
+        .with_cycle_spec("drop=0.02,lump=diagonal,dropfrom=full")
+        .unwrap();
+    assert_eq!(
+        (p.sparsify, p.lumping, p.sparsify_from_full),
+        (Some(0.02), Lumping::Diagonal, true)
+    );
+    assert_eq!(gpu.with_cycle_spec("drop=0").unwrap().sparsify, None);
 }
 
 /// Measurement, not a check: cycles, work units, matvec units and entries per coarse row over

@@ -141,8 +141,9 @@ pub struct MultigridParams {
     pub sparsify: Option<f64>,
     /// Where [`Self::sparsify`] moves a dropped entry (module `sparsify`).
     pub lumping: Lumping,
-    /// [`Lumping::Paths`]: each path edge's multiple of its share of the dropped weight
-    /// ([`PATH_WEIGHT`] = 2 keeps the energy at least the Galerkin one's).
+    /// [`Lumping::Paths`]: each path edge's multiple of its share of the dropped weight, 1 to 8
+    /// ([`PATH_WEIGHT`] = 2 keeps the energy at least the Galerkin one's; from 1 on no diagonal
+    /// decreases).
     pub path_weight: f64,
     /// The next coarser Galerkin product made from the exact (unsparsified) operator, each
     /// level sparsified on its own; `false`: from the sparsified one (fewer entries to multiply).
@@ -197,7 +198,10 @@ impl Default for MultigridParams {
             pattern_smoothing: None,
             sparsify: None,
             lumping: Lumping::Paths,
-            path_weight: PATH_WEIGHT,
+            // why 1, not the bounding 2: measured on the GPU at theta 0.02 (benches/RESULTS.md,
+            // "Sparsified coarse operators (wave 8)"), a cycle fewer on the default scene and
+            // the 1e4 contrast, the same on the agate.
+            path_weight: 1.0,
             sparsify_from_full: false,
             coarse_storage: OperatorStorage::F32,
             link_storage: LinkStorage::F32,
@@ -341,10 +345,12 @@ impl MultigridParams {
                 return bad("sparsify", format!("{theta} must lie in [0, 1)"));
             }
         }
-        if !(self.path_weight >= 0.0 && self.path_weight <= 8.0) {
+        // why at least 1: each dropped edge changes its ends' diagonals by (path_weight - 1) w,
+        // and below 1 a coarse diagonal can reach 0 (measured: the 1e4 contrast at 0.5).
+        if !(1.0..=8.0).contains(&self.path_weight) {
             return bad(
                 "path_weight",
-                format!("{} must lie in [0, 8]", self.path_weight),
+                format!("{} must lie in [1, 8]", self.path_weight),
             );
         }
         if !(1..=8).contains(&self.fmg_cycles) {
