@@ -8,6 +8,7 @@
 //!
 //! ```text
 //! cargo run --release -p translucent-benches --bin coarse_operator -- [SCENE...]
+//! COARSE_VARIANTS='drop=0;drop=0.05' cargo run --release -p translucent-benches --bin coarse_operator -- contrast
 //! ```
 //! SCENE: `default` (torus 50 mm, skim milk), `spot` (50 mm, marble), `agate` (torus, the
 //! procedural agate of `--material agate`), `contrast` (torus, sigma_s' 0.1 / 1000 across a plane,
@@ -22,7 +23,7 @@ use translucent::mesh::{MeshSolid, TriMesh, ValidateOptions};
 use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
-use translucent::solver::multigrid::{CoarseOperator, MultigridParams, OperatorStorage};
+use translucent::solver::multigrid::{CoarseOperator, Lumping, MultigridParams, OperatorStorage};
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::{Context, ContextDesc};
 use translucent::QuadGraph;
@@ -110,37 +111,38 @@ fn scene() -> Scene {
     }
 }
 
-fn variants() -> Vec<(&'static str, MultigridParams)> {
+fn variants() -> Result<Vec<(String, MultigridParams)>> {
     let f16 = MultigridParams::gpu();
+    // `COARSE_VARIANTS`: `;`-separated `--multigrid-cycle` specs over the GPU defaults (wave 8:
+    // `drop=0.05,lump=paths`); unset: the wave-6 list.
+    if let Ok(specs) = std::env::var("COARSE_VARIANTS") {
+        return specs
+            .split(';')
+            .map(|spec| Ok((spec.to_string(), f16.with_cycle_spec(spec)?)))
+            .collect();
+    }
     let f32 = MultigridParams {
         coarse_storage: OperatorStorage::F32,
         ..f16.clone()
     };
-    vec![
-        ("galerkin f32 (wave 5)", f32.clone()),
-        ("galerkin f16 (default)", f16.clone()),
+    let diagonal = |params: &MultigridParams| MultigridParams {
+        sparsify: Some(0.02),
+        lumping: Lumping::Diagonal,
+        ..params.clone()
+    };
+    Ok(vec![
+        ("galerkin f32 (wave 5)".into(), f32.clone()),
+        ("galerkin f16 (default)".into(), f16.clone()),
+        ("galerkin drop 0.02".into(), diagonal(&f32)),
+        ("galerkin drop 0.02 + f16".into(), diagonal(&f16)),
         (
-            "galerkin drop 0.02",
-            MultigridParams {
-                sparsify: Some(0.02),
-                ..f32.clone()
-            },
-        ),
-        (
-            "galerkin drop 0.02 + f16",
-            MultigridParams {
-                sparsify: Some(0.02),
-                ..f16
-            },
-        ),
-        (
-            "rediscretized",
+            "rediscretized".into(),
             MultigridParams {
                 coarse: CoarseOperator::Rediscretized,
                 ..f32
             },
         ),
-    ]
+    ])
 }
 
 fn main() -> Result<()> {
@@ -164,7 +166,7 @@ fn main() -> Result<()> {
         let q: Vec<[f32; 3]> = q64.iter().map(|v| v.map(|x| x as f32)).collect();
         let exact = solver::solve(&graph, &field, &sc, None, &CpuSolveParams::default())?;
         let finest = graph.finest().node_count();
-        for (what, mg) in variants() {
+        for (what, mg) in variants()? {
             let params = GpuSolveParams {
                 tolerance: TOLERANCE as f32,
                 multigrid: Some(MultigridParams {

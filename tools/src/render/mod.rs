@@ -222,8 +222,8 @@ pub struct RenderArgs {
     /// The GPU multigrid's smoother update d and CG's last z: `f16` (default, 8 bytes) or `f32`.
     #[arg(long, value_name = "f32|f16", value_parser = ["f32", "f16"])]
     pub update_storage: Option<String>,
-    /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped onto
-    /// the diagonal so every row sums as before (`MultigridParams::sparsify`); 0 drops none.
+    /// Drop the Galerkin coarse levels' weak entries (|k_ij| < THETA sqrt(k_ii k_jj)), lumped so
+    /// every row sums as before (`MultigridParams::sparsify`, `--multigrid-cycle drop=`); 0 drops none.
     #[arg(long, value_name = "THETA")]
     pub coarse_drop: Option<f64>,
     /// Single scattering of DESIGN 2.8 as the shared frame-graph pass `single_scattering` (GPU,
@@ -931,7 +931,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 "operator": format!("{:?}", coarse_gpu.finest_operator).to_lowercase(),
                 "updates": format!("{:?}", coarse_gpu.update_storage).to_lowercase(),
             })),
-            "coarse_drop": if multigrid { coarse_gpu.sparsify } else { None },
+            "coarse_drop": if multigrid { coarse_gpu.with_cycle_spec(args.multigrid_cycle.as_deref().unwrap_or(""))?.sparsify } else { None },
             // Where the lights' transmitted light enters (`--source`, resolved).
             // `--diffusion-coefficient`: which D the solve used.
             "diffusion_coefficient": field.diffusion().name(),

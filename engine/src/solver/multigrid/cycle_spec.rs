@@ -15,6 +15,10 @@
 //! | `psmooth` | `pattern_smoothing` (`S/STEPS`: `S / lambda_max` per Jacobi step on P's links) | `psmooth=0.67/2` |
 //! | `interp` | `interpolation` (`shepard`, `linear`, `mixed`) | `interp=linear` |
 //! | `warm` | `warm_start` (last, linear, quadratic) | `warm=last` |
+//! | `drop` | `sparsify` (the coarse operators' drop threshold theta; 0: exact Galerkin) | `drop=0.05` |
+//! | `lump` | `lumping` (`paths`, `diagonal`) | `lump=paths` |
+//! | `pathw` | `path_weight` (each path edge's multiple of the dropped weight) | `pathw=2` |
+//! | `dropfrom` | `sparsify_from_full` (`full`: each product from the exact operator; `sparse`) | `dropfrom=sparse` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
@@ -99,6 +103,23 @@ impl MultigridParams {
                         }
                     }
                 }
+                "drop" => {
+                    let theta = number(value)?;
+                    p.sparsify = (theta != 0.0).then_some(theta);
+                }
+                "lump" => {
+                    p.lumping = value.parse().map_err(|_| {
+                        bad(format!("lump: `{value}` is not paths or diagonal"))
+                    })?
+                }
+                "pathw" => p.path_weight = number(value)?,
+                "dropfrom" => {
+                    p.sparsify_from_full = match value {
+                        "full" => true,
+                        "sparse" => false,
+                        v => return Err(bad(format!("dropfrom: `{v}` is not full or sparse"))),
+                    }
+                }
                 "warm" => {
                     p.warm_start = value.parse().map_err(|_| {
                         bad(format!("warm: `{value}` is not last, linear or quadratic"))
@@ -106,7 +127,7 @@ impl MultigridParams {
                 }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom)"
                     )))
                 }
             }

@@ -66,6 +66,7 @@ mod options;
 mod prolongation;
 mod smoothers;
 mod sparse;
+mod sparsify;
 
 pub use options::{
     quantized_links, CoarseOperator, FinestOperator, Interpolation, LinkStorage, OperatorStorage,
@@ -76,6 +77,7 @@ use smoothers::*;
 pub use smoothers::{chebyshev_coefficients, eigenvalue_bounds, largest_eigenvalue, norm2};
 pub use sparse::SparseOperator;
 use sparse::*;
+pub use sparsify::{Lumping, PATH_WEIGHT};
 
 type Field = Vec<[f64; 3]>;
 /// One row's off-diagonal entries: (column, value per channel).
@@ -131,10 +133,21 @@ pub struct MultigridParams {
     /// as `(s, steps)`; the links, and so every buffer's size, unchanged. `None`: the weights of
     /// [`Self::interpolation`].
     pub pattern_smoothing: Option<(f64, u32)>,
-    /// Galerkin coarse operators with their weak entries lumped into the diagonal
-    /// ([`SparseOperator::sparsified`] with this threshold): fewer entries per coarse row, a
-    /// slightly weaker coarse correction. `None`: the exact Galerkin product.
+    /// Galerkin coarse operators with their weak entries (`|K_ij| < theta sqrt(K_ii K_jj)`)
+    /// dropped and lumped as [`Self::lumping`] says ([`SparseOperator::sparsified_with`] with
+    /// this `theta`), level by level: the next coarser product is made from the sparsified one.
+    /// Fewer entries per coarse row; row sums and symmetry kept. `None`: the exact Galerkin
+    /// product.
     pub sparsify: Option<f64>,
+    /// Where [`Self::sparsify`] moves a dropped entry (module `sparsify`).
+    pub lumping: Lumping,
+    /// [`Lumping::Paths`]: each path edge's multiple of its share of the dropped weight, 1 to 8
+    /// ([`PATH_WEIGHT`] = 2 keeps the energy at least the Galerkin one's; from 1 on no diagonal
+    /// decreases).
+    pub path_weight: f64,
+    /// The next coarser Galerkin product made from the exact (unsparsified) operator, each
+    /// level sparsified on its own; `false`: from the sparsified one (fewer entries to multiply).
+    pub sparsify_from_full: bool,
     /// How the GPU stores the coarse levels' off-diagonal entries (the CPU solve is f64 either way).
     pub coarse_storage: OperatorStorage,
     /// How the GPU stores the prolongation's links; [`LinkStorage::Packed`] also quantizes the
@@ -188,6 +201,12 @@ impl Default for MultigridParams {
             smoothed_prolongation: None,
             pattern_smoothing: None,
             sparsify: None,
+            lumping: Lumping::Paths,
+            // why 1, not the bounding 2: measured on the GPU at theta 0.02 (benches/RESULTS.md,
+            // "Sparsified coarse operators (wave 8)"), a cycle fewer on the default scene and
+            // the 1e4 contrast, the same on the agate.
+            path_weight: 1.0,
+            sparsify_from_full: false,
             coarse_storage: OperatorStorage::F32,
             link_storage: LinkStorage::F32,
             vector_storage: VectorStorage::Rgb,
@@ -340,6 +359,14 @@ impl MultigridParams {
             if !(0.0..1.0).contains(&theta) {
                 return bad("sparsify", format!("{theta} must lie in [0, 1)"));
             }
+        }
+        // why at least 1: each dropped edge changes its ends' diagonals by (path_weight - 1) w,
+        // and below 1 a coarse diagonal can reach 0 (measured: the 1e4 contrast at 0.5).
+        if !(1.0..=8.0).contains(&self.path_weight) {
+            return bad(
+                "path_weight",
+                format!("{} must lie in [1, 8]", self.path_weight),
+            );
         }
         if !(1..=8).contains(&self.fmg_cycles) {
             return bad("fmg_cycles", format!("{} must be 1 to 8", self.fmg_cycles));
@@ -502,18 +529,32 @@ impl Hierarchy {
             CoarseOperator::Galerkin => {
                 let mut k = SparseOperator::from_level(&finest);
                 let mut down = Vec::with_capacity(graph.levels.len());
+                let mut level_own: Option<SparseOperator> = None;
                 for p in prolongations.iter_mut().skip(1).rev().flatten() {
                     if let Some((s, steps)) = params.pattern_smoothing {
                         let lambda = largest_eigenvalue(&k, params.power_iterations);
                         *p = p.pattern_smoothed(&k, lambda.map(|l| s / l), steps)?;
                     }
-                    let coarse = match params.sparsify {
-                        Some(theta) => p.galerkin(&k).sparsified(theta),
-                        None => p.galerkin(&k),
+                    // why two operators: with `sparsify_from_full` the next product is made
+                    // from `k`, the exact one, while the level keeps its sparsified `own`.
+                    let full = p.galerkin(&k);
+                    let (next, own) = match params.sparsify {
+                        Some(theta) => {
+                            let sparse =
+                                full.sparsified_with(theta, params.lumping, params.path_weight);
+                            if params.sparsify_from_full {
+                                (full, Some(sparse))
+                            } else {
+                                (sparse, None)
+                            }
+                        }
+                        None => (full, None),
                     };
-                    down.push(std::mem::replace(&mut k, coarse));
+                    let fine = std::mem::replace(&mut k, next);
+                    down.push(level_own.take().unwrap_or(fine));
+                    level_own = own;
                 }
-                down.push(k);
+                down.push(level_own.unwrap_or(k));
                 down.reverse();
                 operators = down;
             }
