@@ -15,6 +15,7 @@
 //! | `psmooth` | `pattern_smoothing` (`S/STEPS`: `S / lambda_max` per Jacobi step on P's links) | `psmooth=0.67/2` |
 //! | `interp` | `interpolation` (`shepard`, `linear`, `mixed`) | `interp=linear` |
 //! | `warm` | `warm_start` (last, linear, quadratic) | `warm=last` |
+//! | `local` | `local_relaxation` (`RINGSxSWEEPS` or `off`) | `local=4x16` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
@@ -104,9 +105,17 @@ impl MultigridParams {
                         bad(format!("warm: `{value}` is not last, linear or quadratic"))
                     })?
                 }
+                "local" => {
+                    p.local_relaxation = match value {
+                        "off" => None,
+                        v => Some(v.parse().map_err(|_| {
+                            bad(format!("local: `{v}` is not off or RINGSxSWEEPS (e.g. 4x16)"))
+                        })?),
+                    }
+                }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm, local)"
                     )))
                 }
             }

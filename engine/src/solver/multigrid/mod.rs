@@ -68,8 +68,8 @@ mod smoothers;
 mod sparse;
 
 pub use options::{
-    quantized_links, CoarseOperator, Interpolation, LinkStorage, OperatorStorage, VectorStorage,
-    WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    quantized_links, CoarseOperator, Interpolation, LinkStorage, LocalRelaxation, OperatorStorage,
+    VectorStorage, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
 };
 pub use prolongation::{linear_links, mixed_links, Prolongation};
 use smoothers::*;
@@ -165,6 +165,9 @@ pub struct MultigridParams {
     pub power_iterations: u32,
     /// Where the GPU's warm start starts (the CPU solve takes its start from the caller).
     pub warm_start: WarmStart,
+    /// The GPU's warm start relaxed locally where its residual exceeds the tolerance before the
+    /// cycles (`None`: not; the CPU solve ignores it).
+    pub local_relaxation: Option<LocalRelaxation>,
 }
 
 impl Default for MultigridParams {
@@ -195,6 +198,7 @@ impl Default for MultigridParams {
             fmg_sweeps: None,
             power_iterations: 20,
             warm_start: WarmStart::Last,
+            local_relaxation: None,
         }
     }
 }
