@@ -30,10 +30,11 @@ const RELAXATION: LocalRelaxation = LocalRelaxation {
     rings: 4,
     sweeps: 16,
 };
-/// Work units of the measured warm frame with the local relaxation at most: measured 27.7 here
-/// (the marking pass, ~1 unit of local sweeps, two CG iterations and the start's passes); a third
-/// CG iteration (~12 units) or a local pass over the whole level fails it.
-const MAX_LOCAL_WORK_UNITS: f64 = 30.0;
+/// Work units of the measured warm frame with the local relaxation at most: measured 31.5 here
+/// (the start's passes, the marking pass, 16 sweeps over 3611 listed nodes: 4.2 units, and two CG
+/// iterations; without the relaxation 39.5, three iterations): a third CG iteration (~12 units)
+/// or sweeps over the whole level fail it.
+const MAX_LOCAL_WORK_UNITS: f64 = 33.0;
 /// The list holds a few rings around the nodes a shadow edge crossed, far from the whole level:
 /// listing more than this fraction of the finest nodes means the marking caught the smooth part.
 const MAX_LISTED_FRACTION: f64 = 0.25;
@@ -178,6 +179,12 @@ fn local_relaxation_lists_the_shadow_edge_and_converges_within_budget() {
         local.work_units <= MAX_LOCAL_WORK_UNITS,
         "the warm frame with local relaxation took {:.1} work units (at most {MAX_LOCAL_WORK_UNITS})",
         local.work_units
+    );
+    assert!(
+        local.work_units < plain.work_units,
+        "local relaxation {:.1} work units, without {:.1}",
+        local.work_units,
+        plain.work_units
     );
     let plain64: Vec<[f64; 3]> = j_plain.iter().map(|v| v.map(f64::from)).collect();
     let diff = rel_rms(&j_local, &plain64);

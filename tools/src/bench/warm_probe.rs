@@ -8,7 +8,11 @@
 //! - how concentrated it is: the share of `||r||^2` on the top 10, 100, 1000 nodes and the node
 //!   counts holding half and 90% of it; the share on the nodes where q jumps (the extrapolated q
 //!   misses the frame's by more than a tenth of its own value: shadow edges) and their rings;
-//! - what the f64 CPU cycle then needs (work units as the GPU counts them).
+//! - the GPU's local relaxation (`--multigrid-cycle local=RINGSxSWEEPS`) mirrored in f64 at a
+//!   few sizes: nodes listed, the residual it leaves, the CG cycle's work units after it;
+//! - the best any local fix could do: the residual on the jump nodes solved exactly, per
+//!   extrapolation order (0, 1, 2), then the cycle's work units;
+//! - what the f64 CPU cycle needs cold and warm (work units as the GPU counts them).
 //!
 //! ```text
 //! translucent bench --shape torus --size-mm 50 --material skimmilk --width 256 --height 256 \
@@ -17,7 +21,9 @@
 //! ```
 
 use translucent::material::MaterialField;
-use translucent::solver::multigrid::{Hierarchy, MultigridParams, Start, WarmStart};
+use translucent::solver::multigrid::{
+    Hierarchy, MultigridParams, SparseOperator, Start, WarmStart,
+};
 use translucent::solver::Scheme;
 use translucent::QuadGraph;
 
@@ -63,6 +69,59 @@ fn extrapolate(solutions: &[Vec<Rgb>], order: u32) -> Vec<Rgb> {
             })
         })
         .collect()
+}
+
+/// The GPU's local relaxation in f64 (`multigrid/local.comp`): the nodes whose residual exceeds
+/// `tolerance ||f||` in a channel, `rings` of neighbours, `sweeps` damped block-Jacobi sweeps on
+/// them; the relaxed x and the listed count.
+fn local_relaxation(
+    op: &SparseOperator,
+    f: &[Rgb],
+    x0: &[Rgb],
+    tolerance: f64,
+    rings: u32,
+    sweeps: u32,
+) -> (Vec<Rgb>, usize) {
+    /// `LOCAL_OMEGA` of the GPU's.
+    const OMEGA: f64 = 0.8;
+    let n = f.len();
+    let fnorm: [f64; 3] =
+        std::array::from_fn(|c| f.iter().map(|v| v[c] * v[c]).sum::<f64>().sqrt());
+    let mut r = vec![[0.0; 3]; n];
+    op.residual(x0, f, &mut r);
+    let mut set: Vec<usize> = (0..n)
+        .filter(|&i| (0..3).any(|c| r[i][c].abs() > tolerance * fnorm[c]))
+        .collect();
+    let mut listed = vec![false; n];
+    for &i in &set {
+        listed[i] = true;
+    }
+    let mut begin = 0;
+    for _ in 0..rings {
+        let end = set.len();
+        for k in begin..end {
+            let i = set[k];
+            for e in op.row_start[i]..op.row_start[i + 1] {
+                let j = op.cols[e] as usize;
+                if !listed[j] {
+                    listed[j] = true;
+                    set.push(j);
+                }
+            }
+        }
+        begin = end;
+    }
+    let mut x = x0.to_vec();
+    for _ in 0..sweeps {
+        op.residual(&x, f, &mut r);
+        let steps: Vec<Rgb> = set.iter().map(|&i| op.block_solve(i, &r)).collect();
+        for (&i, d) in set.iter().zip(steps) {
+            for c in 0..3 {
+                x[i][c] += OMEGA * d[c];
+            }
+        }
+    }
+    (x, set.len())
 }
 
 /// Prints the probe of one warm configuration: `qs` the gathered q of every frame, oldest
@@ -166,78 +225,32 @@ pub(super) fn probe(
             .collect::<Vec<_>>()
             .join(" ")
     };
-    let fnorm = energy(f).iter().sum::<f64>().sqrt();
-    for c in [1.0, 0.3, 0.1] {
-        let count = e
-            .iter()
-            .filter(|&&v| v.sqrt() > c * tolerance * fnorm)
-            .count();
-        println!("  nodes with |r_i| > {c} tol ||f||: {count}");
+    // The GPU's local relaxation (`local.comp`) in f64, at a few sizes.
+    let fnorm: [f64; 3] =
+        std::array::from_fn(|c| f.iter().map(|v| v[c] * v[c]).sum::<f64>().sqrt());
+    let marked = (0..n)
+        .filter(|&i| (0..3).any(|c| r[i][c].abs() > tolerance * fnorm[c]))
+        .count();
+    println!("  nodes with |r_i| > tol ||f|| in a channel (marked): {marked}");
+    let mut sizes = vec![(2, 4), (4, 16), (6, 16)];
+    if let Some(l) = cycle.local_relaxation {
+        sizes.retain(|&s| s != (l.rings, l.sweeps));
+        sizes.insert(0, (l.rings, l.sweeps));
     }
-    for c in [1.0] {
-        for rings in [2, 3, 4, 6] {
-            for sweeps in [4, 8, 16] {
-                for omega in [0.8] {
-                    let mut set: Vec<usize> = (0..n)
-                        .filter(|&i| e[i].sqrt() > c * tolerance * fnorm)
-                        .collect();
-                    let mut inset = vec![false; n];
-                    for &i in &set {
-                        inset[i] = true;
-                    }
-                    for _ in 0..rings {
-                        let grown: Vec<usize> = set
-                            .iter()
-                            .flat_map(|&i| op.row_start[i]..op.row_start[i + 1])
-                            .map(|k| op.cols[k] as usize)
-                            .collect();
-                        for j in grown {
-                            if !inset[j] {
-                                inset[j] = true;
-                                set.push(j);
-                            }
-                        }
-                    }
-                    let mut x = x0.clone();
-                    for _ in 0..sweeps {
-                        let mut rr = vec![[0.0; 3]; n];
-                        op.residual(&x, f, &mut rr);
-                        let upd: Vec<(usize, Rgb)> =
-                            set.iter().map(|&i| (i, op.block_solve(i, &rr))).collect();
-                        for (i, d) in upd {
-                            for ch in 0..3 {
-                                x[i][ch] += omega * d[ch];
-                            }
-                        }
-                    }
-                    let mut rr = vec![[0.0; 3]; n];
-                    op.residual(&x, f, &mut rr);
-                    let mut runs = Vec::new();
-                    for (pre, post) in [(3, 3)] {
-                        let p = MultigridParams {
-                            pre_sweeps: pre,
-                            post_sweeps: post,
-                            ..params.clone()
-                        };
-                        let (_, w) = h.solve(f, Start::Warm(&x), &p, &mut |_, _| {});
-                        runs.push(format!(
-                            "V({pre},{post}) {:.1} WU [{}]",
-                            w.work_units,
-                            log(&w.cycles)
-                        ));
-                    }
-                    println!(
-                        "  local c {c} rings {rings} sweeps {sweeps} omega {omega}: {} nodes, residual {:.3e}, then {}",
-                        set.len(),
-                        rel(&rr, f),
-                        runs.join(", ")
-                    );
-                }
-            }
-        }
+    for (rings, sweeps) in sizes {
+        let (x, listed) = local_relaxation(op, f, &x0, tolerance, rings, sweeps);
+        let mut rr = vec![[0.0; 3]; n];
+        op.residual(&x, f, &mut rr);
+        let (_, w) = h.solve(f, Start::Warm(&x), &params, &mut |_, _| {});
+        println!(
+            "  local {rings}x{sweeps}: {listed} nodes, residual {:.3e}, then {:.1} WU [{}]",
+            rel(&rr, f),
+            w.work_units,
+            log(&w.cycles)
+        );
     }
-    // The best any local fix can do: the residual on the jump nodes and their rings solved
-    // exactly, for each extrapolation order.
+    // The best any local fix can do: the residual on the jump nodes solved exactly (its far
+    // field too), for each extrapolation order.
     for ord in 0..=2u32.min(earlier.len() as u32 - 1) {
         let xs0 = extrapolate(earlier, ord);
         let mut r0 = vec![[0.0; 3]; n];
@@ -249,36 +262,23 @@ pub(super) fn probe(
             w.work_units,
             log(&w.cycles)
         );
-        let mut mark = vec![false; n];
+        let mut masked = vec![[0.0; 3]; n];
         for &i in &jumps {
-            mark[i] = true;
+            masked[i] = r0[i];
         }
-        for rings in 0..3 {
-            let masked: Vec<Rgb> = (0..n)
-                .map(|i| if mark[i] { r0[i] } else { [0.0; 3] })
-                .collect();
-            let (dx, _) = h.solve(&masked, Start::Cold, &exact_params, &mut |_, _| {});
-            let xp: Vec<Rgb> = (0..n)
-                .map(|i| std::array::from_fn(|c| xs0[i][c] + dx[i][c]))
-                .collect();
-            let mut rp = vec![[0.0; 3]; n];
-            op.residual(&xp, f, &mut rp);
-            let (_, w) = h.solve(f, Start::Warm(&xp), &params, &mut |_, _| {});
-            println!(
-                "    jumps + {rings} rings solved exactly: residual {:.3e}, then {:.1} WU [{}]",
-                rel(&rp, f),
-                w.work_units,
-                log(&w.cycles)
-            );
-            let next = mark.clone();
-            for i in 0..n {
-                if next[i] {
-                    for k in op.row_start[i]..op.row_start[i + 1] {
-                        mark[op.cols[k] as usize] = true;
-                    }
-                }
-            }
-        }
+        let (dx, _) = h.solve(&masked, Start::Cold, &exact_params, &mut |_, _| {});
+        let xp: Vec<Rgb> = (0..n)
+            .map(|i| std::array::from_fn(|c| xs0[i][c] + dx[i][c]))
+            .collect();
+        let mut rp = vec![[0.0; 3]; n];
+        op.residual(&xp, f, &mut rp);
+        let (_, w) = h.solve(f, Start::Warm(&xp), &params, &mut |_, _| {});
+        println!(
+            "    its residual on the jump nodes solved exactly: residual {:.3e}, then {:.1} WU [{}]",
+            rel(&rp, f),
+            w.work_units,
+            log(&w.cycles)
+        );
     }
     let (_, cold) = h.solve(f, Start::Cold, &params, &mut |_, _| {});
     let (_, warm) = h.solve(f, Start::Warm(&x0), &params, &mut |_, _| {});

@@ -106,13 +106,19 @@ impl Recorder<'_> {
         // SAFETY: the caller's contract; `local` has INDIRECT_BUFFER usage and holds the
         // arguments at LOCAL_ARGS.
         unsafe {
-            // why: each local pass reads what the one before wrote (x, r, the list: RAW) and
-            // overwrites what it read (WAR).
-            barrier::memory(
+            // why: each local pass reads what the one before wrote (x, r, the list: RAW), its
+            // indirect arguments included (the range the last ring or all pass set: RAW at
+            // DRAW_INDIRECT), and overwrites what it read (WAR).
+            barrier::record(
                 self.ctx,
                 self.cb,
-                Access::ComputeWrite,
-                Access::ComputeReadWrite,
+                &[super::super::raw_barrier(
+                    S::COMPUTE_SHADER,
+                    A::SHADER_STORAGE_WRITE | A::SHADER_STORAGE_READ,
+                    S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                    A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                )],
+                &[],
             );
             match groups {
                 Some(g) => pipeline.dispatch(self.ctx, self.cb, *set, &push, [g * GROUP, 1, 1]),
@@ -124,21 +130,6 @@ impl Recorder<'_> {
                     &self.mg.local,
                     4 * LOCAL_ARGS,
                 ),
-            }
-            if mode == LOCAL_RING || mode == LOCAL_ALL {
-                // why: the next local passes dispatch over the range this pass just wrote (RAW
-                // at DRAW_INDIRECT).
-                barrier::record(
-                    self.ctx,
-                    self.cb,
-                    &[super::super::raw_barrier(
-                        S::COMPUTE_SHADER,
-                        A::SHADER_STORAGE_WRITE,
-                        S::DRAW_INDIRECT | S::COMPUTE_SHADER,
-                        A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
-                    )],
-                    &[],
-                );
             }
         }
     }
