@@ -848,7 +848,10 @@ impl GpuMultigrid {
         unsafe {
             ctx.raw()
                 .cmd_update_buffer(cb, self.control.raw, 0, bytemuck::bytes_of(&control));
-            let local_relaxation = self.params.local_relaxation.filter(|_| warm);
+            // Only after an extrapolated start: the last solution's residual is the smooth
+            // change, spread over the level (benches/RESULTS.md "Local relaxation of the warm
+            // start (wave 8)": the first warm frame of the default scene took 5 units more).
+            let local_relaxation = self.params.local_relaxation.filter(|_| warm && order > 0);
             if local_relaxation.is_some() {
                 // The list's header and flags start at zero (covered by the barrier below).
                 self.local_layout.clear(ctx, cb, &self.local);

@@ -246,6 +246,8 @@ impl WarmStart {
 /// exceeds the tolerance (`|r_i| > tol ||f||` in any channel), `rings` passes over the marked list
 /// add their neighbours, then `sweeps` damped block-Jacobi sweeps run on the listed nodes only
 /// (node updates counted: one per listed node per sweep and per ring, plus the marking pass).
+/// Only after an extrapolated start (`WarmStart` order 1 or 2): the last solution's residual is
+/// the smooth change, spread over the level, which local sweeps do not remove.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct LocalRelaxation {
     /// Neighbour rings added around the marked nodes.

@@ -93,7 +93,12 @@ impl GpuMultigrid {
         };
         // A warm start relaxed locally: the marking pass and the listed nodes' updates.
         let listed = if warm { u64::from(c.local_nodes) } else { 0 };
-        let local = if warm { self.local_updates(listed) } else { 0 };
+        let relaxed = warm && self.warm_order.get() > 0;
+        let local = if relaxed {
+            self.local_updates(listed)
+        } else {
+            0
+        };
         let start = krylov_ends
             + if warm {
                 n_top + extrapolation + local
@@ -152,7 +157,7 @@ impl GpuMultigrid {
         let v_entries = self.v_cycle_entries(top, self.params.krylov) + top_entries;
         let start_entries = top_entries
             + if warm {
-                if self.params.local_relaxation.is_some() {
+                if relaxed {
                     self.local_entries(listed)
                 } else {
                     0
