@@ -202,11 +202,9 @@ pub(super) fn probe(
         let count = marked.iter().filter(|&&v| v).count();
         ring_shares.push(format!("{count} nodes {:.3}", m / total));
         let next = marked.clone();
-        for i in 0..n {
-            if next[i] {
-                for k in op.row_start[i]..op.row_start[i + 1] {
-                    marked[op.cols[k] as usize] = true;
-                }
+        for (i, _) in next.iter().enumerate().filter(|(_, &m)| m) {
+            for k in op.row_start[i]..op.row_start[i + 1] {
+                marked[op.cols[k] as usize] = true;
             }
         }
     }
