@@ -22,6 +22,11 @@
 //! let p = MultigridParams::gpu().with_cycle_spec("nu=3/3,cheb=0.2,fmg=2")?;
 //! assert_eq!((p.pre_sweeps, p.post_sweeps, p.fmg_cycles), (3, 3, 2));
 //! assert!(MultigridParams::gpu().with_cycle_spec("nu=3").is_err());
+//! let local = MultigridParams::gpu().with_cycle_spec("local=2x8")?.local_relaxation;
+//! assert_eq!(local.map(|l| (l.rings, l.sweeps)), Some((2, 8)));
+//! assert!(MultigridParams::gpu().with_cycle_spec("local=off")?.local_relaxation.is_none());
+//! assert!(MultigridParams::gpu().with_cycle_spec("local=4").is_err());
+//! assert!(MultigridParams::gpu().with_cycle_spec("local=4x0").is_err());
 //! # Ok::<(), translucent::solver::SolverError>(())
 //! ```
 
