@@ -81,7 +81,8 @@ struct MultigridControl {
     uint logged;
     // 0 running, 1 converged, 2 diverged or not finite, 3 cycle cap reached.
     uint state;
-    uint pad0;
+    // Finest nodes the warm start's local relaxation listed (local.comp; 0 without it).
+    uint local_nodes;
     uint pad1;
     // Conjugate gradients (krylov.comp): R . z of the current direction, the step alpha and the
     // direction update beta, per channel.

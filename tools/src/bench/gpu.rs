@@ -134,6 +134,19 @@ pub(super) fn bench_bake(
             ctx, &graph, field, scene, previous, frame_desc, config, repeats,
         )
         .with_context(|| format!("{family_name} cap {} tol {}", config.cap, config.tolerance))?;
+        if sweep.warm_probe && config.warm && !run.previous_q.is_empty() {
+            let mut qs = run.previous_q.clone();
+            qs.push(run.q.clone());
+            println!("{family_name} tol {}:", config.tolerance);
+            super::warm_probe::probe(
+                &graph,
+                field,
+                config.scheme,
+                &config.cycle,
+                f64::from(config.tolerance),
+                &qs,
+            )?;
+        }
         let j_plus: Vec<[f64; 3]> = run.j_plus.iter().map(|j| j.map(f64::from)).collect();
         if j_plus.len() != solution.j_plus_clamped.len() {
             bail!(
@@ -212,6 +225,8 @@ pub(super) fn bench_bake(
 pub(super) struct GpuRun {
     /// q per finest surface node as the frame gathered it (unscaled).
     pub(super) q: Vec<[f64; 3]>,
+    /// Warm: the q of the untimed frames before the last timed one, oldest first.
+    pub(super) previous_q: Vec<Vec<[f64; 3]>>,
     pub(super) iterations: Vec<u32>,
     /// The multigrid schedule's last solve.
     pub(super) multigrid: Option<translucent::solver::gpu::multigrid::GpuMultigridReport>,
@@ -249,11 +264,14 @@ pub(super) fn run_gpu(
     let mut host = HeadlessHost::new(ctx, frame_desc.width, frame_desc.height)?;
     let (mut solve, mut whole) = (Vec::new(), Vec::new());
     let mut last = None;
+    let mut previous_q = Vec::new();
     for i in 0..=repeats {
         if config.warm {
+            previous_q.clear();
             for lights in previous {
                 object.set_lights(lights)?;
                 host.render(ctx, &mut object)?;
+                previous_q.push(gathered_q(ctx, &object, graph)?);
             }
             object.set_lights(scene)?;
         }
@@ -290,23 +308,10 @@ pub(super) fn run_gpu(
     let method = object
         .quadgraph()
         .context("the QuadGraph method reports the solve")?;
-    let level = graph.finest();
-    let finest = graph.levels.len() - 1;
-    let gathered = ImageReadback::capture(
-        ctx,
-        method.solve().q_image(finest).context("no q image")?,
-        Access::ComputeReadWrite,
-    )?;
-    let unscale = 1.0 / f64::from(method.q_scale());
-    let q = level.packing.texels[level.inner_count()..]
-        .iter()
-        .map(|&[u, v]| {
-            let p = gathered.pixel(u, v);
-            [p[0], p[1], p[2]].map(|x| f64::from(x) * unscale)
-        })
-        .collect();
+    let q = gathered_q(ctx, &object, graph)?;
     Ok(GpuRun {
         q,
+        previous_q,
         iterations: method.solve().iterations_run(ctx)?,
         multigrid: method.solve().multigrid_report(ctx)?,
         solve_ms: median(solve),
@@ -315,6 +320,32 @@ pub(super) fn run_gpu(
         j_plus: method.solve().read_j_plus(ctx)?,
         image: last.image,
     })
+}
+
+/// q per finest surface node as the object's last frame gathered it (unscaled).
+fn gathered_q(
+    ctx: &Context,
+    object: &TranslucentObject,
+    graph: &QuadGraph,
+) -> anyhow::Result<Vec<[f64; 3]>> {
+    let method = object
+        .quadgraph()
+        .context("the QuadGraph method reports the solve")?;
+    let level = graph.finest();
+    let finest = graph.levels.len() - 1;
+    let gathered = ImageReadback::capture(
+        ctx,
+        method.solve().q_image(finest).context("no q image")?,
+        Access::ComputeReadWrite,
+    )?;
+    let unscale = 1.0 / f64::from(method.q_scale());
+    Ok(level.packing.texels[level.inner_count()..]
+        .iter()
+        .map(|&[u, v]| {
+            let p = gathered.pixel(u, v);
+            [p[0], p[1], p[2]].map(|x| f64::from(x) * unscale)
+        })
+        .collect())
 }
 
 /// The settings one configuration of the sweep runs: the library's real-time defaults for

@@ -73,6 +73,7 @@ mod plot;
 mod same_defaults;
 mod suites;
 mod sweep;
+mod warm_probe;
 
 use csv::*;
 use gpu::*;
@@ -202,6 +203,10 @@ pub struct BenchArgs {
     /// How far the lights turned since the previous frame for `--start warm`, in degrees.
     #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     pub warm_degrees: f64,
+    /// For each warm configuration, print where its start residual sits (share of the top
+    /// nodes, of the nodes where q jumps) and the f64 cycle's work from it (`bench::warm_probe`).
+    #[arg(long)]
+    pub warm_probe: bool,
     /// A path-traced reference image (linear EXR, e.g. `tests/reference/pt/*.exr`): the frame is
     /// rendered at its size with `--camera` (required), and error (c) is measured against it.
     #[arg(long, value_name = "FILE.exr", requires = "camera")]

@@ -43,6 +43,8 @@ pub(super) struct Sweep {
     pub(super) cycle: translucent::solver::multigrid::MultigridParams,
     pub(super) bounces: Vec<BounceMode>,
     pub(super) exit_lobes: Vec<ExitLobe>,
+    /// `--warm-probe`.
+    pub(super) warm_probe: bool,
 }
 
 pub(super) fn list<T>(
@@ -111,6 +113,7 @@ impl Sweep {
             .clone()
             .unwrap_or_else(|| default_schedule(args).to_string());
         let sweep = Sweep {
+            warm_probe: args.warm_probe,
             k: list("-K", &args.k, non_negative)?,
             levels: list("--levels", &args.levels, uint(1, 8))?,
             resolution: list("--resolution", &args.resolution, uint(4, 512))?,

@@ -104,6 +104,7 @@ pub(super) fn gpu_multigrid_json(
         "solver": "gpu",
         "warm": m.warm,
         "warm_order": m.warm_order,
+        "local_nodes": m.local_nodes,
         "cycles": m.cycles.len(),
         "work_units": m.work_units,
         "matvec_units": m.matvec_units,

@@ -214,6 +214,7 @@ mod tests {
                 mean_factor: Some(0.1),
                 coarse_steps: 8,
                 warm_order: 0,
+                local_nodes: 0,
             }),
         };
         let (text, colour) = solve_line(&solve);

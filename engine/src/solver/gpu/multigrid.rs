@@ -82,6 +82,7 @@ use crate::vk::{Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryU
 use crate::Error;
 
 /// Profiler scopes and debug labels of the cycle.
+mod local;
 mod pack;
 mod probe;
 mod recorder;
@@ -152,7 +153,9 @@ pub struct MultigridControl {
     pub reference: [f32; 4],
     pub logged: u32,
     pub state: u32,
-    pub pad: [u32; 2],
+    /// Finest nodes the warm start's local relaxation listed (`multigrid/local.comp`).
+    pub local_nodes: u32,
+    pub pad: u32,
     /// Conjugate gradients: `R . z` of the current direction, the step and the direction update.
     pub rz: [f32; 4],
     pub alpha: [f32; 4],
@@ -182,7 +185,8 @@ pub struct GpuMultigridReport {
     /// Cold: the full multigrid pass first, then the V-cycles; warm: the V-cycles (factor against
     /// the starting residual).
     pub cycles: Vec<CycleReport>,
-    /// Relative residual at the start (warm) or after the full multigrid pass (cold).
+    /// Relative residual at the start (warm: after the local relaxation, if any) or after the
+    /// full multigrid pass (cold).
     pub start_residual: f64,
     pub residual: f64,
     pub converged: bool,
@@ -198,6 +202,8 @@ pub struct GpuMultigridReport {
     pub mean_factor: Option<f64>,
     /// Chebyshev steps of every coarsest-level solve.
     pub coarse_steps: u32,
+    /// Finest nodes the warm start's local relaxation relaxed (0: none, or a cold start).
+    pub local_nodes: u32,
 }
 
 struct Level {
@@ -225,6 +231,9 @@ pub struct GpuMultigrid {
     partials: u32,
     buffers: Vec<Buffer>,
     control: Buffer,
+    /// The warm start's local relaxation: header, flag bits, list (`multigrid/local.comp`).
+    local: Buffer,
+    local_layout: local::LocalLayout,
     pipelines: Vec<(ComputePipeline<MultigridPush>, vk::DescriptorSet)>,
     warm: Cell<bool>,
     /// The warm start's order of the last solve ([`GpuMultigridReport::warm_order`]).
@@ -247,6 +256,7 @@ const NORM: usize = 5;
 const CHECK: usize = 6;
 const OUTPUT: usize = 7;
 const KRYLOV: usize = 8;
+const LOCAL: usize = 9;
 
 /// Modes of `multigrid/krylov.comp` (see the shader).
 const CG_START: u32 = 0;
@@ -268,7 +278,7 @@ const CHECK_CG: u32 = 2;
 const CG_SUMS: usize = 4;
 
 /// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
-const KERNELS: [(&str, &str, &[&str]); 9] = [
+const KERNELS: [(&str, &str, &[&str]); 10] = [
     (
         "multigrid rhs",
         "multigrid/rhs.comp",
@@ -349,6 +359,23 @@ const KERNELS: [(&str, &str, &[&str]); 9] = [
             "weight_r",
             "weight_g",
             "weight_b",
+        ],
+    ),
+    (
+        "multigrid local",
+        "multigrid/local.comp",
+        &[
+            "x",
+            "f",
+            "r",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "partner",
+            "partner_value",
+            "control",
+            "local",
         ],
     ),
 ];
@@ -667,6 +694,10 @@ impl GpuMultigrid {
         )?;
         bytes += control.size;
         buffer_bytes.push(("control", control.size));
+        let local_layout = local::LocalLayout::new(params, n_top);
+        let local = local_layout.buffer(ctx)?;
+        bytes += local.size;
+        buffer_bytes.push(("local", local.size));
         let mut pipelines = Vec::with_capacity(KERNELS.len());
         for (name, shader, bindings) in KERNELS {
             // The operator readers learn where the fp16 entries end (`pack_operators`), the link
@@ -733,6 +764,10 @@ impl GpuMultigrid {
                         name: "control",
                         buffer: &control,
                     },
+                    "local" => DescriptorWrite::StorageBuffer {
+                        name: "local",
+                        buffer: &local,
+                    },
                     other => {
                         let i = BUFFER_NAMES.iter().position(|&n| n == other).unwrap_or(0);
                         DescriptorWrite::StorageBuffer {
@@ -757,6 +792,8 @@ impl GpuMultigrid {
             partials,
             buffers,
             control,
+            local,
+            local_layout,
             pipelines,
             warm: Cell::new(false),
             warm_order: Cell::new(0),
@@ -834,11 +871,10 @@ impl GpuMultigrid {
 
     /// What [`Self::record`] uses besides the finest level's q and phi images (the caller's).
     pub fn uses(&self) -> Vec<Use<'_>> {
-        let mut uses = vec![Use::buffer_span(
-            &self.control,
-            Access::TransferDst,
-            Access::ComputeReadWrite,
-        )];
+        let mut uses = vec![
+            Use::buffer_span(&self.control, Access::TransferDst, Access::ComputeReadWrite),
+            Use::buffer_span(&self.local, Access::TransferDst, Access::ComputeReadWrite),
+        ];
         for (name, b) in BUFFER_NAMES.iter().zip(&self.buffers) {
             let access = if WRITTEN.contains(name) {
                 Access::ComputeReadWrite
@@ -911,8 +947,16 @@ impl GpuMultigrid {
         unsafe {
             ctx.raw()
                 .cmd_update_buffer(cb, self.control.raw, 0, bytemuck::bytes_of(&control));
-            // why: the cycles read the reset control record as indirect arguments and the check
-            // kernel updates it (RAW after the transfer).
+            // Only after an extrapolated start: the last solution's residual is the smooth
+            // change, spread over the level (benches/RESULTS.md "Local relaxation of the warm
+            // start (wave 8)": the first warm frame of the default scene took 5 units more).
+            let local_relaxation = self.params.local_relaxation.filter(|_| warm && order > 0);
+            if local_relaxation.is_some() {
+                // The list's header and flags start at zero (covered by the barrier below).
+                self.local_layout.clear(ctx, cb, &self.local);
+            }
+            // why: the cycles read the reset control record (and the local relaxation its cleared
+            // list) as indirect arguments and the kernels update them (RAW after the transfers).
             barrier::record(
                 ctx,
                 cb,
@@ -935,6 +979,10 @@ impl GpuMultigrid {
             rec.direct_with(RHS, top, rhs_mode, c, n_top);
             rec.direct(NORM, top, 1, n_top);
             rec.check(CHECK_REFERENCE);
+            if let Some(relaxation) = local_relaxation {
+                // Where the start's residual exceeds the tolerance (it needs ||f||).
+                rec.local_relaxation(relaxation);
+            }
             if !warm {
                 for l in (1..=top).rev() {
                     rec.indirect(RESTRICT, l - 1, 1, [0.0; 3], [0.0; 3]);

@@ -19,12 +19,18 @@
 //! | `lump` | `lumping` (`paths`, `diagonal`) | `lump=paths` |
 //! | `pathw` | `path_weight` (each path edge's multiple of the dropped weight) | `pathw=2` |
 //! | `dropfrom` | `sparsify_from_full` (`full`: each product from the exact operator; `sparse`) | `dropfrom=sparse` |
+//! | `local` | `local_relaxation` (`RINGSxSWEEPS` or `off`) | `local=4x16` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
 //! let p = MultigridParams::gpu().with_cycle_spec("nu=3/3,cheb=0.2,fmg=2")?;
 //! assert_eq!((p.pre_sweeps, p.post_sweeps, p.fmg_cycles), (3, 3, 2));
 //! assert!(MultigridParams::gpu().with_cycle_spec("nu=3").is_err());
+//! let local = MultigridParams::gpu().with_cycle_spec("local=2x8")?.local_relaxation;
+//! assert_eq!(local.map(|l| (l.rings, l.sweeps)), Some((2, 8)));
+//! assert!(MultigridParams::gpu().with_cycle_spec("local=off")?.local_relaxation.is_none());
+//! assert!(MultigridParams::gpu().with_cycle_spec("local=4").is_err());
+//! assert!(MultigridParams::gpu().with_cycle_spec("local=4x0").is_err());
 //! # Ok::<(), translucent::solver::SolverError>(())
 //! ```
 
@@ -125,9 +131,17 @@ impl MultigridParams {
                         bad(format!("warm: `{value}` is not last, linear or quadratic"))
                     })?
                 }
+                "local" => {
+                    p.local_relaxation = match value {
+                        "off" => None,
+                        v => Some(v.parse().map_err(|_| {
+                            bad(format!("local: `{v}` is not off or RINGSxSWEEPS (e.g. 4x16)"))
+                        })?),
+                    }
+                }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom, local)"
                     )))
                 }
             }

@@ -292,6 +292,51 @@ impl WarmStart {
     }
 }
 
+/// Local relaxation of a warm start (GPU only; `--multigrid-cycle local=RINGSxSWEEPS`, Rüde's
+/// fully adaptive multigrid on the finest level): a light turning by a few degrees moves shadow
+/// edges by whole shadow-map texels, so the extrapolated start's residual sits on a few dozen
+/// surface nodes (93% of its square on 10 nodes of the default scene, benches/RESULTS.md "Local
+/// relaxation of the warm start (wave 8)"). One pass marks the finest nodes whose residual alone
+/// exceeds the tolerance (`|r_i| > tol ||f||` in any channel), `rings` passes over the marked list
+/// add their neighbours, then `sweeps` damped block-Jacobi sweeps run on the listed nodes only
+/// (node updates counted: one per listed node per sweep and per ring, plus the marking pass).
+/// Only after an extrapolated start (`WarmStart` order 1 or 2): the last solution's residual is
+/// the smooth change, spread over the level, which local sweeps do not remove.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct LocalRelaxation {
+    /// Neighbour rings added around the marked nodes.
+    pub rings: u32,
+    /// Jacobi sweeps over the marked nodes and their rings.
+    pub sweeps: u32,
+}
+
+impl LocalRelaxation {
+    /// The most rings or sweeps a spec may ask for (each is a pass over the list).
+    pub const MAX_PASSES: u32 = 64;
+}
+
+impl std::str::FromStr for LocalRelaxation {
+    type Err = SolverError;
+
+    /// `RINGSxSWEEPS`, e.g. `4x16`.
+    fn from_str(s: &str) -> Result<Self, SolverError> {
+        let bad = || SolverError::BadParameter {
+            name: "local_relaxation",
+            problem: format!(
+                "'{s}' (expected RINGSxSWEEPS, each 0-{}, sweeps at least 1)",
+                Self::MAX_PASSES
+            ),
+        };
+        let (rings, sweeps) = s.split_once('x').ok_or_else(bad)?;
+        let rings: u32 = rings.trim().parse().map_err(|_| bad())?;
+        let sweeps: u32 = sweeps.trim().parse().map_err(|_| bad())?;
+        if rings > Self::MAX_PASSES || sweeps == 0 || sweeps > Self::MAX_PASSES {
+            return Err(bad());
+        }
+        Ok(Self { rings, sweeps })
+    }
+}
+
 impl std::str::FromStr for WarmStart {
     type Err = SolverError;
 

@@ -91,9 +91,17 @@ impl GpuMultigrid {
         } else {
             0
         };
+        // A warm start relaxed locally: the marking pass and the listed nodes' updates.
+        let listed = if warm { u64::from(c.local_nodes) } else { 0 };
+        let relaxed = warm && self.warm_order.get() > 0;
+        let local = if relaxed {
+            self.local_updates(listed)
+        } else {
+            0
+        };
         let start = krylov_ends
             + if warm {
-                n_top + extrapolation
+                n_top + extrapolation + local
             } else {
                 (1..=top)
                     .map(|l| {
@@ -149,7 +157,11 @@ impl GpuMultigrid {
         let v_entries = self.v_cycle_entries(top, self.params.krylov) + top_entries;
         let start_entries = top_entries
             + if warm {
-                0
+                if relaxed {
+                    self.local_entries(listed)
+                } else {
+                    0
+                }
             } else {
                 (1..=top)
                     .map(|l| {
@@ -178,6 +190,7 @@ impl GpuMultigrid {
             matvec_units,
             mean_factor,
             coarse_steps: self.coarse_steps,
+            local_nodes: listed as u32,
         })
     }
 }

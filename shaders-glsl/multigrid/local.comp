@@ -1,0 +1,142 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Local relaxation of a warm start on the finest level (`MultigridParams::local_relaxation`;
+// Rüde's fully adaptive multigrid, its finest level): the extrapolated start's residual sits on
+// the few surface nodes a shadow edge crossed, so it is relaxed there before the cycles.
+// `local` holds a header (count, the current range's begin and end, the indirect arguments of
+// that range), then one flag bit per finest node, then the list of marked nodes (capacity
+// `pc.pad0`; nodes past it are flagged, not listed, and not relaxed). The host zeroes the header
+// and the flags every frame. Modes:
+//   0 mark:     every finest node: r = f - K x; listed where any channel |r| > tol ||f||
+//   1 ring:     one invocation: the range is the nodes listed since the last range
+//   2 grow:     each node of the range lists its neighbours not flagged yet
+//   3 all:      one invocation: the range is the whole list; control.local_nodes = its length
+//   4 residual: each listed node: r = f - K x (into the level's r)
+//   5 step:     each listed node: x += omega B^-1 r (B the 2x2 block with the partner where the
+//               partner is listed too, else the diagonal); omega in pc.beta
+layout(local_size_x = 64) in;
+// The finest level's entries sit at floats 3 (e - HALF_ENTRIES) of `values` (residual.comp).
+layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
+
+#include "common.glsl"
+
+layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
+layout(set = 0, binding = 1, std430) readonly buffer Fs { float v[]; } f;
+layout(set = 0, binding = 2, std430) buffer Rs { float v[]; } r;
+layout(set = 0, binding = 3, std430) readonly buffer RowStart { uint v[]; } row_start;
+layout(set = 0, binding = 4, std430) readonly buffer Cols { uint v[]; } cols;
+layout(set = 0, binding = 5, std430) readonly buffer Values { float v[]; } values;
+layout(set = 0, binding = 6, std430) readonly buffer Diag { vec4 v[]; } diag;
+layout(set = 0, binding = 7, std430) readonly buffer Partner { uint v[]; } partner;
+layout(set = 0, binding = 8, std430) readonly buffer PartnerValue { float v[]; } partner_value;
+layout(set = 0, binding = 9, std430) buffer Control { MultigridControl c; } control;
+layout(set = 0, binding = 10, std430) buffer Local { uint v[]; } local;
+
+#define MODE_MARK 0u
+#define MODE_RING 1u
+#define MODE_GROW 2u
+#define MODE_ALL 3u
+#define MODE_RESIDUAL 4u
+#define MODE_STEP 5u
+
+// Header words (`LOCAL_HEADER` in solver/gpu/multigrid/local.rs); the flags follow, `pc.width`
+// words, then the list.
+#define COUNT 0u
+#define BEGIN 1u
+#define END 2u
+#define ARGS 4u
+#define HEADER 8u
+
+// r_i = f_i - (K x)_i of the finest level (absolute node i; f32 entries).
+vec3 residual_at(uint i) {
+    vec3 acc = diag.v[i].rgb * RGB(x, i);
+    for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
+        uint j = 3u * (e - HALF_ENTRIES);
+        acc += vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]) * RGB(x, cols.v[e]);
+    }
+    return RGB(f, i) - acc;
+}
+
+// Flags the finest node `node`; true when this invocation flagged it first (so lists it).
+bool claim(uint node) {
+    uint bit = 1u << (node & 31u);
+    return (atomicOr(local.v[HEADER + (node >> 5u)], bit) & bit) == 0u;
+}
+
+bool flagged(uint node) {
+    return (local.v[HEADER + (node >> 5u)] & (1u << (node & 31u))) != 0u;
+}
+
+void append(uint node) {
+    uint k = atomicAdd(local.v[COUNT], 1u);
+    if (k < pc.pad0) {
+        local.v[HEADER + pc.width + k] = node;
+    }
+}
+
+void set_range(uint begin, uint end) {
+    local.v[BEGIN] = begin;
+    local.v[END] = end;
+    local.v[ARGS] = (end - begin + 63u) / 64u;
+    local.v[ARGS + 1u] = 1u;
+    local.v[ARGS + 2u] = 1u;
+}
+
+void main() {
+    uint id = gl_GlobalInvocationID.x;
+    uint listed = min(local.v[COUNT], pc.pad0);
+    if (pc.mode == MODE_RING || pc.mode == MODE_ALL) {
+        if (id != 0u) {
+            return;
+        }
+        if (pc.mode == MODE_RING) {
+            set_range(local.v[END], listed);
+        } else {
+            set_range(0u, listed);
+            control.c.local_nodes = listed;
+        }
+        return;
+    }
+    if (pc.mode == MODE_MARK) {
+        if (id >= pc.count) {
+            return;
+        }
+        vec3 res = residual_at(pc.offset + id);
+        vec3 limit = pc.tolerance * pc.tolerance * control.c.reference.rgb;
+        if (any(greaterThan(res * res, limit)) && claim(id)) {
+            append(id);
+        }
+        return;
+    }
+    uint k = local.v[BEGIN] + id;
+    if (k >= local.v[END]) {
+        return;
+    }
+    uint node = local.v[HEADER + pc.width + k];
+    uint i = pc.offset + node;
+    if (pc.mode == MODE_GROW) {
+        for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
+            uint j = cols.v[e] - pc.offset;
+            if (claim(j)) {
+                append(j);
+            }
+        }
+    } else if (pc.mode == MODE_RESIDUAL) {
+        SET_RGB(r, i, residual_at(i));
+    } else if (pc.mode == MODE_STEP) {
+        vec3 a = diag.v[i].rgb;
+        vec3 ri = RGB(r, i);
+        vec3 z;
+        uint p = partner.v[i];
+        // The partner's r is this sweep's only where it is listed (a full list lists every
+        // flagged node).
+        if (p != NO_NODE && local.v[COUNT] <= pc.pad0 && flagged(p - pc.offset)) {
+            vec3 b = RGB(partner_value, i);
+            vec3 dp = diag.v[p].rgb;
+            z = (dp * ri - b * RGB(r, p)) / (a * dp - b * b);
+        } else {
+            z = ri / a;
+        }
+        SET_RGB(x, i, RGB(x, i) + pc.beta.rgb * z);
+    }
+}
