@@ -56,11 +56,7 @@ pub fn own_light_uniforms(lights: &[crate::scene::Light]) -> [[f32; 4]; 3 * supe
             Light::Directional {
                 direction,
                 irradiance,
-            } => (
-                v(-direction.normalize(), 1.0),
-                c(irradiance, 0.0),
-                [0.0; 4],
-            ),
+            } => (v(-direction.normalize(), 1.0), c(irradiance, 0.0), [0.0; 4]),
             Light::Point {
                 position,
                 intensity,

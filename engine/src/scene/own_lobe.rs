@@ -237,7 +237,10 @@ mod tests {
     fn the_lobe_follows_the_h_function_law() {
         for (mu0, want) in RATIO_EXACT {
             let r = own_lobe(0.9, mu0, 1.0) / own_lobe(0.3, mu0, 1.0);
-            assert!((r / want - 1.0).abs() < RATIO_TOL, "mu0 {mu0}: {r} vs {want}");
+            assert!(
+                (r / want - 1.0).abs() < RATIO_TOL,
+                "mu0 {mu0}: {r} vs {want}"
+            );
         }
     }
 

@@ -86,7 +86,10 @@ pub fn radiance_with_lobe_at(
 /// [`radiance_with_lobe_at`] with the own light's shape ([`ExitLobe::Chandra`]): `own` what
 /// lights the point ([`crate::scene::own_lobe::OwnLight::at`]), `omega` the albedo per channel
 /// ([`crate::scene::own_lobe::surface_albedo`]); the other lobes ignore both.
-#[allow(clippy::too_many_arguments, reason = "the shading's inputs, one per formula term")]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the shading's inputs, one per formula term"
+)]
 pub fn radiance_lit(
     j_plus: [f64; 3],
     eta: f64,
