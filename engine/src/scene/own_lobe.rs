@@ -198,7 +198,8 @@ mod tests {
             assert!((h_function(mu, 1.0) / h - 1.0).abs() < HAPKE_TOL, "{mu}");
         }
         assert!((h_function(1.0, 0.9) / H_0_9_AT_1 - 1.0).abs() < HAPKE_TOL);
-        assert_eq!(h_function(0.0, 0.999), 1.0);
+        // H(0) = 1 up to the clamp at MIN_COSINE (omega x ln(1 / x) ~ 1e-5 there).
+        assert!((h_function(0.0, 0.999) - 1.0).abs() < QUADRATURE_TOL);
         assert!(h_function(0.5, f64::NAN).is_finite());
     }
 
