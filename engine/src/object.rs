@@ -223,6 +223,9 @@ pub struct TranslucentObject {
     /// The environment's mirror reflection in the shading's basis (zero without specular).
     env_sh: [[f32; 4]; 9],
     eta: f32,
+    /// The reduced albedo per channel the own-light lobe reads ([`ExitLobe::Chandra`],
+    /// [`crate::scene::own_lobe::surface_albedo`]).
+    own_albedo: [f64; 3],
     camera: Option<Camera>,
     changes: Changes,
     own_depth: Option<Image>,
@@ -370,6 +373,7 @@ impl TranslucentObject {
         )?;
         scatter.set_lights(scene, &shadows, shadow_bounds)?;
         scatter.set_material(field, &rest_positions);
+        let own_albedo = crate::scene::own_lobe::surface_albedo(field, &rest_positions);
         let mut object = TranslucentObject {
             method,
             mesh,
@@ -384,6 +388,7 @@ impl TranslucentObject {
             shadow_bounds,
             env_sh: environment_sh(&scene.environment),
             eta: field.eta() as f32,
+            own_albedo,
             camera: None,
             // The first frame draws everything: nothing of it exists yet (a fixed exitance has its
             // solution, but no shadow map).
@@ -446,6 +451,7 @@ impl TranslucentObject {
         self.method.set_material(ctx, field)?;
         self.scatter.set_material(field, &self.rest_positions);
         self.eta = field.eta() as f32;
+        self.own_albedo = crate::scene::own_lobe::surface_albedo(field, &self.rest_positions);
         self.changes.material = true;
         Ok(())
     }
@@ -792,6 +798,13 @@ impl TranslucentObject {
                     true => self.env_sh,
                     false => [[0.0; 4]; 9],
                 },
+                own_albedo: {
+                    let a = self.own_albedo.map(|v| v as f32);
+                    let applies = self.params.exit_lobe.own_light_applies(f64::from(self.eta));
+                    [a[0], a[1], a[2], if applies { 1.0 } else { 0.0 }]
+                },
+                own_lights: crate::render::own_light_uniforms(&self.lights),
+                own_env_sh: self.env_sh,
             },
             specular.is_some(),
         )

@@ -7,6 +7,14 @@
 // reflection of the environment F_r(eta, theta_o) L_env(r).
 #include "optics.glsl"
 
+// render::MAX_LIGHTS (ShadeUniforms' size is checked against this block's reflection).
+#define MAX_LIGHTS 8
+// scene::own_lobe::GAUSS_NODES / GAUSS_WEIGHTS: 8-point Gauss-Legendre on [0, 1].
+const float GAUSS_NODES[8] = float[8](0.019855072, 0.10166676, 0.23723380, 0.40828268,
+                                      0.59171732, 0.76276620, 0.89833324, 0.98014493);
+const float GAUSS_WEIGHTS[8] = float[8](0.050614268, 0.11119052, 0.15685332, 0.18134189,
+                                        0.18134189, 0.15685332, 0.11119052, 0.050614268);
+
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec3 v_exitance;
@@ -22,6 +30,13 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
     // Environment radiance as order-2 real SH (rgb; solver::Environment's basis and order), for
     // its mirror reflection; all zero when there is no environment or no specular.
     vec4 env_sh[9];
+    // The own-light lobe (scene::own_lobe, scene::ExitLobe::Chandra): rgb the albedo, w 1 where
+    // it applies; per light 3 vec4 (render::mesh_pass::own_light_uniforms): (direction to it or
+    // position, kind 0 none / 1 directional / 2 point / 3 spot), (rgb, spot cos inner), (spot
+    // axis, spot cos outer); the environment's radiance SH (its irradiance: a Lambertian part).
+    vec4 own_albedo;
+    vec4 own_lights[3 * MAX_LIGHTS];
+    vec4 own_env_sh[9];
 } frame;
 layout(set = 0, binding = 1) uniform sampler2DShadow shadow_map;
 
@@ -55,6 +70,91 @@ vec3 sh_radiance(vec3 d) {
     return max(l, vec3(0.0));
 }
 
+// Chandrasekhar's H for isotropic scattering, Hapke's approximation (Icarus 157, 2002, eq. 13;
+// scene::own_lobe::h_function), per channel.
+vec3 h_function(float x, vec3 omega) {
+    x = clamp(x, 1e-6, 1.0);
+    vec3 g = sqrt(max(1.0 - omega, vec3(0.0)));
+    vec3 r0 = (1.0 - g) / (1.0 + g);
+    return 1.0 / (1.0 - omega * x * (r0 + 0.5 * (1.0 - 2.0 * r0 * x) * log((1.0 + x) / x)));
+}
+
+// The own-light lobe g(mu; mu0, omega) = (H(mu) H(mu0) - 1) / (mu + mu0), normalized to
+// 2 int g mu dmu = 1 (scene::own_lobe::own_lobe; Chandrasekhar 1950, ch. IV eq. 31 less its
+// single scattering). h_nodes: H at the Gauss nodes, h_mu: H at the view cosine.
+vec3 own_lobe(float mu, float mu0, vec3 omega, vec3 h_nodes[8], vec3 h_mu) {
+    mu0 = clamp(mu0, 0.0, 1.0);
+    vec3 h0 = h_function(mu0, omega);
+    vec3 norm = vec3(0.0);
+    for (int j = 0; j < 8; j++) {
+        float x = GAUSS_NODES[j];
+        norm += GAUSS_WEIGHTS[j] * x * (h_nodes[j] * h0 - 1.0) / (x + mu0);
+    }
+    norm *= 2.0;
+    vec3 g = (h_mu * h0 - 1.0) / max(mu + mu0, 1e-6) / max(norm, vec3(1e-30));
+    // No multiple scattering (norm 0): Lambert.
+    return mix(vec3(1.0), max(g, vec3(0.0)), greaterThan(norm, vec3(0.0)));
+}
+
+// The environment's irradiance at normal n from its radiance SH (scene::Environment::irradiance).
+vec3 sh_irradiance(vec3 n) {
+    const float C1 = 0.429043, C2 = 0.511664, C3 = 0.743125, C4 = 0.886227, C5 = 0.247708;
+    vec3 e = C1 * frame.own_env_sh[8].rgb * (n.x * n.x - n.y * n.y)
+        + C3 * frame.own_env_sh[6].rgb * n.z * n.z + C4 * frame.own_env_sh[0].rgb
+        - C5 * frame.own_env_sh[6].rgb
+        + 2.0 * C1 * (frame.own_env_sh[4].rgb * n.x * n.y + frame.own_env_sh[7].rgb * n.x * n.z
+                      + frame.own_env_sh[5].rgb * n.y * n.z)
+        + 2.0 * C2 * (frame.own_env_sh[3].rgb * n.x + frame.own_env_sh[1].rgb * n.y
+                      + frame.own_env_sh[2].rgb * n.z);
+    return max(e, vec3(0.0));
+}
+
+// The own light's factor on the Lambertian radiance toward view cosine mu at x, normal n
+// (scene::own_lobe::OwnLight): each light's lobe weighted by its irradiance E mu0 (no shadow
+// test), the environment's Lambertian; 1 where nothing lights the point.
+vec3 own_light_factor(vec3 x, vec3 n, float mu) {
+    vec3 omega = clamp(frame.own_albedo.rgb, 0.0, 1.0);
+    vec3 h_nodes[8];
+    for (int j = 0; j < 8; j++) {
+        h_nodes[j] = h_function(GAUSS_NODES[j], omega);
+    }
+    vec3 h_mu = h_function(mu, omega);
+    vec3 weight = sh_irradiance(n);
+    vec3 sum = weight;
+    for (int i = 0; i < MAX_LIGHTS; i++) {
+        vec4 a = frame.own_lights[3 * i];
+        vec4 b = frame.own_lights[3 * i + 1];
+        vec4 c = frame.own_lights[3 * i + 2];
+        vec3 l;
+        vec3 e = b.rgb;
+        if (a.w == 1.0) {
+            l = a.xyz;
+        } else if (a.w >= 2.0) {
+            vec3 v = a.xyz - x;
+            float r = max(length(v), 1e-9);
+            l = v / r;
+            e /= r * r;
+            if (a.w == 3.0) {
+                // scene::Light::arriving's cone: smoothstep in cos from outer to inner.
+                float cos_axis = dot(-l, c.xyz);
+                float t = b.w - c.w > 1e-12 ? clamp((cos_axis - c.w) / (b.w - c.w), 0.0, 1.0)
+                                            : (cos_axis >= c.w ? 1.0 : 0.0);
+                e *= t * t * (3.0 - 2.0 * t);
+            }
+        } else {
+            continue;
+        }
+        float mu0 = dot(n, l);
+        if (mu0 <= 0.0) {
+            continue;
+        }
+        vec3 w = max(e, vec3(0.0)) * mu0;
+        sum += w * own_lobe(mu, mu0, omega, h_nodes, h_mu);
+        weight += w;
+    }
+    return mix(vec3(1.0), sum / max(weight, vec3(1e-30)), greaterThan(weight, vec3(0.0)));
+}
+
 void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(frame.camera_pos.xyz - v_position);
@@ -70,7 +170,14 @@ void main() {
     // is already the single scattering toward this view.
     float mu_i = sqrt(max(1.0 - (1.0 - n_v * n_v) / (pc.eta * pc.eta), 0.0));
     float b = pc.lobe_slope * (pc.lobe_own + (1.0 - pc.lobe_own) * clamp(v_share, 0.0, 1.0));
-    float lobe = (1.0 + b * mu_i) / (1.0 + b * pc.lobe_k);
+    float node = (1.0 + b * mu_i) / (1.0 + b * pc.lobe_k);
+    vec3 lobe = vec3(node);
+    if (frame.own_albedo.w > 0.0) {
+        // ExitLobe::Chandra (eta 1, mu_i = n_v): the own part (1 - s) drawn with the own light's
+        // shape instead of Lambert, node + (1 - s) (g_own - 1) (scene::ExitLobe::factor_lit).
+        float s = clamp(v_share, 0.0, 1.0);
+        lobe = max(node + (1.0 - s) * (own_light_factor(v_position, n, n_v) - 1.0), vec3(0.0));
+    }
     // Single scattering (DESIGN 2.8) joins the diffusion's J+: L_ss = T_o X / (pi eta^2). As a
     // difference to the flat closed form it may be negative; the sum never is.
     vec3 radiance = f_t * max(lobe * max(v_exitance, vec3(0.0)) + v_scattered, vec3(0.0)) * scale;

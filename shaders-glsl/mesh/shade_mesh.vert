@@ -15,6 +15,11 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
     vec4 light_dir;        // xyz: direction the light travels (unit); w: 1 if there is a light
     vec4 light_irradiance; // rgb: irradiance on a surface facing the light
     vec4 env_sh[9];        // environment radiance, order-2 SH (fragment stage only)
+    // The own-light lobe's albedo, lights and environment (fragment stage only; shade_mesh.frag;
+    // 3 vec4 per light, render::MAX_LIGHTS = 8).
+    vec4 own_albedo;
+    vec4 own_lights[24];
+    vec4 own_env_sh[9];
 } frame;
 
 layout(location = 0) out vec3 v_position;

@@ -147,7 +147,10 @@ impl TranslucentObject {
         let before_method = graph.pass_names().len();
         self.method.add_passes(&mut graph, shadows)?;
         // The per-node exit lobe's share per vertex (only the node lobe reads it).
-        let share = (self.params.exit_lobe == ExitLobe::Node)
+        let share = self
+            .params
+            .exit_lobe
+            .reads_share()
             .then(|| self.method.exit_share())
             .flatten();
         // The bounce is added in place to the exitance: only on frames whose method wrote a new

@@ -32,6 +32,52 @@ pub struct ShadeUniforms {
     /// Environment radiance as order-2 SH (rgb, w unused) for its mirror reflection
     /// F_r(eta, theta_o) L_env(r); zero: none. See [`environment_sh`].
     pub env_sh: [[f32; 4]; 9],
+    /// The own-light lobe ([`crate::scene::ExitLobe::Chandra`], [`crate::scene::own_lobe`]): rgb
+    /// the albedo per channel, w 1 where it applies (0: the node lobe's own light, Lambert).
+    pub own_albedo: [f32; 4],
+    /// Per light three vec4 ([`own_light_uniforms`]): (direction to it or position, kind 0 none,
+    /// 1 directional, 2 point, 3 spot), (irradiance or intensity rgb, spot cos inner), (spot axis,
+    /// spot cos outer).
+    pub own_lights: [[f32; 4]; 3 * super::MAX_LIGHTS],
+    /// The environment's radiance SH for the own light's Lambertian part (irradiance weight),
+    /// whether or not the specular reflection draws it; zero: none.
+    pub own_env_sh: [[f32; 4]; 9],
+}
+
+/// [`ShadeUniforms::own_lights`] of `lights` (at most [`super::MAX_LIGHTS`]; more are ignored
+/// here, the object refuses them).
+pub fn own_light_uniforms(lights: &[crate::scene::Light]) -> [[f32; 4]; 3 * super::MAX_LIGHTS] {
+    use crate::scene::Light;
+    let mut out = [[0.0; 4]; 3 * super::MAX_LIGHTS];
+    for (i, light) in lights.iter().take(super::MAX_LIGHTS).enumerate() {
+        let v = |d: glam::DVec3, w: f32| [d.x as f32, d.y as f32, d.z as f32, w];
+        let c = |e: [f64; 3], w: f32| [e[0] as f32, e[1] as f32, e[2] as f32, w];
+        let (a, b, axis) = match *light {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => (v(-direction.normalize(), 1.0), c(irradiance, 0.0), [0.0; 4]),
+            Light::Point {
+                position,
+                intensity,
+            } => (v(position, 2.0), c(intensity, 0.0), [0.0; 4]),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                inner_deg,
+                outer_deg,
+            } => (
+                v(position, 3.0),
+                c(intensity, inner_deg.to_radians().cos() as f32),
+                v(direction.normalize(), outer_deg.to_radians().cos() as f32),
+            ),
+        };
+        out[3 * i] = a;
+        out[3 * i + 1] = b;
+        out[3 * i + 2] = axis;
+    }
+    out
 }
 
 /// The [`ShadeUniforms::env_sh`] of an environment: its radiance in the basis and order of

@@ -27,7 +27,9 @@ pub use irradiance::{
     SURFACE_POSITION_FORMAT,
 };
 pub use laplace::{JacobiPush, LaplaceJacobiPass};
-pub use mesh_pass::{environment_sh, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms};
+pub use mesh_pass::{
+    environment_sh, own_light_uniforms, MeshPass, ShadeAttachments, ShadePush, ShadeUniforms,
+};
 pub use shadow_maps::{
     LightViews, ShadowMaps, ShadowMapsDesc, ShadowPush, ShadowView, MAX_LIGHTS, MAX_SHADOW_VIEWS,
     SHADOW_ATLAS_FORMAT, SHADOW_SLOPE_BIAS,

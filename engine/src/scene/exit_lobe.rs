@@ -26,6 +26,12 @@
 //!   the P1 radiance's own: inside the boundary L(mu) ~ phi + 3 D phi' mu with, from the node's
 //!   Robin row, D phi' = (phi - rhs) / (2A), so the homogeneous field's slope is b_P1 (1 - rhs /
 //!   phi); the particular solution of a collimated source (DESIGN 2.7) is own light.
+//! - [`ExitLobe::Chandra`]: the node lobe with the own light drawn by Chandrasekhar's half-space
+//!   law ([`super::own_lobe`]): per channel `node(s) + (1 - s) (g_own(mu; mu0, omega) - 1)`,
+//!   g_own the lights' lobes weighted by irradiance (limb-darkened at normal incidence, flat at
+//!   grazing), so the exitance is the node lobe's. At eta != 1 it is the node lobe: the law is
+//!   the index-matched half-space's (the references at eta 1.3 are environment-lit, where the own
+//!   light is Lambertian anyway), see [`ExitLobe::own_light_applies`].
 //!
 //! ```
 //! use translucent::scene::ExitLobe;
@@ -64,11 +70,13 @@ pub enum ExitLobe {
     Fitted,
     /// A slope per surface node from its diffused share (see the module doc).
     Node,
+    /// [`ExitLobe::Node`] with the own light's shape from its incidence cosine (module doc).
+    Chandra,
 }
 
 impl ExitLobe {
     /// The names `--exit-lobe` takes and `--json` reports.
-    pub const NAMES: [&'static str; 4] = ["lambert", "p1", "fitted", "node"];
+    pub const NAMES: [&'static str; 5] = ["lambert", "p1", "fitted", "node", "chandra"];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -76,6 +84,7 @@ impl ExitLobe {
             Self::P1 => Self::NAMES[1],
             Self::Fitted => Self::NAMES[2],
             Self::Node => Self::NAMES[3],
+            Self::Chandra => Self::NAMES[4],
         }
     }
 
@@ -88,7 +97,7 @@ impl ExitLobe {
         };
         match self {
             Self::Lambert => 0.0,
-            Self::P1 | Self::Node => p1(),
+            Self::P1 | Self::Node | Self::Chandra => p1(),
             Self::Fitted => FITTED_SLOPE_SHARE * p1(),
         }
     }
@@ -108,7 +117,7 @@ impl ExitLobe {
     /// diffused share 0 keeps (1 for the lobes that ignore the share).
     pub fn shading_push(self, eta: f64) -> [f64; 3] {
         let own = match self {
-            Self::Node => OWN_SOURCE_SLOPE_SHARE,
+            Self::Node | Self::Chandra => OWN_SOURCE_SLOPE_SHARE,
             _ => 1.0,
         };
         [self.slope(eta), normalization(eta), own]
@@ -130,6 +139,42 @@ impl ExitLobe {
     /// the normal, clamped to [0, 1]) at a node of diffused share 1; 1 for [`ExitLobe::Lambert`].
     pub fn factor(self, eta: f64, cos_o: f64) -> f64 {
         self.factor_at(eta, cos_o, 1.0)
+    }
+
+    /// Whether the node's diffused share reaches the shading (the per-node lobes).
+    pub fn reads_share(self) -> bool {
+        matches!(self, Self::Node | Self::Chandra)
+    }
+
+    /// Whether the own light's Chandrasekhar shape applies ([`ExitLobe::Chandra`] at eta 1:
+    /// the law is the index-matched half-space's; elsewhere the lobe is [`ExitLobe::Node`]'s).
+    pub fn own_light_applies(self, eta: f64) -> bool {
+        self == Self::Chandra && eta == 1.0
+    }
+
+    /// The factor on the Lambertian radiance per channel toward `cos_o` at a node of diffused
+    /// share `share` lit by `own` (albedo `omega` per channel): [`Self::factor_at`], plus for
+    /// [`ExitLobe::Chandra`] at eta 1 the own light's shape, `(1 - s) (g_own - 1)`
+    /// (`shade_mesh.frag`'s formula in f64).
+    pub fn factor_lit(
+        self,
+        eta: f64,
+        cos_o: f64,
+        share: f64,
+        own: &super::own_lobe::OwnLight,
+        omega: [f64; 3],
+    ) -> [f64; 3] {
+        let node = self.factor_at(eta, cos_o, share);
+        if !self.own_light_applies(eta) {
+            return [node; 3];
+        }
+        let s = if share.is_nan() {
+            0.0
+        } else {
+            share.clamp(0.0, 1.0)
+        };
+        let g = own.factor(cos_o, omega);
+        g.map(|g| (node + (1.0 - s) * (g - 1.0)).max(0.0))
     }
 
     /// [`Self::factor`] at a node of diffused share `share` ([`diffused_share`]).
@@ -181,13 +226,14 @@ pub fn inside_cosine(eta: f64, cos_o: f64) -> f64 {
 
 impl std::str::FromStr for ExitLobe {
     type Err = SceneError;
-    /// `lambert`, `p1`, `fitted` or `node` (the CLI's `--exit-lobe`).
+    /// `lambert`, `p1`, `fitted`, `node` or `chandra` (the CLI's `--exit-lobe`).
     fn from_str(s: &str) -> Result<Self, SceneError> {
         match s {
             "lambert" => Ok(Self::Lambert),
             "p1" => Ok(Self::P1),
             "fitted" => Ok(Self::Fitted),
             "node" => Ok(Self::Node),
+            "chandra" => Ok(Self::Chandra),
             _ => Err(SceneError::Invalid {
                 what: "exit lobe".into(),
                 problem: format!("'{s}' (expected {})", Self::NAMES.join(", ")),

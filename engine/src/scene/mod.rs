@@ -5,7 +5,8 @@
 //! - [`Light`]: directional, point and spot lights, parsed from the command-line syntax.
 //! - [`Environment`]: none, constant, or order-2 spherical harmonics (from an EXR map).
 //! - [`Camera`]: a pinhole camera looking from eye to target.
-//! - [`ExitLobe`]: the angular shape of the radiance leaving the surface (`--exit-lobe`).
+//! - [`ExitLobe`]: the angular shape of the radiance leaving the surface (`--exit-lobe`);
+//!   [`own_lobe`]: Chandrasekhar's shape of a node's own light ([`ExitLobe::Chandra`]).
 //! - [`Scene`]: what lights the object, and the transmitted irradiance q it gives a surface point.
 //!
 //! ```
@@ -26,6 +27,7 @@ mod environment;
 mod environment_map;
 mod exit_lobe;
 mod light;
+pub mod own_lobe;
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -84,6 +84,32 @@ pub fn radiance_with_lobe_at(
     j_plus.map(|j| k * j.max(0.0))
 }
 
+/// [`radiance_with_lobe_at`] with the own light's shape ([`ExitLobe::Chandra`]): `own` what
+/// lights the point ([`crate::scene::own_lobe::OwnLight::at`]), `omega` the albedo per channel
+/// ([`crate::scene::own_lobe::surface_albedo`]); the other lobes ignore both.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the shading's inputs, one per formula term"
+)]
+pub fn radiance_lit(
+    j_plus: [f64; 3],
+    eta: f64,
+    cos_o: f64,
+    mode: RadianceMode,
+    lobe: ExitLobe,
+    share: f64,
+    own: &crate::scene::own_lobe::OwnLight,
+    omega: [f64; 3],
+) -> [f64; 3] {
+    let ft = fresnel::transmittance(eta, cos_o);
+    let k = match mode {
+        RadianceMode::Physical => ft / (std::f64::consts::PI * eta * eta),
+        RadianceMode::Paper => ft / std::f64::consts::PI,
+    };
+    let g = lobe.factor_lit(eta, cos_o, share, own, omega);
+    std::array::from_fn(|c| k * g[c] * j_plus[c].max(0.0))
+}
+
 /// Parameters of [`solve`].
 #[derive(Clone, Debug)]
 pub struct CpuSolveParams {
