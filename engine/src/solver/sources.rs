@@ -347,6 +347,7 @@ impl<'a> SourceModel<'a> {
         x: DVec3,
         n: DVec3,
         here: &Coefficients,
+        given: Option<f64>,
     ) -> Option<([f64; 3], ChannelBeams)> {
         let solid = self.occluder?;
         if !(self.transport.upstream_beam && self.beams()) {
@@ -366,9 +367,20 @@ impl<'a> SourceModel<'a> {
         let sigma_t: [f64; 3] = std::array::from_fn(|c| here.sigma_s[c] + here.sigma_a[c]);
         let mean_free_path = 3.0 / (sigma_t[0] + sigma_t[1] + sigma_t[2]).max(1e-12);
         let probe = x + (t + n) * mean_free_path;
-        let (hit, n_up) = solid.ray_hit(probe, -n, 3.0 * mean_free_path)?;
-        let curvature = (n_up - n).dot(t) / mean_free_path;
-        let at = probe - n * hit;
+        // A given curvature (the baked one the GPU reads) replaces the probe's; the probe's
+        // surface point, where found, is where visibility is tested past the terminator.
+        let (curvature, at, n_up) = match (given, solid.ray_hit(probe, -n, 3.0 * mean_free_path)) {
+            (Some(k), Some((hit, n_up))) => (k, probe - n * hit, n_up),
+            (Some(k), None) => (
+                k,
+                x + t * mean_free_path,
+                (n + t * (k * mean_free_path)).normalize_or(n),
+            ),
+            (None, Some((hit, n_up))) => {
+                ((n_up - n).dot(t) / mean_free_path, probe - n * hit, n_up)
+            }
+            (None, None) => return None,
+        };
         let lit = if mu > 0.0 {
             matches!(
                 arrival(light, x, n, Some(solid), self.offset, false),
@@ -395,6 +407,20 @@ impl<'a> SourceModel<'a> {
     /// The sources at surface point `x` with outward normal `n`, the local coefficients `here`
     /// and the extrapolation length `h` = 2 A D of its Robin row, per channel.
     pub fn at_with(&self, x: DVec3, n: DVec3, here: &Coefficients, h: [f64; 3]) -> LocalSource {
+        self.at_node(x, n, here, h, None)
+    }
+
+    /// [`Self::at_with`] at a surface node whose mean curvature `curvature` is known (the
+    /// baked one, `quadgraph::surface_samples::surface_node_curvatures`): the upstream beam
+    /// reads it instead of probing the surface (`None`: probed).
+    pub fn at_node(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        here: &Coefficients,
+        h: [f64; 3],
+        curvature: Option<f64>,
+    ) -> LocalSource {
         let eta = self.boundary.eta;
         let mut out = LocalSource::default();
         // Beam of surface irradiance irr (per channel) refracted as r with the coefficients `o`
@@ -418,7 +444,7 @@ impl<'a> SourceModel<'a> {
             }
         };
         for light in &self.scene.lights {
-            if let Some((irradiance, beams)) = self.upstream(light, x, n, here) {
+            if let Some((irradiance, beams)) = self.upstream(light, x, n, here, curvature) {
                 self.lit_light(&mut out, &add_beam, light, x, n, here, irradiance, beams);
                 continue;
             }

@@ -19,6 +19,10 @@ pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
 /// through the wall").
 pub const DEFAULT_CONTINUATION: bool = false;
 
+/// `render`'s `--upstream-beam` when not named: whether a beam source's light is taken from
+/// upstream on the curved surface (benches/RESULTS.md, "The upstream beam on the GPU").
+pub const DEFAULT_UPSTREAM_BEAM: bool = false;
+
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
 pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
@@ -95,6 +99,15 @@ impl RenderArgs {
         self.continuation
             .as_deref()
             .map_or(DEFAULT_CONTINUATION, |v| v == "on")
+    }
+
+    /// `--upstream-beam` resolved: the given one, else [`DEFAULT_UPSTREAM_BEAM`] (with a beam
+    /// source only).
+    pub fn upstream_beam(&self) -> bool {
+        self.upstream_beam
+            .as_deref()
+            .map_or(DEFAULT_UPSTREAM_BEAM, |v| v == "on")
+            && self.light_source() != translucent::solver::transport::Source::BoundaryFlux
     }
 
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on
