@@ -338,9 +338,9 @@ impl<'a> SourceModel<'a> {
 
     /// The light the first collisions below `x` carry from upstream ([`upstream_beam`]) when
     /// `transport.upstream_beam` is on: the mean curvature along the light's tangent from the
-    /// surface one mean free path upstream (a probe ray along -n), its visibility there (the node's
-    /// own where it faces the light). `None`: off, no occluder, too far past the terminator or no
-    /// surface found (the node's usual arrival applies).
+    /// surface one mean free path upstream (a probe ray along -n) or the baked one `given`, its
+    /// visibility there (the node's own where it faces the light). `None`: off, too far past the
+    /// terminator, or no curvature given and no surface found (the node's usual arrival applies).
     fn upstream(
         &self,
         light: &Light,
@@ -349,7 +349,6 @@ impl<'a> SourceModel<'a> {
         here: &Coefficients,
         given: Option<f64>,
     ) -> Option<([f64; 3], ChannelBeams)> {
-        let solid = self.occluder?;
         if !(self.transport.upstream_beam && self.beams()) {
             return None;
         }
@@ -369,7 +368,10 @@ impl<'a> SourceModel<'a> {
         let probe = x + (t + n) * mean_free_path;
         // A given curvature (the baked one the GPU reads) replaces the probe's; the probe's
         // surface point, where found, is where visibility is tested past the terminator.
-        let (curvature, at, n_up) = match (given, solid.ray_hit(probe, -n, 3.0 * mean_free_path)) {
+        let probed = self
+            .occluder
+            .and_then(|solid| solid.ray_hit(probe, -n, 3.0 * mean_free_path));
+        let (curvature, at, n_up) = match (given, probed) {
             (Some(k), Some((hit, n_up))) => (k, probe - n * hit, n_up),
             (Some(k), None) => (
                 k,
@@ -381,16 +383,18 @@ impl<'a> SourceModel<'a> {
             }
             (None, None) => return None,
         };
+        // Without an occluder nothing shadows (the GPU's unshadowed lights alike).
         let lit = if mu > 0.0 {
             matches!(
-                arrival(light, x, n, Some(solid), self.offset, false),
+                arrival(light, x, n, self.occluder, self.offset, false),
                 Arrival::Lit { .. }
             )
         } else {
-            matches!(
-                arrival(light, at, n_up, Some(solid), self.offset, false),
-                Arrival::Lit { .. }
-            )
+            // Past the terminator: a shadow ray from upstream (the GPU's shadow-map lookup there),
+            // whatever the upstream normal's cosine (the shift's factor decides what arrives).
+            let (_, l_up, dist) = light.arriving(at);
+            self.occluder
+                .is_none_or(|solid| !solid.occluded(at + n_up * self.offset, l_up, dist))
         };
         if !lit {
             return None;
