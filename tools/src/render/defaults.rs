@@ -19,11 +19,9 @@ pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
 /// through the wall").
 pub const DEFAULT_CONTINUATION: bool = false;
 
-/// `render`'s `--upstream-beam` when not named: whether a beam source's light is taken from
-/// upstream on the curved surface. On: 11 of the 13 references better (marble back-lit 18.4 ->
-/// 9.8 %), two worse by more than 0.3 points (U-block back-lit 18.7 -> 21.7, its edges; bunny
-/// front 11.9 -> 12.4): benches/RESULTS.md, "The upstream beam on the GPU".
-pub const DEFAULT_UPSTREAM_BEAM: bool = true;
+/// `render`'s `--upstream-beam` when not named (a beam source): the library's
+/// [`translucent::defaults::UPSTREAM_BEAM`].
+pub const DEFAULT_UPSTREAM_BEAM: bool = translucent::defaults::UPSTREAM_BEAM;
 
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
@@ -186,6 +184,7 @@ impl RenderArgs {
         settings.single_scattering = self.scatter_params()?;
         settings.bounce = self.bounce_mode()?;
         settings.diffusion = self.diffusion()?;
+        settings.upstream_beam = self.upstream_beam();
         Ok(settings)
     }
 
