@@ -52,6 +52,11 @@ pub const HOMOGENEOUS_SOURCE: Source = Source::SecondCollision;
 /// `.vol` grid and the procedural field it samples, against 0.8% with the flux), so a
 /// heterogeneous beam is opt-in until that is fixed.
 pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
+/// The upstream beam with a beam source (`transport::upstream_beam`, each surface node's beam
+/// taken from upstream on the curved surface; benches/RESULTS.md, "The upstream beam on the
+/// GPU": 11 of 13 references better, the back-lit marble sphere 18.4 -> 9.8 %, the back-lit
+/// U-block 18.7 -> 21.7 and the front-lit bunny 11.9 -> 12.4 worse).
+pub const UPSTREAM_BEAM: bool = true;
 /// One bounce of exitance between display vertices for the QuadGraph method (benches/RESULTS.md,
 /// "One bounce between surface points": 4-8 points off every concave scene against path tracing,
 /// the convex sphere unchanged, < 1 ms a frame; its links are stored with the bake, a convex mesh
@@ -160,6 +165,8 @@ pub struct Settings {
     /// The diffusion coefficient D the solve, its sources, the exit query and the bounce use:
     /// [`DIFFUSION`] for the QuadGraph method, classical for the others (which read none).
     pub diffusion: DiffusionCoefficient,
+    /// The upstream beam ([`UPSTREAM_BEAM`] with a beam source, off with the boundary flux).
+    pub upstream_beam: bool,
 }
 
 impl Settings {
@@ -184,6 +191,7 @@ impl Settings {
             bounce: BOUNCE,
             warm_start: WARM_START,
             diffusion: DIFFUSION,
+            upstream_beam: UPSTREAM_BEAM && source != Source::BoundaryFlux,
         }
     }
 
@@ -209,8 +217,8 @@ impl Settings {
         }
     }
 
-    /// These settings with the light source `source`, the exit query and the single-scattering
-    /// mode that go with it (the march whole with the second-collision source, else as the
+    /// These settings with the light source `source`, the exit query, the upstream beam and the
+    /// single-scattering mode that go with it (the march whole with the second-collision source, else as the
     /// difference to the flat closed form).
     pub fn with_source(self, source: Source) -> Settings {
         Settings {
@@ -219,6 +227,7 @@ impl Settings {
             single_scattering: self
                 .single_scattering
                 .map(|s| scatter_for(source, s.samples, s.skip_front_lit)),
+            upstream_beam: UPSTREAM_BEAM && source != Source::BoundaryFlux,
             ..self
         }
     }
@@ -245,6 +254,7 @@ impl Settings {
             exit: self.exit,
             collimated: beam,
             second_collision: self.source == Source::SecondCollision,
+            upstream_beam: beam && self.upstream_beam,
             surface: self.surface,
             heterogeneous_weights: self.heterogeneous_weights,
             multigrid: (self.schedule == Schedule::Multigrid).then(|| MultigridParams {
@@ -295,6 +305,7 @@ impl Settings {
             bounce: params.bounce,
             warm_start: s.multigrid.as_ref().map_or(WARM_START, |m| m.warm_start),
             diffusion: params.diffusion,
+            upstream_beam: s.upstream_beam,
         }
     }
 }

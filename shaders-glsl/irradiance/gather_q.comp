@@ -28,6 +28,12 @@
 // for a slab: benches/thinwall/slab_rule.py). The entry is the surface the light's shadow view sees
 // in front of the node (its depth along the light), its normal taken as -n (the wall's faces
 // parallel: exact for a slab); beyond MAX_OPTICAL_DEPTH nothing arrives.
+// Upstream beam (beam_upstream = 1; transport::upstream_beam, issue 12's back-lit crescent): a
+// beam travels about a mean free path along a curved surface before its first collision, so with
+// c = H / (eta sigma_t') (H the node's mean curvature, baked in surface_normal.w) the beam's
+// incidence cosine is mu_up = mu + c (1 - mu^2) and its irradiance factor mu + c (1 - 3 mu^2),
+// per channel. A node just past the terminator (mu > -UPSTREAM_SHIFT_LIMIT) tests its visibility
+// a mean free path upstream, where the shadow map sees the surface lit.
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -85,6 +91,7 @@ layout(push_constant) uniform GatherPush {
                        // w: 1 = the second-collision source
     vec4 beam_kappa;   // rgb: D of a homogeneous material; w: 1 = Grosjean's D, 0 = 1 / (3 sigma_t')
     float beam_continuation; // 1: nodes facing away from a light get the beam through the wall
+    float beam_upstream; // 1: the upstream beam (transport::upstream_beam), H in surface_normal.w
 } pc;
 
 // Quadrature points of second_collision_ratio's integral over mu (as the f64 reference).
@@ -177,6 +184,9 @@ float visibility(uint index, vec3 p, vec3 n, float cos_l) {
     return lit / 9.0;
 }
 
+// transport::UPSTREAM_SHIFT_LIMIT: the largest |c| of the upstream beam.
+const float UPSTREAM_SHIFT_LIMIT = 0.2;
+
 // The cube face (+X, -X, +Y, -Y, +Z, -Z) whose frustum holds direction d.
 uint cube_face(vec3 d) {
     vec3 a = abs(d);
@@ -267,7 +277,9 @@ void main() {
         return; // padding texel: q is only defined at surface nodes
     }
     vec3 p = position.xyz;
-    vec3 n = imageLoad(surface_normal, texel).xyz;
+    vec4 normal_curvature = imageLoad(surface_normal, texel);
+    vec3 n = normal_curvature.xyz;
+    float curvature = normal_curvature.w;
     // fp16 normals are unit only to ~5e-4; renormalize so n.l matches the f64 reference.
     n = length(n) > 0.0 ? normalize(n) : vec3(0.0);
 
@@ -322,6 +334,55 @@ void main() {
         }
         // h = 2 A D: the Robin row's extrapolation length.
         vec3 h = 2.0 * pc.beam_sigma_a.w * beam_d;
+        if (beams && pc.beam_upstream > 0.5 && cos_l > -UPSTREAM_SHIFT_LIMIT) {
+            // transport::upstream_beam per channel.
+            vec3 sigma_t = beam_s + beam_a;
+            vec3 c = clamp(curvature / (pc.eta * max(sigma_t, vec3(1e-12))),
+                           vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            float mu = clamp(cos_l, -1.0, 1.0);
+            vec3 mu_up = min(mu + c * (1.0 - mu * mu), vec3(1.0));
+            vec3 factor = mix(vec3(0.0), max(mu + c * (1.0 - 3.0 * mu * mu), vec3(0.0)),
+                              greaterThan(mu_up, vec3(0.0)));
+            float vis = 1.0;
+            if (light.views.y != 0u) {
+                uint view = light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
+                if (cos_l > 0.0) {
+                    vis = visibility(view, p, n, cos_l);
+                } else {
+                    // Past the terminator: a mean free path upstream (sources.rs `upstream`).
+                    vec3 along = l - n * mu;
+                    vec3 t = length(along) > 1e-6 ? normalize(along) : vec3(0.0);
+                    float mfp = 3.0 / max(sigma_t.r + sigma_t.g + sigma_t.b, 1e-12);
+                    vec3 n_up = normalize(n + t * (curvature * mfp));
+                    vis = visibility(view, p + t * mfp, n_up, max(dot(n_up, l), 0.0));
+                }
+            }
+            // As the f64 reference: unlit upstream, or nothing reaching the node, keeps the
+            // usual arrival below.
+            if (vis > 0.0 && any(greaterThan(factor, vec3(0.0)))) {
+                for (int ch = 0; ch < 3; ++ch) {
+                    float mi = mu_up[ch];
+                    float mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), 0.0));
+                    vec3 tr = e * (factor[ch] * fresnel_transmittance(pc.eta, max(mi, 0.0)) * vis);
+                    vec3 s_ch = vec3(0.0);
+                    vec3 p_ch = vec3(0.0);
+                    if (pc.beam_edge > 0.5 && vis < 1.0) {
+                        vec3 gain = pc.beam_exit.w > 0.5
+                            ? second_collision_ratio(beam_s, beam_a, beam_d, mt, pc.eta)
+                            : vec3(1.0);
+                        s_ch = tr * gain;
+                    } else {
+                        vec3 k, beta_k, flux;
+                        beam_particular(tr, mt, true, beam_s, beam_a, beam_d, k, beta_k, flux);
+                        s_ch = flux - (k + h * beta_k) / pc.beam_exit.z;
+                        p_ch = pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
+                    }
+                    sum[ch] += s_ch[ch];
+                    part[ch] += p_ch[ch];
+                }
+                continue;
+            }
+        }
         if (cos_l <= 0.0) {
             // Facing away: the beam that entered on the light's side of the wall, if any.
             if (!beams || pc.beam_continuation < 0.5 || light.views.y == 0u) {

@@ -141,6 +141,7 @@ fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource
         second_collision: params.second_collision,
         shadow_edge_flux: params.shadow_edge_flux,
         continuation: params.continuation,
+        upstream: params.upstream_beam,
     })
 }
 

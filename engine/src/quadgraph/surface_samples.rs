@@ -461,6 +461,52 @@ fn mean_curvatures(
         .collect()
 }
 
+/// Display vertices whose mean curvature a surface node takes ([`surface_node_curvatures`]).
+pub const NODE_CURVATURE_VERTICES: usize = 4;
+
+/// Per surface node of `level` (surface index `s`), the mean curvature H of the display surface
+/// there: the average of [`SurfaceSamples::curvature`] over the [`NODE_CURVATURE_VERTICES`]
+/// nearest display vertices (of `surface`, the baked display mesh) whose normal faces the node's
+/// within 90 degrees (1/mm, convex > 0; 0 where none does or the bake has no curvature). What the
+/// upstream beam (`solver::transport::upstream_beam`) reads on the GPU gather and on the CPU
+/// reference alike, baked once rather than probed per frame.
+pub fn surface_node_curvatures(
+    level: &GraphLevel,
+    surface: &TriMesh,
+    samples: &SurfaceSamples,
+) -> Vec<f64> {
+    let inner = level.inner_count();
+    let count = level.surface_count();
+    if surface.positions.is_empty() || samples.curvature.len() != surface.positions.len() {
+        return vec![0.0; count];
+    }
+    let coords: Vec<[f64; 3]> = surface.positions.iter().map(|p| p.to_array()).collect();
+    let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
+    let k =
+        std::num::NonZero::new(NODE_CURVATURE_VERTICES).unwrap_or(std::num::NonZero::<usize>::MIN);
+    (0..count)
+        .into_par_iter()
+        .map(|s| {
+            let (x, n) = (level.positions[inner + s], level.surface_normals[s]);
+            let (mut sum, mut total) = (0.0, 0.0);
+            for nb in tree.nearest_n::<SquaredEuclidean>(&x.to_array(), k) {
+                let v = nb.item as usize;
+                let facing = surface.normals.get(v).is_none_or(|m| m.dot(n) > 0.0);
+                let h = samples.curvature[v];
+                if facing && h.is_finite() {
+                    sum += h;
+                    total += 1.0;
+                }
+            }
+            if total > 0.0 {
+                sum / total
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// The distance from `x` along `-n` to where the ray first leaves `solid` (a crossing whose
 /// outward normal faces along the ray), up to `reach`; crossings into the solid on the way (the
 /// smoothed surface point `x` may lie just outside a scan's dimple) are stepped over.

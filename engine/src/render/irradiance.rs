@@ -107,6 +107,9 @@ pub struct GatherPush {
     /// 1: a node facing away from a light gets the beam through the wall
     /// ([`BeamSource::continuation`]).
     pub beam_continuation: f32,
+    /// 1: each lit node's beam taken from upstream on the curved surface
+    /// ([`BeamSource::upstream`]), its mean curvature in the surface normal's w.
+    pub beam_upstream: f32,
 }
 
 /// The collimated source of DESIGN 2.7 (what the gather needs of the solver's boundary model,
@@ -147,6 +150,12 @@ pub struct BeamSource {
     /// knows nothing of the beam (T 1.06-2.3x too bright below 4 mean free paths,
     /// benches/thinwall/slab_rule.py).
     pub continuation: bool,
+    /// The upstream beam (`solver::transport::upstream_beam`, issue 12's back-lit crescent): a
+    /// beam travels about a mean free path along a curved surface before its first collision, so
+    /// a node's incidence cosine is mu + c (1 - mu^2) and its irradiance factor mu + c (1 - 3
+    /// mu^2), c = H / (eta sigma_t') with the node's mean curvature H (the surface normal's w);
+    /// nodes just past the terminator get light, visibility tested a mean free path upstream.
+    pub upstream: bool,
 }
 
 /// One light as `gather_q.comp` reads it (std430, all vec4).
@@ -608,6 +617,10 @@ impl IrradiancePass {
             }),
             beam_continuation: match self.beam {
                 Some(b) if b.continuation => 1.0,
+                _ => 0.0,
+            },
+            beam_upstream: match self.beam {
+                Some(b) if b.upstream => 1.0,
                 _ => 0.0,
             },
         };

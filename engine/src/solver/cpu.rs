@@ -317,12 +317,23 @@ fn check_links(
 
 /// One level's surface sources and the extrapolation length h = 2 A kappa of each surface row.
 fn level_sources(
+    graph: &QuadGraph,
     level: &GraphLevel,
     material: &MaterialField,
     model: &SourceModel,
     op: &LevelOperator,
 ) -> (Vec<LocalSource>, Vec<[f64; 3]>) {
     let inner = level.inner_count();
+    // The upstream beam's curvature per surface node: the GPU gather's (baked, not probed).
+    let curvature = if model.transport.upstream_beam {
+        crate::quadgraph::surface_samples::surface_node_curvatures(
+            level,
+            &graph.surface,
+            &graph.samples,
+        )
+    } else {
+        Vec::new()
+    };
     (0..level.surface_count())
         .into_par_iter()
         .map(|s| {
@@ -335,7 +346,8 @@ fn level_sources(
             };
             let d = row.kappa_with(material.diffusion());
             let h: [f64; 3] = std::array::from_fn(|c| 2.0 * op.a * d[c]);
-            (model.at_with(x, level.surface_normals[s], &here, h), h)
+            let k = curvature.get(s).copied();
+            (model.at_node(x, level.surface_normals[s], &here, h, k), h)
         })
         .unzip()
 }
@@ -428,7 +440,8 @@ pub fn solve(
                     Hierarchy::build_with(graph, material, params.scheme, transport.exit, &mg)?;
                 let model =
                     SourceModel::new(scene, material, occluder, transport, ray_offset(level));
-                let (sources, row_h) = level_sources(level, material, &model, &hierarchy.finest);
+                let (sources, row_h) =
+                    level_sources(graph, level, material, &model, &hierarchy.finest);
                 let mut b = vec![[0.0; 3]; level.node_count()];
                 for (s, src) in sources.iter().enumerate() {
                     b[inner + s] = src.rhs;
@@ -665,7 +678,7 @@ pub fn balance(
     }
     let op = LevelOperator::build_with(level, material, scheme, transport.exit)?;
     let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
-    let (sources, row_h) = level_sources(level, material, &model, &op);
+    let (sources, row_h) = level_sources(graph, level, material, &model, &op);
     let inner = level.inner_count();
     let mut b = vec![[0.0; 3]; level.node_count()];
     for (s, src) in sources.iter().enumerate() {
@@ -822,7 +835,7 @@ fn cascade(
             .map_err(|e| e.at_level(h))?;
         // Far enough off the surface to miss it under f64 round-off, far below the lattice scale.
         let model = SourceModel::new(scene, material, occluder, transport, ray_offset(level));
-        let (sources, row_h) = level_sources(level, material, &model, &op);
+        let (sources, row_h) = level_sources(graph, level, material, &model, &op);
         let mut b = vec![[0.0; 3]; level.node_count()];
         for (s, src) in sources.iter().enumerate() {
             b[level.inner_count() + s] = src.rhs;

@@ -338,17 +338,17 @@ impl<'a> SourceModel<'a> {
 
     /// The light the first collisions below `x` carry from upstream ([`upstream_beam`]) when
     /// `transport.upstream_beam` is on: the mean curvature along the light's tangent from the
-    /// surface one mean free path upstream (a probe ray along -n), its visibility there (the node's
-    /// own where it faces the light). `None`: off, no occluder, too far past the terminator or no
-    /// surface found (the node's usual arrival applies).
+    /// surface one mean free path upstream (a probe ray along -n) or the baked one `given`, its
+    /// visibility there (the node's own where it faces the light). `None`: off, too far past the
+    /// terminator, or no curvature given and no surface found (the node's usual arrival applies).
     fn upstream(
         &self,
         light: &Light,
         x: DVec3,
         n: DVec3,
         here: &Coefficients,
+        given: Option<f64>,
     ) -> Option<([f64; 3], ChannelBeams)> {
-        let solid = self.occluder?;
         if !(self.transport.upstream_beam && self.beams()) {
             return None;
         }
@@ -366,19 +366,35 @@ impl<'a> SourceModel<'a> {
         let sigma_t: [f64; 3] = std::array::from_fn(|c| here.sigma_s[c] + here.sigma_a[c]);
         let mean_free_path = 3.0 / (sigma_t[0] + sigma_t[1] + sigma_t[2]).max(1e-12);
         let probe = x + (t + n) * mean_free_path;
-        let (hit, n_up) = solid.ray_hit(probe, -n, 3.0 * mean_free_path)?;
-        let curvature = (n_up - n).dot(t) / mean_free_path;
-        let at = probe - n * hit;
+        // A given curvature (the baked one the GPU reads) replaces the probe's; the probe's
+        // surface point, where found, is where visibility is tested past the terminator.
+        let probed = self
+            .occluder
+            .and_then(|solid| solid.ray_hit(probe, -n, 3.0 * mean_free_path));
+        let (curvature, at, n_up) = match (given, probed) {
+            (Some(k), Some((hit, n_up))) => (k, probe - n * hit, n_up),
+            (Some(k), None) => (
+                k,
+                x + t * mean_free_path,
+                (n + t * (k * mean_free_path)).normalize_or(n),
+            ),
+            (None, Some((hit, n_up))) => {
+                ((n_up - n).dot(t) / mean_free_path, probe - n * hit, n_up)
+            }
+            (None, None) => return None,
+        };
+        // Without an occluder nothing shadows (the GPU's unshadowed lights alike).
         let lit = if mu > 0.0 {
             matches!(
-                arrival(light, x, n, Some(solid), self.offset, false),
+                arrival(light, x, n, self.occluder, self.offset, false),
                 Arrival::Lit { .. }
             )
         } else {
-            matches!(
-                arrival(light, at, n_up, Some(solid), self.offset, false),
-                Arrival::Lit { .. }
-            )
+            // Past the terminator: a shadow ray from upstream (the GPU's shadow-map lookup there),
+            // whatever the upstream normal's cosine (the shift's factor decides what arrives).
+            let (_, l_up, dist) = light.arriving(at);
+            self.occluder
+                .is_none_or(|solid| !solid.occluded(at + n_up * self.offset, l_up, dist))
         };
         if !lit {
             return None;
@@ -395,6 +411,20 @@ impl<'a> SourceModel<'a> {
     /// The sources at surface point `x` with outward normal `n`, the local coefficients `here`
     /// and the extrapolation length `h` = 2 A D of its Robin row, per channel.
     pub fn at_with(&self, x: DVec3, n: DVec3, here: &Coefficients, h: [f64; 3]) -> LocalSource {
+        self.at_node(x, n, here, h, None)
+    }
+
+    /// [`Self::at_with`] at a surface node whose mean curvature `curvature` is known (the
+    /// baked one, `quadgraph::surface_samples::surface_node_curvatures`): the upstream beam
+    /// reads it instead of probing the surface (`None`: probed).
+    pub fn at_node(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        here: &Coefficients,
+        h: [f64; 3],
+        curvature: Option<f64>,
+    ) -> LocalSource {
         let eta = self.boundary.eta;
         let mut out = LocalSource::default();
         // Beam of surface irradiance irr (per channel) refracted as r with the coefficients `o`
@@ -418,7 +448,7 @@ impl<'a> SourceModel<'a> {
             }
         };
         for light in &self.scene.lights {
-            if let Some((irradiance, beams)) = self.upstream(light, x, n, here) {
+            if let Some((irradiance, beams)) = self.upstream(light, x, n, here, curvature) {
                 self.lit_light(&mut out, &add_beam, light, x, n, here, irradiance, beams);
                 continue;
             }

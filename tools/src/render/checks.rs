@@ -81,10 +81,10 @@ pub(super) fn solver_options(args: &RenderArgs, on_gpu: bool) -> anyhow::Result<
     {
         bail!("--continuation applies to a beam source (--source beam|second)");
     }
-    if args.upstream_beam
-        && (on_gpu || args.light_source() == solver::transport::Source::BoundaryFlux)
+    if args.upstream_beam.is_some()
+        && args.light_source() == solver::transport::Source::BoundaryFlux
     {
-        bail!("--upstream-beam applies to a beam source (--source beam|second) with --solver cpu");
+        bail!("--upstream-beam applies to a beam source (--source beam|second)");
     }
     if args.precision.is_some() && !on_gpu {
         bail!("--precision applies to the GPU solver; the CPU reference is f64");

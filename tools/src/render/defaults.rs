@@ -19,6 +19,10 @@ pub const DEFAULT_SOURCE: translucent::solver::transport::Source =
 /// through the wall").
 pub const DEFAULT_CONTINUATION: bool = false;
 
+/// `render`'s `--upstream-beam` when not named (a beam source): the library's
+/// [`translucent::defaults::UPSTREAM_BEAM`].
+pub const DEFAULT_UPSTREAM_BEAM: bool = translucent::defaults::UPSTREAM_BEAM;
+
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
 pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
@@ -97,6 +101,15 @@ impl RenderArgs {
             .map_or(DEFAULT_CONTINUATION, |v| v == "on")
     }
 
+    /// `--upstream-beam` resolved: the given one, else [`DEFAULT_UPSTREAM_BEAM`] (with a beam
+    /// source only).
+    pub fn upstream_beam(&self) -> bool {
+        self.upstream_beam
+            .as_deref()
+            .map_or(DEFAULT_UPSTREAM_BEAM, |v| v == "on")
+            && self.light_source() != translucent::solver::transport::Source::BoundaryFlux
+    }
+
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on
     /// the GPU unless `--exit-query flux` asks for the boundary-flux model (the default before
     /// wave 5); the f64 reference (`--solver cpu`) keeps the boundary flux unless named, and so
@@ -171,6 +184,7 @@ impl RenderArgs {
         settings.single_scattering = self.scatter_params()?;
         settings.bounce = self.bounce_mode()?;
         settings.diffusion = self.diffusion()?;
+        settings.upstream_beam = self.upstream_beam();
         Ok(settings)
     }
 

@@ -47,6 +47,7 @@ pub fn run(r: DipoleRender<'_>) -> anyhow::Result<()> {
         ("--source beam|second (--beam-source)", args.explicit_beam()),
         ("--shadow-edge-flux", args.shadow_edge_flux),
         ("--continuation", args.continuation.is_some()),
+        ("--upstream-beam", args.upstream_beam.is_some()),
         ("--scheme paper", args.scheme != "fv"),
     ] {
         if set {

@@ -157,10 +157,13 @@ pub struct RenderArgs {
     /// `defaults::DEFAULT_CONTINUATION`.
     #[arg(long, value_name = "on|off", value_parser = ["on", "off"])]
     pub continuation: Option<String>,
-    /// With a beam source and `--solver cpu` (an experiment, not on the GPU yet): each surface
-    /// node's beam is taken from upstream on the curved surface (`transport::upstream_beam`).
-    #[arg(long)]
-    pub upstream_beam: bool,
+    /// With a beam source (GPU and CPU solvers, the same formula and baked curvature): `on`,
+    /// each surface node's beam is taken from upstream on the curved surface
+    /// (`transport::upstream_beam`: lights the crescent past the terminator of a back-lit
+    /// object); `off`, the planar beam. `--upstream-beam` alone is `on`. Default: see
+    /// `defaults::DEFAULT_UPSTREAM_BEAM`.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"], num_args = 0..=1, default_missing_value = "on")]
+    pub upstream_beam: Option<String>,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
     /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).
@@ -530,7 +533,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 solver::transport::Transport {
                     source,
                     continuation: args.continuation(),
-                    upstream_beam: args.upstream_beam,
+                    upstream_beam: args.upstream_beam(),
                     ..solver::transport::Transport::gpu_collimated()
                 }
             } else {
@@ -586,6 +589,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let gpu_params = GpuSolveParams {
         shadow_edge_flux: args.shadow_edge_flux,
         continuation: args.continuation(),
+        upstream_beam: args.upstream_beam(),
         // The multigrid's coarse operator and cycle as named (`--coarse-*`, `--multigrid-cycle`).
         multigrid: match base.multigrid.as_ref() {
             Some(m) => Some(

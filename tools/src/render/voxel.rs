@@ -64,6 +64,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (args.explicit_beam(), "--source beam|second (--beam-source)"),
         (args.shadow_edge_flux, "--shadow-edge-flux"),
         (args.continuation.is_some(), "--continuation"),
+        (args.upstream_beam.is_some(), "--upstream-beam"),
     ] {
         if given {
             bail!("{name} applies to the QuadGraph method, not --method voxel");

@@ -431,8 +431,19 @@ impl GpuDiffusion {
             if h > 0 && level.from_coarser.is_none() {
                 return Err(SolverError::MissingLinks { level: h }.into());
             }
-            let texels =
+            let mut texels =
                 LevelTexels::build(level, params.scheme, coarse).map_err(|e| e.at_level(h))?;
+            // The surface normal's w: the node's mean curvature (the gather's upstream beam).
+            let curvature = crate::quadgraph::surface_samples::surface_node_curvatures(
+                level,
+                &graph.surface,
+                &graph.samples,
+            );
+            let inner = level.inner_count();
+            for (s, &k) in curvature.iter().enumerate() {
+                let t = texels.packing.linear_index((inner + s) as u32) as usize;
+                texels.surface_normal[t][3] = half::f16::from_f64(k);
+            }
             let finest = h + 1 == graph.levels.len();
             let gpu = Self::upload_level(
                 ctx,

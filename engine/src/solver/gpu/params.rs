@@ -94,6 +94,10 @@ pub struct GpuSolveParams {
     /// thickness, where the boundary-flux fallback is 0.84-0.89 of Monte Carlo and the beam
     /// without it 1.06-2.3x below 4 mean free paths (benches/thinwall/slab_rule.py).
     pub continuation: bool,
+    /// With `collimated`: each lit node's beam taken from upstream on the curved surface (the
+    /// f64 reference's [`crate::solver::transport::Transport::upstream_beam`], the same
+    /// formula and the same baked curvature per node).
+    pub upstream_beam: bool,
     /// `Some`: multigrid cycles (`--schedule multigrid`, [`super::multigrid`]) with these
     /// parameters (its tolerance is this struct's `tolerance`; `krylov` is not built on the GPU
     /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
@@ -153,6 +157,7 @@ impl Default for GpuSolveParams {
             second_collision: false,
             shadow_edge_flux: false,
             continuation: false,
+            upstream_beam: false,
             multigrid: None,
             surface: SurfaceReconstruction::Shepard,
             heterogeneous_weights: HeterogeneousWeights::default(),

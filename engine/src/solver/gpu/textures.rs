@@ -14,7 +14,7 @@
 //! | `links_lo/hi` | RGBA32UI | 8 Shepard links into the coarser level (paper Eq. 10), each packed in one u32 ([`pack_link`]): the coarse linear texel index << 8 and the weight in 1/255 (renormalized on the GPU); the coarsest level has none |
 //! | `q` | RGBA16F | surface rows only: the gather's irradiance term (pre-scaled by the exposure) |
 //! | `surface_position` | RGBA32F | surface rows only; rgb: surface node position (mm), a: 1 on surface nodes |
-//! | `surface_normal` | RGBA16F | surface rows only; rgb: outward unit normal of surface nodes |
+//! | `surface_normal` | RGBA16F | surface rows only; rgb: outward unit normal of surface nodes, w: their mean curvature H (1/mm) |
 //!
 //! A heterogeneous material's weights are, by default, derived in every sweep from the fractions,
 //! kappa and mu ([`super::HeterogeneousWeights::Derived`], `diffusion/graph_weights.glsl`): 8
