@@ -200,4 +200,3 @@ pub(super) const WRITTEN: [&str; 10] = [
     "kdir",
     "x_history",
 ];
-
