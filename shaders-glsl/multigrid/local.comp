@@ -4,9 +4,12 @@
 // Rüde's fully adaptive multigrid, its finest level): the extrapolated start's residual sits on
 // the few surface nodes a shadow edge crossed, so it is relaxed there before the cycles.
 // `local` holds a header (count, the current range's begin and end, the indirect arguments of
-// that range), then one flag bit per finest node, then the list of marked nodes (capacity
-// `pc.pad0`; nodes past it are flagged, not listed, and not relaxed). The host zeroes the header
-// and the flags every frame. Modes:
+// that range), then one flag bit per finest node (LOCAL_WORDS words), then the list of marked
+// nodes (capacity LOCAL_CAPACITY; nodes past it are flagged, not listed, and not relaxed). The
+// host zeroes the header and the flags every frame. The finest level's K comes from its
+// compressed rows or, under GRAPH_FINEST, from the cascade's graph (graph_operator.glsl), as in
+// residual.comp; a ring grows over the same row's neighbours either way (row i's columns, or
+// node i's graph slots: one direction, the row's). Modes:
 //   0 mark:     every finest node: r = f - K x; listed where any channel |r| > tol ||f||
 //   1 ring:     one invocation: the range is the nodes listed since the last range
 //   2 grow:     each node of the range lists its neighbours not flagged yet
@@ -17,6 +20,10 @@
 layout(local_size_x = 64) in;
 // The finest level's entries sit at floats 3 (e - HALF_ENTRIES) of `values` (residual.comp).
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
+// The `local` buffer's layout (`LocalLayout` in solver/gpu/multigrid/local.rs): flag words (one
+// bit per finest node) and list entries.
+layout(constant_id = 9) const uint LOCAL_WORDS = 0u;
+layout(constant_id = 10) const uint LOCAL_CAPACITY = 0u;
 
 #include "common.glsl"
 
@@ -32,6 +39,8 @@ layout(set = 0, binding = 8, std430) readonly buffer PartnerValue { float v[]; }
 layout(set = 0, binding = 9, std430) buffer Control { MultigridControl c; } control;
 layout(set = 0, binding = 10, std430) buffer Local { uint v[]; } local;
 
+#include "graph_operator.glsl"
+
 #define MODE_MARK 0u
 #define MODE_RING 1u
 #define MODE_GROW 2u
@@ -39,16 +48,20 @@ layout(set = 0, binding = 10, std430) buffer Local { uint v[]; } local;
 #define MODE_RESIDUAL 4u
 #define MODE_STEP 5u
 
-// Header words (`LOCAL_HEADER` in solver/gpu/multigrid/local.rs); the flags follow, `pc.width`
+// Header words (`LOCAL_HEADER` in solver/gpu/multigrid/local.rs); the flags follow, LOCAL_WORDS
 // words, then the list.
 #define COUNT 0u
 #define BEGIN 1u
 #define END 2u
 #define ARGS 4u
 #define HEADER 8u
+#define LIST (HEADER + LOCAL_WORDS)
 
-// r_i = f_i - (K x)_i of the finest level (absolute node i; f32 entries).
+// r_i = f_i - (K x)_i of the finest level (absolute node i; f32 entries or the graph).
 vec3 residual_at(uint i) {
+    if (reads_graph(pc.offset)) {
+        return RGB(f, i) - graph_apply(i - pc.offset, i, diag.v[i].rgb);
+    }
     vec3 acc = diag.v[i].rgb * RGB(x, i);
     for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
         uint j = 3u * (e - HALF_ENTRIES);
@@ -69,8 +82,8 @@ bool flagged(uint node) {
 
 void append(uint node) {
     uint k = atomicAdd(local.v[COUNT], 1u);
-    if (k < pc.pad0) {
-        local.v[HEADER + pc.width + k] = node;
+    if (k < LOCAL_CAPACITY) {
+        local.v[LIST + k] = node;
     }
 }
 
@@ -84,7 +97,7 @@ void set_range(uint begin, uint end) {
 
 void main() {
     uint id = gl_GlobalInvocationID.x;
-    uint listed = min(local.v[COUNT], pc.pad0);
+    uint listed = min(local.v[COUNT], LOCAL_CAPACITY);
     if (pc.mode == MODE_RING || pc.mode == MODE_ALL) {
         if (id != 0u) {
             return;
@@ -112,9 +125,18 @@ void main() {
     if (k >= local.v[END]) {
         return;
     }
-    uint node = local.v[HEADER + pc.width + k];
+    uint node = local.v[LIST + k];
     uint i = pc.offset + node;
-    if (pc.mode == MODE_GROW) {
+    if (pc.mode == MODE_GROW && reads_graph(pc.offset)) {
+        ivec2 p = texel_of(node_texel.v[node]);
+        uvec4 nb = imageLoad(connectivity, p);
+        for (int s = 0; s < (uint(p.y) < pc.surface_rows ? 1 : 4); ++s) {
+            uint j = texel_node.v[nb[s]];
+            if (j != NO_NODE && claim(j)) {
+                append(j);
+            }
+        }
+    } else if (pc.mode == MODE_GROW) {
         for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
             uint j = cols.v[e] - pc.offset;
             if (claim(j)) {
@@ -130,7 +152,7 @@ void main() {
         uint p = partner.v[i];
         // The partner's r is this sweep's only where it is listed (a full list lists every
         // flagged node).
-        if (p != NO_NODE && local.v[COUNT] <= pc.pad0 && flagged(p - pc.offset)) {
+        if (p != NO_NODE && local.v[COUNT] <= LOCAL_CAPACITY && flagged(p - pc.offset)) {
             vec3 b = RGB(partner_value, i);
             vec3 dp = diag.v[p].rgb;
             z = (dp * ri - b * RGB(r, p)) / (a * dp - b * b);

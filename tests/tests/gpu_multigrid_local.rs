@@ -13,7 +13,7 @@ use translucent::quadgraph::BakeParams;
 use translucent::scene::{Environment, Light, Scene};
 use translucent::solver::gpu::multigrid::{CycleState, GpuMultigridReport};
 use translucent::solver::gpu::{GpuDiffusion, GpuSolveParams};
-use translucent::solver::multigrid::{LocalRelaxation, MultigridParams, WarmStart};
+use translucent::solver::multigrid::{FinestOperator, LocalRelaxation, MultigridParams, WarmStart};
 use translucent::solver::{self, rel_rms, CpuSolveParams};
 use translucent::vk::Context;
 use translucent::QuadGraph;
@@ -42,6 +42,10 @@ const MAX_LISTED_FRACTION: f64 = 0.25;
 /// converged to the same tolerance from the same q): the relaxation changes the path, not the
 /// answer.
 const LOCAL_VS_PLAIN: f64 = 1e-3;
+/// Relative difference of the listed node counts of the compressed-row and the graph finest
+/// operators at most: the same rule marks the same nodes and grows over the same rows, so only
+/// nodes whose residual sits at the threshold to f32 rounding may differ.
+const LISTED_CSR_VS_GRAPH: f64 = 0.02;
 
 fn torus() -> Shape {
     Shape::Torus {
@@ -73,12 +77,16 @@ fn scene(turn_degrees: f64) -> Scene {
     }
 }
 
-fn params(local_relaxation: Option<LocalRelaxation>) -> GpuSolveParams {
+fn params(
+    local_relaxation: Option<LocalRelaxation>,
+    finest_operator: FinestOperator,
+) -> GpuSolveParams {
     GpuSolveParams {
         tolerance: TOLERANCE,
         multigrid: Some(MultigridParams {
             warm_start: WarmStart::Linear,
             local_relaxation,
+            finest_operator,
             ..MultigridParams::gpu()
         }),
         ..Default::default()
@@ -96,8 +104,10 @@ fn steady_turn(
     graph: &QuadGraph,
     field: &MaterialField,
     local_relaxation: Option<LocalRelaxation>,
+    finest_operator: FinestOperator,
 ) -> (Vec<[f32; 3]>, GpuMultigridReport) {
-    let mut gpu = GpuDiffusion::new(ctx, graph, field, &params(local_relaxation)).expect("solve");
+    let params = params(local_relaxation, finest_operator);
+    let mut gpu = GpuDiffusion::new(ctx, graph, field, &params).expect("solve");
     let top = graph.levels.len() - 1;
     let mut last = None;
     for frame in 0..FRAMES {
@@ -146,10 +156,18 @@ fn local_relaxation_lists_the_shadow_edge_and_converges_within_budget() {
     )
     .expect("exact");
     assert!(exact.exact.as_ref().is_some_and(|e| e.converged));
-    let (j_plain, plain) = steady_turn(ctx, &graph, &field, None);
-    let (j_local, local) = steady_turn(ctx, &graph, &field, Some(RELAXATION));
+    let graph_op = FinestOperator::Graph;
+    let (j_plain, plain) = steady_turn(ctx, &graph, &field, None, graph_op);
+    let (j_local, local) = steady_turn(ctx, &graph, &field, Some(RELAXATION), graph_op);
+    // The same relaxation over the finest level's compressed rows (`--finest-operator csr`).
+    let csr_op = FinestOperator::Csr;
+    let (j_csr, csr) = steady_turn(ctx, &graph, &field, Some(RELAXATION), csr_op);
     let n = graph.finest().node_count();
-    for (what, j, r) in [("plain", &j_plain, &plain), ("local", &j_local, &local)] {
+    for (what, j, r) in [
+        ("plain", &j_plain, &plain),
+        ("local", &j_local, &local),
+        ("local csr", &j_csr, &csr),
+    ] {
         let err = rel_rms(j, &exact.j_plus_clamped);
         println!(
             "{what}: start residual {:.2e}, {} listed of {n}, {} cycles, {:.1} work units, residual {:.2e}, J+ vs exact {err:.2e}",
@@ -185,6 +203,18 @@ fn local_relaxation_lists_the_shadow_edge_and_converges_within_budget() {
         "local relaxation {:.1} work units, without {:.1}",
         local.work_units,
         plain.work_units
+    );
+    assert!(
+        csr.work_units <= MAX_LOCAL_WORK_UNITS,
+        "the warm frame with local relaxation (csr) took {:.1} work units",
+        csr.work_units
+    );
+    let listed_gap = (f64::from(csr.local_nodes) - f64::from(local.local_nodes)).abs();
+    assert!(
+        listed_gap <= LISTED_CSR_VS_GRAPH * f64::from(local.local_nodes),
+        "listed {} over the compressed rows, {} over the graph",
+        csr.local_nodes,
+        local.local_nodes
     );
     let plain64: Vec<[f64; 3]> = j_plain.iter().map(|v| v.map(f64::from)).collect();
     let diff = rel_rms(&j_local, &plain64);

@@ -82,11 +82,13 @@ use crate::vk::{Access, Buffer, BufferDesc, Context, GpuProfiler, Image, MemoryU
 use crate::Error;
 
 /// Profiler scopes and debug labels of the cycle.
+mod kernels;
 mod local;
 mod pack;
 mod probe;
 mod recorder;
 mod report;
+use kernels::*;
 use pack::pack_operators;
 pub use probe::FinestProducts;
 use recorder::Recorder;
@@ -245,196 +247,6 @@ pub struct GpuMultigrid {
     /// Bytes per buffer, in [`BUFFER_NAMES`] order, then the control record.
     buffer_bytes: Vec<(&'static str, u64)>,
 }
-
-/// Pipeline indices into [`GpuMultigrid::pipelines`].
-const RHS: usize = 0;
-const RESIDUAL: usize = 1;
-const SMOOTH: usize = 2;
-const RESTRICT: usize = 3;
-const PROLONG: usize = 4;
-const NORM: usize = 5;
-const CHECK: usize = 6;
-const OUTPUT: usize = 7;
-const KRYLOV: usize = 8;
-const LOCAL: usize = 9;
-
-/// Modes of `multigrid/krylov.comp` (see the shader).
-const CG_START: u32 = 0;
-const CG_APPLY: u32 = 1;
-const CG_STEP: u32 = 2;
-const CG_START_RESIDUAL: u32 = 3;
-const CG_FINISH: u32 = 5;
-/// Modes of `multigrid/rhs.comp`: a warm start from the last solution, a cold start (x = 0), a
-/// warm start extrapolated through `x_history` (`RHS_EXTRAPOLATE + slots - 1`).
-const RHS_WARM: u32 = 0;
-const RHS_COLD: u32 = 1;
-const RHS_EXTRAPOLATE: u32 = 2;
-/// Modes of `multigrid/check.comp`.
-const CHECK_REFERENCE: u32 = 0;
-const CHECK_RESIDUAL: u32 = 1;
-const CHECK_CG: u32 = 2;
-/// Blocks of workgroup sums the CG apply pass writes (`partials` holds this many times the
-/// finest level's workgroups).
-const CG_SUMS: usize = 4;
-
-/// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
-const KERNELS: [(&str, &str, &[&str]); 10] = [
-    (
-        "multigrid rhs",
-        "multigrid/rhs.comp",
-        &["q", "f", "x", "node_texel", "rhs_coef", "x_history"],
-    ),
-    (
-        "multigrid residual",
-        "multigrid/residual.comp",
-        &[
-            "x",
-            "f",
-            "r",
-            "row_start",
-            "cols",
-            "values",
-            "diag",
-            "values16",
-            "connectivity",
-            "node_texel",
-            "texel_node",
-            "weight_geo",
-            "weight_r",
-            "weight_g",
-            "weight_b",
-        ],
-    ),
-    (
-        "multigrid smooth",
-        "multigrid/smooth.comp",
-        &["x", "d", "r", "diag", "partner", "partner_value", "f"],
-    ),
-    (
-        "multigrid restrict",
-        "multigrid/restrict.comp",
-        &["x", "f", "r", "t_start", "t_link", "links", "link_weights"],
-    ),
-    (
-        "multigrid prolong",
-        "multigrid/prolong.comp",
-        &["x", "links", "link_weights"],
-    ),
-    (
-        "multigrid norm",
-        "multigrid/norm.comp",
-        &["f", "r", "partials"],
-    ),
-    (
-        "multigrid check",
-        "multigrid/check.comp",
-        &["partials", "control"],
-    ),
-    (
-        "multigrid output",
-        "multigrid/output.comp",
-        &["phi", "x", "node_texel"],
-    ),
-    (
-        "multigrid krylov",
-        "multigrid/krylov.comp",
-        &[
-            "x",
-            "f",
-            "r",
-            "sol",
-            "dir",
-            "z_old",
-            "row_start",
-            "cols",
-            "values",
-            "diag",
-            "partials",
-            "control",
-            "kdir",
-            "connectivity",
-            "node_texel",
-            "texel_node",
-            "weight_geo",
-            "weight_r",
-            "weight_g",
-            "weight_b",
-        ],
-    ),
-    (
-        "multigrid local",
-        "multigrid/local.comp",
-        &[
-            "x",
-            "f",
-            "r",
-            "row_start",
-            "cols",
-            "values",
-            "diag",
-            "partner",
-            "partner_value",
-            "control",
-            "local",
-        ],
-    ),
-];
-
-/// The storage buffers, in the order [`GpuMultigrid::buffers`] holds them.
-const BUFFER_NAMES: [&str; 24] = [
-    "x",
-    "f",
-    "r",
-    "d",
-    "row_start",
-    "cols",
-    "values",
-    "diag",
-    "partner",
-    "partner_value",
-    "links",
-    "link_weights",
-    "t_start",
-    "t_link",
-    "node_texel",
-    "rhs_coef",
-    "partials",
-    "sol",
-    "dir",
-    "z_old",
-    "kdir",
-    "values16",
-    "x_history",
-    "texel_node",
-];
-
-/// The per-node RGB vectors, `VectorStorage`'s stride each (`VECTOR_STRIDE` in `common.glsl`).
-const VECTORS: [&str; 10] = [
-    "x",
-    "f",
-    "r",
-    "d",
-    "sol",
-    "dir",
-    "z_old",
-    "kdir",
-    "partner_value",
-    "x_history",
-];
-
-/// The buffers the kernels write (the others are written once, from the host).
-const WRITTEN: [&str; 10] = [
-    "x",
-    "f",
-    "r",
-    "d",
-    "partials",
-    "sol",
-    "dir",
-    "z_old",
-    "kdir",
-    "x_history",
-];
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
@@ -737,6 +549,9 @@ impl GpuMultigrid {
                         value: offsets[top] as u32,
                     },
                 ]);
+            }
+            if bindings.contains(&"local") {
+                constants.extend(local_layout.spec_constants());
             }
             let pipeline = ComputePipeline::new_specialized(
                 ctx,

@@ -49,6 +49,21 @@ impl LocalLayout {
         }
     }
 
+    /// `local.comp`'s specialization: its flag words (`LOCAL_WORDS`) and list capacity
+    /// (`LOCAL_CAPACITY`).
+    pub(super) fn spec_constants(&self) -> [SpecConstant; 2] {
+        [
+            SpecConstant {
+                id: 9,
+                value: self.words,
+            },
+            SpecConstant {
+                id: 10,
+                value: self.capacity,
+            },
+        ]
+    }
+
     /// The buffer (storage, indirect arguments, cleared by a transfer each frame).
     pub(super) fn buffer(&self, ctx: &Context) -> Result<Buffer, Error> {
         let words = LOCAL_HEADER + u64::from(self.words) + u64::from(self.capacity);
@@ -87,9 +102,7 @@ impl Recorder<'_> {
             count: level.count,
             offset: level.offset,
             mode,
-            width: self.mg.local_layout.words,
             beta: [omega as f32; 4],
-            pad0: self.mg.local_layout.capacity,
             ..self.base
         }
     }

@@ -1,0 +1,202 @@
+//! The multigrid's kernels: their pipeline indices and modes, their shaders with the bindings
+//! each reads, and the storage buffers by name
+//! ([`GpuMultigrid::new`](super::GpuMultigrid::new) builds one pipeline and descriptor set per
+//! [`KERNELS`] entry, specialized from its bindings).
+
+/// Pipeline indices into [`GpuMultigrid::pipelines`](super::GpuMultigrid::pipelines).
+pub(super) const RHS: usize = 0;
+pub(super) const RESIDUAL: usize = 1;
+pub(super) const SMOOTH: usize = 2;
+pub(super) const RESTRICT: usize = 3;
+pub(super) const PROLONG: usize = 4;
+pub(super) const NORM: usize = 5;
+pub(super) const CHECK: usize = 6;
+pub(super) const OUTPUT: usize = 7;
+pub(super) const KRYLOV: usize = 8;
+pub(super) const LOCAL: usize = 9;
+
+/// Modes of `multigrid/krylov.comp` (see the shader).
+pub(super) const CG_START: u32 = 0;
+pub(super) const CG_APPLY: u32 = 1;
+pub(super) const CG_STEP: u32 = 2;
+pub(super) const CG_START_RESIDUAL: u32 = 3;
+pub(super) const CG_FINISH: u32 = 5;
+/// Modes of `multigrid/rhs.comp`: a warm start from the last solution, a cold start (x = 0), a
+/// warm start extrapolated through `x_history` (`RHS_EXTRAPOLATE + slots - 1`).
+pub(super) const RHS_WARM: u32 = 0;
+pub(super) const RHS_COLD: u32 = 1;
+pub(super) const RHS_EXTRAPOLATE: u32 = 2;
+/// Modes of `multigrid/check.comp`.
+pub(super) const CHECK_REFERENCE: u32 = 0;
+pub(super) const CHECK_RESIDUAL: u32 = 1;
+pub(super) const CHECK_CG: u32 = 2;
+/// Blocks of workgroup sums the CG apply pass writes (`partials` holds this many times the
+/// finest level's workgroups).
+pub(super) const CG_SUMS: usize = 4;
+
+/// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
+pub(super) const KERNELS: [(&str, &str, &[&str]); 10] = [
+    (
+        "multigrid rhs",
+        "multigrid/rhs.comp",
+        &["q", "f", "x", "node_texel", "rhs_coef", "x_history"],
+    ),
+    (
+        "multigrid residual",
+        "multigrid/residual.comp",
+        &[
+            "x",
+            "f",
+            "r",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "values16",
+            "connectivity",
+            "node_texel",
+            "texel_node",
+            "weight_geo",
+            "weight_r",
+            "weight_g",
+            "weight_b",
+        ],
+    ),
+    (
+        "multigrid smooth",
+        "multigrid/smooth.comp",
+        &["x", "d", "r", "diag", "partner", "partner_value", "f"],
+    ),
+    (
+        "multigrid restrict",
+        "multigrid/restrict.comp",
+        &["x", "f", "r", "t_start", "t_link", "links", "link_weights"],
+    ),
+    (
+        "multigrid prolong",
+        "multigrid/prolong.comp",
+        &["x", "links", "link_weights"],
+    ),
+    (
+        "multigrid norm",
+        "multigrid/norm.comp",
+        &["f", "r", "partials"],
+    ),
+    (
+        "multigrid check",
+        "multigrid/check.comp",
+        &["partials", "control"],
+    ),
+    (
+        "multigrid output",
+        "multigrid/output.comp",
+        &["phi", "x", "node_texel"],
+    ),
+    (
+        "multigrid krylov",
+        "multigrid/krylov.comp",
+        &[
+            "x",
+            "f",
+            "r",
+            "sol",
+            "dir",
+            "z_old",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "partials",
+            "control",
+            "kdir",
+            "connectivity",
+            "node_texel",
+            "texel_node",
+            "weight_geo",
+            "weight_r",
+            "weight_g",
+            "weight_b",
+        ],
+    ),
+    (
+        "multigrid local",
+        "multigrid/local.comp",
+        &[
+            "x",
+            "f",
+            "r",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "partner",
+            "partner_value",
+            "control",
+            "local",
+            "connectivity",
+            "node_texel",
+            "texel_node",
+            "weight_geo",
+            "weight_r",
+            "weight_g",
+            "weight_b",
+        ],
+    ),
+];
+
+/// The storage buffers, in the order [`GpuMultigrid::buffers`](super::GpuMultigrid::buffers)
+/// holds them.
+pub(super) const BUFFER_NAMES: [&str; 24] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "row_start",
+    "cols",
+    "values",
+    "diag",
+    "partner",
+    "partner_value",
+    "links",
+    "link_weights",
+    "t_start",
+    "t_link",
+    "node_texel",
+    "rhs_coef",
+    "partials",
+    "sol",
+    "dir",
+    "z_old",
+    "kdir",
+    "values16",
+    "x_history",
+    "texel_node",
+];
+
+/// The per-node RGB vectors, `VectorStorage`'s stride each (`VECTOR_STRIDE` in `common.glsl`).
+pub(super) const VECTORS: [&str; 10] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "sol",
+    "dir",
+    "z_old",
+    "kdir",
+    "partner_value",
+    "x_history",
+];
+
+/// The buffers the kernels write (the others are written once, from the host).
+pub(super) const WRITTEN: [&str; 10] = [
+    "x",
+    "f",
+    "r",
+    "d",
+    "partials",
+    "sol",
+    "dir",
+    "z_old",
+    "kdir",
+    "x_history",
+];
