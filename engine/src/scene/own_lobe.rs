@@ -27,7 +27,7 @@
 //! let g = |mu| own_lobe::own_lobe(mu, 1.0, 0.999);
 //! assert!(g(0.9) / g(0.3) > 1.2);
 //! // Grazing incidence: nearly flat.
-//! let g = |mu| own_lobe::own_lobe(mu, 0.2, 0.999);
+//! let g = |mu| own_lobe::own_lobe(mu, 0.3, 0.999);
 //! assert!((g(0.9) / g(0.3) - 1.0).abs() < 0.05);
 //! ```
 
