@@ -38,56 +38,85 @@ def load():
         return float(f.read().split()[0])
 
 
-def run(binary, extra, out_dir, name):
+# The passes whose work the terms change: the march, its depth pre-pass and the gather (the
+# beam and second-collision sources, the upstream beam, the continuation). Every other pass does
+# the same work in every configuration (the same solve: the work units are printed).
+TERM_PASSES = ("single_scattering", "single_scattering_depths", "gather_q")
+
+
+def run(binary, extra, out_dir, name, frames):
+    """The frames after the first (which JIT-compiles pipelines Mesa's cache lacks), each a
+    full cold frame (`--no-skip`): per frame, GPU ms per top-level pass."""
     out = os.path.join(out_dir, f"{name}.png")
-    cmd = ["nice", "-n", "10", binary, "render", "--out", out, "--json", *extra]
+    cmd = ["nice", "-n", "10", binary, "render", "--out", out, "--json",
+           "--frames", str(frames + 1), "--no-skip", *extra]
     result = subprocess.run(cmd, capture_output=True, text=True, check=True)
-    frame = json.loads(result.stdout)["frames"][0]
-    passes = {k: v for k, v in frame["passes"].items() if " " not in k}
-    return passes, frame.get("multigrid", {}).get("work_units")
+    report = json.loads(result.stdout)["frames"]
+    passes = [{k: v for k, v in f["passes"].items() if " " not in k} for f in report[1:]]
+    return passes, report[-1].get("multigrid", {}).get("work_units")
 
 
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--bin", default="target/release/translucent")
+    parser.add_argument("--base-bin", help="a second binary (before a change): adds 'all@base'")
     parser.add_argument("--runs", type=int, default=7)
+    parser.add_argument("--frames", type=int, default=4, help="timed frames per run")
     parser.add_argument("--out", default="target/ss-cost")
     parser.add_argument("--configs", default="all,no_ss,none")
     parser.add_argument("extra", nargs="*")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     names = args.configs.split(",")
+    runs = {n: (args.bin, CONFIGS[n]) for n in names}
+    if args.base_bin:
+        names.insert(0, "all@base")
+        runs["all@base"] = (args.base_bin, CONFIGS["all"])
     samples = {n: [] for n in names}
     loads = []
     work = {}
     for r in range(args.runs):
         for n in names:
+            binary, config = runs[n]
             loads.append(load())
-            passes, wu = run(args.bin, CONFIGS[n] + args.extra, args.out, n)
-            samples[n].append(passes)
+            passes, wu = run(binary, config + args.extra, args.out, n.replace("@", "_"),
+                             args.frames)
+            samples[n].extend(passes)
             work[n] = wu
-            print(f"run {r} {n}: {sum(passes.values()):.1f} ms (load {loads[-1]:.1f})",
-                  file=sys.stderr)
-    pass_names = sorted({p for n in names for s in samples[n] for p in s})
-    print(f"render args: {' '.join(args.extra) or '(defaults)'}; {args.runs} interleaved runs; "
-          f"load {min(loads):.1f}-{max(loads):.1f} (median {statistics.median(loads):.1f})")
+            sums = " ".join(f"{sum(p.values()):.0f}" for p in passes)
+            print(f"run {r} {n}: frames {sums} ms (load {loads[-1]:.1f})", file=sys.stderr)
+    med = {n: {p: statistics.median([s.get(p, 0.0) for s in samples[n]])
+               for p in {q for s in samples[n] for q in s}} for n in names}
+    pass_names = sorted({p for n in names for p in med[n]})
+    print(f"render args: {' '.join(args.extra) or '(defaults)'}; {args.runs} interleaved runs "
+          f"x {args.frames} frames (+1 discarded each, `--no-skip`); load {min(loads):.1f}-{max(loads):.1f} "
+          f"(median {statistics.median(loads):.1f}); GPU ms, medians")
     print("| pass | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(names))
     for p in pass_names:
-        cells = [statistics.median([s.get(p, 0.0) for s in samples[n]]) for n in names]
-        print(f"| {p} | " + " | ".join(f"{c:.1f}" for c in cells) + " |")
+        print(f"| {p} | " + " | ".join(f"{med[n].get(p, 0.0):.1f}" for n in names) + " |")
     totals = {n: statistics.median([sum(s.values()) for s in samples[n]]) for n in names}
-    print("| **frame (median of sums)** | " + " | ".join(f"**{totals[n]:.1f}**" for n in names)
-          + " |")
-    print("| solve work units | " + " | ".join(f"{work[n]}" for n in names) + " |")
-    if "all" in totals and "none" in totals:
-        base = totals["none"]
-        print(f"added by the terms: all/none - 1 = {100 * (totals['all'] / base - 1):.1f}%")
-        # Per run pair (the same load): the ratio's median, less sensitive to drifting load.
-        ratios = [sum(a.values()) / sum(b.values())
-                  for a, b in zip(samples["all"], samples["none"])]
-        print(f"per interleaved pair: median {100 * (statistics.median(ratios) - 1):.1f}%, "
-              f"range {100 * (min(ratios) - 1):.1f}..{100 * (max(ratios) - 1):.1f}%")
+    print("| frame (median of sums) | " + " | ".join(f"{totals[n]:.1f}" for n in names) + " |")
+    fastest = {n: min(sum(s.values()) for s in samples[n]) for n in names}
+    print("| frame (fastest) | " + " | ".join(f"{fastest[n]:.1f}" for n in names) + " |")
+    print("| solve work units | " + " | ".join(f"{work[n]:.2f}" for n in names) + " |")
+    if "none" not in names:
+        return
+    # The passes common to every configuration do the same work: their median over all runs of
+    # every configuration is the least noisy estimate of the frame without the terms.
+    common = sorted(p for p in pass_names if p not in TERM_PASSES)
+    pooled = sum(statistics.median([s.get(p, 0.0) for n in names for s in samples[n]])
+                 for p in common)
+    base = pooled + med["none"].get("gather_q", 0.0)
+    print(f"frame without the terms (pooled common passes + gather_q of 'none'): {base:.1f} ms")
+    for n in names:
+        if n == "none":
+            continue
+        terms = sum(med[n].get(p, 0.0) for p in TERM_PASSES) - med["none"].get("gather_q", 0.0)
+        print(f"{n}: the terms add {terms:.1f} ms = {100 * terms / base:.1f}% of the frame "
+              f"without them ({100 * terms / (base + terms):.1f}% of the frame with them); "
+              f"median of sums {totals[n]:.1f} vs {totals['none']:.1f} "
+              f"({100 * (totals[n] / totals['none'] - 1):+.1f}%)")
 
 
 if __name__ == "__main__":
