@@ -11,12 +11,19 @@ changes, falls on all of them alike:
   none    `--single-scattering off --source flux --exit-query moments`: the boundary flux enters
           the same solve, read by the same exit query (no beam, no march): the frame without the
           terms.
-The frame's GPU time is the sum of its top-level passes (the frame graph's passes and the
-capture; nested profiler scopes, named with a space, are inside them). Prints the median per
-configuration and pass, and the added share (all - none) / none.
+Each run renders `--frames F+1 --no-skip` (every frame a full cold frame, the first discarded:
+it JIT-compiles what Mesa's shader cache lacks). A frame's GPU time is the sum of its top-level
+passes (the frame graph's passes and the capture; nested profiler scopes, named with a space,
+are inside them). The terms' cost is that of the passes they change (TERM_PASSES: the march,
+its depth pre-pass, gather_q less its cost in `none`); the frame without them is the passes
+every configuration shares (the same work: the solve's work units are printed), pooled over
+all runs, plus `none`'s gather_q. Printed twice: from each pass's median over the frames (the
+machine's load included) and from its fastest frame (the least disturbed). Raw samples go to
+OUT/samples.json.
 
-Usage: python3 benches/ss_cost.py [--bin target/release/translucent] [--runs 7]
-       [--label NAME] [-- extra render args, e.g. --width 256 --height 256 --supersample 1]
+Usage: python3 benches/ss_cost.py [--bin target/release/translucent] [--base-bin OLD_BINARY]
+       [--runs 5] [--frames 4] [--configs all,no_ss,none] [--out target/ss-cost]
+       [-- extra render args, e.g. --width 256 --height 256, or --supersample 1]
 """
 
 import argparse
@@ -85,28 +92,38 @@ def main():
             work[n] = wu
             sums = " ".join(f"{sum(p.values()):.0f}" for p in passes)
             print(f"run {r} {n}: frames {sums} ms (load {loads[-1]:.1f})", file=sys.stderr)
-    med = {n: {p: statistics.median([s.get(p, 0.0) for s in samples[n]])
+    with open(os.path.join(args.out, "samples.json"), "w") as f:
+        json.dump({"extra": args.extra, "loads": loads, "samples": samples}, f)
+    report(names, samples, loads, work, args)
+
+
+def report(names, samples, loads, work, args):
+    """Medians per pass (the load's interference included) and the fastest frame of each pass
+    (the least disturbed: interference only adds time), and the share the terms add by each."""
+    for label, stat in (("medians", statistics.median), ("fastest", min)):
+        table(names, samples, loads, work, args, label, stat)
+
+
+def table(names, samples, loads, work, args, label, stat):
+    med = {n: {p: stat([s.get(p, 0.0) for s in samples[n]])
                for p in {q for s in samples[n] for q in s}} for n in names}
     pass_names = sorted({p for n in names for p in med[n]})
     print(f"render args: {' '.join(args.extra) or '(defaults)'}; {args.runs} interleaved runs "
           f"x {args.frames} frames (+1 discarded each, `--no-skip`); load {min(loads):.1f}-{max(loads):.1f} "
-          f"(median {statistics.median(loads):.1f}); GPU ms, medians")
+          f"(median {statistics.median(loads):.1f}); GPU ms, {label} per pass")
     print("| pass | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(names))
     for p in pass_names:
         print(f"| {p} | " + " | ".join(f"{med[n].get(p, 0.0):.1f}" for n in names) + " |")
-    totals = {n: statistics.median([sum(s.values()) for s in samples[n]]) for n in names}
-    print("| frame (median of sums) | " + " | ".join(f"{totals[n]:.1f}" for n in names) + " |")
-    fastest = {n: min(sum(s.values()) for s in samples[n]) for n in names}
-    print("| frame (fastest) | " + " | ".join(f"{fastest[n]:.1f}" for n in names) + " |")
+    totals = {n: stat([sum(s.values()) for s in samples[n]]) for n in names}
+    print(f"| frame ({label} of sums) | " + " | ".join(f"{totals[n]:.1f}" for n in names) + " |")
     print("| solve work units | " + " | ".join(f"{work[n]:.2f}" for n in names) + " |")
     if "none" not in names:
         return
     # The passes common to every configuration do the same work: their median over all runs of
     # every configuration is the least noisy estimate of the frame without the terms.
     common = sorted(p for p in pass_names if p not in TERM_PASSES)
-    pooled = sum(statistics.median([s.get(p, 0.0) for n in names for s in samples[n]])
-                 for p in common)
+    pooled = sum(stat([s.get(p, 0.0) for n in names for s in samples[n]]) for p in common)
     base = pooled + med["none"].get("gather_q", 0.0)
     print(f"frame without the terms (pooled common passes + gather_q of 'none'): {base:.1f} ms")
     for n in names:
@@ -115,7 +132,7 @@ def main():
         terms = sum(med[n].get(p, 0.0) for p in TERM_PASSES) - med["none"].get("gather_q", 0.0)
         print(f"{n}: the terms add {terms:.1f} ms = {100 * terms / base:.1f}% of the frame "
               f"without them ({100 * terms / (base + terms):.1f}% of the frame with them); "
-              f"median of sums {totals[n]:.1f} vs {totals['none']:.1f} "
+              f"{label} of sums {totals[n]:.1f} vs {totals['none']:.1f} "
               f"({100 * (totals[n] / totals['none'] - 1):+.1f}%)")
 
 
