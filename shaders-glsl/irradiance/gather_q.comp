@@ -99,17 +99,22 @@ const int SECOND_COLLISION_POINTS = 64;
 // Smallest refracted cosine of the ratio (as transport::MIN_MU_T).
 const float SECOND_COLLISION_MIN_MU_T = 1e-6;
 
-// The share of the once-scattered light of a beam (refracted cosine mu_t) that collides again,
-// per channel: transport::second_collision_ratio, the same quadrature.
-vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, float mu_t, float eta) {
-    float b = 1.0 / max(mu_t, SECOND_COLLISION_MIN_MU_T);
+// The quadrature's internal Fresnel reflectance r(1 / eta, m_i) at its points: it depends on
+// eta alone, so each workgroup fills it once (main) and every node's integrals read it.
+shared float second_collision_fresnel[SECOND_COLLISION_POINTS];
+
+// The share of the once-scattered light of a beam (refracted cosine mu_t, per channel: the
+// upstream beam's cosine differs by channel) that collides again, per channel:
+// transport::second_collision_ratio, the same quadrature, at eta = pc.eta.
+vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, vec3 mu_t) {
+    vec3 b = 1.0 / max(mu_t, SECOND_COLLISION_MIN_MU_T);
     vec3 sigma_t = sigma_s + sigma_a;
     // s / sigma_t' with s = sqrt(sigma_a / D) (classical: sqrt(3 sigma_a sigma_t')).
     vec3 s = sqrt(sigma_a / d) / sigma_t;
     vec3 j = vec3(0.0);
     for (int i = 0; i < SECOND_COLLISION_POINTS; ++i) {
         float m = (float(i) + 0.5) / float(SECOND_COLLISION_POINTS);
-        float r = fresnel_reflectance(1.0 / eta, m);
+        float r = second_collision_fresnel[i];
         j += 1.0 / ((s + b) * (1.0 + b * m)) + 1.0 / ((s + b) * (1.0 + s * m))
             + r * m / ((1.0 + s * m) * (1.0 + b * m));
     }
@@ -122,18 +127,18 @@ vec3 second_collision_ratio(vec3 sigma_s, vec3 sigma_a, vec3 d, float mu_t, floa
 // with r_T (transport::second_collision_deep_ratio, the same quadrature) and z_b = h = 2 A D.
 const float DEEP_FIT_FULL_BELOW = 0.15;
 const float DEEP_FIT_NONE_ABOVE = 0.3;
-vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 d, float a_const, float mu_t,
-                            float eta, vec3 r) {
+vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 d, float a_const, vec3 mu_t,
+                            vec3 r) {
     vec3 h = 2.0 * a_const * d;
-    float mt = max(mu_t, SECOND_COLLISION_MIN_MU_T);
-    float b = 1.0 / mt;
+    vec3 mt = max(mu_t, SECOND_COLLISION_MIN_MU_T);
+    vec3 b = 1.0 / mt;
     vec3 sigma_t = sigma_s + sigma_a;
     vec3 zb = h * sigma_t;
     vec3 j = vec3(0.0);
     for (int i = 0; i < SECOND_COLLISION_POINTS; ++i) {
         float m = (float(i) + 0.5) / float(SECOND_COLLISION_POINTS);
-        float rf = fresnel_reflectance(1.0 / eta, m);
-        float c = b * m / (b * m + 1.0);
+        float rf = second_collision_fresnel[i];
+        vec3 c = b * m / (b * m + 1.0);
         j += 2.0 * (mt + zb) - (zb - m) * c + rf * (zb + m) * c;
     }
     j /= float(SECOND_COLLISION_POINTS);
@@ -142,7 +147,7 @@ vec3 second_collision_depth(vec3 sigma_s, vec3 sigma_a, vec3 d, float a_const, f
     vec3 s = sqrt(sigma_a / d) / sigma_t;
     vec3 weight = 1.0 - smoothstep(vec3(DEEP_FIT_FULL_BELOW), vec3(DEEP_FIT_NONE_ABOVE), s);
     vec3 mu_e = mt + weight * max((r_t / r) * (mt + zb) - zb - mt, vec3(0.0));
-    return mix(vec3(mt), mu_e, greaterThan(r, vec3(0.0)));
+    return mix(mt, mu_e, greaterThan(r, vec3(0.0)));
 }
 
 // Relative distance kept from the resonance sigma_a mu_t^2 = sigma_t' / 3 (K infinite, phi_h
@@ -228,22 +233,22 @@ float entry_distance(uint index, vec3 p, vec3 l) {
 }
 
 // The particular solution of a beam transmitting `transmitted` (E mu_i T_i per channel, refracted
-// cosine mu_t) into the medium of the node: (K, beta K) with the second-collision fit when on,
+// cosine mu_t per channel) into the medium of the node: (K, beta K) with the second-collision fit when on,
 // and the part entering as the boundary flux (`resonance`: near the particular solution's
 // resonance, transport::beam_share; otherwise none, as the f64 continuation). DESIGN 2.7.
-void beam_particular(vec3 transmitted, float mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
+void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
                      vec3 beam_d, out vec3 k, out vec3 beta_k, out vec3 flux) {
     vec3 sigma_a = beam_a;
     vec3 sigma_t = beam_s + sigma_a;
     // The second-collision source scales the whole source, its flux fallback included
     // (the once-scattered light is the march's, added whole).
     vec3 gain = pc.beam_exit.w > 0.5
-        ? second_collision_ratio(beam_s, sigma_a, beam_d, mu_t, pc.eta)
+        ? second_collision_ratio(beam_s, sigma_a, beam_d, mu_t)
         : vec3(1.0);
     // The particular solution's cosine: mu_t, or the second collision's fitted mu_e.
     vec3 mu_p = pc.beam_exit.w > 0.5
-        ? second_collision_depth(beam_s, sigma_a, beam_d, pc.beam_sigma_a.w, mu_t, pc.eta, gain)
-        : vec3(mu_t);
+        ? second_collision_depth(beam_s, sigma_a, beam_d, pc.beam_sigma_a.w, mu_t, gain)
+        : mu_t;
     vec3 a = sigma_a * (mu_p * mu_p);
     // D sigma_t'^2 (sigma_t' / 3 with the classical D).
     vec3 b = beam_d * sigma_t * sigma_t;
@@ -268,6 +273,13 @@ void beam_particular(vec3 transmitted, float mu_t, bool resonance, vec3 beam_s, 
 }
 
 void main() {
+    // Before any invocation returns: barrier() needs the whole workgroup.
+    for (uint i = gl_LocalInvocationIndex; i < uint(SECOND_COLLISION_POINTS);
+         i += gl_WorkGroupSize.x * gl_WorkGroupSize.y) {
+        float m = (float(i) + 0.5) / float(SECOND_COLLISION_POINTS);
+        second_collision_fresnel[i] = fresnel_reflectance(1.0 / pc.eta, m);
+    }
+    barrier();
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(texel), pc.extent))) {
         return;
@@ -360,25 +372,24 @@ void main() {
             // As the f64 reference: unlit upstream, or nothing reaching the node, keeps the
             // usual arrival below.
             if (vis > 0.0 && any(greaterThan(factor, vec3(0.0)))) {
-                for (int ch = 0; ch < 3; ++ch) {
-                    float mi = mu_up[ch];
-                    float mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), 0.0));
-                    vec3 tr = e * (factor[ch] * fresnel_transmittance(pc.eta, max(mi, 0.0)) * vis);
-                    vec3 s_ch = vec3(0.0);
-                    vec3 p_ch = vec3(0.0);
-                    if (pc.beam_edge > 0.5 && vis < 1.0) {
-                        vec3 gain = pc.beam_exit.w > 0.5
-                            ? second_collision_ratio(beam_s, beam_a, beam_d, mt, pc.eta)
-                            : vec3(1.0);
-                        s_ch = tr * gain;
-                    } else {
-                        vec3 k, beta_k, flux;
-                        beam_particular(tr, mt, true, beam_s, beam_a, beam_d, k, beta_k, flux);
-                        s_ch = flux - (k + h * beta_k) / pc.beam_exit.z;
-                        p_ch = pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
-                    }
-                    sum[ch] += s_ch[ch];
-                    part[ch] += p_ch[ch];
+                // Each channel's beam has its own upstream cosine: channel c of every vec3 below
+                // is channel c's beam (one evaluation for the three, the same values as three).
+                vec3 mi = mu_up;
+                vec3 mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), vec3(0.0)));
+                vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mi.r, 0.0)),
+                               fresnel_transmittance(pc.eta, max(mi.g, 0.0)),
+                               fresnel_transmittance(pc.eta, max(mi.b, 0.0)));
+                vec3 tr = e * (factor * ft * vis);
+                if (pc.beam_edge > 0.5 && vis < 1.0) {
+                    vec3 gain = pc.beam_exit.w > 0.5
+                        ? second_collision_ratio(beam_s, beam_a, beam_d, mt)
+                        : vec3(1.0);
+                    sum += tr * gain;
+                } else {
+                    vec3 k, beta_k, flux;
+                    beam_particular(tr, mt, true, beam_s, beam_a, beam_d, k, beta_k, flux);
+                    sum += flux - (k + h * beta_k) / pc.beam_exit.z;
+                    part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
                 }
                 continue;
             }
@@ -409,7 +420,8 @@ void main() {
             vec3 attenuation = mix(exp(-tau), vec3(0.0), greaterThan(tau, vec3(MAX_OPTICAL_DEPTH)));
             vec3 transmitted = e_in * (mu_i * fresnel_transmittance(pc.eta, mu_i));
             vec3 k, beta_k, flux;
-            beam_particular(transmitted, mu_t, false, beam_s, beam_a, beam_d, k, beta_k, flux);
+            beam_particular(transmitted, vec3(mu_t), false, beam_s, beam_a, beam_d, k, beta_k,
+                            flux);
             k *= attenuation;
             beta_k *= attenuation;
             // Grazing (h beta > 1, mu_t below about 2/3 at eta 1) the right-hand side turns
@@ -446,13 +458,13 @@ void main() {
             // A shadow edge: the flat half-space fails; the boundary flux (scaled as the
             // second-collision source's flux part).
             vec3 gain = pc.beam_exit.w > 0.5
-                ? second_collision_ratio(beam_s, beam_a, beam_d, mu_t, pc.eta)
+                ? second_collision_ratio(beam_s, beam_a, beam_d, vec3(mu_t))
                 : vec3(1.0);
             sum += transmitted * gain;
             continue;
         }
         vec3 k, beta_k, flux;
-        beam_particular(transmitted, mu_t, true, beam_s, beam_a, beam_d, k, beta_k, flux);
+        beam_particular(transmitted, vec3(mu_t), true, beam_s, beam_a, beam_d, k, beta_k, flux);
         sum += flux;
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
         sum += -(k + h * beta_k) / pc.beam_exit.z;

@@ -63,10 +63,13 @@ layout(std430, set = 0, binding = 3) readonly buffer GatherScene {
 layout(set = 0, binding = 4) uniform sampler2D depths;
 // The eye's back-face view: its projection, tile (xy origin, z size; z = 0: none, the march is
 // not truncated) and the object's bounding sphere (xyz centre, w radius, mm).
+// Also, per shadow view, the inverse of its projection (the entry lookups' unprojection, once a
+// frame on the host rather than per depth and light here).
 layout(std430, set = 0, binding = 5) readonly buffer ExitView {
     mat4 view_proj;
     vec4 tile;
     vec4 bounds;
+    mat4 entry_inverses[MAX_VIEWS];
 } exit_view;
 
 // The material (frame::single_scattering::MediumHeader): a heterogeneous field on a grid of
@@ -259,7 +262,7 @@ vec4 entry_point(uint index, vec3 x, out vec3 n_entry) {
     if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) {
         return vec4(0.0);
     }
-    mat4 inv = inverse(v.view_proj);
+    mat4 inv = exit_view.entry_inverses[index];
     ivec2 t = ivec2(floor((ndc.xy * 0.5 + 0.5) * v.tile.z));
     vec4 c = stored_point(v, origin, inv, t);
     // x's own texel is empty within a texel of the light's silhouette: a neighbour's surface
@@ -388,12 +391,19 @@ bool before_far_face(vec3 x) {
     return back < 1.0 && ndc.z < back;
 }
 
+// The search stops past the depth where the untruncated exponential keeps this much mass: every
+// sample lies before it (the deepest at ln(2 samples) / sigma < ln(1 / EXIT_SEARCH_MASS) /
+// sigma), so an exit further on moves the truncated mass, the depths and their weights by less
+// than this (a tenth of single_scattering::DARK_LIGHT_FRACTION, the pass's error budget).
+const float EXIT_SEARCH_MASS = 1e-4;
+
 // The distance along the refracted view ray (from `start`, direction w) to the far face: the
 // first step of EXIT_STEPS (up to `far`, the bounding sphere's chord) whose point has left,
-// refined by bisection; `far` if none leaves.
-float exit_distance(vec3 start, vec3 w, float far) {
+// refined by bisection; `far` if none leaves, or none leaves before `cut` (EXIT_SEARCH_MASS:
+// the same steps, the rest not looked at).
+float exit_distance(vec3 start, vec3 w, float far, float cut) {
     float inside = 0.0;
-    for (int j = 1; j <= EXIT_STEPS; ++j) {
+    for (int j = 1; j <= EXIT_STEPS && inside < cut; ++j) {
         float f = float(j) / float(EXIT_STEPS);
         float t = far * f * f;
         if (!before_far_face(start + w * t)) {
@@ -468,7 +478,8 @@ void main() {
         float b = dot(oc, w);
         float c = dot(oc, oc) - bounds.w * bounds.w;
         float far = -b + sqrt(max(b * b - c, 0.0));
-        t_max = exit_distance(start, w, max(far, 0.0));
+        float cut = -log(EXIT_SEARCH_MASS) / sigma_ref;
+        t_max = exit_distance(start, w, max(far, 0.0), cut);
     }
     // Stratified in the exponential's cumulative distribution truncated at t_max (mass of the
     // untruncated exponential below t_max).

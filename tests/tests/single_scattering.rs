@@ -349,6 +349,42 @@ fn a_front_lit_view_skips_the_march_and_clears_its_last_output() {
     gpu.finish();
 }
 
+/// The depth pre-pass clears and draws only the tiles this frame's views use (the atlas holds
+/// one per possible shadow view plus the eye's, 49): after a light change to fewer views the
+/// march must read none of the stale tiles, and after one to more views the new tiles must be
+/// this frame's. X after each change equals a fresh object's under the same light, bit for bit.
+#[test]
+fn the_march_reads_only_this_frames_depth_tiles() {
+    let gpu = GpuTest::new();
+    let mesh = Shape::Sphere { radius: 10.0 }.triangulate(12);
+    let scene = |light: &str| Scene {
+        lights: vec![light.parse().unwrap()],
+        environment: Environment::None,
+    };
+    // One orthographic view (tiles 0-1), then a point light 1.09 radii from the centre: six
+    // cube faces (tiles 0-6), then the one view again.
+    let back = scene("dir:0.2,-0.35,1:5,5,5");
+    let near = scene("point:10.5,3,0:40,40,40");
+    let read = |object: &TranslucentObject| object.single_scattering().read(&gpu.ctx).unwrap();
+    let fresh = |s: &Scene| {
+        let mut object = sphere_object(&gpu, &mesh, s, ScatterMode::Full, false);
+        render_once(&gpu.ctx, &mut object, 32, 32);
+        read(&object)
+    };
+    let mut object = sphere_object(&gpu, &mesh, &back, ScatterMode::Full, false);
+    for (i, s) in [&back, &near, &back].into_iter().enumerate() {
+        object.set_lights(s).expect("lights");
+        let (_, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert!(report.passes.contains(&PASS_SCATTER_DEPTHS), "{i}");
+        let x = read(&object);
+        assert!(x.iter().flatten().any(|&v| v > 0.0), "{i}: nothing marched");
+        assert!(x == fresh(s), "{i}: X differs from a fresh object's");
+    }
+    drop(object);
+    gpu.assert_no_messages();
+    gpu.finish();
+}
+
 /// The environment's single scattering on the GPU (the flat closed form summed over the
 /// environment as beams) against the f64 reference's, relative RMS: the same formula in f32.
 const ENVIRONMENT_CLOSED_FORM: f64 = 1e-4;

@@ -50,7 +50,9 @@ use glam::{DVec3, Mat4, Vec3};
 use crate::frame::SkipReason;
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::{GpuMesh, Vertex};
-use crate::render::{GatherScene, RenderError, ShadowMaps, ShadowPush, ShadowView};
+use crate::render::{
+    GatherScene, RenderError, ShadowMaps, ShadowPush, ShadowView, MAX_SHADOW_VIEWS,
+};
 use crate::scene::{Environment, Light, Scene};
 use crate::shader::{
     ComputePipeline, ComputePipelineDesc, DescriptorWrite, GraphicsPipeline, GraphicsPipelineDesc,
@@ -159,6 +161,9 @@ pub struct ExitView {
     pub tile: [f32; 4],
     /// xyz: the object's bounding centre, w: its radius (mm).
     pub bounds: [f32; 4],
+    /// Per shadow view, the inverse of its projection (the entry lookups' unprojection): once
+    /// a frame here, in f64, rather than a 4x4 inverse per depth and light in the shader.
+    pub entry_inverses: [[f32; 16]; MAX_SHADOW_VIEWS],
 }
 
 /// The march's pipeline, its output per vertex and its copy of the lights and shadow views.
@@ -656,9 +661,18 @@ impl SingleScatteringPass {
                     self.bounds.0.z as f32,
                     (self.bounds.1 * EYE_VIEW_MARGIN) as f32,
                 ],
+                entry_inverses: [[0.0; 16]; MAX_SHADOW_VIEWS],
             },
             None => bytemuck::Zeroable::zeroed(),
         };
+        for (inverse, view) in self.exit_view.entry_inverses.iter_mut().zip(&self.views) {
+            *inverse = view
+                .view_proj
+                .as_dmat4()
+                .inverse()
+                .as_mat4()
+                .to_cols_array();
+        }
         let Some(depths) = &self.depths else {
             return Err(invalid("single scattering", "no depth atlas".into()));
         };
@@ -726,6 +740,14 @@ impl SingleScatteringPass {
             ));
         };
         let extent = depths.extent();
+        // Only the tiles in use are cleared and drawn (the eye's and the views'): the atlas is
+        // sized for the most views (49 tiles of 512^2 by default, 51 MB a clear), as the
+        // shadow pass's. The march reads no other tile.
+        let used = self.views.len() as u32 + 1;
+        let area = vk::Extent2D {
+            width: used.min(self.columns) * self.tile,
+            height: used.div_ceil(self.columns) * self.tile,
+        };
         let depth = vk::RenderingAttachmentInfo::default()
             .image_view(depths.view)
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
@@ -740,7 +762,7 @@ impl SingleScatteringPass {
         let rendering = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D::default(),
-                extent,
+                extent: area,
             })
             .layer_count(1)
             .depth_attachment(&depth);
