@@ -224,8 +224,8 @@ fn tangential_flux_matches_its_formula_on_the_sphere() {
     let mut rings = std::collections::BTreeMap::<i64, ([f64; 3], usize)>::new();
     for (n, _, o, _) in &pixels {
         let e = rings.entry(ring_of(n.dot(l))).or_insert(([0.0; 3], 0));
-        for c in 0..3 {
-            e.0[c] += f64::from(o[c]);
+        for (sum, value) in e.0.iter_mut().zip(o) {
+            *sum += f64::from(*value);
         }
         e.1 += 1;
     }
