@@ -842,8 +842,9 @@ mod tests {
     }
 
     /// P1 at eta 1 (A = 1, C1 = C2 = 0): phi = 2 M, so the tangential term is -(3/2) D grad_t M . w;
-    /// the two queries agree there; with a boundary (eta 1.3) the factor is smaller (light is
-    /// held in: X is larger against phi) and finite.
+    /// the two queries agree there. With a boundary (eta 1.3) M per phi drops and the shading
+    /// input's eta^2 / (1 - 2 C1(1/eta)) makes up for it: 1.50031, checked against phi / X
+    /// computed directly from the Robin row and the exit query.
     #[test]
     fn tangential_flux_factor_is_p1() {
         for exit in [ExitQuery::Classic, ExitQuery::Moments] {
@@ -863,7 +864,7 @@ mod tests {
         let m = b.exitance(o.d(), phi, phi / b.h(o), 0.0);
         let direct = 3.0 * phi / (4.0 * b.shading_input(m) * 1.3);
         assert!(
-            (f - direct).abs() < 1e-12 && f > 0.0 && f < 1.5,
+            (f - direct).abs() < 1e-12 && (f - 1.5).abs() < 0.01,
             "{f} vs {direct}"
         );
     }
