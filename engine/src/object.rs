@@ -128,6 +128,11 @@ pub struct ObjectParams {
     /// keep 1 / (3 sigma_t'). Default [`crate::defaults::DIFFUSION`] (Grosjean's), as
     /// `translucent render` runs.
     pub diffusion: crate::material::DiffusionCoefficient,
+    /// Draw the diffusion's tangential flux toward the view (`render --tangential-flux`;
+    /// [`crate::solver::transport::Boundary::tangential_flux_factor`]): the exit lobes draw the
+    /// normal flux only. Off by default (benches/RESULTS.md, "The front-lit spheres, term by
+    /// term (wave 9)").
+    pub tangential_flux: bool,
 }
 
 impl Default for ObjectParams {
@@ -165,6 +170,7 @@ impl ObjectParams {
             single_scattering: None,
             bounce: crate::frame::BounceMode::Off,
             diffusion: crate::material::DiffusionCoefficient::Classical,
+            tangential_flux: false,
         }
     }
 }
@@ -226,6 +232,9 @@ pub struct TranslucentObject {
     /// The reduced albedo per channel the own-light lobe reads ([`ExitLobe::Chandra`],
     /// [`crate::scene::own_lobe::surface_albedo`]).
     own_albedo: [f64; 3],
+    /// The surface's mean diffusion coefficient D per channel (mm; the object's
+    /// [`ObjectParams::diffusion`]), for the tangential flux ([`ObjectParams::tangential_flux`]).
+    surface_d: [f64; 3],
     camera: Option<Camera>,
     changes: Changes,
     own_depth: Option<Image>,
@@ -374,6 +383,7 @@ impl TranslucentObject {
         scatter.set_lights(scene, &shadows, shadow_bounds)?;
         scatter.set_material(field, &rest_positions);
         let own_albedo = crate::scene::own_lobe::surface_albedo(field, &rest_positions);
+        let surface_d = surface_diffusion(field, &rest_positions, params.diffusion);
         let mut object = TranslucentObject {
             method,
             mesh,
@@ -389,6 +399,7 @@ impl TranslucentObject {
             env_sh: environment_sh(&scene.environment),
             eta: field.eta() as f32,
             own_albedo,
+            surface_d,
             camera: None,
             // The first frame draws everything: nothing of it exists yet (a fixed exitance has its
             // solution, but no shadow map).
@@ -452,6 +463,7 @@ impl TranslucentObject {
         self.scatter.set_material(field, &self.rest_positions);
         self.eta = field.eta() as f32;
         self.own_albedo = crate::scene::own_lobe::surface_albedo(field, &self.rest_positions);
+        self.surface_d = surface_diffusion(field, &self.rest_positions, self.params.diffusion);
         self.changes.material = true;
         Ok(())
     }
@@ -805,10 +817,53 @@ impl TranslucentObject {
                 },
                 own_lights: crate::render::own_light_uniforms(&self.lights),
                 own_env_sh: self.env_sh,
+                tangential: match self.params.tangential_flux {
+                    true => {
+                        let f = crate::solver::transport::Boundary::new(
+                            f64::from(self.eta),
+                            self.params.solve.exit,
+                        )
+                        .tangential_flux_factor();
+                        let d = self.surface_d.map(|d| (f * d) as f32);
+                        [d[0], d[1], d[2], 1.0]
+                    }
+                    false => [0.0; 4],
+                },
             },
             specular.is_some(),
         )
     }
+}
+
+/// The mean over `positions` of D per channel (mm) with the diffusion coefficient `diffusion`
+/// (a homogeneous field: its own); finite, 0 where a channel has no extinction.
+fn surface_diffusion(
+    field: &MaterialField,
+    positions: &[DVec3],
+    diffusion: crate::material::DiffusionCoefficient,
+) -> [f64; 3] {
+    let d_at = |p: DVec3| {
+        let k = field.sample(p);
+        std::array::from_fn::<f64, 3, _>(|c| {
+            let d = diffusion.d(k.sigma_s[c], k.sigma_a[c]);
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        })
+    };
+    if field.is_homogeneous() || positions.is_empty() {
+        return d_at(DVec3::ZERO);
+    }
+    let mut sum = [0.0; 3];
+    for &p in positions {
+        let d = d_at(p);
+        for c in 0..3 {
+            sum[c] += d[c];
+        }
+    }
+    sum.map(|s| s / positions.len() as f64)
 }
 
 fn check_light_count(scene: &Scene) -> Result<(), Error> {

@@ -37,6 +37,10 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
     vec4 own_albedo;
     vec4 own_lights[3 * MAX_LIGHTS];
     vec4 own_env_sh[9];
+    // The diffusion's tangential flux (scene::tangential_flux, render --tangential-flux): rgb
+    // 3 D phi / (4 X eta) per channel (transport::Boundary::tangential_flux_factor times D), w 1
+    // where it applies.
+    vec4 tangential;
 } frame;
 layout(set = 0, binding = 1) uniform sampler2DShadow shadow_map;
 
@@ -178,9 +182,31 @@ void main() {
         float s = clamp(v_share, 0.0, 1.0);
         lobe = max(node + (1.0 - s) * (own_light_factor(v_position, n, n_v) - 1.0), vec3(0.0));
     }
+    vec3 diffused = lobe * max(v_exitance, vec3(0.0));
+    // The tangential flux J_t = -D grad_t phi of the diffusion (P1: L = (phi + 3 J . w) / (4 pi)
+    // inside): toward the view, -3 D grad_t X . w_t phi / (4 X eta) of the Lambertian radiance
+    // (the refracted w_t is w_t / eta); the lobes above draw only the normal flux. Light flowing
+    // from a lit cap to its terminator leaves brighter toward the dark side, darker toward the
+    // lit one (benches/RESULTS.md, "The front-lit spheres, term by term"). grad_t X from the
+    // screen derivatives of the interpolated exitance and position (Mikkelsen's surface
+    // gradient): the triangle's own gradient. Derivatives in uniform control flow.
+    vec3 dpx = dFdx(v_position);
+    vec3 dpy = dFdy(v_position);
+    vec3 dxx = dFdx(v_exitance);
+    vec3 dxy = dFdy(v_exitance);
+    if (frame.tangential.w > 0.0) {
+        vec3 r1 = cross(dpy, n);
+        vec3 r2 = cross(n, dpx);
+        float det = dot(dpx, r1);
+        if (abs(det) > 1e-20) {
+            // grad_t X . v per channel (grad_t X lies in the tangent plane: . v = . w_t).
+            vec3 along = (dxx * dot(r1, v) + dxy * dot(r2, v)) / det;
+            diffused -= frame.tangential.rgb * along;
+        }
+    }
     // Single scattering (DESIGN 2.8) joins the diffusion's J+: L_ss = T_o X / (pi eta^2). As a
     // difference to the flat closed form it may be negative; the sum never is.
-    vec3 radiance = f_t * max(lobe * max(v_exitance, vec3(0.0)) + v_scattered, vec3(0.0)) * scale;
+    vec3 radiance = f_t * max(diffused + v_scattered, vec3(0.0)) * scale;
     // The smooth boundary mirrors the environment: the part F_r = 1 - F_t of the light arriving
     // from the reflected direction (F_t above is the same unpolarized Fresnel term). The object
     // does not occlude its own reflection (exact for convex shapes).

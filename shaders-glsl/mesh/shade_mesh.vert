@@ -20,6 +20,7 @@ layout(set = 0, binding = 0) uniform ShadeUniforms {
     vec4 own_albedo;
     vec4 own_lights[24];
     vec4 own_env_sh[9];
+    vec4 tangential; // the tangential flux's factor per channel (fragment stage only)
 } frame;
 
 layout(location = 0) out vec3 v_position;

@@ -42,6 +42,10 @@ pub struct ShadeUniforms {
     /// The environment's radiance SH for the own light's Lambertian part (irradiance weight),
     /// whether or not the specular reflection draws it; zero: none.
     pub own_env_sh: [[f32; 4]; 9],
+    /// The diffusion's tangential flux toward the view (`render --tangential-flux`): rgb
+    /// [`crate::solver::transport::Boundary::tangential_flux_factor`] times D per channel (mm),
+    /// w 1 where it applies; zero: off.
+    pub tangential: [f32; 4],
 }
 
 /// [`ShadeUniforms::own_lights`] of `lights` (at most [`super::MAX_LIGHTS`]; more are ignored

@@ -198,6 +198,14 @@ pub struct RenderArgs {
     /// (benches/RESULTS.md, "Single scattering: far-face stop"). Not applied with `--solver cpu`.
     #[arg(long, value_name = "on|off|always", value_parser = ["on", "off", "always"])]
     pub single_scattering: Option<String>,
+    /// Draw the diffusion's tangential flux toward the view (`ObjectParams::tangential_flux`): in
+    /// P1 the radiance inside is (phi + 3 J . w) / (4 pi); the exit lobes draw the normal flux,
+    /// this adds the part along the surface, -3 D grad_t phi . w_t / (4 pi) (from the screen
+    /// derivatives of the exitance): a terminator seen from its lit side is darker, from its
+    /// dark side brighter. GPU solver only (`--solver cpu` draws without it). Off by default
+    /// (benches/RESULTS.md, "The front-lit spheres, term by term (wave 9)").
+    #[arg(long)]
+    pub tangential_flux: bool,
     /// One bounce of exitance between display vertices (issue 12 item 5): light leaving the
     /// surface enters it again elsewhere (concave parts; eta = 1 outside). `local`: at bake time
     /// cosine-weighted rays per display vertex find the surface it sees (sparse form factors);

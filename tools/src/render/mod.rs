@@ -364,6 +364,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
             exit_lobe: frame_desc.exit_lobe,
+            tangential_flux: args.tangential_flux,
             skip: !args.no_skip,
             single_scattering: settings.single_scattering,
             bounce: settings.bounce,
