@@ -370,6 +370,49 @@ pub fn scatter_for(source: Source, samples: u32, skip_front_lit: bool) -> Scatte
 mod tests {
     use super::*;
 
+    /// A `.vol` grid takes the surface rule from its cells: the skim milk | skin1 split of the
+    /// path-traced reference gets skin1's interior (s x spacing 0.88 in blue at render's auto
+    /// spacing 0.69 mm, Grosjean's D), a uniform marble grid marble's Shepard (0.17).
+    #[test]
+    fn the_surface_rule_reads_a_volume_grids_cells() {
+        use crate::material::{Material, VolGrid};
+        use glam::DVec3;
+        let (milk, skin1) = (
+            Material::preset("skimmilk").unwrap(),
+            Material::preset("skin1").unwrap(),
+        );
+        let (lo, hi) = (DVec3::splat(-10.0), DVec3::splat(10.0));
+        let split = VolGrid::from_fn([1, 2, 1], lo, hi, |p| {
+            let m = if p.y < 0.0 { &milk } else { &skin1 };
+            (m.sigma_s, m.sigma_a)
+        })
+        .unwrap();
+        let marble = Material::preset("marble").unwrap();
+        let uniform =
+            VolGrid::from_fn([1, 2, 1], lo, hi, |_| (marble.sigma_s, marble.sigma_a)).unwrap();
+        let field = |grid| {
+            MaterialField::grid(grid, 1.0)
+                .unwrap()
+                .with_diffusion(DIFFUSION)
+        };
+        let spacing_mm = 0.69;
+        assert_eq!(
+            surface_for(&field(split), spacing_mm),
+            SurfaceReconstruction::Interior
+        );
+        assert_eq!(
+            surface_for(&field(uniform), spacing_mm),
+            SurfaceReconstruction::Shepard
+        );
+        assert_eq!(
+            surface_for(
+                &MaterialField::Homogeneous(skin1.with_diffusion(DIFFUSION)),
+                spacing_mm
+            ),
+            SurfaceReconstruction::Interior
+        );
+    }
+
     #[test]
     fn object_params_read_back_as_the_settings() {
         for homogeneous in [true, false] {

@@ -442,7 +442,7 @@ fn gpu_grosjean_diffusion_coefficient_matches_the_cpu_reference() {
 /// occluder) where the GPU reads its shadow map, as [`COLLIMATED_GPU_VS_CPU`]. Measured 3.5e-4
 /// (f32 and the PCF at the terminator), the bound of [`BEAM_VARIANT_GPU_VS_CPU`]. The same on a
 /// skim milk | skin1 split (each node's own sigma_t' in c; heterogeneous materials take the
-/// upstream beam by default since wave 9).
+/// upstream beam by default since wave 9): measured 4.3e-4, 0.201 from the planar beam.
 const UPSTREAM_GPU_VS_CPU: f64 = 2e-3;
 
 /// The upstream beam moves the vertex J+ away from the planar beam by more than this (measured
