@@ -47,11 +47,14 @@ pub const SUPERSAMPLE: u32 = 2;
 /// 5)": against the path-traced references the second-collision source is better than the
 /// boundary flux on six scenes of seven and level on the seventh).
 pub const HOMOGENEOUS_SOURCE: Source = Source::SecondCollision;
-/// The light source for heterogeneous materials: near the particular solution's resonance the
-/// beam's share is sensitive to the coefficients (the agate's blue differs by 22% between its
-/// `.vol` grid and the procedural field it samples, against 0.8% with the flux), so a
-/// heterogeneous beam is opt-in until that is fixed.
-pub const HETEROGENEOUS_SOURCE: Source = Source::BoundaryFlux;
+/// The light source for heterogeneous materials: the homogeneous one (benches/RESULTS.md, "The
+/// split .vol sphere, decomposed (wave 9)": the boundary flux made the skim milk | skin1 sphere
+/// 16.7% off its path-traced reference against 10.0% with the second-collision source, whose
+/// regions then match the homogeneous skin1 sphere's ratios within 1-2%). The agate's blue that
+/// differed between its 24^3 `.vol` grid and the procedural field (22% in wave 5, 7.4% now) is
+/// the grid's blur of its 2 mm bands near albedo 2/3: 665.9, 647.7, 628.1 at 24^3, 48^3, 96^3
+/// against 620.2 procedural, so it converges with the grid.
+pub const HETEROGENEOUS_SOURCE: Source = Source::SecondCollision;
 /// The upstream beam with a beam source (`transport::upstream_beam`, each surface node's beam
 /// taken from upstream on the curved surface; benches/RESULTS.md, "The upstream beam on the
 /// GPU": 11 of 13 references better, the back-lit marble sphere 18.4 -> 9.8 %, the back-lit
@@ -91,26 +94,39 @@ pub const WARM_START: WarmStart = WarmStart::Linear;
 pub const INTERIOR_ABOVE_S_SPACING: f64 = 0.5;
 
 /// The display surface's reconstruction for `field` on a finest lattice of `spacing_mm`: the
-/// interior one where the largest s = sqrt(sigma_a / D) of a homogeneous material's channels
-/// times the spacing exceeds [`INTERIOR_ABOVE_S_SPACING`], Shepard otherwise (heterogeneous
-/// fields included: measured there only on the milk | skin1 split sphere, where Shepard is 0.8
-/// points closer to its reference).
+/// interior one where the largest s = sqrt(sigma_a / D) of the material's channels times the
+/// spacing exceeds [`INTERIOR_ABOVE_S_SPACING`], Shepard otherwise. A `.vol` grid takes its
+/// cells' largest s (the skim milk | skin1 split sphere: skin1's, as the homogeneous skin1
+/// sphere; with the second-collision source interior is 0.4 points closer to its reference
+/// than Shepard and draws no lattice rings on the skin1 cap: benches/RESULTS.md, "The split .vol
+/// sphere, decomposed (wave 9)"); a procedural field keeps Shepard (not measured).
 pub fn surface_for(field: &MaterialField, spacing_mm: f64) -> SurfaceReconstruction {
-    let MaterialField::Homogeneous(m) = field else {
-        return SurfaceReconstruction::Shepard;
-    };
     let diffusion = field.diffusion();
-    let largest_s = (0..3)
-        .map(|c| {
-            crate::solver::transport::Optics {
-                sigma_s: m.sigma_s[c],
-                sigma_a: m.sigma_a[c],
-                diffusion,
-            }
-            .s()
-        })
-        .filter(|s| s.is_finite())
-        .fold(0.0, f64::max);
+    let channels_s = |sigma_s: [f64; 3], sigma_a: [f64; 3]| {
+        (0..3)
+            .map(|c| {
+                crate::solver::transport::Optics {
+                    sigma_s: sigma_s[c],
+                    sigma_a: sigma_a[c],
+                    diffusion,
+                }
+                .s()
+            })
+            .filter(|s| s.is_finite())
+            .fold(0.0, f64::max)
+    };
+    let largest_s = match field {
+        MaterialField::Homogeneous(m) => channels_s(m.sigma_s, m.sigma_a),
+        MaterialField::Grid { grid, .. } => grid
+            .data
+            .chunks_exact(crate::material::vol::VOL_CHANNELS)
+            .map(|cell| {
+                let f = |i: usize| f64::from(cell[i]);
+                channels_s([f(0), f(1), f(2)], [f(3), f(4), f(5)])
+            })
+            .fold(0.0, f64::max),
+        MaterialField::Procedural { .. } => return SurfaceReconstruction::Shepard,
+    };
     if largest_s * spacing_mm > INTERIOR_ABOVE_S_SPACING {
         SurfaceReconstruction::Interior
     } else {
@@ -354,6 +370,49 @@ pub fn scatter_for(source: Source, samples: u32, skip_front_lit: bool) -> Scatte
 mod tests {
     use super::*;
 
+    /// A `.vol` grid takes the surface rule from its cells: the skim milk | skin1 split of the
+    /// path-traced reference gets skin1's interior (s x spacing 0.88 in blue at render's auto
+    /// spacing 0.69 mm, Grosjean's D), a uniform marble grid marble's Shepard (0.17).
+    #[test]
+    fn the_surface_rule_reads_a_volume_grids_cells() {
+        use crate::material::{Material, VolGrid};
+        use glam::DVec3;
+        let (milk, skin1) = (
+            Material::preset("skimmilk").unwrap(),
+            Material::preset("skin1").unwrap(),
+        );
+        let (lo, hi) = (DVec3::splat(-10.0), DVec3::splat(10.0));
+        let split = VolGrid::from_fn([1, 2, 1], lo, hi, |p| {
+            let m = if p.y < 0.0 { &milk } else { &skin1 };
+            (m.sigma_s, m.sigma_a)
+        })
+        .unwrap();
+        let marble = Material::preset("marble").unwrap();
+        let uniform =
+            VolGrid::from_fn([1, 2, 1], lo, hi, |_| (marble.sigma_s, marble.sigma_a)).unwrap();
+        let field = |grid| {
+            MaterialField::grid(grid, 1.0)
+                .unwrap()
+                .with_diffusion(DIFFUSION)
+        };
+        let spacing_mm = 0.69;
+        assert_eq!(
+            surface_for(&field(split), spacing_mm),
+            SurfaceReconstruction::Interior
+        );
+        assert_eq!(
+            surface_for(&field(uniform), spacing_mm),
+            SurfaceReconstruction::Shepard
+        );
+        assert_eq!(
+            surface_for(
+                &MaterialField::Homogeneous(skin1.with_diffusion(DIFFUSION)),
+                spacing_mm
+            ),
+            SurfaceReconstruction::Interior
+        );
+    }
+
     #[test]
     fn object_params_read_back_as_the_settings() {
         for homogeneous in [true, false] {
@@ -375,7 +434,7 @@ mod tests {
             Settings::realtime(true)
         );
         assert_eq!(Settings::realtime(true).source, Source::SecondCollision);
-        assert_eq!(Settings::realtime(false).source, Source::BoundaryFlux);
+        assert_eq!(Settings::realtime(false).source, Source::SecondCollision);
         assert_eq!(Settings::realtime(false).schedule, Schedule::Multigrid);
         // render's QuadGraph D is the library's (it was render's alone before).
         assert_eq!(ObjectParams::default().diffusion, DIFFUSION);

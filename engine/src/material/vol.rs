@@ -359,3 +359,76 @@ fn cell_count(res: [usize; 3]) -> Option<usize> {
     }
     res[0].checked_mul(res[1])?.checked_mul(res[2])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// f32 data against f64 sampling.
+    const SAMPLE_TOLERANCE: f64 = 1e-5;
+
+    /// A grid with `value(x, y, z)` (cell indices) in channel 0 and 0.01 elsewhere.
+    fn grid(res: [usize; 3], value: impl Fn(usize, usize, usize) -> f32) -> VolGrid {
+        let mut data = Vec::new();
+        for z in 0..res[2] {
+            for y in 0..res[1] {
+                for x in 0..res[0] {
+                    data.push(value(x, y, z));
+                    data.extend([0.01f32; VOL_CHANNELS - 1]);
+                }
+            }
+        }
+        let grid = VolGrid {
+            res,
+            bbox_min: DVec3::splat(-10.0),
+            bbox_max: DVec3::splat(10.0),
+            data,
+        };
+        grid.validate().expect("a valid grid");
+        grid
+    }
+
+    /// Where Mitsuba 3.9.1's `gridvolume` (use_grid_bbox, trilinear; the reference tool's
+    /// medium) puts the same files' values, measured with
+    /// `target/pt-venv/bin/python benches/heterogeneous/mitsuba_grid_convention.py`: samples at
+    /// cell centres, x fastest, clamped to the border cells, +y up as in our object frame. A
+    /// corner convention, another axis order or a flipped axis each fail here.
+    #[test]
+    fn sampling_puts_an_asymmetric_grid_where_mitsuba_puts_it() {
+        // Two cells along y (0 below, 1 above, plus 1): a ramp between the centres y = -5, 5.
+        let two = grid([1, 2, 1], |_, y, _| 1.0 + y as f32);
+        for (y, mitsuba) in [
+            (-10.0, 0.0),
+            (-7.5, 0.0),
+            (-5.0, 0.0),
+            (-2.5, 0.25),
+            (0.0, 0.5),
+            (2.5, 0.75),
+            (5.0, 1.0),
+            (7.5, 1.0),
+            (10.0, 1.0),
+        ] {
+            let ours = two.sample(DVec3::new(3.0, y, -2.0)).sigma_s[0];
+            assert!(
+                (ours - (1.0 + mitsuba)).abs() < SAMPLE_TOLERANCE,
+                "y {y}: {ours}"
+            );
+        }
+        // 2 x 1 x 3 cells holding x + 10 z (plus 1).
+        let asymmetric = grid([2, 1, 3], |x, _, z| 1.0 + x as f32 + 10.0 * z as f32);
+        let third = 20.0 / 3.0;
+        for (p, mitsuba) in [
+            ([-5.0, 0.0, -third], 0.0),
+            ([5.0, 0.0, -third], 1.0),
+            ([-5.0, 0.0, 0.0], 10.0),
+            ([-5.0, 0.0, third], 20.0),
+            ([0.0, 0.0, 0.0], 10.5),
+        ] {
+            let ours = asymmetric.sample(DVec3::from_array(p)).sigma_s[0];
+            assert!(
+                (ours - (1.0 + mitsuba)).abs() < SAMPLE_TOLERANCE,
+                "{p:?}: {ours}"
+            );
+        }
+    }
+}

@@ -112,11 +112,9 @@ impl RenderArgs {
 
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on
     /// the GPU unless `--exit-query flux` asks for the boundary-flux model (the default before
-    /// wave 5); the f64 reference (`--solver cpu`) keeps the boundary flux unless named, and so
-    /// do heterogeneous materials: near the particular solution's resonance the beam's share is
-    /// sensitive to the coefficients (the agate's blue differs by 22% between its `.vol` grid
-    /// and the procedural field it samples, against 0.8% with the flux: benches/RESULTS.md,
-    /// "Model terms on the GPU (wave 5)"), so a heterogeneous beam is opt-in until that is fixed.
+    /// wave 5); the f64 reference (`--solver cpu`) keeps the boundary flux unless named.
+    /// Heterogeneous materials take the same source as homogeneous ones since wave 9
+    /// ([`translucent::defaults::HETEROGENEOUS_SOURCE`]).
     pub fn light_source(&self) -> translucent::solver::transport::Source {
         use translucent::solver::transport::Source;
         match self.source.as_deref() {
