@@ -47,11 +47,12 @@ fn torus_curvature_along(x: DVec3, n: DVec3, t: DVec3) -> f64 {
 }
 
 /// Mean absolute error of the baked normal curvature along the tube and along the ring over the
-/// finest surface nodes, relative to 1 / minor. Measured 0.031 at resolution 16 (the fit over
-/// display vertices within two spacings, the mean the smoothed surface's).
-const CURVATURE_ALONG_ERROR: f64 = 0.08;
-/// Without the anisotropy (k_t = H) the same error is 0.39: the bound above separates them.
-const UMBILIC_ERROR_ABOVE: f64 = 0.25;
+/// finest surface nodes, relative to 1 / minor. Measured 0.008 at resolution 16 (the fit over
+/// display vertices within two spacings, the mean the smoothed surface's); the bound leaves
+/// room for the fit's weights and radius, not for a wrong direction.
+const CURVATURE_ALONG_ERROR: f64 = 0.03;
+/// Without the anisotropy (k_t = H) the same error is 0.51: a fit that lost it fails.
+const UMBILIC_ERROR_ABOVE: f64 = 0.3;
 
 #[test]
 fn baked_curvature_along_the_tube_and_the_ring_matches_the_torus() {
@@ -80,11 +81,16 @@ fn baked_curvature_along_the_tube_and_the_ring_matches_the_torus() {
     assert!(umbilic_err >= UMBILIC_ERROR_ABOVE, "{umbilic_err}");
 }
 
-/// GPU vertex J+ against the f64 CPU's with the upstream beam on the back-lit marble torus
-/// (second-collision source, the same baked curvature; the CPU casts shadow rays where the GPU
-/// reads its shadow map: the far side's shadow edge on the inner wall is what differs).
-/// Measured 2.3e-3.
-const TORUS_UPSTREAM_GPU_VS_CPU: f64 = 6e-3;
+/// GPU vertex J+ against the f64 CPU's with the upstream beam on the marble torus lit from
+/// straight above (second-collision source, the same baked curvature): the beam runs around the
+/// tube everywhere (k_t = 1 / minor, H 0.04-0.22), and no part of the torus shadows another, so
+/// the CPU needs no shadow rays where the GPU reads its shadow map (back-lit, the far side's
+/// shadow edge on the inner wall alone differs by 7.8e-3). Measured 4.25e-4 (f32, fp16
+/// anisotropy, the PCF at the terminator).
+const TORUS_UPSTREAM_GPU_VS_CPU: f64 = 2e-3;
+/// The upstream beam moves the vertex J+ away from the planar beam by more than this (measured
+/// 0.092): a GPU ignoring the option fails.
+const UPSTREAM_DIFFERS: f64 = 0.02;
 
 #[test]
 fn gpu_upstream_beam_along_the_beam_matches_the_cpu_reference_on_a_torus() {
@@ -95,23 +101,26 @@ fn gpu_upstream_beam_along_the_beam_matches_the_cpu_reference_on_a_torus() {
     let field =
         MaterialField::Homogeneous(Material::new(marble.sigma_s, marble.sigma_a, 1.0).unwrap());
     let scene = Scene {
-        lights: vec!["dir:0.2,-0.35,1:5,5,5".parse().unwrap()],
+        lights: vec!["dir:0,-1,0:5,5,5".parse().unwrap()],
         environment: Environment::None,
     };
-    let params = CpuSolveParams {
-        transport: Transport {
-            source: Source::SecondCollision,
-            upstream_beam: true,
-            ..Transport::gpu_collimated()
-        },
-        ..CpuSolveParams::default()
+    let cpu_vertex = |upstream_beam: bool| -> Vec<[f64; 3]> {
+        let params = CpuSolveParams {
+            transport: Transport {
+                source: Source::SecondCollision,
+                upstream_beam,
+                ..Transport::gpu_collimated()
+            },
+            ..CpuSolveParams::default()
+        };
+        solver::solve(&graph, &field, &scene, None, &params)
+            .unwrap()
+            .vertex_j_plus
+            .iter()
+            .map(|x| x.map(f64::from))
+            .collect()
     };
-    let want: Vec<[f64; 3]> = solver::solve(&graph, &field, &scene, Some(&TORUS), &params)
-        .unwrap()
-        .vertex_j_plus
-        .iter()
-        .map(|x| x.map(f64::from))
-        .collect();
+    let (want, planar) = (cpu_vertex(true), cpu_vertex(false));
     let params = GpuSolveParams {
         iterations: vec![4000],
         tolerance: 1e-6,
@@ -130,9 +139,11 @@ fn gpu_upstream_beam_along_the_beam_matches_the_cpu_reference_on_a_torus() {
         .read_vertex_j_plus(ctx)
         .expect("vertex J+");
     let err = rel_rms(&v, &want);
-    println!("upstream beam on the torus: GPU vs CPU {err:.2e}");
+    let apart = rel_rms(&v, &planar);
+    println!("upstream beam on the torus: GPU vs CPU {err:.2e}, vs the planar beam {apart:.3}");
     drop(object);
     gpu.assert_no_messages();
     gpu.finish();
     assert!(err <= TORUS_UPSTREAM_GPU_VS_CPU, "relative RMS {err}");
+    assert!(apart > UPSTREAM_DIFFERS, "{apart}");
 }
