@@ -530,7 +530,8 @@ fn node_anisotropy(
     n: DVec3,
     radius: f64,
 ) -> DVec3 {
-    if !(radius > 0.0)
+    if radius.is_nan()
+        || radius <= 0.0
         || !x.is_finite()
         || !n.is_finite()
         || surface.normals.len() != surface.positions.len()
@@ -548,7 +549,7 @@ fn node_anisotropy(
         let dx = xj - x;
         let (u1, u2) = (dx.dot(t1), dx.dot(t2));
         let len2 = u1 * u1 + u2 * u2;
-        if nj.dot(n) <= 0.0 || !(len2 > 1e-6 * radius * radius) {
+        if nj.dot(n) <= 0.0 || len2.is_nan() || len2 <= 1e-6 * radius * radius {
             continue;
         }
         let k = (nj - n).dot(t1 * u1 + t2 * u2) / len2;
