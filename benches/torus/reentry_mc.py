@@ -93,8 +93,6 @@ def main():
             pe = p[eo]; de = d[eo]
             hit2, t2 = march_out(pe + de * 3 * EPS + normal(pe) * 2 * EPS, de)
             esc = eo[~hit2]
-            for k in esc:
-                pass
             exits.append((p[esc], w[esc], reent[esc], where[esc], entry[esc], entry_mu[esc]))
             back = eo[hit2]
             if len(back):
@@ -111,7 +109,6 @@ def main():
         cz = 2 * rng.random(len(sc)) - 1; ph = 2 * np.pi * rng.random(len(sc)); sz = np.sqrt(1 - cz * cz)
         d[sc] = np.stack([sz * np.cos(ph), sz * np.sin(ph), cz], 1)
         keep = ~out
-        keep[out] = False
         # Re-entered photons keep walking (their direction unchanged).
         if len(eo):
             keep[eo[hit2]] = True
