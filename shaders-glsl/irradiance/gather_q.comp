@@ -33,7 +33,11 @@
 // c = H / (eta sigma_t') (H the node's mean curvature, baked in surface_normal.w) the beam's
 // incidence cosine is mu_up = mu + c (1 - mu^2) and its irradiance factor mu + c (1 - 3 mu^2),
 // per channel. A node just past the terminator (mu > -UPSTREAM_SHIFT_LIMIT) tests its visibility
-// a mean free path upstream, where the shadow map sees the surface lit.
+// a mean free path upstream, where the shadow map sees the surface lit. Off a sphere the beam
+// turns by the normal curvature along its tangent t, k_t = H - |a|^2 + 2 (t.a)^2 (a the node's
+// anisotropy, surface_anisotropy.rgb; transport::SurfaceCurvature): mu_up = mu + c_t (1 - mu^2),
+// irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the area ratio is the mean curvature's). A
+// deformed node (H written 0) keeps the planar beam: its rest anisotropy is not read.
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -69,6 +73,9 @@ layout(set = 0, binding = 3) uniform sampler2D shadow_atlas;
 // Heterogeneous levels: per node kappa and mu (rgb); a homogeneous material binds a stand-in.
 layout(set = 0, binding = 6, rgba32f) uniform readonly image2D kappa;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D mu;
+// rgb: the curvature's anisotropy per surface node (see the header); a level bound without one
+// binds a stand-in that is read only with the upstream beam.
+layout(set = 0, binding = 8, rgba16f) uniform readonly image2D surface_anisotropy;
 layout(std430, set = 0, binding = 4) readonly buffer GatherScene {
     uvec4 counts;   // x: lights, y: environment kind
     vec4 sh[9];     // rgb: SH radiance coefficients, or sh[0].rgb the constant radiance
@@ -349,11 +356,23 @@ void main() {
         if (beams && pc.beam_upstream > 0.5 && cos_l > -UPSTREAM_SHIFT_LIMIT) {
             // transport::upstream_beam per channel.
             vec3 sigma_t = beam_s + beam_a;
-            vec3 c = clamp(curvature / (pc.eta * max(sigma_t, vec3(1e-12))),
-                           vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
             float mu = clamp(cos_l, -1.0, 1.0);
-            vec3 mu_up = min(mu + c * (1.0 - mu * mu), vec3(1.0));
-            vec3 factor = mix(vec3(0.0), max(mu + c * (1.0 - 3.0 * mu * mu), vec3(0.0)),
+            // transport::SurfaceCurvature::along: the normal curvature along the beam's tangent.
+            vec3 beam_tangent = l - n * mu;
+            float along_curvature = curvature;
+            if (curvature != 0.0 && length(beam_tangent) > 1e-6) {
+                vec3 a = imageLoad(surface_anisotropy, texel).rgb;
+                float ta = dot(normalize(beam_tangent), a);
+                along_curvature = curvature - dot(a, a) + 2.0 * ta * ta;
+            }
+            vec3 inv_eta_sigma = 1.0 / (pc.eta * max(sigma_t, vec3(1e-12)));
+            vec3 c_t = clamp(along_curvature * inv_eta_sigma,
+                             vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            vec3 c = clamp(curvature * inv_eta_sigma,
+                           vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
+            vec3 factor = mix(vec3(0.0),
+                              max(mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu, vec3(0.0)),
                               greaterThan(mu_up, vec3(0.0)));
             float vis = 1.0;
             if (light.views.y != 0u) {
@@ -365,7 +384,7 @@ void main() {
                     vec3 along = l - n * mu;
                     vec3 t = length(along) > 1e-6 ? normalize(along) : vec3(0.0);
                     float mfp = 3.0 / max(sigma_t.r + sigma_t.g + sigma_t.b, 1e-12);
-                    vec3 n_up = normalize(n + t * (curvature * mfp));
+                    vec3 n_up = normalize(n + t * (along_curvature * mfp));
                     vis = visibility(view, p + t * mfp, n_up, max(dot(n_up, l), 0.0));
                 }
             }

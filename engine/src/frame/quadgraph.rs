@@ -185,6 +185,7 @@ impl QuadGraphMethod {
                 shadows,
                 solve.surface_position(h).ok_or_else(missing)?,
                 solve.surface_normal(h).ok_or_else(missing)?,
+                solve.surface_anisotropy(h).ok_or_else(missing)?,
                 solve.q_image(h).ok_or_else(missing)?,
                 solve.particular_image(h).ok_or_else(missing)?,
                 solve.material_images(h),
@@ -285,9 +286,13 @@ impl QuadGraphMethod {
     fn gather_uses<'a>(&'a self, shadows: &'a ShadowMaps) -> Vec<Use<'a>> {
         let mut uses = vec![Use::image(&shadows.atlas, Access::DepthSampledShaders)];
         for h in 0..self.levels.len() {
-            for img in [self.solve.surface_position(h), self.solve.surface_normal(h)]
-                .into_iter()
-                .flatten()
+            for img in [
+                self.solve.surface_position(h),
+                self.solve.surface_normal(h),
+                self.solve.surface_anisotropy(h),
+            ]
+            .into_iter()
+            .flatten()
             {
                 uses.push(Use::image(img, Access::ComputeRead));
             }

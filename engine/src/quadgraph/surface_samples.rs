@@ -33,6 +33,7 @@ use rayon::prelude::*;
 
 use super::graph::{GraphLevel, NO_NODE};
 use crate::mesh::{Solid, TriMesh};
+use crate::solver::transport::SurfaceCurvature;
 
 /// Inner nodes per sample point.
 pub const SAMPLE_NODES: usize = 16;
@@ -464,21 +465,22 @@ fn mean_curvatures(
 /// Display vertices whose mean curvature a surface node takes ([`surface_node_curvatures`]).
 pub const NODE_CURVATURE_VERTICES: usize = 4;
 
-/// Per surface node of `level` (surface index `s`), the mean curvature H of the display surface
-/// there: the average of [`SurfaceSamples::curvature`] over the [`NODE_CURVATURE_VERTICES`]
-/// nearest display vertices (of `surface`, the baked display mesh) whose normal faces the node's
-/// within 90 degrees (1/mm, convex > 0; 0 where none does or the bake has no curvature). What the
-/// upstream beam (`solver::transport::upstream_beam`) reads on the GPU gather and on the CPU
-/// reference alike, baked once rather than probed per frame.
+/// Per surface node of `level` (surface index `s`), the curvature of the display surface there
+/// (`solver::transport::SurfaceCurvature`, 1/mm, convex > 0): the mean curvature H, the average
+/// of [`SurfaceSamples::curvature`] over the [`NODE_CURVATURE_VERTICES`] nearest display vertices
+/// (of `surface`, the baked display mesh) whose normal faces the node's within 90 degrees (0
+/// where none does or the bake has no curvature), and the anisotropy from
+/// [`node_anisotropy`]. What the upstream beam (`solver::transport::upstream_beam`) reads on the
+/// GPU gather and on the CPU reference alike, baked once rather than probed per frame.
 pub fn surface_node_curvatures(
     level: &GraphLevel,
     surface: &TriMesh,
     samples: &SurfaceSamples,
-) -> Vec<f64> {
+) -> Vec<SurfaceCurvature> {
     let inner = level.inner_count();
     let count = level.surface_count();
     if surface.positions.is_empty() || samples.curvature.len() != surface.positions.len() {
-        return vec![0.0; count];
+        return vec![SurfaceCurvature::default(); count];
     }
     let coords: Vec<[f64; 3]> = surface.positions.iter().map(|p| p.to_array()).collect();
     let tree: ImmutableKdTree<f64, u32, 3, 32> = ImmutableKdTree::new_from_slice(&coords);
@@ -498,13 +500,91 @@ pub fn surface_node_curvatures(
                     total += 1.0;
                 }
             }
-            if total > 0.0 {
-                sum / total
-            } else {
-                0.0
+            let mean = if total > 0.0 { sum / total } else { 0.0 };
+            SurfaceCurvature {
+                mean,
+                anisotropy: node_anisotropy(
+                    &tree,
+                    surface,
+                    x,
+                    n,
+                    CURVATURE_SPACINGS * level.spacing,
+                ),
             }
         })
         .collect()
+}
+
+/// The anisotropy of the display surface's curvature at `x` (normal `n`): the normal curvatures
+/// (n_j - n) . u / |u|^2 towards the display vertices j within `radius` (u the tangential part
+/// of x_j - x; normals within 90 degrees of n; weights (1 - (d / R)^2)^2) fitted by least
+/// squares with the second fundamental form a c^2 + 2 b c s + d s^2 ((c, s) the direction in
+/// n's tangent frame), whose traceless part gives (k1 - k2) / 2 = sqrt(((a - d) / 2)^2 + b^2)
+/// and e1 (`SurfaceCurvature::anisotropy` = e1 sqrt((k1 - k2) / 2)). Zero where fewer than
+/// three directions determine it. The mean stays [`SurfaceSamples::curvature`]'s, so an umbilic
+/// surface (the sphere) reads exactly what it read before.
+fn node_anisotropy(
+    tree: &ImmutableKdTree<f64, u32, 3, 32>,
+    surface: &TriMesh,
+    x: DVec3,
+    n: DVec3,
+    radius: f64,
+) -> DVec3 {
+    if radius.is_nan()
+        || radius <= 0.0
+        || !x.is_finite()
+        || !n.is_finite()
+        || surface.normals.len() != surface.positions.len()
+    {
+        return DVec3::ZERO;
+    }
+    let (t1, t2) = crate::solver::transport::tangent_frame(n);
+    // Normal equations of the fit: m (a, b, d) = r.
+    let mut m = [[0.0f64; 3]; 3];
+    let mut r = [0.0f64; 3];
+    let mut directions = 0usize;
+    for nb in tree.within_unsorted::<SquaredEuclidean>(&x.to_array(), radius * radius) {
+        let j = nb.item as usize;
+        let (xj, nj) = (surface.positions[j], surface.normals[j]);
+        let dx = xj - x;
+        let (u1, u2) = (dx.dot(t1), dx.dot(t2));
+        let len2 = u1 * u1 + u2 * u2;
+        if nj.dot(n) <= 0.0 || len2.is_nan() || len2 <= 1e-6 * radius * radius {
+            continue;
+        }
+        let k = (nj - n).dot(t1 * u1 + t2 * u2) / len2;
+        let (c, s) = (u1 / len2.sqrt(), u2 / len2.sqrt());
+        let w = (1.0 - nb.distance / (radius * radius * 1.0001)).powi(2);
+        let row = [c * c, 2.0 * c * s, s * s];
+        if !k.is_finite() {
+            continue;
+        }
+        for i in 0..3 {
+            for l in 0..3 {
+                m[i][l] += w * row[i] * row[l];
+            }
+            r[i] += w * row[i] * k;
+        }
+        directions += 1;
+    }
+    if directions < 3 {
+        return DVec3::ZERO;
+    }
+    let mat = glam::DMat3::from_cols_array_2d(&m).transpose();
+    if mat.determinant().abs() < 1e-9 * mat.col(0).length().powi(3).max(1e-300) {
+        return DVec3::ZERO;
+    }
+    let [a, b, d] = (mat.inverse() * DVec3::from_array(r)).to_array();
+    let p = 0.5 * (a - d);
+    let half_difference = p.hypot(b);
+    let angle = 0.5 * b.atan2(p);
+    let e1 = t1 * angle.cos() + t2 * angle.sin();
+    let anisotropy = e1 * half_difference.sqrt();
+    if anisotropy.is_finite() {
+        anisotropy
+    } else {
+        DVec3::ZERO
+    }
 }
 
 /// The distance from `x` along `-n` to where the ray first leaves `solid` (a crossing whose

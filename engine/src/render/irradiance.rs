@@ -370,6 +370,7 @@ impl IrradiancePass {
                     "particular",
                     "kappa",
                     "mu",
+                    "surface_anisotropy",
                 ],
                 max_sets: max_levels.max(1),
             },
@@ -414,13 +415,26 @@ impl IrradiancePass {
         q: &Image,
         surface_rows: u32,
     ) -> Result<GatherLevel, RenderError> {
-        // No collimated source: `particular` is never written, q stands in for the binding.
-        self.bind_level_with(ctx, shadows, position, normal, q, q, None, surface_rows)
+        // No collimated source: `particular` is never written, q stands in for the binding, and
+        // the anisotropy (read only by the collimated source's upstream beam) is the normal's.
+        self.bind_level_with(
+            ctx,
+            shadows,
+            position,
+            normal,
+            normal,
+            q,
+            q,
+            None,
+            surface_rows,
+        )
     }
 
     /// [`Self::bind_level`] with the image the collimated source ([`Self::beam`]) writes its
     /// exit-query part into (rgba16f, pre-scaled like q, the same texels) and, for a
-    /// heterogeneous material, the level's per-node kappa and mu (rgba32f, the same texels).
+    /// heterogeneous material, the level's per-node kappa and mu (rgba32f, the same texels);
+    /// `anisotropy` is the surface nodes' curvature anisotropy (rgba16f like the normal, the
+    /// upstream beam's; `solver::gpu::GpuDiffusion::surface_anisotropy`).
     #[allow(clippy::too_many_arguments)]
     pub fn bind_level_with(
         &self,
@@ -428,6 +442,7 @@ impl IrradiancePass {
         shadows: &ShadowMaps,
         position: &Image,
         normal: &Image,
+        anisotropy: &Image,
         q: &Image,
         particular: &Image,
         material: Option<(&Image, &Image)>,
@@ -436,6 +451,7 @@ impl IrradiancePass {
         for (image, format, role) in [
             (position, SURFACE_POSITION_FORMAT, "surface_position"),
             (normal, SURFACE_NORMAL_FORMAT, "surface_normal"),
+            (anisotropy, SURFACE_NORMAL_FORMAT, "surface_anisotropy"),
             (q, Q_FORMAT, "q"),
             (particular, Q_FORMAT, "particular"),
         ] {
@@ -488,6 +504,7 @@ impl IrradiancePass {
             &[
                 DescriptorWrite::storage_image("surface_position", position),
                 DescriptorWrite::storage_image("surface_normal", normal),
+                DescriptorWrite::storage_image("surface_anisotropy", anisotropy),
                 DescriptorWrite::storage_image("q", q),
                 DescriptorWrite::storage_image("particular", particular),
                 DescriptorWrite::storage_image("kappa", kappa),

@@ -34,7 +34,7 @@ use glam::DVec3;
 
 use super::transport::{
     beam_particular, beam_share, diffuse_quadrature, second_collision_fit, tangent_frame,
-    upstream_beam, Boundary, ExitQuery, Optics, Refraction, Source, Transport,
+    upstream_beam, Boundary, ExitQuery, Optics, Refraction, Source, SurfaceCurvature, Transport,
     UPSTREAM_SHIFT_LIMIT,
 };
 use crate::material::{Coefficients, MaterialField};
@@ -337,7 +337,7 @@ impl<'a> SourceModel<'a> {
     }
 
     /// The light the first collisions below `x` carry from upstream ([`upstream_beam`]) when
-    /// `transport.upstream_beam` is on: the mean curvature along the light's tangent from the
+    /// `transport.upstream_beam` is on: the curvature along the light's tangent from the
     /// surface one mean free path upstream (a probe ray along -n) or the baked one `given`, its
     /// visibility there (the node's own where it faces the light). `None`: off, too far past the
     /// terminator, or no curvature given and no surface found (the node's usual arrival applies).
@@ -347,7 +347,7 @@ impl<'a> SourceModel<'a> {
         x: DVec3,
         n: DVec3,
         here: &Coefficients,
-        given: Option<f64>,
+        given: Option<SurfaceCurvature>,
     ) -> Option<([f64; 3], ChannelBeams)> {
         if !(self.transport.upstream_beam && self.beams()) {
             return None;
@@ -376,11 +376,14 @@ impl<'a> SourceModel<'a> {
             (Some(k), None) => (
                 k,
                 x + t * mean_free_path,
-                (n + t * (k * mean_free_path)).normalize_or(n),
+                (n + t * (k.along(t) * mean_free_path)).normalize_or(n),
             ),
-            (None, Some((hit, n_up))) => {
-                ((n_up - n).dot(t) / mean_free_path, probe - n * hit, n_up)
-            }
+            // The probe measures the curvature along t only: taken as the mean as well.
+            (None, Some((hit, n_up))) => (
+                SurfaceCurvature::umbilic((n_up - n).dot(t) / mean_free_path),
+                probe - n * hit,
+                n_up,
+            ),
             (None, None) => return None,
         };
         // Without an occluder nothing shadows (the GPU's unshadowed lights alike).
@@ -401,7 +404,7 @@ impl<'a> SourceModel<'a> {
         }
         let eta = self.boundary.eta;
         let beams: ChannelBeams = std::array::from_fn(|c| {
-            let b = upstream_beam(mu, curvature, sigma_t[c], eta);
+            let b = upstream_beam(mu, curvature, t, sigma_t[c], eta);
             (b.mu_up, b.irradiance)
         });
         // Beyond its reach past the terminator the node keeps its usual arrival (continuation).
@@ -414,8 +417,8 @@ impl<'a> SourceModel<'a> {
         self.at_node(x, n, here, h, None)
     }
 
-    /// [`Self::at_with`] at a surface node whose mean curvature `curvature` is known (the
-    /// baked one, `quadgraph::surface_samples::surface_node_curvatures`): the upstream beam
+    /// [`Self::at_with`] at a surface node whose curvature `curvature` is known (the baked
+    /// one, `quadgraph::surface_samples::surface_node_curvatures`): the upstream beam
     /// reads it instead of probing the surface (`None`: probed).
     pub fn at_node(
         &self,
@@ -423,7 +426,7 @@ impl<'a> SourceModel<'a> {
         n: DVec3,
         here: &Coefficients,
         h: [f64; 3],
-        curvature: Option<f64>,
+        curvature: Option<SurfaceCurvature>,
     ) -> LocalSource {
         let eta = self.boundary.eta;
         let mut out = LocalSource::default();

@@ -649,6 +649,13 @@ pub const UPSTREAM_SHIFT_LIMIT: f64 = 0.2;
 /// collision below its entry node: on the 10 mm marble sphere its exitance is 0.70 of the
 /// transport's at the terminator, with this shift 0.97-1.03 on every ring
 /// (`benches/crescent/sphere_second.py plain upstream`).
+///
+/// On a surface that is not umbilic the two curvatures differ (issue 12, the back-lit torus:
+/// benches/RESULTS.md "The back-lit torus, region by region"): the beam turns by the normal
+/// curvature k_t along its tangent direction t (the projection of l on the tangent plane), so
+/// mu_up = mu + c_t (1 - mu^2) with c_t = k_t / (eta sigma_t'), while the area ratio is the
+/// divergence of the shift field (l - n mu) / (eta sigma_t'), -2 H mu / (eta sigma_t') for any
+/// surface: irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the sphere's when k_t = H).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UpstreamBeam {
     /// The cosine to the light where the beam entered: the incidence of its Fresnel
@@ -659,21 +666,64 @@ pub struct UpstreamBeam {
 }
 
 /// See [`UpstreamBeam`]; `mu` = n . l at the node (may be negative near the terminator),
-/// `curvature` H (1/mm), `sigma_t` = sigma_t' (1/mm) of the node's channel.
-pub fn upstream_beam(mu: f64, curvature: f64, sigma_t: f64, eta: f64) -> UpstreamBeam {
-    let c = if curvature.is_finite() && sigma_t > 0.0 && eta > 0.0 {
-        (curvature / (eta * sigma_t)).clamp(-UPSTREAM_SHIFT_LIMIT, UPSTREAM_SHIFT_LIMIT)
-    } else {
-        0.0
+/// `curvature` the node's [`SurfaceCurvature`] (1/mm), `t` the beam's unit tangent direction
+/// (l - n mu normalized; any tangent where l is along n), `sigma_t` = sigma_t' (1/mm) of the
+/// node's channel.
+pub fn upstream_beam(
+    mu: f64,
+    curvature: SurfaceCurvature,
+    t: DVec3,
+    sigma_t: f64,
+    eta: f64,
+) -> UpstreamBeam {
+    let shift = |k: f64| {
+        if k.is_finite() && sigma_t > 0.0 && eta > 0.0 {
+            (k / (eta * sigma_t)).clamp(-UPSTREAM_SHIFT_LIMIT, UPSTREAM_SHIFT_LIMIT)
+        } else {
+            0.0
+        }
     };
+    let (c_t, c) = (shift(curvature.along(t)), shift(curvature.mean));
     let mu = mu.clamp(-1.0, 1.0);
-    let mu_up = (mu + c * (1.0 - mu * mu)).min(1.0);
+    let mu_up = (mu + c_t * (1.0 - mu * mu)).min(1.0);
     let irradiance = if mu_up > 0.0 {
-        (mu + c * (1.0 - 3.0 * mu * mu)).max(0.0)
+        (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0)
     } else {
         0.0
     };
     UpstreamBeam { mu_up, irradiance }
+}
+
+/// The curvature of the surface at a node (1/mm, convex > 0): the mean curvature H = (k1 + k2)
+/// / 2 and the anisotropy a = e1 sqrt((k1 - k2) / 2), e1 the unit direction of the larger
+/// principal curvature k1, so that the normal curvature along a unit tangent t is
+/// k_t = H + (k1 - k2) / 2 cos(2 angle(t, e1)) = H - |a|^2 + 2 (t . a)^2 (Euler's theorem).
+/// The sign of a is irrelevant; a sphere's or a plane's is zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SurfaceCurvature {
+    pub mean: f64,
+    pub anisotropy: DVec3,
+}
+
+impl SurfaceCurvature {
+    /// An umbilic point's (every direction curves by `mean`).
+    pub fn umbilic(mean: f64) -> SurfaceCurvature {
+        SurfaceCurvature {
+            mean,
+            anisotropy: DVec3::ZERO,
+        }
+    }
+
+    /// The normal curvature along the unit tangent `t` (see the type's doc).
+    pub fn along(&self, t: DVec3) -> f64 {
+        let a = self.anisotropy;
+        let k = self.mean - a.length_squared() + 2.0 * t.dot(a).powi(2);
+        if k.is_finite() {
+            k
+        } else {
+            self.mean
+        }
+    }
 }
 
 #[cfg(test)]
@@ -895,33 +945,72 @@ mod tests {
     #[test]
     fn upstream_beam_keeps_the_sphere_lit_power_and_the_plane() {
         for mu in [-0.5, -0.01, 0.0, 0.3, 1.0] {
-            let b = upstream_beam(mu, 0.0, 2.6, 1.3);
+            let b = upstream_beam(mu, SurfaceCurvature::default(), DVec3::X, 2.6, 1.3);
             assert_eq!(b.mu_up, mu);
             assert_eq!(b.irradiance, f64::max(mu, 0.0));
         }
         // Marble red on a 10 mm sphere (c = 0.046), a 2 mm sphere (0.23, clamped to the limit).
         for (radius, sigma_t) in [(10.0_f64, 2.1921_f64), (10.0, 3.0071), (2.0, 2.1921)] {
             let c = (1.0 / (radius * sigma_t)).min(UPSTREAM_SHIFT_LIMIT);
+            let sphere = SurfaceCurvature::umbilic(1.0 / radius);
             const N: usize = 200_000;
             let power: f64 = (0..N)
                 .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
-                .map(|mu| upstream_beam(mu, 1.0 / radius, sigma_t, 1.0).irradiance * 2.0 / N as f64)
+                .map(|mu| {
+                    upstream_beam(mu, sphere, DVec3::X, sigma_t, 1.0).irradiance * 2.0 / N as f64
+                })
                 .sum();
             assert!(
                 (power - 0.5).abs() <= c * c,
                 "R {radius}: power {power}, c {c}"
             );
             // The unlit side within about c of the terminator is lit; beyond it nothing.
-            assert!(upstream_beam(-0.5 * c, 1.0 / radius, sigma_t, 1.0).irradiance > 0.0);
+            assert!(upstream_beam(-0.5 * c, sphere, DVec3::X, sigma_t, 1.0).irradiance > 0.0);
             assert_eq!(
-                upstream_beam(-2.0 * c, 1.0 / radius, sigma_t, 1.0).irradiance,
+                upstream_beam(-2.0 * c, sphere, DVec3::X, sigma_t, 1.0).irradiance,
                 0.0
             );
         }
         // Never NaN, never negative, for any input.
         for h in [f64::NAN, f64::INFINITY, -1e9, 1e9] {
-            let b = upstream_beam(0.5, h, 2.0, 1.0);
+            let k = SurfaceCurvature {
+                mean: h,
+                anisotropy: DVec3::splat(h),
+            };
+            let b = upstream_beam(0.5, k, DVec3::X, 2.0, 1.0);
             assert!(b.mu_up.is_finite() && b.irradiance >= 0.0);
         }
+    }
+
+    /// A cylinder of radius r along y (k1 = 1 / r around it, k2 = 0 along it): a beam whose
+    /// tangent runs around it turns as on a sphere of radius r, one running along the axis
+    /// does not turn (mu_up = mu), and both spread light by the mean curvature 1 / (2 r).
+    #[test]
+    fn upstream_beam_on_a_cylinder_turns_only_around_it() {
+        let (r, sigma_t) = (3.0, 2.62);
+        let cylinder = SurfaceCurvature {
+            mean: 0.5 / r,
+            anisotropy: DVec3::X * (0.5 / r).sqrt(),
+        };
+        assert!((cylinder.along(DVec3::X) - 1.0 / r).abs() < 1e-12);
+        assert!(cylinder.along(DVec3::Y).abs() < 1e-12);
+        let diagonal = DVec3::new(1.0, 1.0, 0.0).normalize();
+        assert!((cylinder.along(diagonal) - 0.5 / r).abs() < 1e-12);
+        let (c, mu) = (1.0 / (r * sigma_t), 0.3);
+        let around = upstream_beam(mu, cylinder, DVec3::X, sigma_t, 1.0);
+        assert!((around.mu_up - (mu + c * (1.0 - mu * mu))).abs() < 1e-12);
+        let sphere = upstream_beam(
+            mu,
+            SurfaceCurvature::umbilic(1.0 / r),
+            DVec3::X,
+            sigma_t,
+            1.0,
+        );
+        // The same turn as the sphere's, half its spread (the mean curvature is 1 / (2 r)).
+        assert!((around.irradiance - (mu + c * (1.0 - mu * mu) - c * mu * mu)).abs() < 1e-12);
+        assert!(around.irradiance > sphere.irradiance);
+        let along = upstream_beam(mu, cylinder, DVec3::Y, sigma_t, 1.0);
+        assert_eq!(along.mu_up, mu);
+        assert!((along.irradiance - (mu - c * mu * mu)).abs() < 1e-12);
     }
 }

@@ -37,7 +37,16 @@ pub fn reconstruct_vertices(
             let kind = model.material.diffusion();
             let optics: [Optics; 3] = std::array::from_fn(|c| Optics::channel_with(&here, c, kind));
             let h: [f64; 3] = std::array::from_fn(|c| boundary.h(optics[c]));
-            let mut src = model.at_node(x, n, &here, h, samples.curvature.get(v).copied());
+            let mut src = model.at_node(
+                x,
+                n,
+                &here,
+                h,
+                samples
+                    .curvature
+                    .get(v)
+                    .map(|&k| crate::solver::transport::SurfaceCurvature::umbilic(k)),
+            );
             if let Some(extra) = bounce {
                 let mut e = extra[v];
                 e.rhs = std::array::from_fn(|c| {

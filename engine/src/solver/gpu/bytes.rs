@@ -103,6 +103,7 @@ impl GpuLevel {
             surface: sum(&mut [
                 &self.surface_position,
                 &self.surface_normal,
+                &self.surface_anisotropy,
                 &self.particular,
             ]
             .into_iter()),

@@ -132,6 +132,8 @@ pub struct GpuLevel {
     links: [Image; 2],
     pub(crate) surface_position: Image,
     pub(crate) surface_normal: Image,
+    /// The curvature's anisotropy (rgb) per surface node (`textures` module table).
+    pub(crate) surface_anisotropy: Image,
     /// The collimated source's part of the exit query per surface node (surface rows only).
     pub(crate) particular: Image,
     /// Per material variant (0 heterogeneous, 1 homogeneous), once created: the iteration sets
@@ -433,16 +435,19 @@ impl GpuDiffusion {
             }
             let mut texels =
                 LevelTexels::build(level, params.scheme, coarse).map_err(|e| e.at_level(h))?;
-            // The surface normal's w: the node's mean curvature (the gather's upstream beam).
+            // The surface normal's w: the node's mean curvature, and its anisotropy (the
+            // gather's upstream beam).
             let curvature = crate::quadgraph::surface_samples::surface_node_curvatures(
                 level,
                 &graph.surface,
                 &graph.samples,
             );
             let inner = level.inner_count();
-            for (s, &k) in curvature.iter().enumerate() {
+            for (s, k) in curvature.iter().enumerate() {
                 let t = texels.packing.linear_index((inner + s) as u32) as usize;
-                texels.surface_normal[t][3] = half::f16::from_f64(k);
+                texels.surface_normal[t][3] = half::f16::from_f64(k.mean);
+                let a = k.anisotropy;
+                texels.surface_anisotropy[t] = [a.x, a.y, a.z, 0.0].map(half::f16::from_f64);
             }
             let finest = h + 1 == graph.levels.len();
             let gpu = Self::upload_level(
@@ -803,6 +808,11 @@ impl GpuDiffusion {
     }
     pub fn surface_normal(&self, level: usize) -> Option<&Image> {
         self.levels.get(level).map(|l| &l.surface_normal)
+    }
+
+    /// A level's curvature anisotropy per surface node (the gather's upstream beam).
+    pub fn surface_anisotropy(&self, level: usize) -> Option<&Image> {
+        self.levels.get(level).map(|l| &l.surface_anisotropy)
     }
     /// Rows of `level`'s textures holding surface nodes (what the gather covers).
     pub fn surface_rows(&self, level: usize) -> Option<u32> {

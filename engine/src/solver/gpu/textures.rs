@@ -15,6 +15,7 @@
 //! | `q` | RGBA16F | surface rows only: the gather's irradiance term (pre-scaled by the exposure) |
 //! | `surface_position` | RGBA32F | surface rows only; rgb: surface node position (mm), a: 1 on surface nodes |
 //! | `surface_normal` | RGBA16F | surface rows only; rgb: outward unit normal of surface nodes, w: their mean curvature H (1/mm) |
+//! | `surface_anisotropy` | RGBA16F | surface rows only; rgb: the curvature's anisotropy e1 sqrt((k1 - k2) / 2) (`solver::transport::SurfaceCurvature`, mm^-1/2), the upstream beam's curvature along its direction |
 //!
 //! A heterogeneous material's weights are, by default, derived in every sweep from the fractions,
 //! kappa and mu ([`super::HeterogeneousWeights::Derived`], `diffusion/graph_weights.glsl`): 8
@@ -91,6 +92,7 @@ pub struct LevelTexels {
     pub links: [Vec<[u32; 4]>; 2],
     pub surface_position: Vec<[f32; 4]>,
     pub surface_normal: Vec<[f16; 4]>,
+    pub surface_anisotropy: Vec<[f16; 4]>,
 }
 
 /// Per-node kappa and mu of a heterogeneous material, in the level's texel layout (rgb; padding 0).
@@ -264,6 +266,7 @@ impl LevelTexels {
             links: std::array::from_fn(|_| vec![[0; 4]; texels]),
             surface_position: vec![[0.0; 4]; texels],
             surface_normal: vec![[f16::ZERO; 4]; texels],
+            surface_anisotropy: vec![[f16::ZERO; 4]; texels],
             packing,
         };
         for node in 0..level.node_count() {

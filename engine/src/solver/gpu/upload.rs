@@ -91,6 +91,8 @@ impl GpuDiffusion {
         let surface_texels = (surface.width * surface.height) as usize;
         let surface_position = image(ctx, "surface position", &surface, F::R32G32B32A32_SFLOAT)?;
         let surface_normal = image(ctx, "surface normal", &surface, F::R16G16B16A16_SFLOAT)?;
+        let surface_anisotropy =
+            image(ctx, "surface anisotropy", &surface, F::R16G16B16A16_SFLOAT)?;
         // The collimated source's exit-query part (DESIGN 2.7), written by the gather.
         let particular = image(
             ctx,
@@ -127,6 +129,10 @@ impl GpuDiffusion {
             (
                 &surface_normal,
                 bytes_of(&t.surface_normal[..surface_texels.min(n)]),
+            ),
+            (
+                &surface_anisotropy,
+                bytes_of(&t.surface_anisotropy[..surface_texels.min(n)]),
             ),
         ];
         items.push((&particular, particular_zero));
@@ -210,6 +216,7 @@ impl GpuDiffusion {
             links,
             surface_position,
             surface_normal,
+            surface_anisotropy,
             particular,
             iterate_sets: [Vec::new(), Vec::new()],
             apply_set,
