@@ -441,12 +441,13 @@ impl TranslucentObject {
     pub fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
         let field = &*self.solved_field(field);
         if let Some(bounce) = &mut self.bounce {
-            let r = crate::frame::bounce::vertex_reflectance(
+            let optics = crate::frame::bounce::vertex_wall_optics(
                 field,
                 self.params.solve.exit,
                 &self.rest_positions,
+                bounce.crossings(),
             );
-            bounce.set_reflectance(&r)?;
+            bounce.set_reflectance(&optics)?;
         }
         self.method.set_material(ctx, field)?;
         self.scatter.set_material(field, &self.rest_positions);
@@ -601,12 +602,13 @@ impl TranslucentObject {
                 "the voxel method re-meshes: the bounce needs a baked display mesh".into(),
             ));
         }
-        let r = crate::frame::bounce::vertex_reflectance(
+        let optics = crate::frame::bounce::vertex_wall_optics(
             &self.solved_field(field),
             self.params.solve.exit,
             &self.rest_positions,
+            &links.across,
         );
-        let mut pass = BouncePass::new(ctx, &self.mesh, links, &r)?;
+        let mut pass = BouncePass::new(ctx, &self.mesh, links, &optics)?;
         pass.set_bounces(self.bounces)?;
         self.bounce = Some(pass);
         self.changes.material = true;
