@@ -579,9 +579,9 @@ impl TranslucentObject {
     }
 
     /// One bounce of exitance between display vertices ([`crate::frame::bounce`]): `links` built
-    /// on this object's display mesh ([`BounceLinks::build`] of the method's surface), R_d from
-    /// `field` (the material it renders, as given to [`Self::set_material`]) and the solve's exit
-    /// query. Added in place to the exitance the method writes from the next solve on (a
+    /// on this object's display mesh ([`BounceLinks::build`] of the method's surface), R and T
+    /// ([`crate::frame::bounce::vertex_wall_optics`] at the links' wall crossings) from `field`
+    /// (the material it renders, as given to [`Self::set_material`]) and the solve's exit query. Added in place to the exitance the method writes from the next solve on (a
     /// [`MethodDesc::Exitance`] object: from its next [`Self::set_exitance`]); `None` turns it
     /// off (from the next solve). The voxel method re-meshes: a typed error there, as are links
     /// for another vertex count.

@@ -1,7 +1,8 @@
 //! Bounces of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
 //! pass `bounce` against its f64 reference (`BounceLinks::apply_bounces`) on two facing boxes,
 //! several bounces solving their interreflection, applied once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
-//! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph.
+//! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph;
+//! light re-entering a thin wall leaving by its far face (the facing boxes are 2 mm walls).
 
 use glam::DVec3;
 use translucent::frame::bounce::{vertex_wall_optics, WallOptics};
