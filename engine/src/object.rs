@@ -452,12 +452,13 @@ impl TranslucentObject {
     pub fn set_material(&mut self, ctx: &Context, field: &MaterialField) -> Result<(), Error> {
         let field = &*self.solved_field(field);
         if let Some(bounce) = &mut self.bounce {
-            let r = crate::frame::bounce::vertex_reflectance(
+            let optics = crate::frame::bounce::vertex_wall_optics(
                 field,
                 self.params.solve.exit,
                 &self.rest_positions,
+                bounce.crossings(),
             );
-            bounce.set_reflectance(&r)?;
+            bounce.set_reflectance(&optics)?;
         }
         self.method.set_material(ctx, field)?;
         self.scatter.set_material(field, &self.rest_positions);
@@ -590,9 +591,9 @@ impl TranslucentObject {
     }
 
     /// One bounce of exitance between display vertices ([`crate::frame::bounce`]): `links` built
-    /// on this object's display mesh ([`BounceLinks::build`] of the method's surface), R_d from
-    /// `field` (the material it renders, as given to [`Self::set_material`]) and the solve's exit
-    /// query. Added in place to the exitance the method writes from the next solve on (a
+    /// on this object's display mesh ([`BounceLinks::build`] of the method's surface), R and T
+    /// ([`crate::frame::bounce::vertex_wall_optics`] at the links' wall crossings) from `field`
+    /// (the material it renders, as given to [`Self::set_material`]) and the solve's exit query. Added in place to the exitance the method writes from the next solve on (a
     /// [`MethodDesc::Exitance`] object: from its next [`Self::set_exitance`]); `None` turns it
     /// off (from the next solve). The voxel method re-meshes: a typed error there, as are links
     /// for another vertex count.
@@ -613,12 +614,13 @@ impl TranslucentObject {
                 "the voxel method re-meshes: the bounce needs a baked display mesh".into(),
             ));
         }
-        let r = crate::frame::bounce::vertex_reflectance(
+        let optics = crate::frame::bounce::vertex_wall_optics(
             &self.solved_field(field),
             self.params.solve.exit,
             &self.rest_positions,
+            &links.across,
         );
-        let mut pass = BouncePass::new(ctx, &self.mesh, links, &r)?;
+        let mut pass = BouncePass::new(ctx, &self.mesh, links, &optics)?;
         pass.set_bounces(self.bounces)?;
         self.bounce = Some(pass);
         self.changes.material = true;

@@ -4,9 +4,11 @@
 // mode 0 (gather): E_b(x) = sum_y F(x, y) X(y) over x's sparse links (F the form factor from the
 //   bake's ray casts, X the display vertex's exitance value, floats [v * stride + offset, +3)).
 // mode 2 (first gather): the same, and X(x) saved as X_0(x), the method's exitance.
-// mode 1 (local): X(x) = X_0(x) + R_d(x) E_b(x), R_d the half-space's total diffuse reflectance
-//   for diffuse incidence (the re-entering light leaves near where it entered). X and the
-//   shading's exitance share one scale, so F and R_d need no unit conversion.
+// mode 1 (local): X(x) = X_0(x) + R(x) E_b(x) + T(x) E_b(x'), R and T a slab's diffuse
+//   reflectance and transmittance at x's wall thickness (the half-space's R_d and 0 where the
+//   wall is thick), x' where x's inward normal leaves the object (the far face of a thin wall:
+//   the light re-entering there leaves here). X and the shading's exitance share one scale, so
+//   F, R and T need no unit conversion.
 // One bounce is modes 2, 1; each further bounce 0, 1 (Jacobi on X = X_0 + R_d F X: light that
 // re-entered leaves again and reaches other vertices, a concave corner's interreflection).
 layout(local_size_x = 64) in;
@@ -15,9 +17,12 @@ layout(set = 0, binding = 0, std430) buffer Vertices { float data[]; } vertices;
 // Links of vertex v: links[offsets[v] .. offsets[v + 1]), x the source vertex, y the form factor's bits.
 layout(set = 0, binding = 1, std430) readonly buffer Offsets { uint data[]; } offsets;
 layout(set = 0, binding = 2, std430) readonly buffer Links { uvec2 data[]; } links;
+// [0, count): R per vertex; [count, 2 count): T per vertex.
 layout(set = 0, binding = 3, std430) readonly buffer Reflectance { vec4 data[]; } reflectance;
 // [0, count): E_b per vertex; [count, 2 count): X_0, the exitance before any bounce.
 layout(set = 0, binding = 4, std430) buffer Irradiance { vec4 data[]; } irradiance;
+// [0, count): the far triangle's corners x'_i of vertex v; [count, 2 count): their weights' bits.
+layout(set = 0, binding = 5, std430) readonly buffer Across { uvec4 data[]; } across;
 
 layout(push_constant) uniform BouncePush {
     uint count;
@@ -53,7 +58,12 @@ void main() {
         }
         irradiance.data[v] = vec4(clean(e), 0.0);
     } else {
-        vec3 x = irradiance.data[pc.count + v].rgb + reflectance.data[v].rgb * irradiance.data[v].rgb;
+        uvec3 far = across.data[v].xyz;
+        vec3 w = uintBitsToFloat(across.data[pc.count + v].xyz);
+        vec3 e_far = w.x * irradiance.data[far.x].rgb + w.y * irradiance.data[far.y].rgb
+            + w.z * irradiance.data[far.z].rgb;
+        vec3 x = irradiance.data[pc.count + v].rgb + reflectance.data[v].rgb * irradiance.data[v].rgb
+            + reflectance.data[pc.count + v].rgb * e_far;
         x = clean(x);
         uint base = v * pc.stride + pc.offset;
         vertices.data[base] = x.r;

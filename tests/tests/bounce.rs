@@ -1,10 +1,11 @@
 //! Bounces of exitance between display vertices (issue 12 item 5, `frame::bounce`): the GPU
 //! pass `bounce` against its f64 reference (`BounceLinks::apply_bounces`) on two facing boxes,
 //! several bounces solving their interreflection, applied once per new exitance (a frame with no new exitance skips it and keeps the sum), zero on a
-//! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph.
+//! convex sphere, finite everywhere, and on a baked QuadGraph object through the frame graph;
+//! light re-entering a thin wall leaving by its far face (the facing boxes are 2 mm walls).
 
 use glam::DVec3;
-use translucent::frame::bounce::vertex_reflectance;
+use translucent::frame::bounce::{vertex_wall_optics, WallOptics};
 use translucent::frame::{BounceLinks, BounceParams, SkipReason, PASS_BOUNCE};
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
@@ -109,8 +110,13 @@ fn facing_boxes_match_the_f64_bounce_once_per_exitance() {
     let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
     assert!(links.link_count() > 0);
     let field = marble();
-    let r = vertex_reflectance(&field, ObjectParams::default().solve.exit, &mesh.positions);
-    assert!(r.iter().flatten().all(|&x| x > 0.0 && x < 1.0));
+    let r = vertex_wall_optics(
+        &field,
+        ObjectParams::default().solve.exit,
+        &mesh.positions,
+        &links.across,
+    );
+    assert!(r.reflectance.iter().flatten().all(|&x| x > 0.0 && x < 1.0));
     let mut object = fixed_object(&gpu, &mesh);
     object
         .set_bounce(&gpu.ctx, Some(&links), &field)
@@ -199,11 +205,12 @@ const SOLVE_REPEAT: f32 = 1e-4;
 #[test]
 fn a_convex_sphere_gets_nothing_and_a_torus_hole_gets_the_f64_bounce() {
     let gpu = GpuTest::new();
-    let r = |graph: &QuadGraph| {
-        vertex_reflectance(
+    let r = |graph: &QuadGraph, links: &BounceLinks| {
+        vertex_wall_optics(
             &marble(),
             GpuSolveParams::default().exit,
             &graph.surface.positions,
+            &links.across,
         )
     };
     // Sphere: no links; the pass runs and changes nothing.
@@ -231,7 +238,7 @@ fn a_convex_sphere_gets_nothing_and_a_torus_hole_gets_the_f64_bounce() {
     let (plain, passes) = quadgraph_exitance(&gpu, &torus, None);
     assert!(!passes.contains(&PASS_BOUNCE), "{passes:?}");
     let (bounced, _) = quadgraph_exitance(&gpu, &torus, Some(&links));
-    let expected = links.apply_bounces(&plain, &r(&torus), translucent::defaults::BOUNCES);
+    let expected = links.apply_bounces(&plain, &r(&torus, &links), translucent::defaults::BOUNCES);
     let mut raised = 0;
     for (v, (g, e)) in bounced.iter().zip(&expected).enumerate() {
         for c in 0..3 {
@@ -387,25 +394,38 @@ const FIXED_POINT_TOL: f64 = 1e-3;
 /// that bounces once fails [`FIXED_POINT_TOL`] by far.
 const ONE_BOUNCE_RESIDUAL: f64 = 0.1;
 
-/// The largest relative residual of X = X_0 + R_d F max(X, 0) over the vertices that have links.
+/// The largest relative residual of X = X_0 + (R + T P) F max(X, 0) over the vertices that
+/// receive (P: the far face of each vertex's wall, through its crossing's weights).
 fn interreflection_residual(
     links: &BounceLinks,
     first: &[[f32; 3]],
-    r: &[[f32; 3]],
+    optics: &WallOptics,
     x: &[[f32; 3]],
 ) -> f64 {
+    let gathered: Vec<[f64; 3]> = (0..links.vertex_count())
+        .map(|v| {
+            std::array::from_fn(|c| {
+                links
+                    .incoming(v)
+                    .iter()
+                    .map(|&(y, w)| f64::from(w) * f64::from(x[y as usize][c].max(0.0)))
+                    .sum()
+            })
+        })
+        .collect();
     let mut worst = 0.0f64;
     for v in 0..links.vertex_count() {
-        if links.incoming(v).is_empty() {
-            continue;
-        }
+        let wall = links.crossing(v);
         for c in 0..3 {
-            let e: f64 = links
-                .incoming(v)
-                .iter()
-                .map(|&(y, w)| f64::from(w) * f64::from(x[y as usize][c].max(0.0)))
+            let far: f64 = (0..3)
+                .map(|k| f64::from(wall.weights[k]) * gathered[wall.vertices[k] as usize][c])
                 .sum();
-            let want = f64::from(first[v][c]) + f64::from(r[v][c]) * e;
+            let added = f64::from(optics.reflectance[v][c]) * gathered[v][c]
+                + f64::from(optics.transmittance[v][c]) * far;
+            if added == 0.0 {
+                continue;
+            }
+            let want = f64::from(first[v][c]) + added;
             worst = worst.max((f64::from(x[v][c]) - want).abs() / want.max(1e-6));
         }
     }
@@ -423,7 +443,12 @@ fn facing_boxes_interreflect_over_several_bounces_as_the_f64_reference() {
     let mesh = facing_boxes();
     let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
     let field = marble();
-    let r = vertex_reflectance(&field, ObjectParams::default().solve.exit, &mesh.positions);
+    let r = vertex_wall_optics(
+        &field,
+        ObjectParams::default().solve.exit,
+        &mesh.positions,
+        &links.across,
+    );
     let x = pattern(&mesh);
     // The f64 recurrence: 16 bounces reach the fixed point, one does not.
     let once = links.apply(&x, &r);
@@ -478,6 +503,89 @@ fn facing_boxes_interreflect_over_several_bounces_as_the_f64_reference() {
         );
     }
     assert_eq!(object.bounce().map(|b| b.bounces()), Some(bounces));
+    drop(object);
+    gpu.finish();
+}
+
+/// The wall crossing's thickness against the facing boxes' 2 mm (f32 storage of an f64 cast).
+const THICKNESS_TOL: f32 = 1e-4;
+/// One bounce in f64 against T E_b computed here (f32 storage of the values).
+const F64_TRANSMISSION_TOL: f64 = 1e-5;
+
+/// A thin wall (issue 12, the back-lit plate on its base: light that the lit base throws onto
+/// the plate's back face shows on its front face). The facing boxes are 2 mm thick and their
+/// outer faces see nothing through the air, so after one bounce an outer vertex gains exactly
+/// T(2 mm) E_b of the facing vertex across the wall, a pass without transmission nothing; the
+/// GPU pass adds the same as the f64 reference at every vertex.
+#[test]
+fn a_thin_wall_passes_re_entering_light_to_its_far_face() {
+    let gpu = GpuTest::new();
+    let mesh = facing_boxes();
+    let links = BounceLinks::build(&mesh, &BounceParams::default()).expect("links");
+    let field = marble();
+    let optics = vertex_wall_optics(
+        &field,
+        ObjectParams::default().solve.exit,
+        &mesh.positions,
+        &links.across,
+    );
+    let x = pattern(&mesh);
+    let once = links.apply(&x, &optics);
+    let at = |p: DVec3| {
+        mesh.positions
+            .iter()
+            .position(|q| (*q - p).length() < 1e-9)
+            .expect("a vertex there")
+    };
+    let (outer, facing) = (at(DVec3::new(0.0, 4.0, 0.0)), at(DVec3::new(0.0, 2.0, 0.0)));
+    assert!(links.incoming(outer).is_empty());
+    let wall = links.crossing(outer);
+    assert!((wall.thickness - 2.0).abs() < THICKNESS_TOL, "{wall:?}");
+    let on_facing: f32 = (0..3)
+        .filter(|&k| wall.vertices[k] as usize == facing)
+        .map(|k| wall.weights[k])
+        .sum();
+    assert!((on_facing - 1.0).abs() < THICKNESS_TOL, "{wall:?}");
+    for c in 0..3 {
+        let t = f64::from(optics.transmittance[outer][c]);
+        // Marble's 2 mm wall passes a good part of diffuse light, and reflects less than the
+        // half-space would.
+        assert!(
+            t > 0.1 && t < f64::from(optics.reflectance[facing][c]),
+            "T {t}"
+        );
+        let e: f64 = links
+            .incoming(facing)
+            .iter()
+            .map(|&(y, w)| f64::from(w) * f64::from(x[y as usize][c]))
+            .sum();
+        let gain = f64::from(once[outer][c]) - f64::from(x[outer][c]);
+        assert!(
+            (gain - t * e).abs() <= F64_TRANSMISSION_TOL * (t * e).max(1.0)
+                && gain > 0.05 * f64::from(x[outer][c]),
+            "channel {c}: gain {gain} against T E_b {}",
+            t * e
+        );
+    }
+    let mut object = fixed_object(&gpu, &mesh);
+    object
+        .set_bounce(&gpu.ctx, Some(&links), &field)
+        .expect("bounce");
+    object.set_bounces(1).expect("bounces");
+    object.set_exitance(&gpu.ctx, &x).expect("exitance");
+    let (_, report) = render_once(&gpu.ctx, &mut object, 48, 48);
+    assert!(report.passes.contains(&PASS_BOUNCE), "{:?}", report.passes);
+    let got = read_exitance(&gpu, &object);
+    for (v, (g, e)) in got.iter().zip(&once).enumerate() {
+        for c in 0..3 {
+            assert!(
+                g[c].is_finite() && (g[c] - e[c]).abs() <= GPU_VS_F64_BOUNCES * e[c].max(1.0),
+                "vertex {v} channel {c}: GPU {} against f64 {}",
+                g[c],
+                e[c]
+            );
+        }
+    }
     drop(object);
     gpu.finish();
 }

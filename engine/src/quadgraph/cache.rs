@@ -24,7 +24,9 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use super::graph::{BounceLinks, GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks};
+use super::graph::{
+    BounceLinks, GraphLevel, Packing, QuadGraph, ShadingWeights, ShepardLinks, WallCrossing,
+};
 use super::surface_samples::SurfaceSamples;
 use super::{BakeError, BakeParams, BakeProgress, BakeStats};
 use crate::limits::{Limit, Limits};
@@ -32,7 +34,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -433,6 +435,23 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
                     .map(|&(y, f)| [y, f.to_bits()])
                     .collect::<Vec<_>>(),
             );
+            // Format 8: where each vertex's inward normal leaves again (a thin wall's far face).
+            w.u32s(
+                &b.across
+                    .iter()
+                    .map(|c| {
+                        [
+                            c.vertices[0],
+                            c.vertices[1],
+                            c.vertices[2],
+                            c.weights[0].to_bits(),
+                            c.weights[1].to_bits(),
+                            c.weights[2].to_bits(),
+                            c.thickness.to_bits(),
+                        ]
+                    })
+                    .collect::<Vec<_>>(),
+            );
         }
     }
 }
@@ -511,6 +530,7 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
             let (rays, max_links) = (r.u32()?, r.u32()?);
             let offsets: Vec<[u32; 1]> = r.u32s()?;
             let links: Vec<[u32; 2]> = r.u32s()?;
+            let across: Vec<[u32; 7]> = r.u32s()?;
             Some(BounceLinks {
                 offsets: offsets.into_iter().map(|[o]| o).collect(),
                 links: links
@@ -519,6 +539,14 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
                     .collect(),
                 rays,
                 max_links,
+                across: across
+                    .into_iter()
+                    .map(|c| WallCrossing {
+                        vertices: [c[0], c[1], c[2]],
+                        weights: [c[3], c[4], c[5]].map(f32::from_bits),
+                        thickness: f32::from_bits(c[6]),
+                    })
+                    .collect(),
             })
         }
         x => return Err(format!("bad bounce flag {x}")),
@@ -675,6 +703,20 @@ fn check(g: &QuadGraph) -> Result<(), String> {
             corner("bounce link", y, nv)?;
             if !(f.is_finite() && f >= 0.0) {
                 return Err("a bounce form factor is negative or not finite".into());
+            }
+        }
+        if !(b.across.is_empty() || b.across.len() == nv) {
+            return Err("bounce wall crossings do not match the surface's vertices".into());
+        }
+        for c in &b.across {
+            c.vertices
+                .iter()
+                .try_for_each(|&y| corner("wall crossing", y, nv))?;
+            if c.weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
+                || c.thickness.is_nan()
+                || c.thickness < 0.0
+            {
+                return Err("a wall crossing's weight or thickness is negative or NaN".into());
             }
         }
     }

@@ -130,6 +130,29 @@ pub struct BounceLinks {
     /// for others builds them again.
     pub rays: u32,
     pub max_links: u32,
+    /// Per vertex, where its inward normal leaves the object again ([`WallCrossing`]): the far
+    /// face of a thin wall, through which light that re-entered at one face leaves at the other.
+    /// Empty for a convex object (no links, nothing to carry).
+    pub across: Vec<WallCrossing>,
+}
+
+/// Where the ray from a display vertex along its inward normal leaves the object: the far
+/// triangle's three vertices, the hit's barycentric weights and the distance in mm (the wall's
+/// thickness there). `thickness` is infinite (and the weights zero) where the ray never leaves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallCrossing {
+    pub vertices: [u32; 3],
+    pub weights: [f32; 3],
+    pub thickness: f32,
+}
+
+impl WallCrossing {
+    /// No far face: nothing crosses.
+    pub const NONE: WallCrossing = WallCrossing {
+        vertices: [0; 3],
+        weights: [0.0; 3],
+        thickness: f32::INFINITY,
+    };
 }
 
 impl QuadGraph {
