@@ -1,6 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// One Chebyshev step on the finest level in one pass (benches/RESULTS.md "Time per work unit
+// One Chebyshev step on the finest level in one pass, an option (TRANSLUCENT_MULTIGRID_RELAX=fused;
+// measured no faster than the two passes on lavapipe: benches/RESULTS.md "Time per work unit
 // (wave 9)"): what `residual.comp` then `smooth.comp` do, r = f - K x and d = alpha d + beta B^-1 r,
 // x += d, with the residual formed where it is used instead of stored. The block of a surface node
 // and its cell needs the partner's residual too, so a paired node forms two rows (its own and its

@@ -6,9 +6,10 @@
 //! Cold and warm solves, on the matrix-free finest level (the default) and on its compressed
 //! rows. Validation (with synchronization validation) is on and any message fails.
 //!
-//! One test in this binary: the split kernels are chosen by environment variables
-//! (`TRANSLUCENT_MULTIGRID_COARSE=split`, `TRANSLUCENT_MULTIGRID_RELAX=split`, read when the
-//! multigrid is created), which no other test of this process may see.
+//! One test in this binary: the kernels are chosen by environment variables
+//! (`TRANSLUCENT_MULTIGRID_COARSE=split` against the default one-workgroup coarsest solve,
+//! `TRANSLUCENT_MULTIGRID_RELAX=fused` against the default split steps; read when the multigrid
+//! is created), which no other test of this process may see.
 
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
@@ -96,15 +97,12 @@ fn solves(
 }
 
 fn set_split(split: bool) {
-    for var in [
-        "TRANSLUCENT_MULTIGRID_COARSE",
-        "TRANSLUCENT_MULTIGRID_RELAX",
-    ] {
-        if split {
-            std::env::set_var(var, "split");
-        } else {
-            std::env::remove_var(var);
-        }
+    if split {
+        std::env::set_var("TRANSLUCENT_MULTIGRID_COARSE", "split");
+        std::env::set_var("TRANSLUCENT_MULTIGRID_RELAX", "split");
+    } else {
+        std::env::remove_var("TRANSLUCENT_MULTIGRID_COARSE");
+        std::env::set_var("TRANSLUCENT_MULTIGRID_RELAX", "fused");
     }
 }
 

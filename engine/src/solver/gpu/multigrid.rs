@@ -26,7 +26,7 @@
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
 //! a sweep): `rhs` (f from the gather's q image), then cold: full multigrid (f restricted to every
-//! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval, then per level
+//! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval (one workgroup, `coarse`), then per level
 //! going up: prolongation and one V-cycle) or warm: the last solution, or with
 //! [`MultigridParams::warm_start`] the polynomial through the last two or three (`rhs` keeps the
 //! earlier solutions of the finest level in `x_history`). Then V-cycles (smoother:
@@ -255,8 +255,10 @@ pub struct GpuMultigrid {
     /// Profiler scopes per level and CG iteration inside the solve's three
     /// (`TRANSLUCENT_MULTIGRID_SCOPES=1`; each costs two timestamps, so off by default).
     fine_scopes: bool,
-    /// The finest level's smoothing steps in fused pairs (`multigrid/relax.comp`), else a
-    /// residual and a step pass each (`TRANSLUCENT_MULTIGRID_RELAX=split`, for measurements).
+    /// The finest level's smoothing steps in fused pairs (`multigrid/relax.comp`,
+    /// `TRANSLUCENT_MULTIGRID_RELAX=fused`), else a residual and a step pass each (the default:
+    /// the fused pass forms a paired node's partner row as well, and measured no faster on
+    /// lavapipe; benches/RESULTS.md "Time per work unit (wave 9)").
     relax_finest: bool,
 }
 
@@ -671,7 +673,7 @@ impl GpuMultigrid {
             coarse_in_one_dispatch: std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref()
                 != Ok("split"),
             fine_scopes: std::env::var("TRANSLUCENT_MULTIGRID_SCOPES").as_deref() == Ok("1"),
-            relax_finest: std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() != Ok("split"),
+            relax_finest: std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() == Ok("fused"),
         })
     }
 
