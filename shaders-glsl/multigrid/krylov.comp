@@ -49,26 +49,28 @@ layout(set = 0, binding = 12, std430) buffer KDir { float v[]; } kdir;
 #define MODE_START_RESIDUAL 3u
 #define MODE_FINISH 5u
 
-shared vec3 sums[64];
+// Up to four sums per invocation (the apply pass's four dot products).
+shared vec3 sums[4][64];
 
-// Workgroup sum of `s` into partials[slot] (every invocation calls it: it holds barriers).
-void reduce(vec3 s, uint slot) {
+// Workgroup sums of the first `blocks` of `s` into partials[b * pc.sums + group] (every invocation
+// calls it: it holds a barrier). One barrier, then one invocation per sum adds the 64 values in
+// order: on lavapipe a workgroup barrier costs more than 64 additions, and the shared-memory tree
+// (six levels, a barrier each) made the CG's reductions a fifth of its iteration (benches/RESULTS.md
+// "Time per work unit (wave 9)").
+void reduce(vec3 s[4], uint blocks, uint group) {
     uint lid = gl_LocalInvocationID.x;
-    sums[lid] = s;
-    // why: the tree below reads every invocation's value (shared memory RAW).
+    for (uint b = 0u; b < blocks; ++b) {
+        sums[b][lid] = s[b];
+    }
+    // why: the sums below read every invocation's values (shared memory RAW).
     barrier();
-    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            sums[lid] += sums[lid + stride];
+    if (lid < blocks) {
+        vec3 t = vec3(0.0);
+        for (uint k = 0u; k < 64u; ++k) {
+            t += sums[lid][k];
         }
-        // why: the next level of the tree reads the sums just written (shared memory RAW).
-        barrier();
+        partials.v[lid * pc.sums + group] = vec4(t, 0.0);
     }
-    if (lid == 0u) {
-        partials.v[slot] = vec4(sums[0], 0.0);
-    }
-    // why: a second reduce() overwrites sums[] that invocation 0 may still be reading (WAR).
-    barrier();
 }
 
 // (K v)_i of the finest level's operator for v = x (z) of the concatenated vectors.
@@ -106,10 +108,8 @@ void main() {
             // and the check ignores this sum).
             zkd = z * RGB(kdir, node);
         }
-        reduce(rz, group);
-        reduce(rz_old, pc.sums + group);
-        reduce(zkz, 2u * pc.sums + group);
-        reduce(zkd, 3u * pc.sums + group);
+        vec3 four[4] = vec3[4](rz, rz_old, zkz, zkd);
+        reduce(four, 4u, group);
         return;
     }
     if (pc.mode == MODE_STEP) {
@@ -133,7 +133,7 @@ void main() {
             SET_RGB(f, i, rr);
             s = rr * rr;
         }
-        reduce(s, group);
+        reduce(vec3[4](s, s, s, s), 1u, group);
         return;
     }
     if (pc.mode == MODE_START_RESIDUAL) {
@@ -144,7 +144,7 @@ void main() {
             SET_RGB(sol, node, RGB(x, i));
             s = rr * rr;
         }
-        reduce(s, group);
+        reduce(vec3[4](s, s, s, s), 1u, group);
         return;
     }
     if (!inside) {

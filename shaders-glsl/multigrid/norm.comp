@@ -21,16 +21,14 @@ void main() {
         s = v * v;
     }
     sums[lid] = s;
-    // why: the tree below reads every invocation's square (shared memory RAW).
+    // why: invocation 0 reads every invocation's square (shared memory RAW).
     barrier();
-    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            sums[lid] += sums[lid + stride];
-        }
-        // why: the next level of the tree reads the sums just written (shared memory RAW).
-        barrier();
-    }
+    // One barrier and a sum in order instead of a tree of six (krylov.comp's reduce()).
     if (lid == 0u) {
-        partials.v[gl_WorkGroupID.x] = vec4(sums[0], 0.0);
+        vec3 t = vec3(0.0);
+        for (uint k = 0u; k < 64u; ++k) {
+            t += sums[k];
+        }
+        partials.v[gl_WorkGroupID.x] = vec4(t, 0.0);
     }
 }

@@ -26,7 +26,7 @@
 //!
 //! Per frame (kernels in `shaders-glsl/multigrid/`, one invocation per node, no reduction inside
 //! a sweep): `rhs` (f from the gather's q image), then cold: full multigrid (f restricted to every
-//! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval, then per level
+//! level, the coarsest solved by a Chebyshev polynomial on its Lanczos interval (one workgroup, `coarse`), then per level
 //! going up: prolongation and one V-cycle) or warm: the last solution, or with
 //! [`MultigridParams::warm_start`] the polynomial through the last two or three (`rhs` keeps the
 //! earlier solutions of the finest level in `x_history`). Then V-cycles (smoother:
@@ -237,6 +237,9 @@ pub struct GpuMultigrid {
     local: Buffer,
     local_layout: local::LocalLayout,
     pipelines: Vec<(ComputePipeline<MultigridPush>, vk::DescriptorSet)>,
+    /// The relaxation's second set (`relax.comp` from r into x; the first, in `pipelines`, from x
+    /// into r).
+    relax_back: vk::DescriptorSet,
     warm: Cell<bool>,
     /// The warm start's order of the last solve ([`GpuMultigridReport::warm_order`]).
     warm_order: Cell<u32>,
@@ -246,6 +249,17 @@ pub struct GpuMultigrid {
     bytes: u64,
     /// Bytes per buffer, in [`BUFFER_NAMES`] order, then the control record.
     buffer_bytes: Vec<(&'static str, u64)>,
+    /// The coarsest level's solve in one dispatch (`multigrid/coarse.comp`), else two per
+    /// Chebyshev step (`TRANSLUCENT_MULTIGRID_COARSE=split`, for measurements).
+    coarse_in_one_dispatch: bool,
+    /// Profiler scopes per level and CG iteration inside the solve's three
+    /// (`TRANSLUCENT_MULTIGRID_SCOPES=1`; each costs two timestamps, so off by default).
+    fine_scopes: bool,
+    /// The finest level's smoothing steps in fused pairs (`multigrid/relax.comp`,
+    /// `TRANSLUCENT_MULTIGRID_RELAX=fused`), else a residual and a step pass each (the default:
+    /// the fused pass forms a paired node's partner row as well, and measured no faster on
+    /// lavapipe; benches/RESULTS.md "Time per work unit (wave 9)").
+    relax_finest: bool,
 }
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
@@ -511,7 +525,8 @@ impl GpuMultigrid {
         bytes += local.size;
         buffer_bytes.push(("local", local.size));
         let mut pipelines = Vec::with_capacity(KERNELS.len());
-        for (name, shader, bindings) in KERNELS {
+        let mut relax_back = vk::DescriptorSet::null();
+        for (kernel, (name, shader, bindings)) in KERNELS.into_iter().enumerate() {
             // The operator readers learn where the fp16 entries end (`pack_operators`), the link
             // readers whether the links are packed, the vector readers the vectors' stride.
             let mut constants = Vec::new();
@@ -559,13 +574,52 @@ impl GpuMultigrid {
                     name,
                     shader,
                     bindings,
-                    max_sets: 1,
+                    max_sets: if kernel == RELAX { 2 } else { 1 },
                 },
                 &constants,
             )?;
+            // The relaxation's two sets: x -> r, then r -> x (`relax.comp`).
+            let buffer_of = |name: &str, back: bool| {
+                let name = match (name, back) {
+                    ("x_out", false) | ("x", true) => "r",
+                    ("x_out", true) => "x",
+                    (other, _) => other,
+                };
+                let i = BUFFER_NAMES.iter().position(|&n| n == name).unwrap_or(0);
+                (BUFFER_NAMES[i], &buffers[i])
+            };
+            if kernel == RELAX {
+                let writes: Vec<DescriptorWrite<'_>> = bindings
+                    .iter()
+                    .map(|&b| match b {
+                        "x" | "x_out" => DescriptorWrite::StorageBuffer {
+                            name: b,
+                            buffer: buffer_of(b, true).1,
+                        },
+                        "connectivity" => {
+                            DescriptorWrite::storage_image("connectivity", graph.connectivity)
+                        }
+                        "weight_geo" => {
+                            DescriptorWrite::storage_image("weight_geo", graph.weights[0])
+                        }
+                        "weight_r" => DescriptorWrite::storage_image("weight_r", graph.weights[1]),
+                        "weight_g" => DescriptorWrite::storage_image("weight_g", graph.weights[2]),
+                        "weight_b" => DescriptorWrite::storage_image("weight_b", graph.weights[3]),
+                        other => {
+                            let (name, buffer) = buffer_of(other, true);
+                            DescriptorWrite::StorageBuffer { name, buffer }
+                        }
+                    })
+                    .collect();
+                relax_back = pipeline.allocate_set(ctx, &writes)?;
+            }
             let writes: Vec<DescriptorWrite<'_>> = bindings
                 .iter()
                 .map(|&b| match b {
+                    "x_out" => DescriptorWrite::StorageBuffer {
+                        name: "x_out",
+                        buffer: buffer_of("x_out", false).1,
+                    },
                     "q" => DescriptorWrite::storage_image("q", q),
                     "phi" => DescriptorWrite::storage_image("phi", phi),
                     "connectivity" => {
@@ -610,11 +664,16 @@ impl GpuMultigrid {
             local,
             local_layout,
             pipelines,
+            relax_back,
             warm: Cell::new(false),
             warm_order: Cell::new(0),
             history: Cell::new(0),
             bytes,
             buffer_bytes,
+            coarse_in_one_dispatch: std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref()
+                != Ok("split"),
+            fine_scopes: std::env::var("TRANSLUCENT_MULTIGRID_SCOPES").as_deref() == Ok("1"),
+            relax_finest: std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() == Ok("fused"),
         })
     }
 
@@ -756,6 +815,7 @@ impl GpuMultigrid {
             ctx,
             cb,
             base,
+            profiler: std::cell::RefCell::new(profiler),
         };
         // SAFETY: the caller's contract; every set's resources live in `self` or are the
         // caller's images.
@@ -783,7 +843,7 @@ impl GpuMultigrid {
                 )],
                 &[],
             );
-            scope(profiler, ctx, cb, Some(PASS_MG_START));
+            scope(&mut rec.profiler.borrow_mut(), ctx, cb, Some(PASS_MG_START));
             let n_top = self.levels[top].count;
             let rhs_mode = match (warm, slots) {
                 (false, _) => RHS_COLD,
@@ -820,8 +880,13 @@ impl GpuMultigrid {
             } else {
                 rec.residual_check();
             }
-            scope(profiler, ctx, cb, None);
-            scope(profiler, ctx, cb, Some(PASS_MG_CYCLES));
+            scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
+            scope(
+                &mut rec.profiler.borrow_mut(),
+                ctx,
+                cb,
+                Some(PASS_MG_CYCLES),
+            );
             if self.params.krylov {
                 if !fused {
                     // Direct: converged already, the start still moves x into the iterate.
@@ -837,10 +902,15 @@ impl GpuMultigrid {
                     rec.residual_check();
                 }
             }
-            scope(profiler, ctx, cb, None);
-            scope(profiler, ctx, cb, Some(PASS_MG_OUTPUT));
+            scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
+            scope(
+                &mut rec.profiler.borrow_mut(),
+                ctx,
+                cb,
+                Some(PASS_MG_OUTPUT),
+            );
             rec.direct(OUTPUT, top, 0, n_top);
-            scope(profiler, ctx, cb, None);
+            scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
         }
     }
 

@@ -10,6 +10,7 @@
 //! | `jacobi` | `Smoother::Jacobi { omega }` | `jacobi=0.8` |
 //! | `ctol` | `coarse_tolerance` | `ctol=0.3` |
 //! | `fmg` | `fmg_cycles` | `fmg=2` |
+//! | `cap` | `max_cycles` (the GPU records at most 40 after the start) | `cap=8` |
 //! | `fnu` | `fmg_sweeps` (the finest level's V-cycle in the full multigrid start) | `fnu=1/3` |
 //! | `krylov` | `krylov` (0 or 1) | `krylov=0` |
 //! | `psmooth` | `pattern_smoothing` (`S/STEPS`: `S / lambda_max` per Jacobi step on P's links) | `psmooth=0.67/2` |
@@ -90,6 +91,7 @@ impl MultigridParams {
                 }
                 "ctol" => p.coarse_tolerance = number(value)?,
                 "fmg" => p.fmg_cycles = count(value)?,
+                "cap" => p.max_cycles = count(value)?,
                 "krylov" => {
                     p.krylov = match value {
                         "0" => false,

@@ -14,6 +14,8 @@ pub(super) const CHECK: usize = 6;
 pub(super) const OUTPUT: usize = 7;
 pub(super) const KRYLOV: usize = 8;
 pub(super) const LOCAL: usize = 9;
+pub(super) const COARSE: usize = 10;
+pub(super) const RELAX: usize = 11;
 
 /// Modes of `multigrid/krylov.comp` (see the shader).
 pub(super) const CG_START: u32 = 0;
@@ -35,7 +37,7 @@ pub(super) const CHECK_CG: u32 = 2;
 pub(super) const CG_SUMS: usize = 4;
 
 /// Shader, binding names (the buffers by name in [`BUFFER_NAMES`], `q` and `phi` the images).
-pub(super) const KERNELS: [(&str, &str, &[&str]); 10] = [
+pub(super) const KERNELS: [(&str, &str, &[&str]); 12] = [
     (
         "multigrid rhs",
         "multigrid/rhs.comp",
@@ -133,6 +135,49 @@ pub(super) const KERNELS: [(&str, &str, &[&str]); 10] = [
             "partner_value",
             "control",
             "local",
+            "connectivity",
+            "node_texel",
+            "texel_node",
+            "weight_geo",
+            "weight_r",
+            "weight_g",
+            "weight_b",
+        ],
+    ),
+    (
+        "multigrid coarse",
+        "multigrid/coarse.comp",
+        &[
+            "x",
+            "d",
+            "r",
+            "f",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "values16",
+            "partner",
+            "partner_value",
+            "control",
+        ],
+    ),
+    (
+        // `x_out` is the `r` buffer (the second set: `x` the `r` buffer, `x_out` the `x` one).
+        "multigrid relax",
+        "multigrid/relax.comp",
+        &[
+            "x",
+            "x_out",
+            "d",
+            "f",
+            "row_start",
+            "cols",
+            "values",
+            "diag",
+            "values16",
+            "partner",
+            "partner_value",
             "connectivity",
             "node_texel",
             "texel_node",

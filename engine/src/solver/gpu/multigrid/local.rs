@@ -94,7 +94,7 @@ impl LocalLayout {
     }
 }
 
-impl Recorder<'_> {
+impl Recorder<'_, '_> {
     fn local_push(&self, mode: u32, omega: f64) -> MultigridPush {
         let top = self.mg.top();
         let level = &self.mg.levels[top];

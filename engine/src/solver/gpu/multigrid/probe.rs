@@ -80,11 +80,13 @@ impl GpuMultigrid {
             ..Default::default()
         };
         ctx.execute("multigrid apply finest", |cb| {
+            let mut no_profiler = None;
             let rec = Recorder {
                 mg: self,
                 ctx,
                 cb,
                 base: rec_base,
+                profiler: std::cell::RefCell::new(&mut no_profiler),
             };
             // SAFETY: `cb` is recording outside a rendering scope; every resource of the sets
             // lives in `self` or the solve that owns it, and the submission is waited for.

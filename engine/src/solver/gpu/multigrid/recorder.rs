@@ -2,15 +2,26 @@
 
 use super::*;
 
+/// Fine profiler scopes ([`GpuMultigrid::fine_scopes`]): per level (finest 2 and above read as
+/// 2), the coarsest solve, and per CG iteration.
+const SCOPE_SMOOTH: [&str; 3] = ["mg smooth L0", "mg smooth L1", "mg smooth L2+"];
+const SCOPE_RESTRICT: [&str; 3] = ["mg restrict L0", "mg restrict L1", "mg restrict L2+"];
+const SCOPE_PROLONG: [&str; 3] = ["mg prolong L0", "mg prolong L1", "mg prolong L2+"];
+const SCOPE_COARSE: &str = "mg coarse solve";
+const SCOPE_CG_ITERATION: &str = "mg cg iteration";
+const SCOPE_CG_PASSES: &str = "mg cg passes";
+
 /// Records the kernels of one solve.
-pub(super) struct Recorder<'a> {
+pub(super) struct Recorder<'a, 'b> {
     pub(super) mg: &'a GpuMultigrid,
     pub(super) ctx: &'a Context,
     pub(super) cb: vk::CommandBuffer,
     pub(super) base: MultigridPush,
+    /// The solve's profiler (its fine scopes: [`GpuMultigrid::fine_scopes`]).
+    pub(super) profiler: std::cell::RefCell<&'a mut Option<&'b mut GpuProfiler>>,
 }
 
-impl Recorder<'_> {
+impl Recorder<'_, '_> {
     pub(super) fn push(
         &self,
         level: usize,
@@ -78,7 +89,25 @@ impl Recorder<'_> {
         alpha: [f64; 3],
         beta: [f64; 3],
     ) {
-        let (pipeline, set) = &self.mg.pipelines[kernel];
+        let set = self.mg.pipelines[kernel].1;
+        // SAFETY: the caller's contract.
+        unsafe { self.indirect_in(kernel, set, level, mode, alpha, beta) }
+    }
+
+    /// [`Self::indirect`] with the descriptor set `set` of the kernel's pipeline.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn indirect_in(
+        &self,
+        kernel: usize,
+        set: vk::DescriptorSet,
+        level: usize,
+        mode: u32,
+        alpha: [f64; 3],
+        beta: [f64; 3],
+    ) {
+        let pipeline = &self.mg.pipelines[kernel].0;
         let push = self.push(level, mode, alpha, beta);
         let offset = (level * std::mem::size_of::<[u32; 4]>()) as u64;
         // SAFETY: the caller's contract.
@@ -91,7 +120,7 @@ impl Recorder<'_> {
                 Access::ComputeWrite,
                 Access::ComputeReadWrite,
             );
-            pipeline.dispatch_indirect(self.ctx, self.cb, *set, &push, &self.mg.control, offset);
+            pipeline.dispatch_indirect(self.ctx, self.cb, set, &push, &self.mg.control, offset);
         }
     }
 
@@ -102,7 +131,7 @@ impl Recorder<'_> {
     /// As [`GpuMultigrid::record`].
     pub(super) unsafe fn smooth(&self, level: usize, steps: u32, from_zero: bool) {
         let bounds = self.mg.levels[level].bounds;
-        for step in 0..steps {
+        let coefficients = |step: u32| {
             let (alpha, beta): ([f64; 3], [f64; 3]) = match self.mg.params.smoother {
                 Smoother::Jacobi { omega } if level > 0 => ([0.0; 3], [omega; 3]),
                 _ => {
@@ -110,16 +139,30 @@ impl Recorder<'_> {
                     (c.map(|(a, _)| a), c.map(|(_, b)| b))
                 }
             };
-            let alpha = if step == 0 { [0.0; 3] } else { alpha };
+            (if step == 0 { [0.0; 3] } else { alpha }, beta)
+        };
+        // The finest level's steps after the first run in pairs of `relax.comp` passes (x -> r,
+        // r -> x), each a residual and a step in one pass.
+        let fused = level == self.mg.top() && self.mg.relax_finest;
+        let (relax_there, relax_back) = (self.mg.pipelines[RELAX].1, self.mg.relax_back);
+        let mut step = 0;
+        while step < steps {
+            let (alpha, beta) = coefficients(step);
             // SAFETY: the caller's contract.
             unsafe {
                 if from_zero && step == 0 {
                     self.indirect(SMOOTH, level, 1, alpha, beta);
+                } else if fused && step > 0 && step + 1 < steps {
+                    let (alpha_back, beta_back) = coefficients(step + 1);
+                    self.indirect_in(RELAX, relax_there, level, 0, alpha, beta);
+                    self.indirect_in(RELAX, relax_back, level, 0, alpha_back, beta_back);
+                    step += 1;
                 } else {
                     self.indirect(RESIDUAL, level, 0, [0.0; 3], [0.0; 3]);
                     self.indirect(SMOOTH, level, 0, alpha, beta);
                 }
             }
+            step += 1;
         }
     }
 
@@ -129,8 +172,60 @@ impl Recorder<'_> {
     /// As [`GpuMultigrid::record`].
     pub(super) unsafe fn coarse(&self) {
         // The restriction zeroed the coarsest x (full multigrid's and every V-cycle's).
+        let bounds = self.mg.levels[0].bounds;
+        let lo = bounds.map(|(lo, _)| lo);
+        let hi = bounds.map(|(_, hi)| hi);
         // SAFETY: the caller's contract.
-        unsafe { self.smooth(0, self.mg.coarse_steps, true) };
+        unsafe {
+            self.open(SCOPE_COARSE);
+            if self.mg.coarse_in_one_dispatch {
+                // One workgroup runs every step (`coarse.comp`); it reads the control state
+                // instead of the indirect arguments.
+                let (pipeline, set) = &self.mg.pipelines[COARSE];
+                let push = self.push(0, self.mg.coarse_steps, lo, hi);
+                // why: the solve reads the right-hand side the restriction just wrote (RAW)
+                // and overwrites x, d and r earlier kernels read (WAR).
+                barrier::memory(
+                    self.ctx,
+                    self.cb,
+                    Access::ComputeWrite,
+                    Access::ComputeReadWrite,
+                );
+                pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
+            } else {
+                self.smooth(0, self.mg.coarse_steps, true);
+            }
+            self.close();
+        }
+    }
+
+    /// Opens a fine profiler scope (only with [`GpuMultigrid::fine_scopes`]).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn open(&self, name: &'static str) {
+        if self.mg.fine_scopes {
+            // SAFETY: the caller's contract.
+            unsafe {
+                scope(
+                    &mut self.profiler.borrow_mut(),
+                    self.ctx,
+                    self.cb,
+                    Some(name),
+                )
+            };
+        }
+    }
+
+    /// Closes the fine scope opened last.
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn close(&self) {
+        if self.mg.fine_scopes {
+            // SAFETY: the caller's contract.
+            unsafe { scope(&mut self.profiler.borrow_mut(), self.ctx, self.cb, None) };
+        }
     }
 
     /// One V-cycle from level `l`; `from_zero`: x = 0 on entry (a coarse correction, or the CG's
@@ -155,13 +250,21 @@ impl Recorder<'_> {
                 self.coarse();
                 return;
             }
+            self.open(SCOPE_SMOOTH[l.min(2)]);
             self.smooth(l, pre, from_zero);
+            self.close();
+            self.open(SCOPE_RESTRICT[l.min(2)]);
             self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
             self.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
+            self.close();
             // The restriction zeroed the coarser level's x.
             self.v_cycle(l - 1, true);
+            self.open(SCOPE_PROLONG[l.min(2)]);
             self.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]);
+            self.close();
+            self.open(SCOPE_SMOOTH[l.min(2)]);
             self.smooth(l, post, false);
+            self.close();
         }
     }
 
@@ -191,11 +294,15 @@ impl Recorder<'_> {
         // SAFETY: the caller's contract.
         unsafe {
             // The step zeroed x: the V-cycle preconditions the CG residual from zero.
+            self.open(SCOPE_CG_ITERATION);
             self.v_cycle(top, true);
+            self.open(SCOPE_CG_PASSES);
             self.indirect(KRYLOV, top, CG_APPLY, none, none);
             self.check(CHECK_CG);
             self.indirect(KRYLOV, top, CG_STEP, none, none);
             self.check(CHECK_RESIDUAL);
+            self.close();
+            self.close();
         }
     }
 

@@ -1,0 +1,78 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// One Chebyshev step on the finest level in one pass, an option (TRANSLUCENT_MULTIGRID_RELAX=fused;
+// measured no faster than the two passes on lavapipe: benches/RESULTS.md "Time per work unit
+// (wave 9)"): what `residual.comp` then `smooth.comp` do, r = f - K x and d = alpha d + beta B^-1 r,
+// x += d, with the residual formed where it is used instead of stored. The block of a surface node
+// and its cell needs the partner's residual too, so a paired node forms two rows (its own and its
+// partner's: 1 and 4 neighbours on the finest graph). Jacobi reads the old x of the neighbours
+// while the new x is written, so the pass reads `x` and writes `x_out`: the recorder binds the
+// level's x and r buffers in both orders and runs the steps in pairs, x -> r -> x (r is free
+// during a smoothing run: the next residual overwrites it).
+layout(local_size_x = 64) in;
+layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
+
+#include "common.glsl"
+
+layout(set = 0, binding = 0, std430) readonly buffer Xs { float v[]; } x;
+layout(set = 0, binding = 1, std430) writeonly buffer XOut { float v[]; } x_out;
+layout(set = 0, binding = 2, std430) buffer Ds { uint v[]; } d;
+layout(set = 0, binding = 3, std430) readonly buffer Fs { float v[]; } f;
+layout(set = 0, binding = 4, std430) readonly buffer RowStart { uint v[]; } row_start;
+layout(set = 0, binding = 5, std430) readonly buffer Cols { uint v[]; } cols;
+layout(set = 0, binding = 6, std430) readonly buffer Values { float v[]; } values;
+layout(set = 0, binding = 7, std430) readonly buffer Diag { vec4 v[]; } diag;
+layout(set = 0, binding = 8, std430) readonly buffer Values16 { uvec2 v[]; } values16;
+layout(set = 0, binding = 9, std430) readonly buffer Partner { uint v[]; } partner;
+layout(set = 0, binding = 10, std430) readonly buffer PartnerValue { float v[]; } partner_value;
+
+#include "graph_operator.glsl"
+
+// r = f - K x at node i of the level at pc.offset (residual.comp's row).
+vec3 row_residual(uint i) {
+    vec4 di = diag.v[i];
+    if (reads_graph(pc.offset)) {
+        return RGB(f, i) - graph_apply(i - pc.offset, i, di.rgb);
+    }
+    uint first = row_start.v[i];
+    uint end = row_start.v[i + 1u];
+    vec3 acc = di.rgb * RGB(x, i);
+    if (first < HALF_ENTRIES) {
+        vec3 scaled = vec3(0.0);
+        for (uint e = first; e < end; ++e) {
+            uvec2 h = values16.v[e];
+            vec3 v = vec3(unpackHalf2x16(h.x), unpackHalf2x16(h.y).x);
+            scaled += v * RGB(x, cols.v[e]);
+        }
+        acc += di.a * scaled;
+    } else {
+        for (uint e = first; e < end; ++e) {
+            uint j = 3u * (e - HALF_ENTRIES);
+            acc += vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]) * RGB(x, cols.v[e]);
+        }
+    }
+    return RGB(f, i) - acc;
+}
+
+void main() {
+    if (gl_GlobalInvocationID.x >= pc.count) {
+        return;
+    }
+    uint i = pc.offset + gl_GlobalInvocationID.x;
+    vec3 a = diag.v[i].rgb;
+    vec3 ri = row_residual(i);
+    vec3 z;
+    uint p = partner.v[i];
+    if (p != NO_NODE) {
+        vec3 b = RGB(partner_value, i);
+        vec3 dp = diag.v[p].rgb;
+        z = (dp * ri - b * row_residual(p)) / (a * dp - b * b);
+    } else {
+        z = ri / a;
+    }
+    // The run's first step is smooth.comp's (from x = 0 or after a residual): alpha applies to
+    // the d this run wrote.
+    vec3 di = pc.alpha.rgb * LOAD_UPDATE(d, i) + pc.beta.rgb * z;
+    STORE_UPDATE(d, i, di);
+    SET_RGB(x_out, i, RGB(x, i) + di);
+}
