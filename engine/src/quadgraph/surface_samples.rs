@@ -251,15 +251,15 @@ fn smoothed_normals(
         .collect()
 }
 
-/// The display surface's relief finer than `radius` (mm): the area-weighted mean angle, in
-/// degrees, between each vertex's normal (its faces' area-weighted normal) and the normals
-/// averaged within `radius` around it ([`smoothed_normals`], the interior samples' own
-/// smoothing). 0 for a surface the lattice resolves (a finely tessellated sphere or torus:
-/// < 0.5 degrees at 1.5 finest spacings), a few degrees for flat faces meeting at sharp edges
-/// (the U-block and the plate of the path-traced references: 3.5 and 3.0), about 11 for a
-/// scanned surface (the Stanford bunny: 10.9), whose bumps the surface nodes' cosines sample
-/// one point each (`defaults::surface_for`, benches/RESULTS.md "The bunny, region by region").
-/// 0 for an empty mesh or a radius that is not positive.
+/// The display surface's relief finer than `radius` (mm): the area-weighted median over the
+/// vertices of the angle, in degrees, between each vertex's normal (its faces' area-weighted
+/// normal) and the normals averaged within `radius` around it ([`smoothed_normals`], the
+/// interior samples' own smoothing). The median, not the mean: sharp edges between flat faces
+/// (a CAD part) are relief on a small share of the area only. At 1.5 finest spacings (20 mm
+/// objects, benches/RESULTS.md "The bunny, region by region"): a finely tessellated sphere or
+/// torus < 0.4 degrees, the U-block and the plate 0, the fandisk 5.2, the
+/// Stanford bunny's scan 8.8 (whose bumps the surface nodes' cosines sample one point each,
+/// `defaults::surface_for`). 0 for an empty mesh or a radius that is not positive.
 pub fn surface_relief_degrees(mesh: &TriMesh, radius: f64) -> f64 {
     let count = mesh.positions.len();
     if count == 0 || radius.is_nan() || radius <= 0.0 {
@@ -284,22 +284,23 @@ pub fn surface_relief_degrees(mesh: &TriMesh, radius: f64) -> f64 {
     let coords: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
     let tree = ImmutableKdTree::new_from_slice(&coords);
     let smoothed = smoothed_normals(&tree, &mesh.positions, &normals, radius);
-    let (weighted, total) = normals
+    let mut angles: Vec<(f64, f64)> = normals
         .iter()
         .zip(&smoothed)
         .zip(&areas)
-        .filter(|((n, _), _)| n.length_squared() > 0.0)
-        .fold((0.0, 0.0), |(sum, area), ((n, m), &a)| {
-            (
-                sum + a * n.dot(*m).clamp(-1.0, 1.0).acos().to_degrees(),
-                area + a,
-            )
-        });
-    if total > 0.0 {
-        weighted / total
-    } else {
-        0.0
+        .filter(|((n, _), &a)| n.length_squared() > 0.0 && a > 0.0)
+        .map(|((n, m), &a)| (n.dot(*m).clamp(-1.0, 1.0).acos().to_degrees(), a))
+        .collect();
+    angles.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let half = angles.iter().map(|&(_, a)| a).sum::<f64>() / 2.0;
+    let mut below = 0.0;
+    for &(angle, a) in &angles {
+        below += a;
+        if below >= half {
+            return angle;
+        }
     }
+    0.0
 }
 
 /// Solves the `N` x `N` system `a x = b` by Gaussian elimination with partial pivoting; `None`
