@@ -16,9 +16,10 @@ for obj in sys.argv[2:]:
     dev=np.zeros(len(V))
     for s in range(0,len(V),256):
         d=((V[s:s+256,None,:]-V[None,:,:])**2).sum(-1)
-        w=(d<r*r)*area[None,:]*( (vn[s:s+256]@vn.T)>0)
+        w=np.clip(1-d/(r*r),0,None)**2*((vn[s:s+256]@vn.T)>0)
         ns=w@vn; ns/=np.maximum(np.linalg.norm(ns,axis=1,keepdims=True),1e-12)
         dev[s:s+256]=1-(ns*vn[s:s+256]).sum(1)
     ang=np.degrees(np.arccos(np.clip(1-dev,-1,1)))
     A=area.sum()
-    print(f"{obj}: {len(V)} v, rms angle {np.sqrt((area*ang**2).sum()/A):.2f} deg, mean {(area*ang).sum()/A:.2f}, area share >10deg {(area*(ang>10)).sum()/A:.3f}, >20 {(area*(ang>20)).sum()/A:.3f}")
+    order=np.argsort(ang); median=ang[order][np.searchsorted(np.cumsum(area[order]),A/2)]
+    print(f"{obj}: {len(V)} v, area-weighted median {median:.2f} deg (the Rust surface_relief_degrees), mean {(area*ang).sum()/A:.2f}")

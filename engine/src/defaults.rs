@@ -96,11 +96,11 @@ pub const INTERIOR_ABOVE_S_SPACING: f64 = 0.5;
 /// [`RELIEF_SPACINGS`] finest spacings ([`surface_relief_degrees`], an area-weighted median)
 /// exceeds this many degrees (issue 12, benches/RESULTS.md "The bunny, region by region"). Each
 /// surface node takes its source cosine with the scan's face normal at one point, so Shepard
-/// draws a scan's bumps sampled once per node: on the front-lit bunny (relief 8.8 degrees)
+/// draws a scan's bumps sampled once per node: on the front-lit bunny (relief 6.5 degrees)
 /// 10.4 of its 12.3 points are detail finer than 4 pixels, correlated 0.60 with the path
 /// tracer's (the interior reconstruction, which averages the sources over 1.5 spacings: 0.90),
 /// and the interior one takes the bunny front 12.3 -> 8.4, side 13.9 -> 12.9. Below it stay the smooth analytic
-/// shapes (< 0.4 degrees), the flat-faced U-block and plate (0), where Shepard is 1.1 and 3.7
+/// shapes (< 0.2 degrees), the flat-faced U-block and plate (0), where Shepard is 1.1 and 3.7
 /// points closer to the back-lit references, the fandisk (7.5% with Shepard against a
 /// 1024-spp reference, 8.1% interior) and the cheburashka at its auto spacing (9.9% Shepard,
 /// 8.1% interior: a case the rule misses).

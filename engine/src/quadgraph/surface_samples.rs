@@ -257,8 +257,8 @@ fn smoothed_normals(
 /// interior samples' own smoothing). The median, not the mean: sharp edges between flat faces
 /// (a CAD part) are relief on a small share of the area only. At 1.5 finest spacings (20 mm
 /// objects, benches/RESULTS.md "The bunny, region by region"): a finely tessellated sphere or
-/// torus < 0.4 degrees, the U-block and the plate 0, the fandisk 5.2, the
-/// Stanford bunny's scan 8.8 (whose bumps the surface nodes' cosines sample one point each,
+/// torus < 0.2 degrees, the U-block and the plate 0, the fandisk 2.1, the cheburashka 5.4, the
+/// Stanford bunny's scan 6.5 (whose bumps the surface nodes' cosines sample one point each,
 /// `defaults::surface_for`). 0 for an empty mesh or a radius that is not positive.
 pub fn surface_relief_degrees(mesh: &TriMesh, radius: f64) -> f64 {
     let count = mesh.positions.len();
