@@ -26,7 +26,9 @@
 
 use crate::frame::{BounceMode, ScatterMode, ScatterParams};
 use crate::material::{DiffusionCoefficient, MaterialField};
+use crate::mesh::TriMesh;
 use crate::object::ObjectParams;
+use crate::quadgraph::surface_samples::surface_relief_degrees;
 use crate::solver::gpu::{GpuSolveParams, HeterogeneousWeights, Precision};
 use crate::solver::multigrid::{MultigridParams, WarmStart};
 use crate::solver::transport::{ExitQuery, Source, SurfaceReconstruction};
@@ -93,14 +95,46 @@ pub const WARM_START: WarmStart = WarmStart::Linear;
 /// both are flat to 0.6% and Shepard is closer to the path-traced back-lit references (2-4 points).
 pub const INTERIOR_ABOVE_S_SPACING: f64 = 0.5;
 
-/// The display surface's reconstruction for `field` on a finest lattice of `spacing_mm`: the
-/// interior one where the largest s = sqrt(sigma_a / D) of the material's channels times the
-/// spacing exceeds [`INTERIOR_ABOVE_S_SPACING`], Shepard otherwise. A `.vol` grid takes its
-/// cells' largest s (the skim milk | skin1 split sphere: skin1's, as the homogeneous skin1
-/// sphere; with the second-collision source interior is 0.4 points closer to its reference
-/// than Shepard and draws no lattice rings on the skin1 cap: benches/RESULTS.md, "The split .vol
-/// sphere, decomposed (wave 9)"); a procedural field keeps Shepard (not measured).
-pub fn surface_for(field: &MaterialField, spacing_mm: f64) -> SurfaceReconstruction {
+/// [`surface_for`]: the interior reconstruction where the display surface's relief finer than
+/// [`RELIEF_SPACINGS`] finest spacings ([`surface_relief_degrees`], an area-weighted median)
+/// exceeds this many degrees (issue 12, benches/RESULTS.md "The bunny, region by region"). Each
+/// surface node takes its source cosine with the scan's face normal at one point, so Shepard
+/// draws a scan's bumps sampled once per node: on the front-lit bunny (relief 6.5 degrees)
+/// 10.4 of its 12.3 points are detail finer than 4 pixels, correlated 0.60 with the path
+/// tracer's (the interior reconstruction, which averages the sources over 1.5 spacings: 0.90),
+/// and the interior one takes the bunny front 12.3 -> 8.4, side 13.9 -> 12.9. Below it stay the smooth analytic
+/// shapes (< 0.2 degrees), the flat-faced U-block and plate (0), where Shepard is 1.1 and 3.7
+/// points closer to the back-lit references, the fandisk (7.5% with Shepard against a
+/// 1024-spp reference, 8.1% interior) and the cheburashka at its auto spacing (9.9% Shepard,
+/// 8.1% interior: a case the rule misses).
+pub const INTERIOR_ABOVE_RELIEF_DEGREES: f64 = 5.5;
+/// The radius of [`surface_for`]'s relief in finest spacings: the interior samples' own normal
+/// smoothing ([`crate::quadgraph::surface_samples::NORMAL_SPACINGS`]).
+pub const RELIEF_SPACINGS: f64 = crate::quadgraph::surface_samples::NORMAL_SPACINGS;
+
+/// The display surface's reconstruction for `field` on `surface` (the display mesh, mm) with a
+/// finest lattice of `spacing_mm`: the interior one where the largest s = sqrt(sigma_a / D) of the
+/// material's channels times the spacing exceeds [`INTERIOR_ABOVE_S_SPACING`] or the surface's
+/// relief finer than the lattice exceeds [`INTERIOR_ABOVE_RELIEF_DEGREES`], Shepard otherwise. A
+/// `.vol` grid takes its cells' largest s (the skim milk | skin1 split sphere: skin1's, as the
+/// homogeneous skin1 sphere; with the second-collision source interior is 0.4 points closer to its
+/// reference than Shepard and draws no lattice rings on the skin1 cap: benches/RESULTS.md, "The
+/// split .vol sphere, decomposed (wave 9)"); a procedural field keeps Shepard (not measured).
+///
+/// ```
+/// use translucent::defaults::surface_for;
+/// use translucent::material::{Material, MaterialField};
+/// use translucent::mesh::shapes::Shape;
+/// use translucent::solver::transport::SurfaceReconstruction;
+/// let marble = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+/// let sphere = Shape::Sphere { radius: 10.0 }.triangulate(64);
+/// assert_eq!(surface_for(&marble, &sphere, 0.83), SurfaceReconstruction::Shepard);
+/// ```
+pub fn surface_for(
+    field: &MaterialField,
+    surface: &TriMesh,
+    spacing_mm: f64,
+) -> SurfaceReconstruction {
     let diffusion = field.diffusion();
     let channels_s = |sigma_s: [f64; 3], sigma_a: [f64; 3]| {
         (0..3)
@@ -127,7 +161,10 @@ pub fn surface_for(field: &MaterialField, spacing_mm: f64) -> SurfaceReconstruct
             .fold(0.0, f64::max),
         MaterialField::Procedural { .. } => return SurfaceReconstruction::Shepard,
     };
-    if largest_s * spacing_mm > INTERIOR_ABOVE_S_SPACING {
+    if largest_s * spacing_mm > INTERIOR_ABOVE_S_SPACING
+        || surface_relief_degrees(surface, RELIEF_SPACINGS * spacing_mm)
+            > INTERIOR_ABOVE_RELIEF_DEGREES
+    {
         SurfaceReconstruction::Interior
     } else {
         SurfaceReconstruction::Shepard
@@ -396,17 +433,19 @@ mod tests {
                 .with_diffusion(DIFFUSION)
         };
         let spacing_mm = 0.69;
+        let sphere = crate::mesh::shapes::Shape::Sphere { radius: 10.0 }.triangulate(64);
         assert_eq!(
-            surface_for(&field(split), spacing_mm),
+            surface_for(&field(split), &sphere, spacing_mm),
             SurfaceReconstruction::Interior
         );
         assert_eq!(
-            surface_for(&field(uniform), spacing_mm),
+            surface_for(&field(uniform), &sphere, spacing_mm),
             SurfaceReconstruction::Shepard
         );
         assert_eq!(
             surface_for(
                 &MaterialField::Homogeneous(skin1.with_diffusion(DIFFUSION)),
+                &sphere,
                 spacing_mm
             ),
             SurfaceReconstruction::Interior
@@ -443,5 +482,52 @@ mod tests {
             Settings::for_method(crate::frame::MethodKind::Voxel, true).diffusion,
             DiffusionCoefficient::Classical
         );
+    }
+
+    /// The bunny's finest spacing at render's auto resolution (mm).
+    const BUNNY_SPACING_MM: f64 = 0.833;
+
+    /// A 10 mm sphere with bumps finer than the lattice: radial displacements of
+    /// `amplitude` mm varying every vertex or so (a scan's relief, as the bunny's).
+    fn bumpy_sphere(amplitude: f64) -> TriMesh {
+        let mut mesh = crate::mesh::shapes::Shape::Sphere { radius: 10.0 }.triangulate(160);
+        for (i, p) in mesh.positions.iter_mut().enumerate() {
+            // A hash of the vertex index: no structure at the lattice's scale.
+            let h =
+                ((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as f64 / (1u64 << 24) as f64;
+            *p *= 1.0 + amplitude * (2.0 * h - 1.0) / 10.0;
+        }
+        mesh.compute_normals();
+        mesh
+    }
+
+    #[test]
+    fn a_surface_with_relief_finer_than_the_lattice_takes_the_interior_reconstruction() {
+        let marble =
+            MaterialField::Homogeneous(crate::material::Material::preset("marble").unwrap());
+        let shapes = crate::mesh::shapes::Shape::Box {
+            half_extents: glam::DVec3::new(10.0, 5.0, 3.0),
+        };
+        let radius = RELIEF_SPACINGS * BUNNY_SPACING_MM;
+        let smooth = crate::mesh::shapes::Shape::Sphere { radius: 10.0 }.triangulate(160);
+        // A finely tessellated sphere is resolved by the lattice; a box's sharp edges are a
+        // small share of its area; a bumpy sphere is not resolved.
+        assert!(surface_relief_degrees(&smooth, radius) < 0.5);
+        assert!(
+            surface_relief_degrees(&shapes.triangulate(32), radius) < INTERIOR_ABOVE_RELIEF_DEGREES
+        );
+        assert!(
+            surface_relief_degrees(&bumpy_sphere(0.15), radius) > INTERIOR_ABOVE_RELIEF_DEGREES
+        );
+        // Marble's s * spacing alone keeps Shepard: the relief decides.
+        assert_eq!(
+            surface_for(&marble, &smooth, BUNNY_SPACING_MM),
+            SurfaceReconstruction::Shepard
+        );
+        assert_eq!(
+            surface_for(&marble, &bumpy_sphere(0.15), BUNNY_SPACING_MM),
+            SurfaceReconstruction::Interior
+        );
+        assert_eq!(surface_relief_degrees(&TriMesh::default(), radius), 0.0);
     }
 }

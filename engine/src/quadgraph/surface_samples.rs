@@ -252,6 +252,58 @@ fn smoothed_normals(
         .collect()
 }
 
+/// The display surface's relief finer than `radius` (mm): the area-weighted median over the
+/// vertices of the angle, in degrees, between each vertex's normal (its faces' area-weighted
+/// normal) and the normals averaged within `radius` around it ([`smoothed_normals`], the
+/// interior samples' own smoothing). The median, not the mean: sharp edges between flat faces
+/// (a CAD part) are relief on a small share of the area only. At 1.5 finest spacings (20 mm
+/// objects, benches/RESULTS.md "The bunny, region by region"): a finely tessellated sphere or
+/// torus < 0.2 degrees, the U-block and the plate 0, the fandisk 2.1, the cheburashka 5.4, the
+/// Stanford bunny's scan 6.5 (whose bumps the surface nodes' cosines sample one point each,
+/// `defaults::surface_for`). 0 for an empty mesh or a radius that is not positive.
+pub fn surface_relief_degrees(mesh: &TriMesh, radius: f64) -> f64 {
+    let count = mesh.positions.len();
+    if count == 0 || radius.is_nan() || radius <= 0.0 {
+        return 0.0;
+    }
+    let mut normals = vec![DVec3::ZERO; count];
+    let mut areas = vec![0.0; count];
+    for tri in &mesh.indices {
+        // Faces with an index out of range are skipped (the mesh validation names them).
+        let [Some(a), Some(b), Some(c)] = tri.map(|i| mesh.positions.get(i as usize).copied())
+        else {
+            continue;
+        };
+        let n = (b - a).cross(c - a);
+        for &i in tri {
+            normals[i as usize] += n;
+            // A third of each face's area per corner.
+            areas[i as usize] += n.length() / 6.0;
+        }
+    }
+    let normals: Vec<DVec3> = normals.into_iter().map(|n| n.normalize_or_zero()).collect();
+    let coords: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    let tree = ImmutableKdTree::new_from_slice(&coords);
+    let smoothed = smoothed_normals(&tree, &mesh.positions, &normals, radius);
+    let mut angles: Vec<(f64, f64)> = normals
+        .iter()
+        .zip(&smoothed)
+        .zip(&areas)
+        .filter(|((n, _), &a)| n.length_squared() > 0.0 && a > 0.0)
+        .map(|((n, m), &a)| (n.dot(*m).clamp(-1.0, 1.0).acos().to_degrees(), a))
+        .collect();
+    angles.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let half = angles.iter().map(|&(_, a)| a).sum::<f64>() / 2.0;
+    let mut below = 0.0;
+    for &(angle, a) in &angles {
+        below += a;
+        if below >= half {
+            return angle;
+        }
+    }
+    0.0
+}
+
 /// Solves the `N` x `N` system `a x = b` by Gaussian elimination with partial pivoting; `None`
 /// when a pivot is below `1e-12` of the largest diagonal entry (the points do not determine it).
 fn solve_small<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {

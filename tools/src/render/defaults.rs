@@ -186,15 +186,19 @@ impl RenderArgs {
         Ok(settings)
     }
 
-    /// `--surface` resolved for `field` on a finest lattice of `spacing_mm`: the one named, or
-    /// with `auto` (the default) the library's rule [`translucent::defaults::surface_for`].
+    /// `--surface` resolved for `field` on the display `surface` with a finest lattice of
+    /// `spacing_mm`: the one named, or with `auto` (the default) the library's rule
+    /// [`translucent::defaults::surface_for`].
     pub fn surface_for(
         &self,
         field: &translucent::material::MaterialField,
+        surface: &translucent::mesh::TriMesh,
         spacing_mm: f64,
     ) -> anyhow::Result<translucent::solver::transport::SurfaceReconstruction> {
         if self.surface == "auto" {
-            Ok(translucent::defaults::surface_for(field, spacing_mm))
+            Ok(translucent::defaults::surface_for(
+                field, surface, spacing_mm,
+            ))
         } else {
             Ok(self.surface.parse()?)
         }

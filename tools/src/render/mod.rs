@@ -245,7 +245,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Solve on the CPU (f64 reference), or below on the GPU.
     let exit_query: solver::transport::ExitQuery =
         args.exit_query.as_deref().unwrap_or("flux").parse()?;
-    let surface = args.surface_for(&field, resolution.spacing_mm)?;
+    let surface = args.surface_for(&field, &object.surface, resolution.spacing_mm)?;
     let source = args.light_source();
     let beams = source != solver::transport::Source::BoundaryFlux;
     let solve_params = CpuSolveParams {
