@@ -170,6 +170,21 @@ impl TranslucentObject {
                 graph.skip(PASS_BOUNCE, crate::frame::SkipReason::Unchanged);
             }
         }
+        // The tangential flux's smooth gradient of whatever exitance the shading reads this
+        // frame (the method's, after the bounce): every frame, it is one sparse product.
+        let gradient = self.tangential.as_ref();
+        if let Some(tangential) = gradient {
+            graph
+                .pass(crate::frame::PASS_TANGENTIAL)
+                .uses(tangential.uses(mesh))
+                .record(move |p| {
+                    // SAFETY: inside the graph's pass declaring the gradient's uses of the mesh
+                    // it was built for; `self` outlives the frame (the record contract).
+                    unsafe { tangential.record(p.ctx, p.cb) };
+                    Ok(())
+                });
+        }
+        let gradient = gradient.map(|t| t.gradient());
         let scatter = &self.scatter;
         if scattering && !clear && !environment_only {
             graph
@@ -194,7 +209,10 @@ impl TranslucentObject {
         let own_depth = self.own_depth.as_ref().filter(|_| targets.depth.is_none());
         let mut shading = graph
             .pass(PASS_SHADING)
-            .uses(self.shading.uses(mesh, scatter.buffer(), share, shadows))
+            .uses(
+                self.shading
+                    .uses(mesh, scatter.buffer(), share, gradient, shadows),
+            )
             .host(color, COLOR_USE);
         shading = match (host_depth, own_depth) {
             (Some(id), _) => shading.host(id, DEPTH_USE),
@@ -223,6 +241,7 @@ impl TranslucentObject {
                     mesh,
                     scatter.buffer(),
                     share,
+                    gradient,
                     &attachments,
                     &uniforms,
                     &push,
