@@ -240,6 +240,9 @@ pub struct TranslucentObject {
     /// is on and the display mesh is the surface given (every method but a voxel mesh of its
     /// own); `None`: the shading's screen derivatives stand in.
     tangential: Option<TangentialPass>,
+    /// Whether a frame recorded the [`TangentialPass`] since it was built (later frames record
+    /// it only with a new exitance).
+    tangential_written: std::cell::Cell<bool>,
     camera: Option<Camera>,
     changes: Changes,
     own_depth: Option<Image>,
@@ -412,6 +415,7 @@ impl TranslucentObject {
             own_albedo,
             surface_d,
             tangential,
+            tangential_written: std::cell::Cell::new(false),
             camera: None,
             // The first frame draws everything: nothing of it exists yet (a fixed exitance has its
             // solution, but no shadow map).
@@ -525,6 +529,7 @@ impl TranslucentObject {
                 &d,
                 factor,
             )?);
+            self.tangential_written.set(false);
         } else {
             self.tangential = None;
         }

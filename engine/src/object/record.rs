@@ -170,19 +170,28 @@ impl TranslucentObject {
                 graph.skip(PASS_BOUNCE, crate::frame::SkipReason::Unchanged);
             }
         }
-        // The tangential flux's smooth gradient of whatever exitance the shading reads this
-        // frame (the method's, after the bounce): every frame, it is one sparse product.
+        // The tangential flux's smooth gradient of the exitance the shading reads (the method's,
+        // after the bounce): on frames whose method wrote a new one, and on the pass's first.
         let gradient = self.tangential.as_ref();
+        let fresh = graph.pass_names().len() > before_method || !self.tangential_written.get();
         if let Some(tangential) = gradient {
-            graph
-                .pass(crate::frame::PASS_TANGENTIAL)
-                .uses(tangential.uses(mesh))
-                .record(move |p| {
-                    // SAFETY: inside the graph's pass declaring the gradient's uses of the mesh
-                    // it was built for; `self` outlives the frame (the record contract).
-                    unsafe { tangential.record(p.ctx, p.cb) };
-                    Ok(())
-                });
+            if fresh {
+                self.tangential_written.set(true);
+                graph
+                    .pass(crate::frame::PASS_TANGENTIAL)
+                    .uses(tangential.uses(mesh))
+                    .record(move |p| {
+                        // SAFETY: inside the graph's pass declaring the gradient's uses of the
+                        // mesh it was built for; `self` outlives the frame (the record contract).
+                        unsafe { tangential.record(p.ctx, p.cb) };
+                        Ok(())
+                    });
+            } else {
+                graph.skip(
+                    crate::frame::PASS_TANGENTIAL,
+                    crate::frame::SkipReason::Unchanged,
+                );
+            }
         }
         let gradient = gradient.map(|t| t.gradient());
         let scatter = &self.scatter;
