@@ -370,5 +370,17 @@ mod tests {
             worst = worst.max((g_t - exact).length() / a.length());
         }
         assert!(worst < SPHERE_GRADIENT_TOL, "worst relative error {worst}");
+        // A faceted gradient (one incident triangle's, what the screen derivatives gave) misses
+        // the same bound: the facet's tilt against the vertex's tangent plane.
+        let mut faceted = 0.0f64;
+        for t in &mesh.indices {
+            let single = GradientOperator::area_weighted(&mesh.positions, &[*t]);
+            let v = t[0] as usize;
+            let n = mesh.positions[v].normalize();
+            let exact = a - n * a.dot(n);
+            let g = single.apply(v, &x);
+            faceted = faceted.max((g - n * g.dot(n) - exact).length() / a.length());
+        }
+        assert!(faceted > SPHERE_GRADIENT_TOL, "faceted error {faceted}");
     }
 }
