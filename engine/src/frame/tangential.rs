@@ -61,7 +61,7 @@ impl GradientOperator {
             let p = t.map(|i| positions[i as usize]);
             let cross = (p[1] - p[0]).cross(p[2] - p[0]);
             let twice_area = cross.length();
-            if !(twice_area > 1e-30) || !twice_area.is_finite() {
+            if twice_area <= 1e-30 || !twice_area.is_finite() {
                 continue;
             }
             let normal = cross / twice_area;
