@@ -45,6 +45,13 @@ pub const SCATTER_SAMPLES: u32 = 8;
 /// benches/RESULTS.md, "Anti-aliasing"). A host (the viewer, Bevy, wgpu) draws its own pixels:
 /// the library has no supersampling, so their equivalent render commands name `--supersample 1`.
 pub const SUPERSAMPLE: u32 = 2;
+/// `translucent render`'s tangential flux toward the view for homogeneous materials
+/// ([`crate::object::ObjectParams::tangential_flux`], the smooth per-vertex gradient): better or
+/// level on every homogeneous reference (benches/RESULTS.md, "A smooth tangential flux (wave
+/// 9)"); off for heterogeneous ones (the split volume +1.1 points) and in
+/// [`crate::object::ObjectParams`]'s own default (the library's image tests keep their bounds).
+pub const TANGENTIAL_FLUX: bool = true;
+
 /// The light source for homogeneous materials (benches/RESULTS.md, "Model terms on the GPU (wave
 /// 5)": against the path-traced references the second-collision source is better than the
 /// boundary flux on six scenes of seven and level on the seventh).

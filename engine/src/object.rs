@@ -71,8 +71,8 @@ use crate::frame::plan::{Changes, Conditions, FramePlan, PASS_SHADING, PASS_SHAD
 use crate::frame::quadgraph::QuadGraphParams;
 use crate::frame::{
     BounceLinks, BouncePass, FixedExitance, FrameReport, Method, QuadGraphMethod, ScatterParams,
-    SingleScatteringPass, VoxelMethod, PASS_BOUNCE, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
-    SINGLE_LEVEL_NODES,
+    SingleScatteringPass, TangentialPass, VoxelMethod, PASS_BOUNCE, PASS_SCATTER_DEPTHS,
+    PASS_SINGLE_SCATTERING, SINGLE_LEVEL_NODES,
 };
 use crate::material::MaterialField;
 use crate::mesh::{GpuMesh, TriMesh};
@@ -233,8 +233,16 @@ pub struct TranslucentObject {
     /// [`crate::scene::own_lobe::surface_albedo`]).
     own_albedo: [f64; 3],
     /// The surface's mean diffusion coefficient D per channel (mm; the object's
-    /// [`ObjectParams::diffusion`]), for the tangential flux ([`ObjectParams::tangential_flux`]).
+    /// [`ObjectParams::diffusion`]), for the tangential flux ([`ObjectParams::tangential_flux`])
+    /// where no [`TangentialPass`] gives it per vertex.
     surface_d: [f64; 3],
+    /// The tangential flux's smooth gradient per vertex, when [`ObjectParams::tangential_flux`]
+    /// is on and the display mesh is the surface given (every method but a voxel mesh of its
+    /// own); `None`: the shading's screen derivatives stand in.
+    tangential: Option<TangentialPass>,
+    /// Whether a frame recorded the [`TangentialPass`] since it was built (later frames record
+    /// it only with a new exitance).
+    tangential_written: std::cell::Cell<bool>,
     camera: Option<Camera>,
     changes: Changes,
     own_depth: Option<Image>,
@@ -297,6 +305,10 @@ impl TranslucentObject {
         };
         let framing = crate::mesh::bounding_sphere(&surface.positions);
         let rest_positions = surface.positions.clone();
+        let rest_indices = match params.tangential_flux {
+            true => surface.indices.clone(),
+            false => Vec::new(),
+        };
         // The bounce links stored with the bake, when the parameters ask for the bounce.
         let bounce_links = match &method {
             MethodDesc::QuadGraph(graph) if params.bounce == crate::frame::BounceMode::Local => {
@@ -384,6 +396,8 @@ impl TranslucentObject {
         scatter.set_material(field, &rest_positions);
         let own_albedo = crate::scene::own_lobe::surface_albedo(field, &rest_positions);
         let surface_d = surface_diffusion(field, &rest_positions, params.diffusion);
+        let tangential =
+            tangential_pass(ctx, params, &mesh, &rest_positions, &rest_indices, field)?;
         let mut object = TranslucentObject {
             method,
             mesh,
@@ -400,6 +414,8 @@ impl TranslucentObject {
             eta: field.eta() as f32,
             own_albedo,
             surface_d,
+            tangential,
+            tangential_written: std::cell::Cell::new(false),
             camera: None,
             // The first frame draws everything: nothing of it exists yet (a fixed exitance has its
             // solution, but no shadow map).
@@ -465,6 +481,10 @@ impl TranslucentObject {
         self.eta = field.eta() as f32;
         self.own_albedo = crate::scene::own_lobe::surface_albedo(field, &self.rest_positions);
         self.surface_d = surface_diffusion(field, &self.rest_positions, self.params.diffusion);
+        if let Some(tangential) = &mut self.tangential {
+            let d = vertex_diffusion(field, &self.rest_positions, self.params.diffusion);
+            tangential.set_diffusion(&d, tangential_factor(field.eta(), &self.params))?;
+        }
         self.changes.material = true;
         Ok(())
     }
@@ -497,6 +517,23 @@ impl TranslucentObject {
         self.scatter.resize(ctx, display.vertex_count())?;
         self.scatter
             .set_lights(&self.scene, &self.shadows, bounds)?;
+        if self.params.tangential_flux && mesh.positions.len() == display.vertex_count() {
+            // The new topology's own gradient operator; the object keeps no field: the
+            // surface's mean D at every vertex.
+            let d = vec![self.surface_d.map(|d| d as f32); mesh.positions.len()];
+            let factor = tangential_factor(f64::from(self.eta), &self.params);
+            self.tangential = Some(TangentialPass::new(
+                ctx,
+                &display,
+                &mesh.positions,
+                &mesh.indices,
+                &d,
+                factor,
+            )?);
+            self.tangential_written.set(false);
+        } else {
+            self.tangential = None;
+        }
         self.mesh = display;
         self.shadow_bounds = bounds;
         self.changes.shape = true;
@@ -820,6 +857,8 @@ impl TranslucentObject {
                 own_lights: crate::render::own_light_uniforms(&self.lights),
                 own_env_sh: self.env_sh,
                 tangential: match self.params.tangential_flux {
+                    // f D grad X comes per vertex from the pass.
+                    true if self.tangential.is_some() => [1.0, 1.0, 1.0, 2.0],
                     true => {
                         let f = crate::solver::transport::Boundary::new(
                             f64::from(self.eta),
@@ -835,6 +874,59 @@ impl TranslucentObject {
             specular.is_some(),
         )
     }
+}
+
+/// [`crate::solver::transport::Boundary::tangential_flux_factor`] of the object's boundary.
+fn tangential_factor(eta: f64, params: &ObjectParams) -> f32 {
+    crate::solver::transport::Boundary::new(eta, params.solve.exit).tangential_flux_factor() as f32
+}
+
+/// The tangential flux's pass for `mesh` when [`ObjectParams::tangential_flux`] is on and the
+/// mesh's vertices are `positions` (triangles `indices`); `None` otherwise.
+fn tangential_pass(
+    ctx: &Context,
+    params: &ObjectParams,
+    mesh: &GpuMesh,
+    positions: &[DVec3],
+    indices: &[[u32; 3]],
+    field: &MaterialField,
+) -> Result<Option<TangentialPass>, Error> {
+    if !params.tangential_flux || positions.len() != mesh.vertex_count() {
+        return Ok(None);
+    }
+    let d = vertex_diffusion(field, positions, params.diffusion);
+    let pass = TangentialPass::new(
+        ctx,
+        mesh,
+        positions,
+        indices,
+        &d,
+        tangential_factor(field.eta(), params),
+    )?;
+    Ok(Some(pass))
+}
+
+/// D per channel (mm) at each of `positions` with the diffusion coefficient `diffusion`; 0
+/// where a channel has no extinction or D is not finite.
+fn vertex_diffusion(
+    field: &MaterialField,
+    positions: &[DVec3],
+    diffusion: crate::material::DiffusionCoefficient,
+) -> Vec<[f32; 3]> {
+    positions
+        .iter()
+        .map(|&p| {
+            let k = field.sample(p);
+            std::array::from_fn(|c| {
+                let d = diffusion.d(k.sigma_s[c], k.sigma_a[c]);
+                if d.is_finite() && d >= 0.0 {
+                    d as f32
+                } else {
+                    0.0
+                }
+            })
+        })
+        .collect()
 }
 
 /// The mean over `positions` of D per channel (mm) with the diffusion coefficient `diffusion`

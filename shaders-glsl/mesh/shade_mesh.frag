@@ -20,6 +20,10 @@ layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec3 v_exitance;
 layout(location = 3) in vec3 v_scattered;
 layout(location = 4) in float v_share;
+// f D grad X per channel at the vertices, interpolated (frame::TangentialPass; tangential.w 2).
+layout(location = 5) in vec3 v_gradient_r;
+layout(location = 6) in vec3 v_gradient_g;
+layout(location = 7) in vec3 v_gradient_b;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -189,12 +193,18 @@ void main() {
     // from a lit cap to its terminator leaves brighter toward the dark side, darker toward the
     // lit one (benches/RESULTS.md, "The front-lit spheres, term by term"). grad_t X from the
     // screen derivatives of the interpolated exitance and position (Mikkelsen's surface
-    // gradient): the triangle's own gradient. Derivatives in uniform control flow.
+    // gradient): the triangle's own gradient, the fallback where no per-vertex gradient exists
+    // (w 1; w 2: the smooth per-vertex stream above). Derivatives in uniform control flow.
     vec3 dpx = dFdx(v_position);
     vec3 dpy = dFdy(v_position);
     vec3 dxx = dFdx(v_exitance);
     vec3 dxy = dFdy(v_exitance);
-    if (frame.tangential.w > 0.0) {
+    if (frame.tangential.w > 1.5) {
+        // The smooth path: the vertices' gradients (each the area-weighted mean of its
+        // triangles'), interpolated and projected onto the tangent plane (. v = . w_t there).
+        vec3 vt = v - n * dot(n, v);
+        diffused -= vec3(dot(v_gradient_r, vt), dot(v_gradient_g, vt), dot(v_gradient_b, vt));
+    } else if (frame.tangential.w > 0.0) {
         vec3 r1 = cross(dpy, n);
         vec3 r2 = cross(n, dpx);
         float det = dot(dpx, r1);

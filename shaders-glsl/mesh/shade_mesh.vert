@@ -7,6 +7,10 @@ layout(location = 2) in vec3 exitance;
 layout(location = 3) in vec4 scattered;
 // The per-node exit lobe's diffused share (frame::Method::exit_share; 0 when the method has none).
 layout(location = 4) in float share;
+// The tangential flux's f D grad X per channel (frame::TangentialPass; unread without it).
+layout(location = 5) in vec3 gradient_r;
+layout(location = 6) in vec3 gradient_g;
+layout(location = 7) in vec3 gradient_b;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -28,6 +32,9 @@ layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec3 v_exitance;
 layout(location = 3) out vec3 v_scattered;
 layout(location = 4) out float v_share;
+layout(location = 5) out vec3 v_gradient_r;
+layout(location = 6) out vec3 v_gradient_g;
+layout(location = 7) out vec3 v_gradient_b;
 
 void main() {
     v_position = position;
@@ -35,5 +42,8 @@ void main() {
     v_exitance = exitance;
     v_scattered = scattered.rgb;
     v_share = share;
+    v_gradient_r = gradient_r;
+    v_gradient_g = gradient_g;
+    v_gradient_b = gradient_b;
     gl_Position = frame.view_proj * vec4(position, 1.0);
 }

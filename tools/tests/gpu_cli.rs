@@ -281,6 +281,9 @@ fn gpu_frame_image_matches_the_cpu_reference_image() {
                 // The GPU's default bounce (the torus's hole) is not the CPU solver's.
                 "--bounce",
                 "off",
+                // Nor its tangential flux (the CPU solver's image draws without it).
+                "--tangential-flux",
+                "off",
                 "--shape",
                 "torus",
                 "--material",

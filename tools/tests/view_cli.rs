@@ -242,10 +242,18 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
             .map(|p| p.as_str().expect("name").to_string())
             .collect()
     };
-    // Frame 0: a cold solve whose iterations came back.
+    // Frame 0: a cold solve whose iterations came back (the tangential flux's gradient of the
+    // new exitance: render's default for a homogeneous material).
     assert_eq!(
         passes(&frames[0]),
-        ["shadow_map", "gather_q", "diffusion", "exitance", "shading"]
+        [
+            "shadow_map",
+            "gather_q",
+            "diffusion",
+            "exitance",
+            "tangential gradient",
+            "shading"
+        ]
     );
     assert!(frames[0]["iterations"]
         .as_array()
@@ -256,7 +264,13 @@ fn a_scripted_session_under_xvfb_matches_render_and_quiet_frames_only_shade() {
     // The material key (frame 4): gather and solve again, the shadow maps kept.
     assert_eq!(
         passes(&frames[4]),
-        ["gather_q", "diffusion", "exitance", "shading"]
+        [
+            "gather_q",
+            "diffusion",
+            "exitance",
+            "tangential gradient",
+            "shading"
+        ]
     );
     assert_eq!(
         frames[4]["skipped"]["shadow_map"],

@@ -31,6 +31,7 @@ pub mod plan;
 pub mod quadgraph;
 pub mod report;
 pub mod single_scattering;
+pub mod tangential;
 pub mod voxel;
 
 pub use bounce::{BounceLinks, BounceMode, BounceParams, BouncePass, PASS_BOUNCE};
@@ -45,4 +46,5 @@ pub use report::{CompletedSolve, FrameReport, SkipReason};
 pub use single_scattering::{
     ScatterMode, ScatterParams, SingleScatteringPass, PASS_SCATTER_DEPTHS, PASS_SINGLE_SCATTERING,
 };
+pub use tangential::{TangentialPass, PASS_TANGENTIAL};
 pub use voxel::VoxelMethod;

@@ -170,6 +170,30 @@ impl TranslucentObject {
                 graph.skip(PASS_BOUNCE, crate::frame::SkipReason::Unchanged);
             }
         }
+        // The tangential flux's smooth gradient of the exitance the shading reads (the method's,
+        // after the bounce): on frames whose method wrote a new one, and on the pass's first.
+        let gradient = self.tangential.as_ref();
+        let fresh = graph.pass_names().len() > before_method || !self.tangential_written.get();
+        if let Some(tangential) = gradient {
+            if fresh {
+                self.tangential_written.set(true);
+                graph
+                    .pass(crate::frame::PASS_TANGENTIAL)
+                    .uses(tangential.uses(mesh))
+                    .record(move |p| {
+                        // SAFETY: inside the graph's pass declaring the gradient's uses of the
+                        // mesh it was built for; `self` outlives the frame (the record contract).
+                        unsafe { tangential.record(p.ctx, p.cb) };
+                        Ok(())
+                    });
+            } else {
+                graph.skip(
+                    crate::frame::PASS_TANGENTIAL,
+                    crate::frame::SkipReason::Unchanged,
+                );
+            }
+        }
+        let gradient = gradient.map(|t| t.gradient());
         let scatter = &self.scatter;
         if scattering && !clear && !environment_only {
             graph
@@ -194,7 +218,10 @@ impl TranslucentObject {
         let own_depth = self.own_depth.as_ref().filter(|_| targets.depth.is_none());
         let mut shading = graph
             .pass(PASS_SHADING)
-            .uses(self.shading.uses(mesh, scatter.buffer(), share, shadows))
+            .uses(
+                self.shading
+                    .uses(mesh, scatter.buffer(), share, gradient, shadows),
+            )
             .host(color, COLOR_USE);
         shading = match (host_depth, own_depth) {
             (Some(id), _) => shading.host(id, DEPTH_USE),
@@ -223,6 +250,7 @@ impl TranslucentObject {
                     mesh,
                     scatter.buffer(),
                     share,
+                    gradient,
                     &attachments,
                     &uniforms,
                     &push,

@@ -44,7 +44,8 @@ pub struct ShadeUniforms {
     pub own_env_sh: [[f32; 4]; 9],
     /// The diffusion's tangential flux toward the view (`render --tangential-flux`): rgb
     /// [`crate::solver::transport::Boundary::tangential_flux_factor`] times D per channel (mm),
-    /// w 1 where it applies; zero: off.
+    /// w 1 where it applies (screen derivatives, each triangle's own gradient), 2 where the
+    /// vertex stream carries f D grad X ([`crate::frame::TangentialPass`], smooth); zero: off.
     pub tangential: [f32; 4],
 }
 
@@ -229,6 +230,28 @@ impl MeshPass {
                             offset: 12,
                         }],
                     ),
+                    // The tangential flux's f D grad X per vertex (`frame::TangentialPass`, 3 x
+                    // vec3; without the pass the mesh's own vertices stand in, unread).
+                    (
+                        36,
+                        &[
+                            VertexAttribute {
+                                location: 5,
+                                format: vk::Format::R32G32B32_SFLOAT,
+                                offset: 0,
+                            },
+                            VertexAttribute {
+                                location: 6,
+                                format: vk::Format::R32G32B32_SFLOAT,
+                                offset: 12,
+                            },
+                            VertexAttribute {
+                                location: 7,
+                                format: vk::Format::R32G32B32_SFLOAT,
+                                offset: 24,
+                            },
+                        ],
+                    ),
                 ],
                 color_formats: &[color_format],
                 depth_format: Some(depth_format),
@@ -307,6 +330,7 @@ impl MeshPass {
         mesh: &'a GpuMesh,
         scattered: &'a Buffer,
         share: Option<&'a Buffer>,
+        gradient: Option<&'a Buffer>,
         shadows: &'a ShadowMaps,
     ) -> Vec<Use<'a>> {
         let mut uses = vec![
@@ -317,13 +341,18 @@ impl MeshPass {
         if let Some(share) = share {
             uses.push(Use::buffer(share, Access::VertexInput));
         }
+        if let Some(gradient) = gradient {
+            uses.push(Use::buffer(gradient, Access::VertexInput));
+        }
         uses
     }
 
     /// Updates the uniforms in the command stream, then draws `mesh` with `scattered` (single
     /// scattering per vertex, 16 bytes each, at least as many as `mesh` has) and `share` (the exit
     /// lobe's diffused share in the 4th float of 16 bytes per vertex; `None`: `scattered`'s 4th
-    /// float, 0) into `attachments` (in
+    /// float, 0) and `gradient` (the tangential flux's f D grad X per vertex, 36 bytes each;
+    /// `None`: the mesh's vertices stand in, and the uniforms' tangential w must not be 2) into
+    /// `attachments` (in
     /// `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL`, their earlier uses ordered by the
     /// frame graph).
     ///
@@ -342,6 +371,7 @@ impl MeshPass {
         mesh: &GpuMesh,
         scattered: &Buffer,
         share: Option<&Buffer>,
+        gradient: Option<&Buffer>,
         attachments: &ShadeAttachments,
         uniforms: &ShadeUniforms,
         push: &ShadePush,
@@ -404,8 +434,12 @@ impl MeshPass {
             ctx.raw().cmd_bind_vertex_buffers(
                 cb,
                 1,
-                &[scattered.raw, share.unwrap_or(scattered).raw],
-                &[0, 0],
+                &[
+                    scattered.raw,
+                    share.unwrap_or(scattered).raw,
+                    gradient.unwrap_or(mesh.vertex_buffer()).raw,
+                ],
+                &[0, 0, 0],
             );
             mesh.draw(ctx, cb);
             ctx.raw().cmd_end_rendering(cb);

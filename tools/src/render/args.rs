@@ -201,11 +201,13 @@ pub struct RenderArgs {
     /// Draw the diffusion's tangential flux toward the view (`ObjectParams::tangential_flux`): in
     /// P1 the radiance inside is (phi + 3 J . w) / (4 pi); the exit lobes draw the normal flux,
     /// this adds the part along the surface, -3 D grad_t phi . w_t / (4 pi) (from the screen
-    /// derivatives of the exitance): a terminator seen from its lit side is darker, from its
-    /// dark side brighter. GPU solver only (`--solver cpu` draws without it). Off by default
-    /// (benches/RESULTS.md, "The front-lit spheres, term by term (wave 9)").
-    #[arg(long)]
-    pub tangential_flux: bool,
+    /// gradient of the exitance per display vertex, `frame::TangentialPass`, D per vertex): a
+    /// terminator seen from its lit side is darker, from its dark side brighter. GPU solver only
+    /// (`--solver cpu` draws without it). Default: on for homogeneous materials, off for
+    /// heterogeneous ones (`translucent::defaults::TANGENTIAL_FLUX`; benches/RESULTS.md, "A
+    /// smooth tangential flux (wave 9)"). `--tangential-flux` alone is `on`.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"], num_args = 0..=1, default_missing_value = "on")]
+    pub tangential_flux: Option<String>,
     /// One bounce of exitance between display vertices (issue 12 item 5): light leaving the
     /// surface enters it again elsewhere (concave parts; eta = 1 outside). `local`: at bake time
     /// cosine-weighted rays per display vertex find the surface it sees (sparse form factors);

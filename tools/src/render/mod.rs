@@ -364,7 +364,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             roughness: frame_desc.roughness,
             radiance: frame_desc.radiance,
             exit_lobe: frame_desc.exit_lobe,
-            tangential_flux: args.tangential_flux,
+            tangential_flux: match args.tangential_flux.as_deref() {
+                Some(on) => on == "on",
+                None => translucent::defaults::TANGENTIAL_FLUX && field.is_homogeneous(),
+            },
             skip: !args.no_skip,
             single_scattering: settings.single_scattering,
             bounce: settings.bounce,
