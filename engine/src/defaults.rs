@@ -45,10 +45,11 @@ pub const SCATTER_SAMPLES: u32 = 8;
 /// benches/RESULTS.md, "Anti-aliasing"). A host (the viewer, Bevy, wgpu) draws its own pixels:
 /// the library has no supersampling, so their equivalent render commands name `--supersample 1`.
 pub const SUPERSAMPLE: u32 = 2;
-/// `translucent render`'s tangential flux toward the view for homogeneous materials
-/// ([`crate::object::ObjectParams::tangential_flux`], the smooth per-vertex gradient): better or
-/// level on every homogeneous reference (benches/RESULTS.md, "A smooth tangential flux (wave
-/// 9)"); off for heterogeneous ones (the split volume +1.1 points) and in
+/// `translucent render`'s tangential flux toward the view
+/// ([`crate::object::ObjectParams::tangential_flux`], the smooth per-vertex gradient with D per
+/// vertex): better or level within 0.1 point on every reference (benches/RESULTS.md, "A smooth
+/// tangential flux (wave 9)" and "Lead notes after the wave-9 merge": the split volume 9.0 ->
+/// 7.8 once heterogeneous materials took the second-collision source); off in
 /// [`crate::object::ObjectParams`]'s own default (the library's image tests keep their bounds).
 pub const TANGENTIAL_FLUX: bool = true;
 

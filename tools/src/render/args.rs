@@ -203,8 +203,8 @@ pub struct RenderArgs {
     /// this adds the part along the surface, -3 D grad_t phi . w_t / (4 pi) (from the screen
     /// gradient of the exitance per display vertex, `frame::TangentialPass`, D per vertex): a
     /// terminator seen from its lit side is darker, from its dark side brighter. GPU solver only
-    /// (`--solver cpu` draws without it). Default: on for homogeneous materials, off for
-    /// heterogeneous ones (`translucent::defaults::TANGENTIAL_FLUX`; benches/RESULTS.md, "A
+    /// (`--solver cpu` draws without it). Default: on
+    /// (`translucent::defaults::TANGENTIAL_FLUX`; benches/RESULTS.md, "A
     /// smooth tangential flux (wave 9)"). `--tangential-flux` alone is `on`.
     #[arg(long, value_name = "on|off", value_parser = ["on", "off"], num_args = 0..=1, default_missing_value = "on")]
     pub tangential_flux: Option<String>,

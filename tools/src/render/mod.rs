@@ -366,7 +366,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             exit_lobe: frame_desc.exit_lobe,
             tangential_flux: match args.tangential_flux.as_deref() {
                 Some(on) => on == "on",
-                None => translucent::defaults::TANGENTIAL_FLUX && field.is_homogeneous(),
+                None => translucent::defaults::TANGENTIAL_FLUX,
             },
             skip: !args.no_skip,
             single_scattering: settings.single_scattering,

@@ -189,10 +189,9 @@ impl Setup {
             radiance: self.frame.radiance,
             exit_lobe: self.frame.exit_lobe,
             skip: state.skip,
-            // render's default (QuadGraph, homogeneous; the viewer has no option for it).
+            // render's default (QuadGraph; the viewer has no option for it).
             tangential_flux: translucent::defaults::TANGENTIAL_FLUX
-                && state.method_name() == "quadgraph"
-                && self.field(state).map_or(true, |f| f.is_homogeneous()),
+                && state.method_name() == "quadgraph",
             ..settings.object_params()
         }
     }
