@@ -67,8 +67,30 @@ pub enum SolverError {
         cycles: usize,
         hint: &'static str,
     },
+    /// The GPU multigrid's cycles stopped Diverged: a relative residual above the divergence
+    /// bound, or a non-finite one (`multigrid/check.comp` logs NaN/Inf as the float maximum).
+    #[error("solver: GPU multigrid diverged: relative residual {} after {cycles} cycles (start {}) on {levels} levels, coarsest level {coarsest_nodes} nodes, caught by the finest level's residual check; no image is written: use --schedule cascade, or more --levels so the coarsest level is small", describe_residual(*residual), describe_residual(*start_residual))]
+    GpuDiverged {
+        residual: f64,
+        start_residual: f64,
+        cycles: usize,
+        levels: usize,
+        coarsest_nodes: usize,
+    },
     #[error(transparent)]
     Dipole(#[from] dipole::DipoleError),
+}
+
+/// A relative residual for an error message: `non-finite` where `multigrid/check.comp` logged
+/// a NaN/Inf as the float maximum.
+fn describe_residual(r: f64) -> String {
+    // why: check.comp writes 3.4e38 for NaN/Inf; no finite relative residual comes near it.
+    const NON_FINITE_MARK: f64 = 3.0e38;
+    if !r.is_finite() || r >= NON_FINITE_MARK {
+        "non-finite (NaN/Inf)".to_string()
+    } else {
+        format!("{r:.2e}")
+    }
 }
 
 impl SolverError {

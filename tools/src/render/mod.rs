@@ -466,6 +466,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     .multigrid_report(&ctx)?,
                 _ => None,
             };
+            // A diverged (or non-finite) solve must not reach an image: fail before any output.
+            if let Some(m) = &mg_report {
+                let solve = translucent
+                    .quadgraph()
+                    .context("the QuadGraph method reports the solve")?
+                    .solve();
+                m.check(solve.level_count(), solve.node_count(0))
+                    .with_context(|| format!("frame {i}"))?;
+            }
             let converged = match &mg_report {
                 Some(m) => Some(m.converged),
                 None => solve.map(|s| s.converged()),

@@ -3,6 +3,32 @@
 
 use super::*;
 
+impl GpuMultigridReport {
+    /// `Err(SolverError::GpuDiverged)` when the solve ended Diverged or with a non-finite
+    /// residual (its solution must not reach an image); `levels` and `coarsest_nodes` name the
+    /// hierarchy in the message.
+    ///
+    /// ```
+    /// # use translucent::solver::gpu::multigrid::GpuMultigridReport;
+    /// # fn f(report: &GpuMultigridReport) -> Result<(), translucent::solver::SolverError> {
+    /// report.check(3, 1_100)?;
+    /// # Ok(()) }
+    /// ```
+    pub fn check(&self, levels: usize, coarsest_nodes: usize) -> Result<(), SolverError> {
+        let finite = self.residual.is_finite() && self.start_residual.is_finite();
+        if self.state != CycleState::Diverged && finite {
+            return Ok(());
+        }
+        Err(SolverError::GpuDiverged {
+            residual: self.residual,
+            start_residual: self.start_residual,
+            cycles: self.cycles.len(),
+            levels,
+            coarsest_nodes,
+        })
+    }
+}
+
 impl GpuMultigrid {
     /// Whether the CG starts with one pass forming the start's residual, its norm and the
     /// iterate (`krylov.comp` mode 3) instead of a residual, a norm and a copy: with CG and a
