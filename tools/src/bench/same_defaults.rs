@@ -114,9 +114,11 @@ fn render_view_and_the_library_resolve_the_same_defaults() {
     ] {
         assert_eq!(render(options).bounce, BounceMode::Off, "{options:?}");
     }
+    // Heterogeneous materials take the second-collision source too (wave 9, benches/RESULTS.md
+    // "The split .vol sphere, decomposed").
     assert_eq!(
         render(&["--material", "agate"]).source,
-        Source::BoundaryFlux
+        Source::SecondCollision
     );
 }
 

@@ -650,6 +650,7 @@ impl GpuMultigrid {
             pipelines.push((pipeline, set));
         }
         let (levels, coarse_steps) = Self::intervals(hierarchy, params, &offsets);
+        let single_level = levels.len() == 1;
         Ok(Self {
             params: params.clone(),
             levels,
@@ -670,8 +671,10 @@ impl GpuMultigrid {
             history: Cell::new(0),
             bytes,
             buffer_bytes,
-            coarse_in_one_dispatch: std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref()
-                != Ok("split"),
+            // Not on a single level: there the coarsest level is the matrix-free finest one,
+            // whose rows `coarse.comp` cannot read (the 1-level render diverged).
+            coarse_in_one_dispatch: !single_level
+                && std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref() != Ok("split"),
             fine_scopes: std::env::var("TRANSLUCENT_MULTIGRID_SCOPES").as_deref() == Ok("1"),
             relax_finest: std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() == Ok("fused"),
         })
