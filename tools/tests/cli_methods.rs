@@ -17,7 +17,7 @@ fn split_volume() -> String {
 fn render_method_auto_picks_by_the_scene_and_reports_why() {
     let dir = scratch("auto");
     let volume = split_volume();
-    // A heterogeneous material: voxel (rule 2), at a small grid so the test stays fast.
+    // A heterogeneous material: quadgraph (rule 2), on a small lattice so the test stays fast.
     let png = dir.join("split.png");
     let v = json_of(&translucent(
         &[
@@ -30,8 +30,10 @@ fn render_method_auto_picks_by_the_scene_and_reports_why() {
             "20",
             "--volume",
             &volume,
-            "--voxels",
+            "--resolution",
             "12",
+            "--levels",
+            "2",
             "--width",
             "48",
             "--height",
@@ -42,8 +44,8 @@ fn render_method_auto_picks_by_the_scene_and_reports_why() {
         ],
         &dir,
     ));
-    assert_eq!(v["method"], "voxel", "{v}");
-    assert_eq!(v["method_choice"]["method"], "voxel", "{v}");
+    assert_eq!(v["method"], "quadgraph", "{v}");
+    assert_eq!(v["method_choice"]["method"], "quadgraph", "{v}");
     let reason = v["method_choice"]["reason"].as_str().expect("reason");
     assert!(reason.contains("heterogeneous"), "{reason}");
     assert!(png.is_file());
