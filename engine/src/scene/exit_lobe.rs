@@ -62,7 +62,6 @@ pub const OWN_SOURCE_SLOPE_SHARE: f64 = 0.0;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ExitLobe {
     /// Lambertian inside, F_t(theta_o) outside (DESIGN 2.6).
-    #[default]
     Lambert,
     /// The P1 radiance's slope, b = 3 / (2 A(eta)).
     P1,
@@ -70,7 +69,9 @@ pub enum ExitLobe {
     Fitted,
     /// A slope per surface node from its diffused share (see the module doc).
     Node,
-    /// [`ExitLobe::Node`] with the own light's shape from its incidence cosine (module doc).
+    /// [`ExitLobe::Node`] with the own light's shape from its incidence cosine (module doc); the
+    /// default ([`crate::defaults::EXIT_LOBE`]).
+    #[default]
     Chandra,
 }
 
