@@ -54,7 +54,10 @@ pub const SUPERSAMPLE: u32 = 2;
 /// [`crate::object::ObjectParams`]'s own default (the library's image tests keep their bounds).
 pub const TANGENTIAL_FLUX: bool = true;
 
-/// The exit lobe of render, view, bench and the library ([`ExitLobe`]'s default; `--exit-lobe`):
+/// The exit lobe of render, view, bench and the library's real-time defaults
+/// ([`Settings::object_params`], [`ObjectParams::for_material`]; `--exit-lobe`;
+/// [`ObjectParams::default`] keeps DESIGN 2.6's Lambert, as it keeps the tangential flux off, so
+/// the library's image tests keep their bounds):
 /// the node lobe (P1 for diffused light) with each node's own light drawn by Chandrasekhar's
 /// half-space law at eta 1, the bounce's light Lambertian ([`ExitLobe::with_bounce`]). Against
 /// the 13 path-traced references (benches/RESULTS.md, "The Chandrasekhar exit lobe as the
@@ -345,6 +348,7 @@ impl Settings {
             single_scattering: self.single_scattering,
             bounce: self.bounce,
             diffusion: self.diffusion,
+            exit_lobe: EXIT_LOBE,
             ..ObjectParams::base()
         }
     }

@@ -61,7 +61,8 @@ pub const OWN_SOURCE_SLOPE_SHARE: f64 = 0.0;
 /// The angular shape of the exitance's radiance (CLI `--exit-lobe`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ExitLobe {
-    /// Lambertian inside, F_t(theta_o) outside (DESIGN 2.6).
+    /// Lambertian inside, F_t(theta_o) outside (DESIGN 2.6); [`crate::ObjectParams::default`]'s.
+    #[default]
     Lambert,
     /// The P1 radiance's slope, b = 3 / (2 A(eta)).
     P1,
@@ -70,8 +71,7 @@ pub enum ExitLobe {
     /// A slope per surface node from its diffused share (see the module doc).
     Node,
     /// [`ExitLobe::Node`] with the own light's shape from its incidence cosine (module doc); the
-    /// default ([`crate::defaults::EXIT_LOBE`]).
-    #[default]
+    /// real-time default ([`crate::defaults::EXIT_LOBE`]).
     Chandra,
 }
 
