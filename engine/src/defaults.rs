@@ -29,6 +29,7 @@ use crate::material::{DiffusionCoefficient, MaterialField};
 use crate::mesh::TriMesh;
 use crate::object::ObjectParams;
 use crate::quadgraph::surface_samples::surface_relief_degrees;
+use crate::scene::ExitLobe;
 use crate::solver::gpu::{GpuSolveParams, HeterogeneousWeights, Precision};
 use crate::solver::multigrid::{MultigridParams, WarmStart};
 use crate::solver::transport::{ExitQuery, Source, SurfaceReconstruction};
@@ -52,6 +53,19 @@ pub const SUPERSAMPLE: u32 = 2;
 /// 7.8 once heterogeneous materials took the second-collision source); off in
 /// [`crate::object::ObjectParams`]'s own default (the library's image tests keep their bounds).
 pub const TANGENTIAL_FLUX: bool = true;
+
+/// The exit lobe of render, view, bench and the library's real-time defaults
+/// ([`Settings::object_params`], [`ObjectParams::for_material`]; `--exit-lobe`;
+/// [`ObjectParams::default`] keeps DESIGN 2.6's Lambert, as it keeps the tangential flux off, so
+/// the library's image tests keep their bounds):
+/// the node lobe (P1 for diffused light) with each node's own light drawn by Chandrasekhar's
+/// half-space law at eta 1, the bounce's light Lambertian ([`ExitLobe::with_bounce`]). Against
+/// the 13 path-traced references (benches/RESULTS.md, "The Chandrasekhar exit lobe as the
+/// default"): marble front 4.8 -> 2.5, plate 19.7 -> 15.2, torus 9.0 -> 7.9, 10 of 13 better or
+/// level; the U-block worse (front 9.1 -> 10.3, back 15.1 -> 17.8) where its display vertices are
+/// shared across the 90-degree edges (with the faces' vertices split: back 12.9 Lambert, 12.7
+/// chandra).
+pub const EXIT_LOBE: ExitLobe = ExitLobe::Chandra;
 
 /// The light source for homogeneous materials (benches/RESULTS.md, "Model terms on the GPU (wave
 /// 5)": against the path-traced references the second-collision source is better than the
@@ -334,6 +348,7 @@ impl Settings {
             single_scattering: self.single_scattering,
             bounce: self.bounce,
             diffusion: self.diffusion,
+            exit_lobe: EXIT_LOBE,
             ..ObjectParams::base()
         }
     }

@@ -24,6 +24,9 @@ layout(location = 4) in float v_share;
 layout(location = 5) in vec3 v_gradient_r;
 layout(location = 6) in vec3 v_gradient_g;
 layout(location = 7) in vec3 v_gradient_b;
+// The exitance the method wrote before the bounce added to it (frame::Method::exit_share's rgb;
+// read with pc.lobe_bounce).
+layout(location = 8) in vec3 v_before_bounce;
 
 layout(set = 0, binding = 0) uniform ShadeUniforms {
     mat4 view_proj;
@@ -58,6 +61,10 @@ layout(push_constant) uniform ShadePush {
     float lobe_slope;
     float lobe_k;
     float lobe_own;
+    // 1: the lobe shapes the method's exitance v_before_bounce only; what the bounce added (light
+    // that arrived diffusely from the surface elsewhere) leaves Lambertian
+    // (scene::ExitLobe::with_bounce).
+    uint lobe_bounce;
 } pc;
 
 layout(location = 0) out vec4 out_radiance;
@@ -185,6 +192,15 @@ void main() {
         // shape instead of Lambert, node + (1 - s) (g_own - 1) (scene::ExitLobe::factor_lit).
         float s = clamp(v_share, 0.0, 1.0);
         lobe = max(node + (1.0 - s) * (own_light_factor(v_position, n, n_v) - 1.0), vec3(0.0));
+    }
+    if (pc.lobe_bounce != 0u) {
+        // The bounce's part of the exitance is light that re-entered from the hemisphere the
+        // surface sees: own light under diffuse incidence, whose multiple-scattered reflection
+        // is flat (Chandrasekhar's isotropic illumination; scene::ExitLobe::with_bounce).
+        vec3 x = max(v_exitance, vec3(0.0));
+        vec3 solved = clamp(v_before_bounce, vec3(0.0), x);
+        vec3 w = mix(vec3(1.0), solved / max(x, vec3(1e-30)), greaterThan(x, vec3(0.0)));
+        lobe = w * lobe + (1.0 - w);
     }
     vec3 diffused = lobe * max(v_exitance, vec3(0.0));
     // The tangential flux J_t = -D grad_t phi of the diffusion (P1: L = (phi + 3 J . w) / (4 pi)

@@ -5,8 +5,10 @@ layout(location = 1) in vec3 normal;
 layout(location = 2) in vec3 exitance;
 // Single scattering X per vertex (DESIGN 2.8; frame::SingleScatteringPass, zero while off).
 layout(location = 3) in vec4 scattered;
-// The per-node exit lobe's diffused share (frame::Method::exit_share; 0 when the method has none).
-layout(location = 4) in float share;
+// The per-node exit lobe's stream (frame::Method::exit_share): a the diffused share (0 when the
+// method has none), rgb the exitance the method wrote before the bounce added to it (the
+// QuadGraph solver's own vertex J+; read only with ShadePush::lobe_bounce).
+layout(location = 4) in vec4 share;
 // The tangential flux's f D grad X per channel (frame::TangentialPass; unread without it).
 layout(location = 5) in vec3 gradient_r;
 layout(location = 6) in vec3 gradient_g;
@@ -35,13 +37,15 @@ layout(location = 4) out float v_share;
 layout(location = 5) out vec3 v_gradient_r;
 layout(location = 6) out vec3 v_gradient_g;
 layout(location = 7) out vec3 v_gradient_b;
+layout(location = 8) out vec3 v_before_bounce;
 
 void main() {
     v_position = position;
     v_normal = normal;
     v_exitance = exitance;
     v_scattered = scattered.rgb;
-    v_share = share;
+    v_share = share.a;
+    v_before_bounce = share.rgb;
     v_gradient_r = gradient_r;
     v_gradient_g = gradient_g;
     v_gradient_b = gradient_b;

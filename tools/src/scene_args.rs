@@ -32,9 +32,9 @@ pub struct SceneArgs {
     /// (half the P1 slope, fitted on Monte Carlo), `node` (a slope per surface node: P1 for light
     /// diffused from elsewhere, Lambert for a node's own; translucent::scene::ExitLobe), `chandra`
     /// (`node` with the own light's shape from its incidence cosine, Chandrasekhar's half-space
-    /// law, at eta 1; translucent::scene::own_lobe). `bench` sweeps a comma-separated list
-    /// (`lambert,p1,fitted,node,chandra`); a frame takes one.
-    #[arg(long, default_value = "lambert", value_parser = exit_lobe_list)]
+    /// law, at eta 1; translucent::scene::own_lobe; the default, translucent::defaults::EXIT_LOBE).
+    /// `bench` sweeps a comma-separated list (`lambert,p1,fitted,node,chandra`); a frame takes one.
+    #[arg(long, default_value = "chandra", value_parser = exit_lobe_list)]
     pub exit_lobe: String,
     /// No Cook-Torrance specular (and no shadow map pass).
     #[arg(long)]

@@ -136,6 +136,13 @@ pub trait Method: Send {
         None
     }
 
+    /// Whether [`Self::exit_share`]'s first three floats per vertex hold the exitance the method
+    /// wrote (before [`super::bounce`] adds to it in place): the shading then draws the bounced
+    /// part with the Lambertian lobe ([`crate::scene::ExitLobe::with_bounce`]).
+    fn exit_share_carries_exitance(&self) -> bool {
+        false
+    }
+
     /// For method-specific reports (e.g. [`super::QuadGraphMethod::report`]).
     fn as_any(&self) -> &dyn std::any::Any;
 

@@ -512,6 +512,12 @@ impl Method for QuadGraphMethod {
         Some(self.solve.vertex_j_plus_buffer())
     }
 
+    /// The solver's own vertex J+ (`GpuDiffusion::vertex_j_plus_buffer`): the same
+    /// values the mesh's exitance takes, before the bounce.
+    fn exit_share_carries_exitance(&self) -> bool {
+        true
+    }
+
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }

@@ -84,6 +84,12 @@ impl TranslucentObject {
             lobe_slope: lobe_slope as f32,
             lobe_k: lobe_k as f32,
             lobe_own: lobe_own as f32,
+            lobe_bounce: u32::from(
+                self.bounce.is_some()
+                    && self.params.exit_lobe.reads_share()
+                    && self.method.exit_share().is_some()
+                    && self.method.exit_share_carries_exitance(),
+            ),
         };
 
         let eye = glam::Vec3::from_slice(&uniforms.camera_pos[..3]);

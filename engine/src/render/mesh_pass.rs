@@ -125,6 +125,11 @@ pub struct ShadePush {
     pub lobe_slope: f32,
     pub lobe_k: f32,
     pub lobe_own: f32,
+    /// 1: the exit lobe shapes only the exitance the method wrote (the share stream's rgb); what
+    /// the bounce added to it ([`crate::frame::bounce`]: light that arrived diffusely from the
+    /// surface elsewhere) leaves with the Lambertian lobe
+    /// ([`crate::scene::ExitLobe::with_bounce`]). 0: the lobe shapes the whole exitance.
+    pub lobe_bounce: u32,
 }
 
 /// Where [`MeshPass::record_into`] draws: views already in attachment layouts.
@@ -212,7 +217,8 @@ impl MeshPass {
                 ],
                 // Single scattering per vertex (DESIGN 2.8, `frame::SingleScatteringPass`): X
                 // added to J+ (zero while the pass is off); then the per-node exit lobe's
-                // diffused share (`frame::Method::exit_share`: the 4th float of 16 bytes).
+                // diffused share (`frame::Method::exit_share`: the 4th float of 16 bytes; the
+                // first three the exitance before the bounce, read with `ShadePush::lobe_bounce`).
                 extra_streams: &[
                     (
                         16,
@@ -226,8 +232,8 @@ impl MeshPass {
                         16,
                         &[VertexAttribute {
                             location: 4,
-                            format: vk::Format::R32_SFLOAT,
-                            offset: 12,
+                            format: vk::Format::R32G32B32A32_SFLOAT,
+                            offset: 0,
                         }],
                     ),
                     // The tangential flux's f D grad X per vertex (`frame::TangentialPass`, 3 x

@@ -61,7 +61,7 @@ pub const OWN_SOURCE_SLOPE_SHARE: f64 = 0.0;
 /// The angular shape of the exitance's radiance (CLI `--exit-lobe`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ExitLobe {
-    /// Lambertian inside, F_t(theta_o) outside (DESIGN 2.6).
+    /// Lambertian inside, F_t(theta_o) outside (DESIGN 2.6); [`crate::ObjectParams::default`]'s.
     #[default]
     Lambert,
     /// The P1 radiance's slope, b = 3 / (2 A(eta)).
@@ -70,7 +70,8 @@ pub enum ExitLobe {
     Fitted,
     /// A slope per surface node from its diffused share (see the module doc).
     Node,
-    /// [`ExitLobe::Node`] with the own light's shape from its incidence cosine (module doc).
+    /// [`ExitLobe::Node`] with the own light's shape from its incidence cosine (module doc); the
+    /// real-time default ([`crate::defaults::EXIT_LOBE`]).
     Chandra,
 }
 
@@ -175,6 +176,38 @@ impl ExitLobe {
         };
         let g = own.factor(cos_o, omega);
         g.map(|g| (node + (1.0 - s) * (g - 1.0)).max(0.0))
+    }
+
+    /// The factor per channel on the Lambertian radiance of an exitance `after` of which the
+    /// method wrote `before` and the bounce between surface points ([`crate::frame::bounce`])
+    /// added the rest: `lobe` (this lobe's factor, e.g. [`Self::factor_lit`]) on the method's
+    /// part, Lambert on the bounce's, `w lobe + (1 - w)` with `w = before / after` per channel
+    /// (`shade_mesh.frag` with `lobe_bounce`). The bounce's light re-entered from the hemisphere the
+    /// surface sees: own light under diffuse incidence, which a half-space reflects flat
+    /// (Chandrasekhar's law for isotropic illumination, `1 - sqrt(1 - omega) H(mu)`: within 2.2%
+    /// of Lambert at omega 0.999, the P1 lobe 26% off). The node's diffused share, from the
+    /// solve, does not know that light: without this the bounce on a shadowed floor took the P1
+    /// lobe of share 1 (benches/RESULTS.md, "The Chandrasekhar exit lobe as the default").
+    /// Keeps the exitance: each part's lobe carries its own.
+    pub fn with_bounce(lobe: [f64; 3], before: [f64; 3], after: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            let x = if after[c].is_nan() {
+                0.0
+            } else {
+                after[c].max(0.0)
+            };
+            let w = if x > 0.0 {
+                let solved = if before[c].is_nan() {
+                    0.0
+                } else {
+                    before[c].clamp(0.0, x)
+                };
+                solved / x
+            } else {
+                1.0
+            };
+            w * lobe[c] + (1.0 - w)
+        })
     }
 
     /// [`Self::factor`] at a node of diffused share `share` ([`diffused_share`]).
@@ -418,6 +451,86 @@ mod tests {
         // Half diffused in every channel.
         let half = diffused_share([1.0, 2.0, 4.0], [0.5, 1.0, 2.0], [1.0; 3], [1.0; 3]);
         assert!((half - 0.5).abs() < 1e-12);
+    }
+
+    /// Chandrasekhar's diffuse reflection of unit isotropic radiance by an isotropic,
+    /// index-matched half space of albedo `omega` toward view cosine `mu`, single scattering
+    /// included: `I(mu) = (omega / 2) H(mu) int_0^1 mu0 H(mu0) / (mu + mu0) dmu0` (ch. IV eq. 31
+    /// summed over the incident hemisphere; midpoint rule), the shape of the light the bounce
+    /// adds.
+    fn isotropic_reflection(mu: f64, omega: f64) -> f64 {
+        use super::super::own_lobe::h_function;
+        const STEPS: usize = 2000;
+        let integral: f64 = (0..STEPS)
+            .map(|i| {
+                let mu0 = (i as f64 + 0.5) / STEPS as f64;
+                mu0 * h_function(mu0, omega) / (mu + mu0) / STEPS as f64
+            })
+            .sum();
+        0.5 * omega * h_function(mu, omega) * integral
+    }
+
+    /// The bounce's lobe (Lambert) against Chandrasekhar's isotropic illumination at marble's
+    /// albedo: relative RMS 2.2% at omega 0.999 (Hapke's H); the P1 lobe of share 1 (what the
+    /// shading drew for bounced light before) 26%.
+    const BOUNCE_SHAPE_TOL: f64 = 0.03;
+    const BOUNCE_P1_MIN: f64 = 0.2;
+
+    #[test]
+    fn bounced_light_leaves_with_the_isotropic_illumination_shape() {
+        const BINS: usize = 100;
+        let eta = 1.0;
+        let omega = 0.999;
+        let mus: Vec<f64> = (0..BINS).map(|i| (i as f64 + 0.5) / BINS as f64).collect();
+        let reflected: Vec<f64> = mus
+            .iter()
+            .map(|&mu| isotropic_reflection(mu, omega))
+            .collect();
+        // Normalized like a lobe: 2 int I mu dmu = 1.
+        let norm = 2.0 * mus.iter().zip(&reflected).map(|(m, r)| m * r).sum::<f64>() / BINS as f64;
+        let rms = |lobe: &dyn Fn(f64) -> f64| {
+            let e2: f64 = mus
+                .iter()
+                .zip(&reflected)
+                .map(|(&mu, r)| (lobe(mu) / (r / norm) - 1.0).powi(2))
+                .sum();
+            (e2 / BINS as f64).sqrt()
+        };
+        // A vertex whose exitance is all the bounce's, shaded with the node lobe of share 1.
+        let all_bounce = |mu: f64| {
+            ExitLobe::with_bounce(
+                [ExitLobe::Node.factor_at(eta, mu, 1.0); 3],
+                [0.0; 3],
+                [2.0; 3],
+            )[0]
+        };
+        let solved_only = |mu: f64| {
+            ExitLobe::with_bounce(
+                [ExitLobe::Node.factor_at(eta, mu, 1.0); 3],
+                [2.0; 3],
+                [2.0; 3],
+            )[0]
+        };
+        let (bounce, p1) = (rms(&all_bounce), rms(&solved_only));
+        assert!(bounce < BOUNCE_SHAPE_TOL, "bounce lobe {bounce}");
+        assert!(p1 > BOUNCE_P1_MIN, "the case tells the lobes apart: {p1}");
+
+        // A mixed vertex keeps the exitance, per channel; nothing negative or NaN comes out.
+        let lambert = exitance(eta, |_| 1.0);
+        for (before, after) in [([1.0, 0.5, 0.0], [2.0, 0.5, 1.0]), ([3.0; 3], [1.0; 3])] {
+            for c in 0..3 {
+                let g = |mu: f64| {
+                    ExitLobe::with_bounce([ExitLobe::P1.factor(eta, mu); 3], before, after)[c]
+                };
+                let m = exitance(eta, g);
+                assert!(
+                    (m / lambert - 1.0).abs() < QUADRATURE_TOL,
+                    "{before:?} {after:?} {c}"
+                );
+            }
+        }
+        let odd = ExitLobe::with_bounce([0.5; 3], [f64::NAN, -1.0, 1.0], [1.0, f64::NAN, -2.0]);
+        assert!(odd.iter().all(|f| f.is_finite() && *f >= 0.0), "{odd:?}");
     }
 
     #[test]

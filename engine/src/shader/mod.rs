@@ -187,9 +187,10 @@ mod tests {
         assert_eq!(names, vec![("src", 0), ("dst", 1)]);
         let frag = Reflection::new(&embedded("mesh/shade_mesh.frag").expect("embedded"))
             .expect("reflects");
-        // ShadePush: eta, radiance_mode, roughness, specular, lobe_slope, lobe_k, lobe_own.
-        assert_eq!(frag.push_constant_size, Some(28));
-        assert_eq!(std::mem::size_of::<crate::render::ShadePush>(), 28);
+        // ShadePush: eta, radiance_mode, roughness, specular, lobe_slope, lobe_k, lobe_own,
+        // lobe_bounce.
+        assert_eq!(frag.push_constant_size, Some(32));
+        assert_eq!(std::mem::size_of::<crate::render::ShadePush>(), 32);
         assert!(frag.bindings.iter().any(|b| b.name == "shadow_map"
             && b.descriptor_type == ash::vk::DescriptorType::COMBINED_IMAGE_SAMPLER));
         let uniform = frag

@@ -119,7 +119,7 @@ pub(super) fn bench_bake(
             } else {
                 format!(" bounce {}", config.bounce.name())
             },
-            if config.exit_lobe == translucent::scene::ExitLobe::default() {
+            if config.exit_lobe == translucent::defaults::EXIT_LOBE {
                 String::new()
             } else {
                 format!(" lobe {}", config.exit_lobe.name())

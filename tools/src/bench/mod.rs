@@ -321,7 +321,7 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
     args.scene.lights()?;
     // The exit lobe is a sweep axis (`Config::exit_lobe`): the frame's is set per configuration.
     let mut frame_desc = crate::scene_args::SceneArgs {
-        exit_lobe: translucent::scene::ExitLobe::default().name().to_string(),
+        exit_lobe: translucent::defaults::EXIT_LOBE.name().to_string(),
         ..args.scene.clone()
     }
     .frame_desc()?;

@@ -163,6 +163,34 @@ fn bench_differs_from_render_only_by_its_documented_pins() {
     }
 }
 
+/// The exit lobe (not a [`Settings`] field: a shading choice, per frame): render's, bench's first
+/// configuration's and the library's real-time defaults' ([`ObjectParams::for_material`]) are
+/// [`translucent::defaults::EXIT_LOBE`].
+#[test]
+fn render_bench_and_the_library_share_the_exit_lobe() {
+    use translucent::defaults::EXIT_LOBE;
+    let Command::Render(args) = parse(&["render", "--out", "x.png"]) else {
+        unreachable!("render")
+    };
+    assert_eq!(args.scene.exit_lobes().expect("lobe"), vec![EXIT_LOBE]);
+    let Command::Bench(args) = parse(&["bench", "--out", "d"]) else {
+        unreachable!("bench")
+    };
+    let sweep = Sweep::parse(&args).expect("sweep");
+    assert_eq!(sweep.configs()[0].exit_lobe, EXIT_LOBE);
+    for material in MATERIALS {
+        let Command::Render(args) = parse(&[&["render", "--out", "x.png"][..], material].concat())
+        else {
+            unreachable!("render")
+        };
+        let field = args
+            .material
+            .field(args.object.size_mm, crate::render::DEFAULT_MATERIAL)
+            .expect("material");
+        assert_eq!(ObjectParams::for_material(&field).exit_lobe, EXIT_LOBE);
+    }
+}
+
 #[test]
 fn the_bench_defaults_are_the_library_defaults() {
     let library = Settings::default();
