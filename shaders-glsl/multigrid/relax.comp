@@ -60,7 +60,7 @@ vec3 row_residual(uint i) {
 }
 
 // The step at node i from its block's solve z: d = alpha d + beta z, x_out = x + d.
-void step(uint i, vec3 z) {
+void chebyshev_step(uint i, vec3 z) {
     // alpha = 0 on a run's first step: d may hold the last visit's values (not read).
     vec3 di = pc.beta.rgb * z;
     if (pc.alpha != vec4(0.0)) {
@@ -82,7 +82,7 @@ void main() {
     vec3 ri = row_residual(i);
     vec3 a = diag.v[i].rgb;
     if (p == NO_NODE) {
-        step(i, ri / a);
+        chebyshev_step(i, ri / a);
         return;
     }
     bool mutual = partner.v[p] == i;
@@ -93,9 +93,9 @@ void main() {
     vec3 b = RGB(partner_value, i);
     vec3 rp = row_residual(p);
     vec3 det = a * dp - b * b;
-    step(i, (dp * ri - b * rp) / det);
+    chebyshev_step(i, (dp * ri - b * rp) / det);
     if (mutual) {
         // partner_value is the block's one off-diagonal entry, stored at both nodes.
-        step(p, (a * rp - b * ri) / det);
+        chebyshev_step(p, (a * rp - b * ri) / det);
     }
 }
