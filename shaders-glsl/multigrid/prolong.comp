@@ -1,7 +1,8 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Prolongation (paper Eq. 10 applied to a correction): x_fine += sum_k w_k x_coarse[link_k]
-// (mode 1: x_fine = ..., full multigrid's start of a level).
+// (mode 1: x_fine = ..., full multigrid's start of a level; mode 2: r_fine = x_fine + ..., where a
+// fused post-smoothing run of an odd count of steps starts, `relax.comp`).
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
@@ -12,6 +13,7 @@ layout(set = 0, binding = 0, std430) buffer Xs { float v[]; } x;
 layout(constant_id = 1) const uint PACKED_LINKS = 1u;
 layout(set = 0, binding = 1, std430) readonly buffer Links { uint v[]; } links;
 layout(set = 0, binding = 2, std430) readonly buffer LinkWeights { float v[]; } link_weights;
+layout(set = 0, binding = 3, std430) writeonly buffer Rs { float v[]; } r;
 
 void main() {
     if (gl_GlobalInvocationID.x >= pc.count) {
@@ -30,5 +32,9 @@ void main() {
             }
         }
     }
-    SET_RGB(x, i, acc);
+    if (pc.mode == 2u) {
+        SET_RGB(r, i, acc);
+    } else {
+        SET_RGB(x, i, acc);
+    }
 }

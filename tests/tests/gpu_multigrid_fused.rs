@@ -1,6 +1,7 @@
 //! The GPU multigrid's fused kernels (issue 13, time per work unit; benches/RESULTS.md "Time per
 //! work unit (wave 9)"): the coarsest level solved by one workgroup (`multigrid/coarse.comp`) and
-//! the finest level's smoothing steps in fused pairs (`multigrid/relax.comp`) do the arithmetic of
+//! the smoothing steps as fused passes (`multigrid/relax.comp`, finest level or every level above
+//! the coarsest; benches/RESULTS.md "Cheaper multigrid passes (wave 10)") do the arithmetic of
 //! the split kernels (`residual.comp` + `smooth.comp` per step): the same residual after every
 //! cycle to f32 rounding, the same work units, the same J+; and both reach the f64 exact solve.
 //! Cold and warm solves, on the matrix-free finest level (the default) and on its compressed
@@ -8,7 +9,7 @@
 //!
 //! One test in this binary: the kernels are chosen by environment variables
 //! (`TRANSLUCENT_MULTIGRID_COARSE=split` against the default one-workgroup coarsest solve,
-//! `TRANSLUCENT_MULTIGRID_RELAX=fused` against the default split steps; read when the multigrid
+//! `TRANSLUCENT_MULTIGRID_RELAX=fused|all` against the default split steps; read when the multigrid
 //! is created), which no other test of this process may see.
 
 use translucent::material::{Material, MaterialField};
@@ -96,13 +97,18 @@ fn solves(
     out
 }
 
-fn set_split(split: bool) {
-    if split {
-        std::env::set_var("TRANSLUCENT_MULTIGRID_COARSE", "split");
-        std::env::set_var("TRANSLUCENT_MULTIGRID_RELAX", "split");
-    } else {
-        std::env::remove_var("TRANSLUCENT_MULTIGRID_COARSE");
-        std::env::set_var("TRANSLUCENT_MULTIGRID_RELAX", "fused");
+/// The split kernels (`None`), or the one-workgroup coarsest solve with the fused relaxation on
+/// `Some(levels)` (`fused`: the finest level, `all`: every level above the coarsest).
+fn set_kernels(relax: Option<&str>) {
+    match relax {
+        None => {
+            std::env::set_var("TRANSLUCENT_MULTIGRID_COARSE", "split");
+            std::env::set_var("TRANSLUCENT_MULTIGRID_RELAX", "split");
+        }
+        Some(levels) => {
+            std::env::remove_var("TRANSLUCENT_MULTIGRID_COARSE");
+            std::env::set_var("TRANSLUCENT_MULTIGRID_RELAX", levels);
+        }
     }
 }
 
@@ -119,13 +125,19 @@ fn fused_kernels_do_the_split_kernels_arithmetic() {
         &CpuSolveParams::default(),
     )
     .expect("exact");
-    for finest in [FinestOperator::Graph, FinestOperator::Csr] {
-        set_split(true);
+    // Every level's fused steps (`all`: level 1's Galerkin fp16 rows too) on the default finest
+    // operator only (the test's time).
+    for (finest, relax) in [
+        (FinestOperator::Graph, "fused"),
+        (FinestOperator::Csr, "fused"),
+        (FinestOperator::Graph, "all"),
+    ] {
+        set_kernels(None);
         let split = solves(&t.ctx, &graph, &field, finest);
-        set_split(false);
+        set_kernels(Some(relax));
         let fused = solves(&t.ctx, &graph, &field, finest);
         for ((j_split, split), (j_fused, fused)) in split.iter().zip(&fused) {
-            let what = format!("{finest:?}, warm {}", split.warm);
+            let what = format!("{finest:?}, {relax}, warm {}", split.warm);
             assert!(
                 fused.converged && split.converged,
                 "{what}: {fused:?} / {split:?}"
@@ -165,7 +177,7 @@ fn fused_kernels_do_the_split_kernels_arithmetic() {
         );
         assert!(
             d < tol::GPU_VS_EXACT,
-            "{finest:?}: J+ {d:.2e} from the f64 exact solve"
+            "{finest:?}, {relax}: J+ {d:.2e} from the f64 exact solve"
         );
     }
     t.finish();

@@ -93,6 +93,32 @@ use pack::pack_operators;
 pub use probe::FinestProducts;
 use recorder::Recorder;
 
+/// The levels whose Chebyshev steps run as one `multigrid/relax.comp` pass each (the residual
+/// formed where the step uses it, not stored) instead of a residual pass and a step pass
+/// (benches/RESULTS.md "Cheaper multigrid passes (wave 10)": fewer passes, but slower on
+/// lavapipe). The environment variable `TRANSLUCENT_MULTIGRID_RELAX`, read when the solver is
+/// created, picks it for measurements: unset or `split` ([`Self::None`], the default), `fused`
+/// ([`Self::Finest`]), `all` ([`Self::AboveCoarsest`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum RelaxLevels {
+    /// Two passes per step everywhere.
+    None,
+    /// The finest level's steps fused.
+    Finest,
+    /// Every level's but the coarsest (whose solve is `coarse.comp`'s).
+    AboveCoarsest,
+}
+
+impl RelaxLevels {
+    fn from_env() -> Self {
+        match std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() {
+            Ok("fused") => Self::Finest,
+            Ok("all") => Self::AboveCoarsest,
+            _ => Self::None,
+        }
+    }
+}
+
 pub const PASS_MG_START: &str = "multigrid start";
 pub const PASS_MG_CYCLES: &str = "multigrid v-cycles";
 pub const PASS_MG_OUTPUT: &str = "multigrid output";
@@ -255,11 +281,8 @@ pub struct GpuMultigrid {
     /// Profiler scopes per level and CG iteration inside the solve's three
     /// (`TRANSLUCENT_MULTIGRID_SCOPES=1`; each costs two timestamps, so off by default).
     fine_scopes: bool,
-    /// The finest level's smoothing steps in fused pairs (`multigrid/relax.comp`,
-    /// `TRANSLUCENT_MULTIGRID_RELAX=fused`), else a residual and a step pass each (the default:
-    /// the fused pass forms a paired node's partner row as well, and measured no faster on
-    /// lavapipe; benches/RESULTS.md "Time per work unit (wave 9)").
-    relax_finest: bool,
+    /// The levels whose smoothing steps run as one fused pass each (`multigrid/relax.comp`).
+    relax: RelaxLevels,
 }
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
@@ -676,7 +699,7 @@ impl GpuMultigrid {
             coarse_in_one_dispatch: !single_level
                 && std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref() != Ok("split"),
             fine_scopes: std::env::var("TRANSLUCENT_MULTIGRID_SCOPES").as_deref() == Ok("1"),
-            relax_finest: std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() == Ok("fused"),
+            relax: RelaxLevels::from_env(),
         })
     }
 

@@ -17,6 +17,9 @@ pub(super) const LOCAL: usize = 9;
 pub(super) const COARSE: usize = 10;
 pub(super) const RELAX: usize = 11;
 
+/// Mode of `multigrid/prolong.comp`: r = x + P e on the fine level (a fused post-smoothing run
+/// of an odd count of steps starts there; 0: x += P e, 1: x = P e).
+pub(super) const PROLONG_INTO_R: u32 = 2;
 /// Modes of `multigrid/krylov.comp` (see the shader).
 pub(super) const CG_START: u32 = 0;
 pub(super) const CG_APPLY: u32 = 1;
@@ -77,7 +80,7 @@ pub(super) const KERNELS: [(&str, &str, &[&str]); 12] = [
     (
         "multigrid prolong",
         "multigrid/prolong.comp",
-        &["x", "links", "link_weights"],
+        &["x", "links", "link_weights", "r"],
     ),
     (
         "multigrid norm",

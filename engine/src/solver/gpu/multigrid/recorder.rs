@@ -11,6 +11,17 @@ const SCOPE_COARSE: &str = "mg coarse solve";
 const SCOPE_CG_ITERATION: &str = "mg cg iteration";
 const SCOPE_CG_PASSES: &str = "mg cg passes";
 
+/// Where a smoothing run starts ([`Recorder::smooth`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Start {
+    /// x = 0 (its first step reads f as the residual).
+    Zero,
+    /// The level's x.
+    X,
+    /// The level's r holds the iterate (the prolongation's [`PROLONG_INTO_R`]).
+    R,
+}
+
 /// Records the kernels of one solve.
 pub(super) struct Recorder<'a, 'b> {
     pub(super) mg: &'a GpuMultigrid,
@@ -124,12 +135,14 @@ impl Recorder<'_, '_> {
         }
     }
 
-    /// `steps` steps of the level's Chebyshev polynomial (damped Jacobi: alpha = 0); `from_zero`:
-    /// x = 0 on entry, so the first step's residual is f and its residual pass is skipped.
+    /// `steps` steps of the level's Chebyshev polynomial (damped Jacobi: alpha = 0) from `start`:
+    /// x = 0 (the first step's residual is f and its residual pass is skipped), the level's x, or
+    /// (only with [`Self::fused`] and an odd count) the level's r (the prolongation wrote x + P e
+    /// there). The steps end in x.
     ///
     /// # Safety
     /// As [`GpuMultigrid::record`].
-    pub(super) unsafe fn smooth(&self, level: usize, steps: u32, from_zero: bool) {
+    pub(super) unsafe fn smooth(&self, level: usize, steps: u32, start: Start) {
         let bounds = self.mg.levels[level].bounds;
         let coefficients = |step: u32| {
             let (alpha, beta): ([f64; 3], [f64; 3]) = match self.mg.params.smoother {
@@ -141,28 +154,49 @@ impl Recorder<'_, '_> {
             };
             (if step == 0 { [0.0; 3] } else { alpha }, beta)
         };
-        // The finest level's steps after the first run in pairs of `relax.comp` passes (x -> r,
-        // r -> x), each a residual and a step in one pass.
-        let fused = level == self.mg.top() && self.mg.relax_finest;
+        // Fused: each step a `relax.comp` pass (a residual and a step in one), from x into r or
+        // from r into x; the run must end in x, so an odd count of them from x starts with one
+        // step of two passes (a residual, then `smooth.comp`).
+        let fused = self.fused(level);
+        let mut in_r = start == Start::R;
+        let relaxed = match start {
+            Start::Zero => steps.saturating_sub(1),
+            Start::X | Start::R => steps,
+        };
+        // (From r the count is odd: the caller's rule.)
+        let mut split = match (fused, start) {
+            (false, _) => relaxed,
+            (true, Start::R) => 0,
+            (true, _) => relaxed % 2,
+        };
         let (relax_there, relax_back) = (self.mg.pipelines[RELAX].1, self.mg.relax_back);
-        let mut step = 0;
-        while step < steps {
+        for step in 0..steps {
             let (alpha, beta) = coefficients(step);
             // SAFETY: the caller's contract.
             unsafe {
-                if from_zero && step == 0 {
+                if start == Start::Zero && step == 0 {
                     self.indirect(SMOOTH, level, 1, alpha, beta);
-                } else if fused && step > 0 && step + 1 < steps {
-                    let (alpha_back, beta_back) = coefficients(step + 1);
-                    self.indirect_in(RELAX, relax_there, level, 0, alpha, beta);
-                    self.indirect_in(RELAX, relax_back, level, 0, alpha_back, beta_back);
-                    step += 1;
-                } else {
+                } else if split > 0 && !in_r {
                     self.indirect(RESIDUAL, level, 0, [0.0; 3], [0.0; 3]);
                     self.indirect(SMOOTH, level, 0, alpha, beta);
+                    split -= 1;
+                } else {
+                    let set = if in_r { relax_back } else { relax_there };
+                    self.indirect_in(RELAX, set, level, 0, alpha, beta);
+                    in_r = !in_r;
                 }
             }
-            step += 1;
+        }
+        debug_assert!(!in_r, "a smoothing run ends in x");
+    }
+
+    /// Whether level `level`'s smoothing steps run as fused `relax.comp` passes
+    /// ([`RelaxLevels`]).
+    pub(super) fn fused(&self, level: usize) -> bool {
+        match self.mg.relax {
+            RelaxLevels::None => false,
+            RelaxLevels::Finest => level == self.mg.top() && level > 0,
+            RelaxLevels::AboveCoarsest => level > 0,
         }
     }
 
@@ -193,7 +227,7 @@ impl Recorder<'_, '_> {
                 );
                 pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
             } else {
-                self.smooth(0, self.mg.coarse_steps, true);
+                self.smooth(0, self.mg.coarse_steps, Start::Zero);
             }
             self.close();
         }
@@ -251,7 +285,7 @@ impl Recorder<'_, '_> {
                 return;
             }
             self.open(SCOPE_SMOOTH[l.min(2)]);
-            self.smooth(l, pre, from_zero);
+            self.smooth(l, pre, if from_zero { Start::Zero } else { Start::X });
             self.close();
             self.open(SCOPE_RESTRICT[l.min(2)]);
             self.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
@@ -259,11 +293,15 @@ impl Recorder<'_, '_> {
             self.close();
             // The restriction zeroed the coarser level's x.
             self.v_cycle(l - 1, true);
+            // An odd count of fused post-smoothing steps starts from r: the prolongation writes
+            // x + P e there, and the steps alternate r -> x -> r -> x.
+            let into_r = self.fused(l) && post % 2 == 1;
             self.open(SCOPE_PROLONG[l.min(2)]);
-            self.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]);
+            let mode = if into_r { PROLONG_INTO_R } else { 0 };
+            self.indirect(PROLONG, l, mode, [0.0; 3], [0.0; 3]);
             self.close();
             self.open(SCOPE_SMOOTH[l.min(2)]);
-            self.smooth(l, post, false);
+            self.smooth(l, post, if into_r { Start::R } else { Start::X });
             self.close();
         }
     }
