@@ -39,8 +39,17 @@ use crate::solver::transport::SurfaceCurvature;
 pub const SAMPLE_NODES: usize = 16;
 
 /// The sample depth in finest lattice spacings, and at most this share of the wall thickness
-/// below the vertex (so a sample stays in its own half of a thin wall).
-pub const DEPTH_SPACINGS: f64 = 1.5;
+/// below the vertex (so a sample stays in its own half of a thin wall). The 1D profile that
+/// carries the sample to the surface (`solver::transport::curved_profile_from_sample`) has no
+/// lateral term: where phi varies along the surface (Laplacian lambda phi across it) the exact
+/// profile is phi'' = (s^2 - lambda) phi, and phi(0) read from depth d is off by about
+/// -lambda d^2 (1/2 + d / (6 h)) / (1 + d / h): dark on an unlit side (a lateral minimum), bright
+/// under the light. At 1.5 spacings (1.25 mm on a 20 mm object) that was the back-lit bunny's
+/// unlit side at 0.91 of path tracing (lambda ~ 1 / (2 mm)^2: -8.8%); at 0.75 it is -2.7%
+/// (measured: bunny side 10.9 -> 9.3%, front 8.3 -> 8.3%; 1.0 spacing: 9.6 / 8.1%, 0.5: 9.3 /
+/// 8.6%: nearer the surface the 16 nodes' lattice shows; benches/RESULTS.md, "The bunny, wave
+/// 10").
+pub const DEPTH_SPACINGS: f64 = 0.75;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
 /// The direction a sample is taken in: the vertex normals averaged over this many finest
