@@ -39,8 +39,18 @@ use crate::solver::transport::SurfaceCurvature;
 pub const SAMPLE_NODES: usize = 16;
 
 /// The sample depth in finest lattice spacings, and at most this share of the wall thickness
-/// below the vertex (so a sample stays in its own half of a thin wall).
-pub const DEPTH_SPACINGS: f64 = 1.5;
+/// below the vertex (so a sample stays in its own half of a thin wall). The 1D profile that
+/// carries the sample to the surface (`solver::transport::curved_profile_from_sample`) has no
+/// lateral term: where phi varies along the surface (Laplacian lambda phi across it) the exact
+/// profile is phi'' = (s^2 - lambda) phi, and phi(0) read from depth d is off by about
+/// -lambda d^2 (1/2 + d / (6 h)) / (1 + d / h): dark on an unlit side (a lateral minimum), bright
+/// under the light. At 1.5 spacings (1.25 mm on a 20 mm object) that was the back-lit bunny's
+/// unlit side at 0.91 of path tracing (lambda ~ 1 / (2 mm)^2: -8.8%); at 0.875 it is -3.5%
+/// (measured: bunny side 10.9 -> 9.4%, front 8.3 -> 8.2%). Shallower, the 16 nodes' lattice
+/// shows: 0.75 spacings side 9.3 / front 8.3%, but the environment-lit skin1 sphere of
+/// `tests/surface_interior.rs` at 16 cells varies by 1.03% over its vertices (0.84% at 0.875,
+/// 0.32% at 1.5; the bound is 1%); 1.0: 9.6 / 8.1%. benches/RESULTS.md, "The bunny, wave 10".
+pub const DEPTH_SPACINGS: f64 = 0.875;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
 /// The direction a sample is taken in: the vertex normals averaged over this many finest
