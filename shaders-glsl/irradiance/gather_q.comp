@@ -31,12 +31,12 @@
 // Upstream beam (beam_upstream = 1; transport::upstream_beam, issue 12's back-lit crescent): a
 // beam travels about a mean free path along a curved surface before its first collision, so with
 // c = H / (eta sigma_t') (H the node's mean curvature, baked in surface_normal.w) the beam's
-// incidence cosine is mu_up = mu + c (1 - mu^2) and its irradiance factor mu + c (1 - 3 mu^2),
-// per channel. A node just past the terminator (mu > -UPSTREAM_SHIFT_LIMIT) tests its visibility
+// incidence cosine and irradiance factor are mu_up = mu + c (1 - mu^2), per channel, and its
+// particular solution takes the mean curvature, H / sigma_t' (the convex volume's narrowing). A node just past the terminator (mu > -UPSTREAM_SHIFT_LIMIT) tests its visibility
 // a mean free path upstream, where the shadow map sees the surface lit. Off a sphere the beam
 // turns by the normal curvature along its tangent t, k_t = H - |a|^2 + 2 (t.a)^2 (a the node's
-// anisotropy, surface_anisotropy.rgb; transport::SurfaceCurvature): mu_up = mu + c_t (1 - mu^2),
-// irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the area ratio is the mean curvature's). A
+// anisotropy, surface_anisotropy.rgb; transport::SurfaceCurvature): mu_up = mu + c_t (1 - mu^2)
+// (the particular solution's narrowing is the mean curvature's). A
 // deformed node (H written 0) keeps the planar beam: its rest anisotropy is not read.
 #include "optics.glsl"
 
@@ -243,8 +243,10 @@ float entry_distance(uint index, vec3 p, vec3 l) {
 // cosine mu_t per channel) into the medium of the node: (K, beta K) with the second-collision fit when on,
 // and the part entering as the boundary flux (`resonance`: near the particular solution's
 // resonance, transport::beam_share; otherwise none, as the f64 continuation). DESIGN 2.7.
+// `curved`: the mean curvature in transport mean free paths, H / sigma_t' per channel (0: planar):
+// K = Q0 / (sigma_a - D beta^2 (1 + 2 curved mu_p)), transport::beam_particular_curved.
 void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
-                     vec3 beam_d, out vec3 k, out vec3 beta_k, out vec3 flux) {
+                     vec3 beam_d, vec3 curved, out vec3 k, out vec3 beta_k, out vec3 flux) {
     vec3 sigma_a = beam_a;
     vec3 sigma_t = beam_s + sigma_a;
     // The second-collision source scales the whole source, its flux fallback included
@@ -265,8 +267,10 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
         ? smoothstep(vec3(RESONANCE_FLUX_BELOW), vec3(RESONANCE_BEAM_ABOVE), abs(a - b) / (a + b))
         : vec3(1.0);
     flux = transmitted * (1.0 - share) * gain;
-    vec3 denom = a - b;
-    vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
+    // Under a curved surface the depth's Laplacian adds D 2 H beta (the share stays planar).
+    vec3 b_curved = b * (1.0 + 2.0 * curved * mu_p);
+    vec3 denom = a - b_curved;
+    vec3 guard = BEAM_RESONANCE_GUARD * (a + b_curved);
     denom = mix(denom, -guard, lessThan(abs(denom), guard));
     // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
     // (1 + s~ mu_t) with Q0 over mu_e (transport::second_collision_fit), s~ = s / sigma_t'.
@@ -368,12 +372,11 @@ void main() {
             vec3 inv_eta_sigma = 1.0 / (pc.eta * max(sigma_t, vec3(1e-12)));
             vec3 c_t = clamp(along_curvature * inv_eta_sigma,
                              vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
-            vec3 c = clamp(curvature * inv_eta_sigma,
+            // The particular solution's curvature, H / sigma_t' (geometric: no eta).
+            vec3 c = clamp(curvature / max(sigma_t, vec3(1e-12)),
                            vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
             vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
-            vec3 factor = mix(vec3(0.0),
-                              max(mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu, vec3(0.0)),
-                              greaterThan(mu_up, vec3(0.0)));
+            vec3 factor = max(mu_up, vec3(0.0));
             float vis = 1.0;
             if (light.views.y != 0u) {
                 uint view = light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
@@ -406,7 +409,7 @@ void main() {
                     sum += tr * gain;
                 } else {
                     vec3 k, beta_k, flux;
-                    beam_particular(tr, mt, true, beam_s, beam_a, beam_d, k, beta_k, flux);
+                    beam_particular(tr, mt, true, beam_s, beam_a, beam_d, c, k, beta_k, flux);
                     sum += flux - (k + h * beta_k) / pc.beam_exit.z;
                     part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
                 }
@@ -439,8 +442,8 @@ void main() {
             vec3 attenuation = mix(exp(-tau), vec3(0.0), greaterThan(tau, vec3(MAX_OPTICAL_DEPTH)));
             vec3 transmitted = e_in * (mu_i * fresnel_transmittance(pc.eta, mu_i));
             vec3 k, beta_k, flux;
-            beam_particular(transmitted, vec3(mu_t), false, beam_s, beam_a, beam_d, k, beta_k,
-                            flux);
+            beam_particular(transmitted, vec3(mu_t), false, beam_s, beam_a, beam_d, vec3(0.0), k,
+                            beta_k, flux);
             k *= attenuation;
             beta_k *= attenuation;
             // Grazing (h beta > 1, mu_t below about 2/3 at eta 1) the right-hand side turns
@@ -483,7 +486,8 @@ void main() {
             continue;
         }
         vec3 k, beta_k, flux;
-        beam_particular(transmitted, vec3(mu_t), true, beam_s, beam_a, beam_d, k, beta_k, flux);
+        beam_particular(transmitted, vec3(mu_t), true, beam_s, beam_a, beam_d, vec3(0.0), k,
+                        beta_k, flux);
         sum += flux;
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
         sum += -(k + h * beta_k) / pc.beam_exit.z;

@@ -448,15 +448,38 @@ const RESONANCE_GUARD: f64 = 1e-4;
 /// for a beam of surface irradiance `irr` (E mu_i) refracted as `r`, Q0 = gain sigma_s' irr T_i /
 /// mu_t (DESIGN 2.7).
 pub fn beam_particular(o: Optics, r: Refraction, irr: f64, gain: f64) -> (f64, f64) {
+    beam_particular_curved(o, r, irr, gain, 0.0)
+}
+
+/// [`beam_particular`] below a curved surface: `curvature` = H / sigma_t' (the surface's mean
+/// curvature H in transport mean free paths, convex > 0, [`UpstreamBeam::curvature`]). Under a
+/// surface of mean curvature H the depth z = distance to the surface has Laplacian -2 H (to
+/// first order in H z), so D (K e^(-beta z))'' - sigma_a K e^(-beta z) gains D 2 H beta K
+/// e^(-beta z), and K e^(-beta z) is the local solution for the source Q0 e^(-beta z) with
+/// K = Q0 / (sigma_a - D beta^2 - 2 D H beta) = Q0 / (sigma_a - D beta^2 (1 + 2 (H / sigma_t')
+/// mu)), mu = sigma_t' / beta (the fitted cosine of a second-collision source: the deeper the
+/// profile, the more of it the convex volume narrows). The planar K (H = 0) put a source
+/// (1 + 2 H / beta) times the intended one under a convex surface: 1.15 x the exitance at a
+/// skim-milk sphere's lit pole (benches/RESULTS.md, "The front-lit milk sphere's mid
+/// latitudes"). |curvature| <= [`UPSTREAM_SHIFT_LIMIT`] keeps the factor within 1 +- 0.4, on
+/// the resonance's side of [`beam_share`]'s planar share (which is therefore left planar).
+pub fn beam_particular_curved(
+    o: Optics,
+    r: Refraction,
+    irr: f64,
+    gain: f64,
+    curvature: f64,
+) -> (f64, f64) {
     let mu_t = r.mu_t.max(MIN_MU_T);
     let q0 = gain * o.sigma_s * irr * r.t_i / mu_t;
     let d = o.d();
+    let curved = 1.0 + 2.0 * curvature * mu_t;
     let mut beta = o.sigma_t() / mu_t;
-    let scale = o.sigma_a + d * beta * beta;
-    if (o.sigma_a - d * beta * beta).abs() < RESONANCE_GUARD * scale {
+    let scale = o.sigma_a + d * beta * beta * curved;
+    if (o.sigma_a - d * beta * beta * curved).abs() < RESONANCE_GUARD * scale {
         beta *= 1.0 + 2.0 * RESONANCE_GUARD;
     }
-    (q0 / (o.sigma_a - d * beta * beta), beta)
+    (q0 / (o.sigma_a - d * beta * beta * curved), beta)
 }
 
 /// Below this relative distance from the resonance, |sigma_a - D beta^2| / (sigma_a + D beta^2),
@@ -642,20 +665,24 @@ pub const UPSTREAM_SHIFT_LIMIT: f64 = 0.2;
 /// before its first collision, so the light that collides below a node entered upstream, where
 /// (on a surface of mean curvature H, convex > 0) the cosine to the light is larger by the angle
 /// turned, a = H sin(theta_i) / (eta sigma_t'): to first order in c = H / (eta sigma_t'),
-/// mu_up = mu + c (1 - mu^2), and the map's area ratio (1 - c mu)^2 spreads it over a wider
-/// area, so the node's irradiance factor (what replaces mu_i in E mu_i) is
-/// mu + c (1 - 3 mu^2), which conserves the lit power of a sphere to O(c^2) and lights the
-/// unlit side within about c of the terminator. The planar model (c = 0) puts every first
+/// mu_up = mu + c (1 - mu^2). At eta 1 the first-collision density per volume below the node is
+/// E sigma_s' exp(-sigma_t' chord), whatever the surface's slope, so the node's irradiance factor
+/// (what replaces mu_i in E mu_i; T_i and mu_t at mu_up) is mu_up. The narrowing of the convex
+/// volume below the node (the map's area ratio, about 1 - 2 c mu over the profile's depth) is
+/// not a factor on the irradiance but the particular solution's own curvature term
+/// ([`beam_particular_curved`] with [`UpstreamBeam::curvature`]), where it scales with the
+/// (fitted) depth of the profile rather than with mu: the area factor mu + c (1 - 3 mu^2) used
+/// before (wave 8) over-lit a front-lit skim-milk sphere's mid latitudes by 10-20% in red
+/// (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes"). It lights the unlit side
+/// within about c of the terminator. The planar model (c = 0) puts every first
 /// collision below its entry node: on the 10 mm marble sphere its exitance is 0.70 of the
-/// transport's at the terminator, with this shift 0.97-1.03 on every ring
-/// (`benches/crescent/sphere_second.py plain upstream`).
+/// transport's at the terminator.
 ///
 /// On a surface that is not umbilic the two curvatures differ (issue 12, the back-lit torus:
 /// benches/RESULTS.md "The back-lit torus, region by region"): the beam turns by the normal
 /// curvature k_t along its tangent direction t (the projection of l on the tangent plane), so
-/// mu_up = mu + c_t (1 - mu^2) with c_t = k_t / (eta sigma_t'), while the area ratio is the
-/// divergence of the shift field (l - n mu) / (eta sigma_t'), -2 H mu / (eta sigma_t') for any
-/// surface: irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the sphere's when k_t = H).
+/// mu_up = mu + c_t (1 - mu^2) with c_t = k_t / (eta sigma_t'), while the volume's narrowing is
+/// the mean curvature's (the Laplacian of the depth is -2 H on any surface).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UpstreamBeam {
     /// The cosine to the light where the beam entered: the incidence of its Fresnel
@@ -663,6 +690,9 @@ pub struct UpstreamBeam {
     pub mu_up: f64,
     /// Replaces mu_i in the surface irradiance E mu_i (0 where the node receives nothing).
     pub irradiance: f64,
+    /// The mean curvature in transport mean free paths, H / sigma_t' (clamped to
+    /// +-[`UPSTREAM_SHIFT_LIMIT`]): the particular solution's ([`beam_particular_curved`]).
+    pub curvature: f64,
 }
 
 /// See [`UpstreamBeam`]; `mu` = n . l at the node (may be negative near the terminator),
@@ -683,15 +713,21 @@ pub fn upstream_beam(
             0.0
         }
     };
-    let (c_t, c) = (shift(curvature.along(t)), shift(curvature.mean));
+    let c_t = shift(curvature.along(t));
     let mu = mu.clamp(-1.0, 1.0);
     let mu_up = (mu + c_t * (1.0 - mu * mu)).min(1.0);
-    let irradiance = if mu_up > 0.0 {
-        (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0)
+    let irradiance = mu_up.max(0.0);
+    // The particular solution's curvature is geometric (eta does not enter the Laplacian).
+    let curvature = if irradiance > 0.0 {
+        shift(curvature.mean * eta)
     } else {
         0.0
     };
-    UpstreamBeam { mu_up, irradiance }
+    UpstreamBeam {
+        mu_up,
+        irradiance,
+        curvature,
+    }
 }
 
 /// The curvature of the surface at a node (1/mm, convex > 0): the mean curvature H = (k1 + k2)
