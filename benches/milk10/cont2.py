@@ -20,24 +20,35 @@ def fit(ss, sa, mut):
     w = np.clip((0.3 - s) / 0.15, 0, 1); w = w * w * (3 - 2 * w)
     mue = mut + w * np.maximum((rt / ratio) * (mut + zb) - zb - mut, 0)
     return ratio, ratio * (1 + s * mue) / (1 + s * mut), mue
-def run(ch, A, B, C=0):
-    ss, sa = sd.MAT[ch]; st = ss + sa; D = 1 / (3 * st); mu = sd.mu
+def particular(ch, A, B, mu):
+    ss, sa = sd.MAT[ch]; st = ss + sa; D = 1 / (3 * st)
     c = min(1 / (R * st), 0.2)
     up = np.minimum(mu + c * (1 - mu ** 2), 1)
     irr = np.maximum(mu + c * (1 - mu ** 2) - A * c * mu ** 2, 0)
     lit = (up > 0) & (irr > 0) & (mu > -0.2); mut = np.maximum(up, 1e-6)
     ratio, gain, mue = fit(ss, sa, mut)
     beta = st / mue; Q0 = gain * ss * E * irr / mue
-    K = Q0 / (sa - D * beta ** 2 - B * 2 * D * beta / R) * lit
+    K = Q0 / (sa - D * beta ** 2 - B * 2 * D * beta / R)
+    return K, beta, Q0, lit
+def run(ch, A, B, C=0):
+    ss, sa = sd.MAT[ch]; st = ss + sa; D = 1 / (3 * st); mu = sd.mu
+    K, beta, Q0, lit = particular(ch, A, B, mu); K = K * lit
     if C:
         # the lateral Laplacian of K(mu) e^(-beta(mu) z), z-integrated (moments 1/b, 1/b^2, 2/b^3)
-        # and folded into K with K0's derivatives (mu derivatives on the Gauss nodes)
-        dm = lambda f: np.gradient(f, mu)
-        Lop = lambda f: dm((1 - mu ** 2) * dm(f))
-        K0 = K; bm = dm(beta)
-        lat = Lop(K0) / beta - (2 * (1 - mu ** 2) * dm(K0) * bm + K0 * Lop(beta)) / beta ** 2 + K0 * bm ** 2 * (1 - mu ** 2) * 2 / beta ** 3
-        lat = np.where(lit, lat, 0)
-        K = (Q0 / beta + C * D * lat / R ** 2) / ((sa - D * beta ** 2) / beta - B * 2 * D / R) * lit
+        # and folded into K, with K0's mu derivatives by finite differences of the formula
+        h = 1e-3
+        Kp, bp, _, _ = particular(ch, A, B, mu + h); Km, bm_, _, _ = particular(ch, A, B, mu - h)
+        K0 = particular(ch, A, B, mu)[0]
+        dK = (Kp - Km) / (2 * h); d2K = (Kp - 2 * K0 + Km) / h ** 2
+        db = (bp - bm_) / (2 * h); d2b = (bp - 2 * beta + bm_) / h ** 2
+        LK = (1 - mu ** 2) * d2K - 2 * mu * dK; Lb = (1 - mu ** 2) * d2b - 2 * mu * db
+        lat = LK / beta - (2 * (1 - mu ** 2) * dK * db + K0 * Lb) / beta ** 2 + K0 * db ** 2 * (1 - mu ** 2) * 2 / beta ** 3
+        lat = np.where(lit & np.isfinite(lat), lat, 0)
+        if C < 0:   # taper: smoothstep over mu in [0, -C]
+            t = np.clip(mu / -C, 0, 1); lat = lat * t * t * (3 - 2 * t)
+        else:
+            lat = lat * C
+        K = (Q0 / beta + D * lat / R ** 2) / ((sa - D * beta ** 2) / beta - B * 2 * D / R) * lit
     q = -K * (1 + 2 * D * beta) / 4
     sd.Q_OVERRIDE = np.where(lit, q, 0)
     _, f, _ = sd.solve(ch, 'flux'); sd.Q_OVERRIDE = None
