@@ -20,7 +20,7 @@ def fit(ss, sa, mut):
     w = np.clip((0.3 - s) / 0.15, 0, 1); w = w * w * (3 - 2 * w)
     mue = mut + w * np.maximum((rt / ratio) * (mut + zb) - zb - mut, 0)
     return ratio, ratio * (1 + s * mue) / (1 + s * mut), mue
-def particular(ch, A, B, mu):
+def particular(ch, A, B, mu, F=0):
     ss, sa = sd.MAT[ch]; st = ss + sa; D = 1 / (3 * st)
     c = min(1 / (R * st), 0.2)
     up = np.minimum(mu + c * (1 - mu ** 2), 1)
@@ -28,17 +28,23 @@ def particular(ch, A, B, mu):
     lit = (up > 0) & (irr > 0) & (mu > -0.2); mut = np.maximum(up, 1e-6)
     ratio, gain, mue = fit(ss, sa, mut)
     beta = st / mue; Q0 = gain * ss * E * irr / mue
-    K = Q0 / (sa - D * beta ** 2 - B * 2 * D * beta / R)
+    if B < 0:   # the narrowing with the node's upstream cosine instead of the profile's mu_e
+        K = Q0 / (sa - D * beta ** 2 * (1 - B * 2 * c * mut))
+    else:
+        w = 1.0
+        if F > 0:   # the narrowing faded in over n.l in [0, F]
+            t = np.clip(mu / F, 0, 1); w = t * t * (3 - 2 * t)
+        K = Q0 / (sa - D * beta ** 2 - w * B * 2 * D * beta / R)
     return K, beta, Q0, lit
-def run(ch, A, B, C=0):
+def run(ch, A, B, C=0, F=0):
     ss, sa = sd.MAT[ch]; st = ss + sa; D = 1 / (3 * st); mu = sd.mu
-    K, beta, Q0, lit = particular(ch, A, B, mu); K = K * lit
+    K, beta, Q0, lit = particular(ch, A, B, mu, F); K = np.where(lit, K, 0)
     if C:
         # the lateral Laplacian of K(mu) e^(-beta(mu) z), z-integrated (moments 1/b, 1/b^2, 2/b^3)
         # and folded into K, with K0's mu derivatives by finite differences of the formula
         h = 1e-3
-        Kp, bp, _, _ = particular(ch, A, B, mu + h); Km, bm_, _, _ = particular(ch, A, B, mu - h)
-        K0 = particular(ch, A, B, mu)[0]
+        Kp, bp, _, _ = particular(ch, A, B, mu + h, F); Km, bm_, _, _ = particular(ch, A, B, mu - h, F)
+        K0 = particular(ch, A, B, mu, F)[0]
         dK = (Kp - Km) / (2 * h); d2K = (Kp - 2 * K0 + Km) / h ** 2
         db = (bp - bm_) / (2 * h); d2b = (bp - 2 * beta + bm_) / h ** 2
         LK = (1 - mu ** 2) * d2K - 2 * mu * dK; Lb = (1 - mu ** 2) * d2b - 2 * mu * db
@@ -48,7 +54,7 @@ def run(ch, A, B, C=0):
             t = np.clip(mu / -C, 0, 1); lat = lat * t * t * (3 - 2 * t)
         else:
             lat = lat * C
-        K = (Q0 / beta + D * lat / R ** 2) / ((sa - D * beta ** 2) / beta - B * 2 * D / R) * lit
+        K = np.where(lit, K + D * lat / R ** 2 * beta / np.where(lit, Q0 / np.where(K == 0, 1, K), 1), 0)
     q = -K * (1 + 2 * D * beta) / 4
     sd.Q_OVERRIDE = np.where(lit, q, 0)
     _, f, _ = sd.solve(ch, 'flux'); sd.Q_OVERRIDE = None

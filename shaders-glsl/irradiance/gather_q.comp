@@ -283,6 +283,64 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
     beta_k = source * sigma_t / denom;
 }
 
+// The upstream beam's particular solution for a node cosine `mu` (transport::upstream_beam, then
+// transport::beam_particular_curved), everything else held: c_t the turn's and c the particular
+// solution's curvature per channel, e_vis = E times the visibility.
+void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 e_vis, vec3 beam_s, vec3 beam_a,
+                         vec3 beam_d, out vec3 k, out vec3 beta_k, out vec3 flux) {
+    // Each channel's beam has its own upstream cosine: channel c of every vec3 below is channel
+    // c's beam (one evaluation for the three, the same values as three).
+    vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
+    vec3 factor = max(mu_up, vec3(0.0));
+    vec3 mt = sqrt(max(1.0 - (1.0 - mu_up * mu_up) / (pc.eta * pc.eta), vec3(0.0)));
+    vec3 ft = vec3(fresnel_transmittance(pc.eta, factor.r),
+                   fresnel_transmittance(pc.eta, factor.g),
+                   fresnel_transmittance(pc.eta, factor.b));
+    beam_particular(e_vis * factor * ft, mt, true, beam_s, beam_a, beam_d, c, k, beta_k, flux);
+}
+
+// transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
+const float LATERAL_STEP = 0.02;
+const float LATERAL_FULL_ABOVE = 0.5;
+
+// transport::lateral_correction: the particular solution's lateral terms folded into K (dK per
+// channel), from central differences in the node cosine about min(mu, 1 - step); g =
+// H^2 + |a|^4 (1/mm^2), c = H / sigma_t' per channel; 0 where any of the three is unlit.
+vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 beam_s,
+                        vec3 beam_a, vec3 beam_d) {
+    vec3 sigma_t = beam_s + beam_a;
+    float fade = smoothstep(0.0, LATERAL_FULL_ABOVE, mu);
+    vec3 gc = min(vec3(g), (UPSTREAM_SHIFT_LIMIT * sigma_t) * (UPSTREAM_SHIFT_LIMIT * sigma_t));
+    if (fade == 0.0 || !(g > 0.0)) {
+        return vec3(0.0);
+    }
+    float m = min(mu, 1.0 - LATERAL_STEP);
+    vec3 k0, bk0, kp, bkp, km, bkm, unused;
+    upstream_particular(m, c_t, c, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
+    upstream_particular(m + LATERAL_STEP, c_t, c, e_vis, beam_s, beam_a, beam_d, kp, bkp, unused);
+    upstream_particular(m - LATERAL_STEP, c_t, c, e_vis, beam_s, beam_a, beam_d, km, bkm, unused);
+    bvec3 lit = bvec3(vec3(notEqual(k0, vec3(0.0))) * vec3(notEqual(kp, vec3(0.0)))
+                      * vec3(notEqual(km, vec3(0.0))));
+    vec3 safe_k0 = mix(vec3(1.0), k0, lit);
+    vec3 b0 = bk0 / safe_k0;
+    vec3 bp = bkp / mix(vec3(1.0), kp, lit);
+    vec3 bm = bkm / mix(vec3(1.0), km, lit);
+    float step = LATERAL_STEP;
+    vec3 dk = (kp - km) / (2.0 * step);
+    vec3 d2k = (kp - 2.0 * k0 + km) / (step * step);
+    vec3 db = (bp - bm) / (2.0 * step);
+    vec3 d2b = (bp - 2.0 * b0 + bm) / (step * step);
+    float w = 1.0 - m * m;
+    vec3 lk = w * d2k - 2.0 * m * dk;
+    vec3 lb = w * d2b - 2.0 * m * db;
+    vec3 lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
+        + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
+    vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * c * sigma_t / b0);
+    vec3 d_k = fade * beam_d * gc * lat * b0 / denom;
+    bvec3 bad = bvec3(vec3(isnan(d_k)) + vec3(isinf(d_k)));
+    return mix(mix(vec3(0.0), d_k, lit), vec3(0.0), bad);
+}
+
 void main() {
     // Before any invocation returns: barrier() needs the whole workgroup.
     for (uint i = gl_LocalInvocationIndex; i < uint(SECOND_COLLISION_POINTS);
@@ -364,8 +422,10 @@ void main() {
             // transport::SurfaceCurvature::along: the normal curvature along the beam's tangent.
             vec3 beam_tangent = l - n * mu;
             float along_curvature = curvature;
+            vec3 a = curvature != 0.0 ? imageLoad(surface_anisotropy, texel).rgb : vec3(0.0);
+            // transport::SurfaceCurvature::squared: H^2 + |a|^4.
+            float curvature_squared = curvature * curvature + dot(a, a) * dot(a, a);
             if (curvature != 0.0 && length(beam_tangent) > 1e-6) {
-                vec3 a = imageLoad(surface_anisotropy, texel).rgb;
                 float ta = dot(normalize(beam_tangent), a);
                 along_curvature = curvature - dot(a, a) + 2.0 * ta * ta;
             }
@@ -394,22 +454,27 @@ void main() {
             // As the f64 reference: unlit upstream, or nothing reaching the node, keeps the
             // usual arrival below.
             if (vis > 0.0 && any(greaterThan(factor, vec3(0.0)))) {
-                // Each channel's beam has its own upstream cosine: channel c of every vec3 below
-                // is channel c's beam (one evaluation for the three, the same values as three).
-                vec3 mi = mu_up;
-                vec3 mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), vec3(0.0)));
-                vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mi.r, 0.0)),
-                               fresnel_transmittance(pc.eta, max(mi.g, 0.0)),
-                               fresnel_transmittance(pc.eta, max(mi.b, 0.0)));
-                vec3 tr = e * (factor * ft * vis);
                 if (pc.beam_edge > 0.5 && vis < 1.0) {
+                    vec3 mi = mu_up;
+                    vec3 mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), vec3(0.0)));
+                    vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mi.r, 0.0)),
+                                   fresnel_transmittance(pc.eta, max(mi.g, 0.0)),
+                                   fresnel_transmittance(pc.eta, max(mi.b, 0.0)));
+                    vec3 tr = e * (factor * ft * vis);
                     vec3 gain = pc.beam_exit.w > 0.5
                         ? second_collision_ratio(beam_s, beam_a, beam_d, mt)
                         : vec3(1.0);
                     sum += tr * gain;
                 } else {
                     vec3 k, beta_k, flux;
-                    beam_particular(tr, mt, true, beam_s, beam_a, beam_d, c, k, beta_k, flux);
+                    upstream_particular(mu, c_t, c, e * vis, beam_s, beam_a, beam_d, k, beta_k,
+                                        flux);
+                    // The lateral terms: K gains dK, beta unchanged (beta K scales with it).
+                    vec3 d_k = lateral_correction(mu, c_t, c, curvature_squared, e * vis, beam_s,
+                                                  beam_a, beam_d);
+                    vec3 beta = beta_k / mix(k, vec3(1.0), equal(k, vec3(0.0)));
+                    k += d_k;
+                    beta_k = beta * k;
                     sum += flux - (k + h * beta_k) / pc.beam_exit.z;
                     part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
                 }
