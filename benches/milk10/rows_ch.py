@@ -4,7 +4,7 @@ import sys, numpy as np, mitsuba as mi
 mi.set_variant('scalar_rgb')
 def load(p): return np.array(mi.Bitmap(p)).astype(float)
 rf = load(sys.argv[1]); alpha = rf[..., 3]; rf = rf[..., :3]
-L = np.array([0.5, -1, -0.5]); L = -L / np.linalg.norm(L)
+import os; L = np.array([float(v) for v in os.environ.get("LIGHT", "0.5,-1,-0.5").split(",")]); L = -L / np.linalg.norm(L)
 eye = np.array([0, 20, 60.]); fwd = -eye / np.linalg.norm(eye); up = np.array([0, 1, 0.]); right = np.cross(fwd, up); right /= np.linalg.norm(right); up = np.cross(right, fwd)
 h, w = rf.shape[:2]; t = np.tan(np.radians(30) / 2); R = 10.0
 J, I, NL = [], [], []

@@ -283,6 +283,8 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
     beta_k = source * sigma_t / denom;
 }
 
+const float NARROWING_FULL_ABOVE = 0.3;
+
 // The upstream beam's particular solution for a node cosine `mu` (transport::upstream_beam, then
 // transport::beam_particular_curved), everything else held: c_t the turn's and c the particular
 // solution's curvature per channel, e_vis = E times the visibility.
@@ -296,7 +298,10 @@ void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 e_vis, vec3 beam_s, ve
     vec3 ft = vec3(fresnel_transmittance(pc.eta, factor.r),
                    fresnel_transmittance(pc.eta, factor.g),
                    fresnel_transmittance(pc.eta, factor.b));
-    beam_particular(e_vis * factor * ft, mt, true, beam_s, beam_a, beam_d, c, k, beta_k, flux);
+    // transport::NARROWING_FULL_ABOVE: the narrowing fades to none at the terminator.
+    vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
+    beam_particular(e_vis * factor * ft, mt, true, beam_s, beam_a, beam_d, narrowing, k, beta_k,
+                    flux);
 }
 
 // transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
@@ -335,7 +340,8 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
     vec3 lb = w * d2b - 2.0 * m * db;
     vec3 lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
         + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
-    vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * c * sigma_t / b0);
+    vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
+    vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * narrowing * sigma_t / b0);
     vec3 d_k = fade * beam_d * gc * lat * b0 / denom;
     bvec3 bad = bvec3(vec3(isnan(d_k)) + vec3(isinf(d_k)));
     return mix(mix(vec3(0.0), d_k, lit), vec3(0.0), bad);

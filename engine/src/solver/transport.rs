@@ -659,6 +659,16 @@ pub fn refract_inward(d: DVec3, n: DVec3, eta: f64) -> DVec3 {
 /// a smaller feature (an edge of a mesh, an ear) is clamped to it.
 pub const UPSTREAM_SHIFT_LIMIT: f64 = 0.2;
 
+/// [`UpstreamBeam::curvature`] (the particular solution's narrowing below a convex node) applies in
+/// full above this n.l and fades (smoothstep) to none at n.l = 0. The narrowing is the volume below
+/// a node lit on every side; at the terminator the light below a node entered upstream over a
+/// half-lit neighbourhood, and the ring Monte Carlo's exitance there is better without it on
+/// marble (the 10 mm sphere at n.l -0.1..0.1: 0.937-0.966 of the Monte Carlo in full, 0.949-0.987
+/// faded over 0..0.3, 0.969-1.002 with wave 8's area factor) while skim milk prefers it (0.99-1.00
+/// in full, 1.03-1.04 faded, 1.09-1.10 with the area factor): `benches/milk10/cont2.py R,G,B
+/// 0,1,-0.5 0,1,-0.5,0.3` (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes").
+pub const NARROWING_FULL_ABOVE: f64 = 0.3;
+
 /// A beam entering a curved surface, as a surface node's source sees it (issue 12, the back-lit
 /// crescent: benches/RESULTS.md "The back-lit crescent, term by term"). A beam travels a lateral
 /// mean free path sqrt(1 - mu_t^2) / sigma_t' = sin(theta_i) / (eta sigma_t') along the surface
@@ -717,9 +727,11 @@ pub fn upstream_beam(
     let mu = mu.clamp(-1.0, 1.0);
     let mu_up = (mu + c_t * (1.0 - mu * mu)).min(1.0);
     let irradiance = mu_up.max(0.0);
-    // The particular solution's curvature is geometric (eta does not enter the Laplacian).
+    // The particular solution's curvature is geometric (eta does not enter the Laplacian), in
+    // full from n.l = NARROWING_FULL_ABOVE, faded (smoothstep) to none at the terminator.
+    let fade = (mu / NARROWING_FULL_ABOVE).clamp(0.0, 1.0);
     let curvature = if irradiance > 0.0 {
-        shift(curvature.mean * eta)
+        shift(curvature.mean * eta) * fade * fade * (3.0 - 2.0 * fade)
     } else {
         0.0
     };
