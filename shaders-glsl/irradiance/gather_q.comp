@@ -31,13 +31,16 @@
 // Upstream beam (beam_upstream = 1; transport::upstream_beam, issue 12's back-lit crescent): a
 // beam travels about a mean free path along a curved surface before its first collision, so with
 // c = H / (eta sigma_t') (H the node's mean curvature, baked in surface_normal.w) the beam's
-// incidence cosine and irradiance factor are mu_up = mu + c (1 - mu^2), per channel, and its
-// particular solution takes the mean curvature, H / sigma_t' (the convex volume's narrowing). A node just past the terminator (mu > -UPSTREAM_SHIFT_LIMIT) tests its visibility
+// incidence cosine is mu_up = mu + c (1 - mu^2) and its irradiance factor mu + c (1 - 3 mu^2),
+// per channel. A node just past the terminator (mu > -UPSTREAM_SHIFT_LIMIT) tests its visibility
 // a mean free path upstream, where the shadow map sees the surface lit. Off a sphere the beam
 // turns by the normal curvature along its tangent t, k_t = H - |a|^2 + 2 (t.a)^2 (a the node's
-// anisotropy, surface_anisotropy.rgb; transport::SurfaceCurvature): mu_up = mu + c_t (1 - mu^2)
-// (the particular solution's narrowing is the mean curvature's). A
-// deformed node (H written 0) keeps the planar beam: its rest anisotropy is not read.
+// anisotropy, surface_anisotropy.rgb; transport::SurfaceCurvature): mu_up = mu + c_t (1 - mu^2),
+// irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the area ratio is the mean curvature's).
+// beam_upstream = 2 (transport::curved_particular): irradiance factor mu_up, and the particular
+// solution below the curved surface: its narrowing H / sigma_t' in K (faded in over n.l 0..0.3)
+// and its lateral terms (lateral_correction). A deformed node (H written 0) keeps the planar
+// beam: its rest anisotropy is not read.
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -98,7 +101,8 @@ layout(push_constant) uniform GatherPush {
                        // w: 1 = the second-collision source
     vec4 beam_kappa;   // rgb: D of a homogeneous material; w: 1 = Grosjean's D, 0 = 1 / (3 sigma_t')
     float beam_continuation; // 1: nodes facing away from a light get the beam through the wall
-    float beam_upstream; // 1: the upstream beam (transport::upstream_beam), H in surface_normal.w
+    float beam_upstream; // 1: the upstream beam (transport::upstream_beam), H in surface_normal.w;
+                         // 2: with the curved particular solution (transport::curved_particular)
 } pc;
 
 // Quadrature points of second_collision_ratio's integral over mu (as the f64 reference).
@@ -288,18 +292,23 @@ const float NARROWING_FULL_ABOVE = 0.3;
 // The upstream beam's particular solution for a node cosine `mu` (transport::upstream_beam, then
 // transport::beam_particular_curved), everything else held: c_t the turn's and c the particular
 // solution's curvature per channel, e_vis = E times the visibility.
-void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 e_vis, vec3 beam_s, vec3 beam_a,
-                         vec3 beam_d, out vec3 k, out vec3 beta_k, out vec3 flux) {
+// `c_area` = H / (eta sigma_t'): wave 8's area factor when not `curved` (beam_upstream 1).
+void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, bool curved, vec3 e_vis,
+                         vec3 beam_s, vec3 beam_a, vec3 beam_d, out vec3 k, out vec3 beta_k,
+                         out vec3 flux) {
     // Each channel's beam has its own upstream cosine: channel c of every vec3 below is channel
     // c's beam (one evaluation for the three, the same values as three).
     vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
-    vec3 factor = max(mu_up, vec3(0.0));
+    vec3 factor = curved
+        ? max(mu_up, vec3(0.0))
+        : mix(vec3(0.0), max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0)),
+              greaterThan(mu_up, vec3(0.0)));
     vec3 mt = sqrt(max(1.0 - (1.0 - mu_up * mu_up) / (pc.eta * pc.eta), vec3(0.0)));
-    vec3 ft = vec3(fresnel_transmittance(pc.eta, factor.r),
-                   fresnel_transmittance(pc.eta, factor.g),
-                   fresnel_transmittance(pc.eta, factor.b));
+    vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mu_up.r, 0.0)),
+                   fresnel_transmittance(pc.eta, max(mu_up.g, 0.0)),
+                   fresnel_transmittance(pc.eta, max(mu_up.b, 0.0)));
     // transport::NARROWING_FULL_ABOVE: the narrowing fades to none at the terminator.
-    vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
+    vec3 narrowing = curved ? c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu) : vec3(0.0);
     beam_particular(e_vis * factor * ft, mt, true, beam_s, beam_a, beam_d, narrowing, k, beta_k,
                     flux);
 }
@@ -321,9 +330,11 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
     }
     float m = min(mu, 1.0 - LATERAL_STEP);
     vec3 k0, bk0, kp, bkp, km, bkm, unused;
-    upstream_particular(m, c_t, c, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
-    upstream_particular(m + LATERAL_STEP, c_t, c, e_vis, beam_s, beam_a, beam_d, kp, bkp, unused);
-    upstream_particular(m - LATERAL_STEP, c_t, c, e_vis, beam_s, beam_a, beam_d, km, bkm, unused);
+    upstream_particular(m, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
+    upstream_particular(m + LATERAL_STEP, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, kp, bkp,
+                        unused);
+    upstream_particular(m - LATERAL_STEP, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, km, bkm,
+                        unused);
     bvec3 lit = bvec3(vec3(notEqual(k0, vec3(0.0))) * vec3(notEqual(kp, vec3(0.0)))
                       * vec3(notEqual(km, vec3(0.0))));
     vec3 safe_k0 = mix(vec3(1.0), k0, lit);
@@ -441,8 +452,14 @@ void main() {
             // The particular solution's curvature, H / sigma_t' (geometric: no eta).
             vec3 c = clamp(curvature / max(sigma_t, vec3(1e-12)),
                            vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            vec3 c_area = clamp(curvature * inv_eta_sigma,
+                                vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            bool curved = pc.beam_upstream > 1.5;
             vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
-            vec3 factor = max(mu_up, vec3(0.0));
+            vec3 factor = curved
+                ? max(mu_up, vec3(0.0))
+                : mix(vec3(0.0), max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0)),
+                      greaterThan(mu_up, vec3(0.0)));
             float vis = 1.0;
             if (light.views.y != 0u) {
                 uint view = light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
@@ -473,11 +490,13 @@ void main() {
                     sum += tr * gain;
                 } else {
                     vec3 k, beta_k, flux;
-                    upstream_particular(mu, c_t, c, e * vis, beam_s, beam_a, beam_d, k, beta_k,
-                                        flux);
+                    upstream_particular(mu, c_t, c, c_area, curved, e * vis, beam_s, beam_a,
+                                        beam_d, k, beta_k, flux);
                     // The lateral terms: K gains dK, beta unchanged (beta K scales with it).
-                    vec3 d_k = lateral_correction(mu, c_t, c, curvature_squared, e * vis, beam_s,
-                                                  beam_a, beam_d);
+                    vec3 d_k = curved
+                        ? lateral_correction(mu, c_t, c, curvature_squared, e * vis, beam_s,
+                                             beam_a, beam_d)
+                        : vec3(0.0);
                     vec3 beta = beta_k / mix(k, vec3(1.0), equal(k, vec3(0.0)));
                     k += d_k;
                     beta_k = beta * k;

@@ -34,8 +34,8 @@ use glam::DVec3;
 
 use super::transport::{
     beam_particular, beam_particular_curved, beam_share, diffuse_quadrature, lateral_correction,
-    second_collision_fit, tangent_frame, upstream_beam, Boundary, ExitQuery, Optics, Refraction,
-    Source, SurfaceCurvature, Transport, UPSTREAM_SHIFT_LIMIT,
+    second_collision_fit, tangent_frame, upstream_beam, upstream_beam_with, Boundary, ExitQuery,
+    Optics, Refraction, Source, SurfaceCurvature, Transport, UPSTREAM_SHIFT_LIMIT,
 };
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::Solid;
@@ -417,8 +417,9 @@ impl<'a> SourceModel<'a> {
             return None;
         }
         let eta = self.boundary.eta;
+        let curved = self.transport.curved_particular;
         let beams: ChannelBeams = std::array::from_fn(|c| {
-            let b = upstream_beam(mu, curvature, t, sigma_t[c], eta);
+            let b = upstream_beam_with(mu, curvature, t, sigma_t[c], eta, curved);
             let o = Optics::channel_with(here, c, self.material.diffusion());
             // The node's particular solution (K, beta) as lit_light makes it, for cosine m.
             let at = |m: f64| {
@@ -431,7 +432,7 @@ impl<'a> SourceModel<'a> {
                 let irr = e[c] * b.irradiance * beam_share(o, fit.mu_t);
                 beam_particular_curved(o, fit, irr, gain, b.curvature)
             };
-            let lateral = if b.irradiance > 0.0 {
+            let lateral = if curved && b.irradiance > 0.0 {
                 lateral_correction(o, mu, b.curvature, curvature.squared(), at)
             } else {
                 0.0

@@ -156,6 +156,11 @@ pub struct Transport {
     /// ([`upstream_beam`]; the curvature along the light's tangent from a probe one mean free
     /// path upstream). CPU only so far (benches/RESULTS.md, "The back-lit crescent").
     pub upstream_beam: bool,
+    /// With `upstream_beam`: the particular solution below a curved surface (its narrowing
+    /// [`beam_particular_curved`] and its lateral terms [`lateral_correction`], irradiance factor
+    /// mu_up) instead of wave 8's area factor ([`upstream_beam_with`]); `render --upstream-beam
+    /// curved` (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes").
+    pub curved_particular: bool,
 }
 
 impl Default for Transport {
@@ -171,6 +176,7 @@ impl Default for Transport {
             bounce_rays: 0,
             environment_beams: true,
             upstream_beam: false,
+            curved_particular: false,
         }
     }
 }
@@ -716,6 +722,20 @@ pub fn upstream_beam(
     sigma_t: f64,
     eta: f64,
 ) -> UpstreamBeam {
+    upstream_beam_with(mu, curvature, t, sigma_t, eta, true)
+}
+
+/// [`upstream_beam`] with `curved` false: wave 8's area factor, irradiance factor
+/// mu + c_t (1 - mu^2) - 2 c mu^2 (c = H / (eta sigma_t')) and a planar particular solution
+/// (curvature 0): `Transport::curved_particular` off, render's default.
+pub fn upstream_beam_with(
+    mu: f64,
+    curvature: SurfaceCurvature,
+    t: DVec3,
+    sigma_t: f64,
+    eta: f64,
+    curved: bool,
+) -> UpstreamBeam {
     let shift = |k: f64| {
         if k.is_finite() && sigma_t > 0.0 && eta > 0.0 {
             (k / (eta * sigma_t)).clamp(-UPSTREAM_SHIFT_LIMIT, UPSTREAM_SHIFT_LIMIT)
@@ -726,6 +746,19 @@ pub fn upstream_beam(
     let c_t = shift(curvature.along(t));
     let mu = mu.clamp(-1.0, 1.0);
     let mu_up = (mu + c_t * (1.0 - mu * mu)).min(1.0);
+    if !curved {
+        let c = shift(curvature.mean);
+        let irradiance = if mu_up > 0.0 {
+            (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0)
+        } else {
+            0.0
+        };
+        return UpstreamBeam {
+            mu_up,
+            irradiance,
+            curvature: 0.0,
+        };
+    }
     let irradiance = mu_up.max(0.0);
     // The particular solution's curvature is geometric (eta does not enter the Laplacian), in
     // full from n.l = NARROWING_FULL_ABOVE, faded (smoothstep) to none at the terminator.
