@@ -813,10 +813,11 @@ pub fn lateral_correction(
     let t = (mu / LATERAL_FULL_ABOVE).clamp(0.0, 1.0);
     let fade = t * t * (3.0 - 2.0 * t);
     let sigma_t = o.sigma_t();
-    let g = g.min((UPSTREAM_SHIFT_LIMIT * sigma_t).powi(2));
+    // NaN fails the test (f64::min would return the clamp for it).
     if fade == 0.0 || !(g > 0.0) {
         return 0.0;
     }
+    let g = g.min((UPSTREAM_SHIFT_LIMIT * sigma_t).powi(2));
     let m = mu.min(1.0 - step);
     let ((k0, b0), (kp, bp), (km, bm)) = (at(m), at(m + step), at(m - step));
     if [k0, kp, km, b0, bp, bm]

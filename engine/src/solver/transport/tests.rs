@@ -328,3 +328,70 @@ fn upstream_beam_on_a_cylinder_turns_only_around_it() {
     assert_eq!((along.mu_up, along.irradiance), (mu, mu));
     assert!((along.curvature - 0.5 * c).abs() < 1e-12);
 }
+
+/// Wave 8's area factor (`upstream_beam_with(.., false)`, the default): the sphere's lit power is
+/// 1/2 (per 2 pi R^2 E) up to c^2 / 2, and the particular solution stays planar.
+#[test]
+fn upstream_area_factor_keeps_the_sphere_lit_power() {
+    for (radius, sigma_t) in [(10.0_f64, 2.1921_f64), (10.0, 3.0071), (2.0, 2.1921)] {
+        let c = (1.0 / (radius * sigma_t)).min(UPSTREAM_SHIFT_LIMIT);
+        let sphere = SurfaceCurvature::umbilic(1.0 / radius);
+        const N: usize = 200_000;
+        let beam = |mu: f64| upstream_beam_with(mu, sphere, DVec3::X, sigma_t, 1.0, false);
+        let power: f64 = (0..N)
+            .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
+            .map(|mu| beam(mu).irradiance * 2.0 / N as f64)
+            .sum();
+        assert!((power - 0.5).abs() <= c * c, "R {radius}: power {power}");
+        assert_eq!(beam(0.5).curvature, 0.0);
+        // The curved factor mu_up alone carries 2c/3 more (its narrowing is in K).
+        let curved: f64 = (0..N)
+            .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
+            .map(|mu| upstream_beam(mu, sphere, DVec3::X, sigma_t, 1.0).irradiance * 2.0 / N as f64)
+            .sum();
+        assert!(
+            (curved - 0.5 - 2.0 * c / 3.0).abs() <= c * c,
+            "R {radius}: {curved}"
+        );
+    }
+}
+
+/// [`lateral_correction`] on K(mu) = mu^2 with beta constant (beta' = 0): lat = L[K] / beta =
+/// (2 - 6 mu^2) / beta, dK = D g (2 - 6 mu^2) / (sigma_a - D beta^2 (1 + 2 c sigma_t' / beta)),
+/// faded in below n.l [`LATERAL_FULL_ABOVE`]; nothing where a neighbour is unlit.
+#[test]
+fn lateral_correction_matches_its_closed_form() {
+    let o = Optics {
+        sigma_s: 0.7,
+        sigma_a: 0.0014,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let (beta, c, g) = (1.5, 0.1, 0.01);
+    for mu in [0.6, 0.8, 0.95] {
+        let got = lateral_correction(o, mu, c, g, |m| (m * m, beta));
+        let m = mu.min(1.0 - LATERAL_STEP);
+        let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
+        let want = o.d() * g * (2.0 - 6.0 * m * m) / denom;
+        assert!(
+            (got - want).abs() < 1e-6 * want.abs(),
+            "mu {mu}: {got} vs {want}"
+        );
+    }
+    let faded = lateral_correction(o, 0.25, c, g, |m| (m * m, beta));
+    let full = o.d() * g * (2.0 - 6.0 * 0.0625)
+        / (o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta));
+    assert!((faded - 0.5 * full).abs() < 1e-6 * full.abs());
+    assert_eq!(lateral_correction(o, 0.0, c, g, |m| (m * m, beta)), 0.0);
+    assert_eq!(
+        lateral_correction(o, 0.5, c, g, |m| if m < 0.5 {
+            (0.0, 0.0)
+        } else {
+            (m, beta)
+        }),
+        0.0
+    );
+    assert_eq!(
+        lateral_correction(o, 0.5, c, f64::NAN, |m| (m * m, beta)),
+        0.0
+    );
+}
