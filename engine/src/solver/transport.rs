@@ -681,15 +681,17 @@ pub const NARROWING_FULL_ABOVE: f64 = 0.3;
 /// before its first collision, so the light that collides below a node entered upstream, where
 /// (on a surface of mean curvature H, convex > 0) the cosine to the light is larger by the angle
 /// turned, a = H sin(theta_i) / (eta sigma_t'): to first order in c = H / (eta sigma_t'),
-/// mu_up = mu + c (1 - mu^2). At eta 1 the first-collision density per volume below the node is
-/// E sigma_s' exp(-sigma_t' chord), whatever the surface's slope, so the node's irradiance factor
-/// (what replaces mu_i in E mu_i; T_i and mu_t at mu_up) is mu_up. The narrowing of the convex
-/// volume below the node (the map's area ratio, about 1 - 2 c mu over the profile's depth) is
-/// not a factor on the irradiance but the particular solution's own curvature term
-/// ([`beam_particular_curved`] with [`UpstreamBeam::curvature`]), where it scales with the
-/// (fitted) depth of the profile rather than with mu: the area factor mu + c (1 - 3 mu^2) used
-/// before (wave 8) over-lit a front-lit skim-milk sphere's mid latitudes by 10-20% in red
-/// (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes"). It lights the unlit side
+/// mu_up = mu + c (1 - mu^2). The default ([`upstream_beam_with`] `curved` false, wave 8): the
+/// map's area ratio (1 - c mu)^2 spreads it, irradiance factor mu + c (1 - 3 mu^2), which keeps
+/// a sphere's lit power to O(c^2). Curved ([`upstream_beam`], `Transport::curved_particular`):
+/// at eta 1 the first-collision density per volume below the node is E sigma_s' exp(-sigma_t'
+/// chord), whatever the surface's slope, so the irradiance factor (what replaces mu_i in E mu_i;
+/// T_i and mu_t at mu_up) is mu_up and the narrowing of the convex volume below the node is
+/// the particular solution's own curvature term ([`beam_particular_curved`] with
+/// [`UpstreamBeam::curvature`]), scaling with the (fitted) depth of the profile rather than with
+/// mu: the area factor over-lights a front-lit skim-milk sphere's mid latitudes by 10-20% in red,
+/// the curved one takes 3-5% of the light reaching the far side (benches/RESULTS.md, "The
+/// front-lit milk sphere's mid latitudes"). Either lights the unlit side
 /// within about c of the terminator. The planar model (c = 0) puts every first
 /// collision below its entry node: on the 10 mm marble sphere its exitance is 0.70 of the
 /// transport's at the terminator.
