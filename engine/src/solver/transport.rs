@@ -816,7 +816,7 @@ pub fn lateral_correction(
     let fade = t * t * (3.0 - 2.0 * t);
     let sigma_t = o.sigma_t();
     // NaN fails the test (f64::min would return the clamp for it).
-    if fade == 0.0 || !(g > 0.0) {
+    if fade == 0.0 || g.is_nan() || g <= 0.0 {
         return 0.0;
     }
     let g = g.min((UPSTREAM_SHIFT_LIMIT * sigma_t).powi(2));
