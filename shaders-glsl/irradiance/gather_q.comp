@@ -36,8 +36,11 @@
 // a mean free path upstream, where the shadow map sees the surface lit. Off a sphere the beam
 // turns by the normal curvature along its tangent t, k_t = H - |a|^2 + 2 (t.a)^2 (a the node's
 // anisotropy, surface_anisotropy.rgb; transport::SurfaceCurvature): mu_up = mu + c_t (1 - mu^2),
-// irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the area ratio is the mean curvature's). A
-// deformed node (H written 0) keeps the planar beam: its rest anisotropy is not read.
+// irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the area ratio is the mean curvature's).
+// beam_upstream = 2 (transport::curved_particular): irradiance factor mu_up, and the particular
+// solution below the curved surface: its narrowing H / sigma_t' in K (faded in over n.l 0..0.3)
+// and its lateral terms (lateral_correction). A deformed node (H written 0) keeps the planar
+// beam: its rest anisotropy is not read.
 #include "optics.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -98,7 +101,8 @@ layout(push_constant) uniform GatherPush {
                        // w: 1 = the second-collision source
     vec4 beam_kappa;   // rgb: D of a homogeneous material; w: 1 = Grosjean's D, 0 = 1 / (3 sigma_t')
     float beam_continuation; // 1: nodes facing away from a light get the beam through the wall
-    float beam_upstream; // 1: the upstream beam (transport::upstream_beam), H in surface_normal.w
+    float beam_upstream; // 1: the upstream beam (transport::upstream_beam), H in surface_normal.w;
+                         // 2: with the curved particular solution (transport::curved_particular)
 } pc;
 
 // Quadrature points of second_collision_ratio's integral over mu (as the f64 reference).
@@ -243,8 +247,10 @@ float entry_distance(uint index, vec3 p, vec3 l) {
 // cosine mu_t per channel) into the medium of the node: (K, beta K) with the second-collision fit when on,
 // and the part entering as the boundary flux (`resonance`: near the particular solution's
 // resonance, transport::beam_share; otherwise none, as the f64 continuation). DESIGN 2.7.
+// `curved`: the mean curvature in transport mean free paths, H / sigma_t' per channel (0: planar):
+// K = Q0 / (sigma_a - D beta^2 (1 + 2 curved mu_p)), transport::beam_particular_curved.
 void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
-                     vec3 beam_d, out vec3 k, out vec3 beta_k, out vec3 flux) {
+                     vec3 beam_d, vec3 curved, out vec3 k, out vec3 beta_k, out vec3 flux) {
     vec3 sigma_a = beam_a;
     vec3 sigma_t = beam_s + sigma_a;
     // The second-collision source scales the whole source, its flux fallback included
@@ -265,8 +271,10 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
         ? smoothstep(vec3(RESONANCE_FLUX_BELOW), vec3(RESONANCE_BEAM_ABOVE), abs(a - b) / (a + b))
         : vec3(1.0);
     flux = transmitted * (1.0 - share) * gain;
-    vec3 denom = a - b;
-    vec3 guard = BEAM_RESONANCE_GUARD * (a + b);
+    // Under a curved surface the depth's Laplacian adds D 2 H beta (the share stays planar).
+    vec3 b_curved = b * (1.0 + 2.0 * curved * mu_p);
+    vec3 denom = a - b_curved;
+    vec3 guard = BEAM_RESONANCE_GUARD * (a + b_curved);
     denom = mix(denom, -guard, lessThan(abs(denom), guard));
     // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
     // (1 + s~ mu_t) with Q0 over mu_e (transport::second_collision_fit), s~ = s / sigma_t'.
@@ -277,6 +285,77 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
     vec3 source = beam_s * transmitted * share * beam_gain;
     k = source * mu_p / denom;
     beta_k = source * sigma_t / denom;
+}
+
+const float NARROWING_FULL_ABOVE = 0.3;
+
+// The upstream beam's particular solution for a node cosine `mu` (transport::upstream_beam, then
+// transport::beam_particular_curved), everything else held: c_t the turn's and c the particular
+// solution's curvature per channel, e_vis = E times the visibility.
+// `c_area` = H / (eta sigma_t'): wave 8's area factor when not `curved` (beam_upstream 1).
+void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, bool curved, vec3 e_vis,
+                         vec3 beam_s, vec3 beam_a, vec3 beam_d, out vec3 k, out vec3 beta_k,
+                         out vec3 flux) {
+    // Each channel's beam has its own upstream cosine: channel c of every vec3 below is channel
+    // c's beam (one evaluation for the three, the same values as three).
+    vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
+    vec3 factor = curved
+        ? max(mu_up, vec3(0.0))
+        : mix(vec3(0.0), max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0)),
+              greaterThan(mu_up, vec3(0.0)));
+    vec3 mt = sqrt(max(1.0 - (1.0 - mu_up * mu_up) / (pc.eta * pc.eta), vec3(0.0)));
+    vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mu_up.r, 0.0)),
+                   fresnel_transmittance(pc.eta, max(mu_up.g, 0.0)),
+                   fresnel_transmittance(pc.eta, max(mu_up.b, 0.0)));
+    // transport::NARROWING_FULL_ABOVE: the narrowing fades to none at the terminator.
+    vec3 narrowing = curved ? c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu) : vec3(0.0);
+    beam_particular(e_vis * factor * ft, mt, true, beam_s, beam_a, beam_d, narrowing, k, beta_k,
+                    flux);
+}
+
+// transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
+const float LATERAL_STEP = 0.02;
+const float LATERAL_FULL_ABOVE = 0.5;
+
+// transport::lateral_correction: the particular solution's lateral terms folded into K (dK per
+// channel), from central differences in the node cosine about min(mu, 1 - step); g =
+// H^2 + |a|^4 (1/mm^2), c = H / sigma_t' per channel; 0 where any of the three is unlit.
+vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 beam_s,
+                        vec3 beam_a, vec3 beam_d) {
+    vec3 sigma_t = beam_s + beam_a;
+    float fade = smoothstep(0.0, LATERAL_FULL_ABOVE, mu);
+    vec3 gc = min(vec3(g), (UPSTREAM_SHIFT_LIMIT * sigma_t) * (UPSTREAM_SHIFT_LIMIT * sigma_t));
+    if (fade == 0.0 || !(g > 0.0)) {
+        return vec3(0.0);
+    }
+    float m = min(mu, 1.0 - LATERAL_STEP);
+    vec3 k0, bk0, kp, bkp, km, bkm, unused;
+    upstream_particular(m, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
+    upstream_particular(m + LATERAL_STEP, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, kp, bkp,
+                        unused);
+    upstream_particular(m - LATERAL_STEP, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, km, bkm,
+                        unused);
+    bvec3 lit = bvec3(vec3(notEqual(k0, vec3(0.0))) * vec3(notEqual(kp, vec3(0.0)))
+                      * vec3(notEqual(km, vec3(0.0))));
+    vec3 safe_k0 = mix(vec3(1.0), k0, lit);
+    vec3 b0 = bk0 / safe_k0;
+    vec3 bp = bkp / mix(vec3(1.0), kp, lit);
+    vec3 bm = bkm / mix(vec3(1.0), km, lit);
+    float step = LATERAL_STEP;
+    vec3 dk = (kp - km) / (2.0 * step);
+    vec3 d2k = (kp - 2.0 * k0 + km) / (step * step);
+    vec3 db = (bp - bm) / (2.0 * step);
+    vec3 d2b = (bp - 2.0 * b0 + bm) / (step * step);
+    float w = 1.0 - m * m;
+    vec3 lk = w * d2k - 2.0 * m * dk;
+    vec3 lb = w * d2b - 2.0 * m * db;
+    vec3 lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
+        + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
+    vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
+    vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * narrowing * sigma_t / b0);
+    vec3 d_k = fade * beam_d * gc * lat * b0 / denom;
+    bvec3 bad = bvec3(vec3(isnan(d_k)) + vec3(isinf(d_k)));
+    return mix(mix(vec3(0.0), d_k, lit), vec3(0.0), bad);
 }
 
 void main() {
@@ -360,20 +439,27 @@ void main() {
             // transport::SurfaceCurvature::along: the normal curvature along the beam's tangent.
             vec3 beam_tangent = l - n * mu;
             float along_curvature = curvature;
+            vec3 a = curvature != 0.0 ? imageLoad(surface_anisotropy, texel).rgb : vec3(0.0);
+            // transport::SurfaceCurvature::squared: H^2 + |a|^4.
+            float curvature_squared = curvature * curvature + dot(a, a) * dot(a, a);
             if (curvature != 0.0 && length(beam_tangent) > 1e-6) {
-                vec3 a = imageLoad(surface_anisotropy, texel).rgb;
                 float ta = dot(normalize(beam_tangent), a);
                 along_curvature = curvature - dot(a, a) + 2.0 * ta * ta;
             }
             vec3 inv_eta_sigma = 1.0 / (pc.eta * max(sigma_t, vec3(1e-12)));
             vec3 c_t = clamp(along_curvature * inv_eta_sigma,
                              vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
-            vec3 c = clamp(curvature * inv_eta_sigma,
+            // The particular solution's curvature, H / sigma_t' (geometric: no eta).
+            vec3 c = clamp(curvature / max(sigma_t, vec3(1e-12)),
                            vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            vec3 c_area = clamp(curvature * inv_eta_sigma,
+                                vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
+            bool curved = pc.beam_upstream > 1.5;
             vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
-            vec3 factor = mix(vec3(0.0),
-                              max(mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu, vec3(0.0)),
-                              greaterThan(mu_up, vec3(0.0)));
+            vec3 factor = curved
+                ? max(mu_up, vec3(0.0))
+                : mix(vec3(0.0), max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0)),
+                      greaterThan(mu_up, vec3(0.0)));
             float vis = 1.0;
             if (light.views.y != 0u) {
                 uint view = light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
@@ -391,22 +477,29 @@ void main() {
             // As the f64 reference: unlit upstream, or nothing reaching the node, keeps the
             // usual arrival below.
             if (vis > 0.0 && any(greaterThan(factor, vec3(0.0)))) {
-                // Each channel's beam has its own upstream cosine: channel c of every vec3 below
-                // is channel c's beam (one evaluation for the three, the same values as three).
-                vec3 mi = mu_up;
-                vec3 mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), vec3(0.0)));
-                vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mi.r, 0.0)),
-                               fresnel_transmittance(pc.eta, max(mi.g, 0.0)),
-                               fresnel_transmittance(pc.eta, max(mi.b, 0.0)));
-                vec3 tr = e * (factor * ft * vis);
                 if (pc.beam_edge > 0.5 && vis < 1.0) {
+                    vec3 mi = mu_up;
+                    vec3 mt = sqrt(max(1.0 - (1.0 - mi * mi) / (pc.eta * pc.eta), vec3(0.0)));
+                    vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mi.r, 0.0)),
+                                   fresnel_transmittance(pc.eta, max(mi.g, 0.0)),
+                                   fresnel_transmittance(pc.eta, max(mi.b, 0.0)));
+                    vec3 tr = e * (factor * ft * vis);
                     vec3 gain = pc.beam_exit.w > 0.5
                         ? second_collision_ratio(beam_s, beam_a, beam_d, mt)
                         : vec3(1.0);
                     sum += tr * gain;
                 } else {
                     vec3 k, beta_k, flux;
-                    beam_particular(tr, mt, true, beam_s, beam_a, beam_d, k, beta_k, flux);
+                    upstream_particular(mu, c_t, c, c_area, curved, e * vis, beam_s, beam_a,
+                                        beam_d, k, beta_k, flux);
+                    // The lateral terms: K gains dK, beta unchanged (beta K scales with it).
+                    vec3 d_k = curved
+                        ? lateral_correction(mu, c_t, c, curvature_squared, e * vis, beam_s,
+                                             beam_a, beam_d)
+                        : vec3(0.0);
+                    vec3 beta = beta_k / mix(k, vec3(1.0), equal(k, vec3(0.0)));
+                    k += d_k;
+                    beta_k = beta * k;
                     sum += flux - (k + h * beta_k) / pc.beam_exit.z;
                     part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
                 }
@@ -439,8 +532,8 @@ void main() {
             vec3 attenuation = mix(exp(-tau), vec3(0.0), greaterThan(tau, vec3(MAX_OPTICAL_DEPTH)));
             vec3 transmitted = e_in * (mu_i * fresnel_transmittance(pc.eta, mu_i));
             vec3 k, beta_k, flux;
-            beam_particular(transmitted, vec3(mu_t), false, beam_s, beam_a, beam_d, k, beta_k,
-                            flux);
+            beam_particular(transmitted, vec3(mu_t), false, beam_s, beam_a, beam_d, vec3(0.0), k,
+                            beta_k, flux);
             k *= attenuation;
             beta_k *= attenuation;
             // Grazing (h beta > 1, mu_t below about 2/3 at eta 1) the right-hand side turns
@@ -483,7 +576,8 @@ void main() {
             continue;
         }
         vec3 k, beta_k, flux;
-        beam_particular(transmitted, vec3(mu_t), true, beam_s, beam_a, beam_d, k, beta_k, flux);
+        beam_particular(transmitted, vec3(mu_t), true, beam_s, beam_a, beam_d, vec3(0.0), k,
+                        beta_k, flux);
         sum += flux;
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
         sum += -(k + h * beta_k) / pc.beam_exit.z;

@@ -516,3 +516,82 @@ fn gpu_upstream_beam_matches_the_cpu_reference() {
     }
     gpu.finish();
 }
+
+/// The curved particular solution (`Transport::curved_particular`, `render --upstream-beam
+/// curved`: irradiance factor mu_up, the narrowing in K, the lateral terms by finite differences
+/// in n.l) on the GPU against the f64 CPU's same formulas, the 3 mm marble sphere and the
+/// milk | skin1 split front-lit (c = H / sigma_t' up to 0.2, the clamp, in milk red). Bounded as
+/// [`UPSTREAM_GPU_VS_CPU`]; it must differ from wave 8's area factor by more than
+/// [`CURVED_DIFFERS`] (a GPU ignoring the option fails).
+const CURVED_DIFFERS: f64 = 0.01;
+
+#[test]
+fn gpu_curved_particular_matches_the_cpu_reference() {
+    use translucent::material::Procedural;
+    use translucent::solver::transport::Source;
+    let gpu = GpuTest::new();
+    let ctx = &gpu.ctx;
+    let graph = bake(&Shape::Sphere { radius: 3.0 }, 16, 2);
+    let marble = MaterialField::Homogeneous(Material::preset("marble").unwrap());
+    let split = MaterialField::procedural(
+        Procedural::Split {
+            normal: glam::DVec3::Y,
+            offset: 0.0,
+            below: Material::preset("skimmilk").unwrap().coefficients(),
+            above: Material::preset("skin1").unwrap().coefficients(),
+        },
+        1.0,
+    )
+    .unwrap();
+    let scene = Scene {
+        lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
+        environment: Environment::None,
+    };
+    for (name, field) in [("marble", &marble), ("milk | skin1 split", &split)] {
+        let cpu_vertex = |curved_particular: bool| -> Vec<[f64; 3]> {
+            let params = CpuSolveParams {
+                transport: Transport {
+                    source: Source::SecondCollision,
+                    upstream_beam: true,
+                    curved_particular,
+                    ..Transport::gpu_collimated()
+                },
+                ..CpuSolveParams::default()
+            };
+            solver::solve(&graph, field, &scene, None, &params)
+                .unwrap()
+                .vertex_j_plus
+                .iter()
+                .map(|x| x.map(f64::from))
+                .collect()
+        };
+        let (want, area) = (cpu_vertex(true), cpu_vertex(false));
+        let params = GpuSolveParams {
+            iterations: vec![4000],
+            tolerance: 1e-6,
+            exit: ExitQuery::Moments,
+            collimated: true,
+            second_collision: true,
+            upstream_beam: true,
+            curved_particular: true,
+            ..Default::default()
+        };
+        let mut object = multilevel_object(ctx, &graph, field, &scene, params);
+        render_once(ctx, &mut object, 32, 32);
+        let v = object
+            .quadgraph()
+            .expect("a QuadGraph object")
+            .solve()
+            .read_vertex_j_plus(ctx)
+            .expect("vertex J+");
+        let err = rel_rms(&v, &want);
+        let apart = rel_rms(&v, &area);
+        println!("curved particular, {name}: GPU vs CPU {err:.2e}, vs the area factor {apart:.3}");
+        drop(object);
+        gpu.assert_no_messages();
+        assert!(v.iter().flatten().all(|x| x.is_finite()), "{name}");
+        assert!(err <= UPSTREAM_GPU_VS_CPU, "{name}: relative RMS {err}");
+        assert!(apart > CURVED_DIFFERS, "{name}: {apart}");
+    }
+    gpu.finish();
+}

@@ -142,6 +142,7 @@ fn beam_source(solve: &GpuDiffusion, field: &MaterialField) -> Option<BeamSource
         shadow_edge_flux: params.shadow_edge_flux,
         continuation: params.continuation,
         upstream: params.upstream_beam,
+        curved: params.curved_particular,
     })
 }
 

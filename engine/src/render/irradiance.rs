@@ -108,7 +108,8 @@ pub struct GatherPush {
     /// ([`BeamSource::continuation`]).
     pub beam_continuation: f32,
     /// 1: each lit node's beam taken from upstream on the curved surface
-    /// ([`BeamSource::upstream`]), its mean curvature in the surface normal's w.
+    /// ([`BeamSource::upstream`]), its mean curvature in the surface normal's w; 2: with the
+    /// curved particular solution ([`BeamSource::curved`]).
     pub beam_upstream: f32,
 }
 
@@ -156,6 +157,9 @@ pub struct BeamSource {
     /// mu^2), c = H / (eta sigma_t') with the node's mean curvature H (the surface normal's w);
     /// nodes just past the terminator get light, visibility tested a mean free path upstream.
     pub upstream: bool,
+    /// With `upstream`: the curved particular solution (`solver::transport::curved_particular`:
+    /// irradiance factor mu_up, the narrowing and the lateral terms in K); push constant 2.
+    pub curved: bool,
 }
 
 /// One light as `gather_q.comp` reads it (std430, all vec4).
@@ -637,6 +641,7 @@ impl IrradiancePass {
                 _ => 0.0,
             },
             beam_upstream: match self.beam {
+                Some(b) if b.upstream && b.curved => 2.0,
                 Some(b) if b.upstream => 1.0,
                 _ => 0.0,
             },

@@ -33,9 +33,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::transport::{
-    beam_particular, beam_share, diffuse_quadrature, second_collision_fit, tangent_frame,
-    upstream_beam, Boundary, ExitQuery, Optics, Refraction, Source, SurfaceCurvature, Transport,
-    UPSTREAM_SHIFT_LIMIT,
+    beam_particular, beam_particular_curved, beam_share, diffuse_quadrature, lateral_correction,
+    second_collision_fit, tangent_frame, upstream_beam, upstream_beam_with, Boundary, ExitQuery,
+    Optics, Refraction, Source, SurfaceCurvature, Transport, UPSTREAM_SHIFT_LIMIT,
 };
 use crate::material::{Coefficients, MaterialField};
 use crate::mesh::Solid;
@@ -210,11 +210,15 @@ pub fn environment_beams(env: &Environment, n: DVec3) -> Vec<(f64, [f64; 3])> {
     }
 }
 
-/// Per channel, a beam's (incidence cosine, surface irradiance factor replacing mu_i in E mu_i).
-type ChannelBeams = [(f64, f64); 3];
+/// Per channel, a beam's (incidence cosine, surface irradiance factor replacing mu_i in E mu_i,
+/// the particular solution's curvature H / sigma_t' ([`beam_particular_curved`]), its lateral
+/// correction dK ([`lateral_correction`])).
+type ChannelBeams = [(f64, f64, f64, f64); 3];
 /// [`SourceModel::at_with`]'s beam: (out, channel, optics, refraction, surface irradiance,
-/// attenuation, alignment of its entry normal with the node's, lit here).
-type AddBeam<'f> = dyn Fn(&mut LocalSource, usize, Optics, Refraction, f64, f64, f64, bool) + 'f;
+/// attenuation, alignment of its entry normal with the node's, lit here, (curvature H /
+/// sigma_t', lateral dK)).
+type AddBeam<'f> =
+    dyn Fn(&mut LocalSource, usize, Optics, Refraction, f64, f64, f64, bool, (f64, f64)) + 'f;
 
 /// The source terms of a scene for one material, transport model and occluder.
 pub struct SourceModel<'a> {
@@ -315,7 +319,7 @@ impl<'a> SourceModel<'a> {
                 sigma_t * t < self.transport.thin_wall_mfp
             };
         for ch in 0..3 {
-            let (mu_i, factor) = beams[ch];
+            let (mu_i, factor, curvature, lateral) = beams[ch];
             let r = Refraction::new(eta, mu_i);
             let irr = irradiance[ch] * factor;
             if self.beams() && !thin {
@@ -324,7 +328,17 @@ impl<'a> SourceModel<'a> {
                 let o = Optics::channel_with(here, ch, self.material.diffusion());
                 let (_, fit, ratio) = self.fitted(o, r);
                 let share = beam_share(o, fit.mu_t);
-                add_beam(out, ch, o, r, irr * share, 1.0, 1.0, true);
+                add_beam(
+                    out,
+                    ch,
+                    o,
+                    r,
+                    irr * share,
+                    1.0,
+                    1.0,
+                    true,
+                    (curvature, lateral),
+                );
                 // The second-collision source scales its flux part too (the
                 // once-scattered light is single scattering's, added whole).
                 out.q_flux[ch] += ratio * irr * (1.0 - share) * r.t_i;
@@ -403,12 +417,33 @@ impl<'a> SourceModel<'a> {
             return None;
         }
         let eta = self.boundary.eta;
+        let curved = self.transport.curved_particular;
         let beams: ChannelBeams = std::array::from_fn(|c| {
-            let b = upstream_beam(mu, curvature, t, sigma_t[c], eta);
-            (b.mu_up, b.irradiance)
+            let b = upstream_beam_with(mu, curvature, t, sigma_t[c], eta, curved);
+            let o = Optics::channel_with(here, c, self.material.diffusion());
+            // The node's particular solution (K, beta) as lit_light makes it, for cosine m.
+            let at = |m: f64| {
+                let b = upstream_beam(m, curvature, t, sigma_t[c], eta);
+                if b.irradiance <= 0.0 {
+                    return (0.0, 0.0);
+                }
+                let r = Refraction::new(eta, b.mu_up);
+                let (gain, fit, _) = self.fitted(o, r);
+                let irr = e[c] * b.irradiance * beam_share(o, fit.mu_t);
+                beam_particular_curved(o, fit, irr, gain, b.curvature)
+            };
+            let lateral = if curved && b.irradiance > 0.0 {
+                lateral_correction(o, mu, b.curvature, curvature.squared(), at)
+            } else {
+                0.0
+            };
+            (b.mu_up, b.irradiance, b.curvature, lateral)
         });
         // Beyond its reach past the terminator the node keeps its usual arrival (continuation).
-        beams.iter().any(|&(_, f)| f > 0.0).then_some((e, beams))
+        beams
+            .iter()
+            .any(|&(_, f, _, _)| f > 0.0)
+            .then_some((e, beams))
     }
 
     /// The sources at surface point `x` with outward normal `n`, the local coefficients `here`
@@ -439,9 +474,11 @@ impl<'a> SourceModel<'a> {
                         irr: f64,
                         attenuation: f64,
                         alignment: f64,
-                        lit_here: bool| {
+                        lit_here: bool,
+                        (curvature, lateral): (f64, f64)| {
             let (gain, fit, _) = self.fitted(o, r);
-            let (k, beta) = beam_particular(o, fit, irr, gain);
+            let (k, beta) = beam_particular_curved(o, fit, irr, gain, curvature);
+            let k = k + lateral;
             out.phi_p[ch] += k * attenuation;
             out.dphi_p[ch] += -beta * k * attenuation * alignment;
             if lit_here {
@@ -473,7 +510,7 @@ impl<'a> SourceModel<'a> {
                         n,
                         here,
                         irradiance,
-                        [(mu_i, mu_i); 3],
+                        [(mu_i, mu_i, 0.0, 0.0); 3],
                     );
                 }
                 Arrival::Behind {
@@ -508,7 +545,17 @@ impl<'a> SourceModel<'a> {
                         }
                         let o = Optics::channel_with(&at_entry, ch, self.material.diffusion());
                         let irr = irradiance[ch] * mu_i;
-                        add_beam(&mut out, ch, o, r, irr, (-tau).exp(), alignment, false);
+                        add_beam(
+                            &mut out,
+                            ch,
+                            o,
+                            r,
+                            irr,
+                            (-tau).exp(),
+                            alignment,
+                            false,
+                            (0.0, 0.0),
+                        );
                     }
                 }
             }

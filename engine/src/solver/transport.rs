@@ -156,6 +156,11 @@ pub struct Transport {
     /// ([`upstream_beam`]; the curvature along the light's tangent from a probe one mean free
     /// path upstream). CPU only so far (benches/RESULTS.md, "The back-lit crescent").
     pub upstream_beam: bool,
+    /// With `upstream_beam`: the particular solution below a curved surface (its narrowing
+    /// [`beam_particular_curved`] and its lateral terms [`lateral_correction`], irradiance factor
+    /// mu_up) instead of wave 8's area factor ([`upstream_beam_with`]); `render --upstream-beam
+    /// curved` (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes").
+    pub curved_particular: bool,
 }
 
 impl Default for Transport {
@@ -171,6 +176,7 @@ impl Default for Transport {
             bounce_rays: 0,
             environment_beams: true,
             upstream_beam: false,
+            curved_particular: false,
         }
     }
 }
@@ -448,15 +454,38 @@ const RESONANCE_GUARD: f64 = 1e-4;
 /// for a beam of surface irradiance `irr` (E mu_i) refracted as `r`, Q0 = gain sigma_s' irr T_i /
 /// mu_t (DESIGN 2.7).
 pub fn beam_particular(o: Optics, r: Refraction, irr: f64, gain: f64) -> (f64, f64) {
+    beam_particular_curved(o, r, irr, gain, 0.0)
+}
+
+/// [`beam_particular`] below a curved surface: `curvature` = H / sigma_t' (the surface's mean
+/// curvature H in transport mean free paths, convex > 0, [`UpstreamBeam::curvature`]). Under a
+/// surface of mean curvature H the depth z = distance to the surface has Laplacian -2 H (to
+/// first order in H z), so D (K e^(-beta z))'' - sigma_a K e^(-beta z) gains D 2 H beta K
+/// e^(-beta z), and K e^(-beta z) is the local solution for the source Q0 e^(-beta z) with
+/// K = Q0 / (sigma_a - D beta^2 - 2 D H beta) = Q0 / (sigma_a - D beta^2 (1 + 2 (H / sigma_t')
+/// mu)), mu = sigma_t' / beta (the fitted cosine of a second-collision source: the deeper the
+/// profile, the more of it the convex volume narrows). The planar K (H = 0) put a source
+/// (1 + 2 H / beta) times the intended one under a convex surface: 1.15 x the exitance at a
+/// skim-milk sphere's lit pole (benches/RESULTS.md, "The front-lit milk sphere's mid
+/// latitudes"). |curvature| <= [`UPSTREAM_SHIFT_LIMIT`] keeps the factor within 1 +- 0.4, on
+/// the resonance's side of [`beam_share`]'s planar share (which is therefore left planar).
+pub fn beam_particular_curved(
+    o: Optics,
+    r: Refraction,
+    irr: f64,
+    gain: f64,
+    curvature: f64,
+) -> (f64, f64) {
     let mu_t = r.mu_t.max(MIN_MU_T);
     let q0 = gain * o.sigma_s * irr * r.t_i / mu_t;
     let d = o.d();
+    let curved = 1.0 + 2.0 * curvature * mu_t;
     let mut beta = o.sigma_t() / mu_t;
-    let scale = o.sigma_a + d * beta * beta;
-    if (o.sigma_a - d * beta * beta).abs() < RESONANCE_GUARD * scale {
+    let scale = o.sigma_a + d * beta * beta * curved;
+    if (o.sigma_a - d * beta * beta * curved).abs() < RESONANCE_GUARD * scale {
         beta *= 1.0 + 2.0 * RESONANCE_GUARD;
     }
-    (q0 / (o.sigma_a - d * beta * beta), beta)
+    (q0 / (o.sigma_a - d * beta * beta * curved), beta)
 }
 
 /// Below this relative distance from the resonance, |sigma_a - D beta^2| / (sigma_a + D beta^2),
@@ -636,26 +665,42 @@ pub fn refract_inward(d: DVec3, n: DVec3, eta: f64) -> DVec3 {
 /// a smaller feature (an edge of a mesh, an ear) is clamped to it.
 pub const UPSTREAM_SHIFT_LIMIT: f64 = 0.2;
 
+/// [`UpstreamBeam::curvature`] (the particular solution's narrowing below a convex node) applies in
+/// full above this n.l and fades (smoothstep) to none at n.l = 0. The narrowing is the volume below
+/// a node lit on every side; at the terminator the light below a node entered upstream over a
+/// half-lit neighbourhood, and the ring Monte Carlo's exitance there is better without it on
+/// marble (the 10 mm sphere at n.l -0.1..0.1: 0.937-0.966 of the Monte Carlo in full, 0.949-0.987
+/// faded over 0..0.3, 0.969-1.002 with wave 8's area factor) while skim milk prefers it (0.99-1.00
+/// in full, 1.03-1.04 faded, 1.09-1.10 with the area factor): `benches/milk10/cont2.py R,G,B
+/// 0,1,-0.5 0,1,-0.5,0.3` (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes").
+pub const NARROWING_FULL_ABOVE: f64 = 0.3;
+
 /// A beam entering a curved surface, as a surface node's source sees it (issue 12, the back-lit
 /// crescent: benches/RESULTS.md "The back-lit crescent, term by term"). A beam travels a lateral
 /// mean free path sqrt(1 - mu_t^2) / sigma_t' = sin(theta_i) / (eta sigma_t') along the surface
 /// before its first collision, so the light that collides below a node entered upstream, where
 /// (on a surface of mean curvature H, convex > 0) the cosine to the light is larger by the angle
 /// turned, a = H sin(theta_i) / (eta sigma_t'): to first order in c = H / (eta sigma_t'),
-/// mu_up = mu + c (1 - mu^2), and the map's area ratio (1 - c mu)^2 spreads it over a wider
-/// area, so the node's irradiance factor (what replaces mu_i in E mu_i) is
-/// mu + c (1 - 3 mu^2), which conserves the lit power of a sphere to O(c^2) and lights the
-/// unlit side within about c of the terminator. The planar model (c = 0) puts every first
+/// mu_up = mu + c (1 - mu^2). The default ([`upstream_beam_with`] `curved` false, wave 8): the
+/// map's area ratio (1 - c mu)^2 spreads it, irradiance factor mu + c (1 - 3 mu^2), which keeps
+/// a sphere's lit power to O(c^2). Curved ([`upstream_beam`], `Transport::curved_particular`):
+/// at eta 1 the first-collision density per volume below the node is E sigma_s' exp(-sigma_t'
+/// chord), whatever the surface's slope, so the irradiance factor (what replaces mu_i in E mu_i;
+/// T_i and mu_t at mu_up) is mu_up and the narrowing of the convex volume below the node is
+/// the particular solution's own curvature term ([`beam_particular_curved`] with
+/// [`UpstreamBeam::curvature`]), scaling with the (fitted) depth of the profile rather than with
+/// mu: the area factor over-lights a front-lit skim-milk sphere's mid latitudes by 10-20% in red,
+/// the curved one takes 3-5% of the light reaching the far side (benches/RESULTS.md, "The
+/// front-lit milk sphere's mid latitudes"). Either lights the unlit side
+/// within about c of the terminator. The planar model (c = 0) puts every first
 /// collision below its entry node: on the 10 mm marble sphere its exitance is 0.70 of the
-/// transport's at the terminator, with this shift 0.97-1.03 on every ring
-/// (`benches/crescent/sphere_second.py plain upstream`).
+/// transport's at the terminator.
 ///
 /// On a surface that is not umbilic the two curvatures differ (issue 12, the back-lit torus:
 /// benches/RESULTS.md "The back-lit torus, region by region"): the beam turns by the normal
 /// curvature k_t along its tangent direction t (the projection of l on the tangent plane), so
-/// mu_up = mu + c_t (1 - mu^2) with c_t = k_t / (eta sigma_t'), while the area ratio is the
-/// divergence of the shift field (l - n mu) / (eta sigma_t'), -2 H mu / (eta sigma_t') for any
-/// surface: irradiance factor mu + c_t (1 - mu^2) - 2 c mu^2 (the sphere's when k_t = H).
+/// mu_up = mu + c_t (1 - mu^2) with c_t = k_t / (eta sigma_t'), while the volume's narrowing is
+/// the mean curvature's (the Laplacian of the depth is -2 H on any surface).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UpstreamBeam {
     /// The cosine to the light where the beam entered: the incidence of its Fresnel
@@ -663,6 +708,9 @@ pub struct UpstreamBeam {
     pub mu_up: f64,
     /// Replaces mu_i in the surface irradiance E mu_i (0 where the node receives nothing).
     pub irradiance: f64,
+    /// The mean curvature in transport mean free paths, H / sigma_t' (clamped to
+    /// +-[`UPSTREAM_SHIFT_LIMIT`]): the particular solution's ([`beam_particular_curved`]).
+    pub curvature: f64,
 }
 
 /// See [`UpstreamBeam`]; `mu` = n . l at the node (may be negative near the terminator),
@@ -676,6 +724,20 @@ pub fn upstream_beam(
     sigma_t: f64,
     eta: f64,
 ) -> UpstreamBeam {
+    upstream_beam_with(mu, curvature, t, sigma_t, eta, true)
+}
+
+/// [`upstream_beam`] with `curved` false: wave 8's area factor, irradiance factor
+/// mu + c_t (1 - mu^2) - 2 c mu^2 (c = H / (eta sigma_t')) and a planar particular solution
+/// (curvature 0): `Transport::curved_particular` off, render's default.
+pub fn upstream_beam_with(
+    mu: f64,
+    curvature: SurfaceCurvature,
+    t: DVec3,
+    sigma_t: f64,
+    eta: f64,
+    curved: bool,
+) -> UpstreamBeam {
     let shift = |k: f64| {
         if k.is_finite() && sigma_t > 0.0 && eta > 0.0 {
             (k / (eta * sigma_t)).clamp(-UPSTREAM_SHIFT_LIMIT, UPSTREAM_SHIFT_LIMIT)
@@ -683,15 +745,109 @@ pub fn upstream_beam(
             0.0
         }
     };
-    let (c_t, c) = (shift(curvature.along(t)), shift(curvature.mean));
+    let c_t = shift(curvature.along(t));
     let mu = mu.clamp(-1.0, 1.0);
     let mu_up = (mu + c_t * (1.0 - mu * mu)).min(1.0);
-    let irradiance = if mu_up > 0.0 {
-        (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0)
+    if !curved {
+        let c = shift(curvature.mean);
+        let irradiance = if mu_up > 0.0 {
+            (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0)
+        } else {
+            0.0
+        };
+        return UpstreamBeam {
+            mu_up,
+            irradiance,
+            curvature: 0.0,
+        };
+    }
+    let irradiance = mu_up.max(0.0);
+    // The particular solution's curvature is geometric (eta does not enter the Laplacian), in
+    // full from n.l = NARROWING_FULL_ABOVE, faded (smoothstep) to none at the terminator.
+    let fade = (mu / NARROWING_FULL_ABOVE).clamp(0.0, 1.0);
+    let curvature = if irradiance > 0.0 {
+        shift(curvature.mean * eta) * fade * fade * (3.0 - 2.0 * fade)
     } else {
         0.0
     };
-    UpstreamBeam { mu_up, irradiance }
+    UpstreamBeam {
+        mu_up,
+        irradiance,
+        curvature,
+    }
+}
+
+/// The step in n.l of [`lateral_correction`]'s finite differences (f32 keeps the second
+/// difference of K to about 1e-7 / LATERAL_STEP^2 = 3e-4 of K on the GPU).
+pub const LATERAL_STEP: f64 = 0.02;
+
+/// [`lateral_correction`] applies in full above this n.l and fades (smoothstep from n.l = 0) below:
+/// the expansion in lateral derivatives needs K to vary little over a profile's depth along the
+/// surface, which fails within a few c of the lit edge (mu_up -> 0, where beta = sigma_t' / mu_e
+/// and K turn within a mean free path). Without the fade the continuous sphere's exitance at n.l
+/// -0.2..0.1 drops to 0.86-0.95 of the Monte Carlo's (0.94-1.01 with it;
+/// `benches/milk10/cont2.py mR,mG,mB 0,1,1` against `0,1,-0.5`).
+pub const LATERAL_FULL_ABOVE: f64 = 0.5;
+
+/// The particular solution's lateral terms (second order in the curvature): K(mu) e^(-beta(mu) z)
+/// varies along the surface with the node's cosine mu = n . l, so its surface Laplacian
+/// g [(1 - mu^2) f'' - 2 mu f'] (a sphere's, g = 1 / R^2; here g = (k1^2 + k2^2) / 2 =
+/// H^2 + |a|^4 of the node's [`SurfaceCurvature`], at most (UPSTREAM_SHIFT_LIMIT sigma_t')^2)
+/// is a source the planar particular solution leaves out. Integrated over depth (moments 1/beta,
+/// 1/beta^2, 2/beta^3 of e^(-beta z), z e^(-beta z), z^2 e^(-beta z)) and folded into K:
+/// dK = D g lat beta / (sigma_a - D beta^2 (1 + 2 c mu_e)), lat = L[K] / beta - (2 (1 - mu^2)
+/// K' beta' + K L[beta]) / beta^2 + 2 K beta'^2 (1 - mu^2) / beta^3, L[f] = (1 - mu^2) f'' -
+/// 2 mu f'. At a skim-milk sphere's lit pole (red, c = 0.14) it is +9% of K, +1.4% for marble
+/// red; it lifts the continuous sphere's lit cap from 0.96-0.99 to 1.00-1.01 of the Monte Carlo
+/// (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes"). `at(mu)` gives (K, beta)
+/// of the node's beam (everything else held) for a node cosine `mu`; derivatives by central
+/// differences of [`LATERAL_STEP`] about min(mu, 1 - step) (K is smooth in mu up to the pole);
+/// 0 where any of the three is unlit or not finite. `curvature` = H / sigma_t' (clamped, as
+/// [`UpstreamBeam::curvature`]), `g` in 1/mm^2. The GPU gather computes the same.
+pub fn lateral_correction(
+    o: Optics,
+    mu: f64,
+    curvature: f64,
+    g: f64,
+    at: impl Fn(f64) -> (f64, f64),
+) -> f64 {
+    let step = LATERAL_STEP;
+    let t = (mu / LATERAL_FULL_ABOVE).clamp(0.0, 1.0);
+    let fade = t * t * (3.0 - 2.0 * t);
+    let sigma_t = o.sigma_t();
+    // NaN fails the test (f64::min would return the clamp for it).
+    if fade == 0.0 || g.is_nan() || g <= 0.0 {
+        return 0.0;
+    }
+    let g = g.min((UPSTREAM_SHIFT_LIMIT * sigma_t).powi(2));
+    let m = mu.min(1.0 - step);
+    let ((k0, b0), (kp, bp), (km, bm)) = (at(m), at(m + step), at(m - step));
+    if [k0, kp, km, b0, bp, bm]
+        .iter()
+        .any(|v| !v.is_finite() || *v == 0.0)
+    {
+        return 0.0;
+    }
+    let (dk, d2k) = (
+        (kp - km) / (2.0 * step),
+        (kp - 2.0 * k0 + km) / (step * step),
+    );
+    let (db, d2b) = (
+        (bp - bm) / (2.0 * step),
+        (bp - 2.0 * b0 + bm) / (step * step),
+    );
+    let w = 1.0 - m * m;
+    let (lk, lb) = (w * d2k - 2.0 * m * dk, w * d2b - 2.0 * m * db);
+    let lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
+        + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
+    let d = o.d();
+    let denom = o.sigma_a - d * b0 * b0 * (1.0 + 2.0 * curvature * sigma_t / b0);
+    let dk_total = fade * d * g * lat * b0 / denom;
+    if dk_total.is_finite() {
+        dk_total
+    } else {
+        0.0
+    }
 }
 
 /// The curvature of the surface at a node (1/mm, convex > 0): the mean curvature H = (k1 + k2)
@@ -711,6 +867,17 @@ impl SurfaceCurvature {
         SurfaceCurvature {
             mean,
             anisotropy: DVec3::ZERO,
+        }
+    }
+
+    /// (k1^2 + k2^2) / 2 = H^2 + |a|^4: the mean over directions of the squared normal
+    /// curvature, the surface Laplacian's scale in [`lateral_correction`] (0 if not finite).
+    pub fn squared(&self) -> f64 {
+        let g = self.mean * self.mean + self.anisotropy.length_squared().powi(2);
+        if g.is_finite() {
+            g
+        } else {
+            0.0
         }
     }
 

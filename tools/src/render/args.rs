@@ -119,9 +119,11 @@ pub struct RenderArgs {
     /// With a beam source (GPU and CPU solvers, the same formula and baked curvature): `on`,
     /// each surface node's beam is taken from upstream on the curved surface
     /// (`transport::upstream_beam`: lights the crescent past the terminator of a back-lit
-    /// object); `off`, the planar beam. `--upstream-beam` alone is `on`. Default: see
-    /// `defaults::DEFAULT_UPSTREAM_BEAM`.
-    #[arg(long, value_name = "on|off", value_parser = ["on", "off"], num_args = 0..=1, default_missing_value = "on")]
+    /// object); `off`, the planar beam; `curved`, the upstream beam with its particular solution
+    /// below the curved surface (`transport::Transport::curved_particular`: the volume's
+    /// narrowing and the lateral terms in K; the front-lit milk sphere's mid latitudes).
+    /// `--upstream-beam` alone is `on`. Default: see `defaults::DEFAULT_UPSTREAM_BEAM`.
+    #[arg(long, value_name = "on|off|curved", value_parser = ["on", "off", "curved"], num_args = 0..=1, default_missing_value = "on")]
     pub upstream_beam: Option<String>,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from

@@ -106,8 +106,13 @@ impl RenderArgs {
     pub fn upstream_beam(&self) -> bool {
         self.upstream_beam
             .as_deref()
-            .map_or(DEFAULT_UPSTREAM_BEAM, |v| v == "on")
+            .map_or(DEFAULT_UPSTREAM_BEAM, |v| v != "off")
             && self.light_source() != translucent::solver::transport::Source::BoundaryFlux
+    }
+
+    /// `--upstream-beam curved`: the upstream beam with the curved particular solution.
+    pub fn curved_particular(&self) -> bool {
+        self.upstream_beam() && self.upstream_beam.as_deref() == Some("curved")
     }
 
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on

@@ -262,6 +262,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     source,
                     continuation: args.continuation(),
                     upstream_beam: args.upstream_beam(),
+                    curved_particular: args.curved_particular(),
                     ..solver::transport::Transport::gpu_collimated()
                 }
             } else {
@@ -318,6 +319,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         shadow_edge_flux: args.shadow_edge_flux,
         continuation: args.continuation(),
         upstream_beam: args.upstream_beam(),
+        curved_particular: args.curved_particular(),
         // The multigrid's coarse operator and cycle as named (`--coarse-*`, `--multigrid-cycle`).
         multigrid: match base.multigrid.as_ref() {
             Some(m) => Some(

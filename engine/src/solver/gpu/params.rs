@@ -98,6 +98,9 @@ pub struct GpuSolveParams {
     /// f64 reference's [`crate::solver::transport::Transport::upstream_beam`], the same
     /// formula and the same baked curvature per node).
     pub upstream_beam: bool,
+    /// With `upstream_beam`: the curved particular solution (the f64 reference's
+    /// [`crate::solver::transport::Transport::curved_particular`], the same formulas).
+    pub curved_particular: bool,
     /// `Some`: multigrid cycles (`--schedule multigrid`, [`super::multigrid`]) with these
     /// parameters (its tolerance is this struct's `tolerance`; `krylov` is not built on the GPU
     /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
@@ -158,6 +161,7 @@ impl Default for GpuSolveParams {
             shadow_edge_flux: false,
             continuation: false,
             upstream_beam: false,
+            curved_particular: false,
             multigrid: None,
             surface: SurfaceReconstruction::Shepard,
             heterogeneous_weights: HeterogeneousWeights::default(),

@@ -210,34 +210,31 @@ fn refraction_is_snell() {
     assert!((sin_t - sin_i / 1.5).abs() < 1e-12 && t.dot(n) < 0.0);
 }
 
-/// The sphere's lit power with the upstream shift is 1/2 (per 2 pi R^2 E) up to c^2 / 2:
-/// within c^2 (the shift without the area ratio, mu + c (1 - mu^2), is off by 2c/3).
+/// The plane keeps the planar beam; on a sphere the upstream beam lights the unlit side within
+/// about c of the terminator and nothing beyond, its irradiance factor is mu_up (the first
+/// collisions' density per volume at eta 1 does not depend on the slope) and its particular
+/// solution's curvature H / sigma_t' (clamped).
 #[test]
-fn upstream_beam_keeps_the_sphere_lit_power_and_the_plane() {
+fn upstream_beam_keeps_the_plane_and_lights_past_the_terminator() {
     for mu in [-0.5, -0.01, 0.0, 0.3, 1.0] {
         let b = upstream_beam(mu, SurfaceCurvature::default(), DVec3::X, 2.6, 1.3);
         assert_eq!(b.mu_up, mu);
         assert_eq!(b.irradiance, f64::max(mu, 0.0));
+        assert_eq!(b.curvature, 0.0);
     }
     // Marble red on a 10 mm sphere (c = 0.046), a 2 mm sphere (0.23, clamped to the limit).
     for (radius, sigma_t) in [(10.0_f64, 2.1921_f64), (10.0, 3.0071), (2.0, 2.1921)] {
         let c = (1.0 / (radius * sigma_t)).min(UPSTREAM_SHIFT_LIMIT);
         let sphere = SurfaceCurvature::umbilic(1.0 / radius);
-        const N: usize = 200_000;
-        let power: f64 = (0..N)
-            .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
-            .map(|mu| upstream_beam(mu, sphere, DVec3::X, sigma_t, 1.0).irradiance * 2.0 / N as f64)
-            .sum();
-        assert!(
-            (power - 0.5).abs() <= c * c,
-            "R {radius}: power {power}, c {c}"
-        );
-        // The unlit side within about c of the terminator is lit; beyond it nothing.
+        for eta in [1.0, 1.3] {
+            let b = upstream_beam(0.5, sphere, DVec3::X, sigma_t, eta);
+            assert!((b.irradiance - b.mu_up).abs() < 1e-15);
+            // The particular solution's curvature is geometric: eta does not enter it.
+            assert!((b.curvature - c).abs() < 1e-12, "{b:?} vs {c}");
+        }
         assert!(upstream_beam(-0.5 * c, sphere, DVec3::X, sigma_t, 1.0).irradiance > 0.0);
-        assert_eq!(
-            upstream_beam(-2.0 * c, sphere, DVec3::X, sigma_t, 1.0).irradiance,
-            0.0
-        );
+        let beyond = upstream_beam(-2.0 * c, sphere, DVec3::X, sigma_t, 1.0);
+        assert_eq!((beyond.irradiance, beyond.curvature), (0.0, 0.0));
     }
     // Never NaN, never negative, for any input.
     for h in [f64::NAN, f64::INFINITY, -1e9, 1e9] {
@@ -247,12 +244,61 @@ fn upstream_beam_keeps_the_sphere_lit_power_and_the_plane() {
         };
         let b = upstream_beam(0.5, k, DVec3::X, 2.0, 1.0);
         assert!(b.mu_up.is_finite() && b.irradiance >= 0.0);
+        assert!(b.curvature.abs() <= UPSTREAM_SHIFT_LIMIT);
+    }
+}
+
+/// The curved particular solution K e^(-beta (R - r)) of [`beam_particular_curved`] solves
+/// D (phi'' + 2 phi' / r) - sigma_a phi = -Q0 e^(-beta (R - r)) (the radial diffusion equation
+/// inside a sphere of radius R) at the surface r = R, to the finite difference's error; the planar
+/// K leaves 2 D beta K / R there, about -2 / (R beta) = -2 mu / (R sigma_t') of the source (skim
+/// milk red, mu 0.5: -0.14), and a concave surface (R < 0, a cavity) the opposite.
+#[test]
+fn curved_particular_solution_solves_the_diffusion_below_a_sphere() {
+    let o = Optics {
+        sigma_s: 0.7,
+        sigma_a: 0.0014,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let beam = Refraction {
+        mu_i: 0.5,
+        t_i: 1.0,
+        mu_t: 0.5,
+    };
+    let q0 = o.sigma_s / beam.mu_t;
+    for radius in [10.0_f64, 5.0, -10.0] {
+        let curvature = 1.0 / (radius.abs() * o.sigma_t());
+        let curvature = if radius > 0.0 { curvature } else { -curvature };
+        // The residual of the radial equation at the surface, relative to the source Q0; the
+        // sphere's centre at distance |R| below (R > 0) or above (R < 0) the surface.
+        let residual = |k: f64, beta: f64| {
+            let phi = |z: f64| k * (-beta * z).exp();
+            let r = |z: f64| radius - z;
+            let step = 1e-3;
+            let d2 = (phi(step) - 2.0 * phi(0.0) + phi(-step)) / (step * step);
+            // d/dr = -d/dz; the Laplacian's first-order term 2 phi_r / r.
+            let d1 = -(phi(step) - phi(-step)) / (2.0 * step);
+            (o.d() * (d2 + 2.0 * d1 / r(0.0)) - o.sigma_a * phi(0.0) + q0) / q0
+        };
+        let (k, beta) = beam_particular_curved(o, beam, 1.0, 1.0, curvature);
+        let (k_planar, beta_planar) = beam_particular(o, beam, 1.0, 1.0);
+        let (curved, planar) = (residual(k, beta), residual(k_planar, beta_planar));
+        // Negative: the planar K's source exceeds Q0 under a convex surface.
+        let b2 = o.d() * beta_planar * beta_planar;
+        let expected = 2.0 * o.d() * beta_planar / (radius * (o.sigma_a - b2));
+        assert!(curved.abs() < 1e-4, "R {radius}: curved {curved}");
+        assert!(expected.abs() > 0.05 && (expected < 0.0) == (radius > 0.0));
+        assert!(
+            (planar - expected).abs() < 1e-3 * expected.abs(),
+            "R {radius}: planar {planar} vs {expected}"
+        );
+        assert!(k.is_finite() && beta == beta_planar);
     }
 }
 
 /// A cylinder of radius r along y (k1 = 1 / r around it, k2 = 0 along it): a beam whose
 /// tangent runs around it turns as on a sphere of radius r, one running along the axis
-/// does not turn (mu_up = mu), and both spread light by the mean curvature 1 / (2 r).
+/// does not turn (mu_up = mu), and both narrow by the mean curvature 1 / (2 r).
 #[test]
 fn upstream_beam_on_a_cylinder_turns_only_around_it() {
     let (r, sigma_t) = (3.0, 2.62);
@@ -274,10 +320,78 @@ fn upstream_beam_on_a_cylinder_turns_only_around_it() {
         sigma_t,
         1.0,
     );
-    // The same turn as the sphere's, half its spread (the mean curvature is 1 / (2 r)).
-    assert!((around.irradiance - (mu + c * (1.0 - mu * mu) - c * mu * mu)).abs() < 1e-12);
-    assert!(around.irradiance > sphere.irradiance);
+    // The same turn as the sphere's, half its narrowing (the mean curvature is 1 / (2 r)).
+    assert!((around.irradiance - sphere.irradiance).abs() < 1e-12);
+    assert!((around.curvature - 0.5 * sphere.curvature).abs() < 1e-12);
+    assert!((sphere.curvature - c).abs() < 1e-12);
     let along = upstream_beam(mu, cylinder, DVec3::Y, sigma_t, 1.0);
-    assert_eq!(along.mu_up, mu);
-    assert!((along.irradiance - (mu - c * mu * mu)).abs() < 1e-12);
+    assert_eq!((along.mu_up, along.irradiance), (mu, mu));
+    assert!((along.curvature - 0.5 * c).abs() < 1e-12);
+}
+
+/// Wave 8's area factor (`upstream_beam_with(.., false)`, the default): the sphere's lit power is
+/// 1/2 (per 2 pi R^2 E) up to c^2 / 2, and the particular solution stays planar.
+#[test]
+fn upstream_area_factor_keeps_the_sphere_lit_power() {
+    for (radius, sigma_t) in [(10.0_f64, 2.1921_f64), (10.0, 3.0071), (2.0, 2.1921)] {
+        let c = (1.0 / (radius * sigma_t)).min(UPSTREAM_SHIFT_LIMIT);
+        let sphere = SurfaceCurvature::umbilic(1.0 / radius);
+        const N: usize = 200_000;
+        let beam = |mu: f64| upstream_beam_with(mu, sphere, DVec3::X, sigma_t, 1.0, false);
+        let power: f64 = (0..N)
+            .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
+            .map(|mu| beam(mu).irradiance * 2.0 / N as f64)
+            .sum();
+        assert!((power - 0.5).abs() <= c * c, "R {radius}: power {power}");
+        assert_eq!(beam(0.5).curvature, 0.0);
+        // The curved factor mu_up alone carries 2c/3 more (its narrowing is in K).
+        let curved: f64 = (0..N)
+            .map(|i| -1.0 + 2.0 * (i as f64 + 0.5) / N as f64)
+            .map(|mu| upstream_beam(mu, sphere, DVec3::X, sigma_t, 1.0).irradiance * 2.0 / N as f64)
+            .sum();
+        assert!(
+            (curved - 0.5 - 2.0 * c / 3.0).abs() <= c * c,
+            "R {radius}: {curved}"
+        );
+    }
+}
+
+/// [`lateral_correction`] on K(mu) = mu^2 with beta constant (beta' = 0): lat = L[K] / beta =
+/// (2 - 6 mu^2) / beta, dK = D g (2 - 6 mu^2) / (sigma_a - D beta^2 (1 + 2 c sigma_t' / beta)),
+/// faded in below n.l [`LATERAL_FULL_ABOVE`]; nothing where a neighbour is unlit.
+#[test]
+fn lateral_correction_matches_its_closed_form() {
+    let o = Optics {
+        sigma_s: 0.7,
+        sigma_a: 0.0014,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let (beta, c, g) = (1.5, 0.1, 0.01);
+    for mu in [0.6, 0.8, 0.95] {
+        let got = lateral_correction(o, mu, c, g, |m| (m * m, beta));
+        let m = mu.min(1.0 - LATERAL_STEP);
+        let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
+        let want = o.d() * g * (2.0 - 6.0 * m * m) / denom;
+        assert!(
+            (got - want).abs() < 1e-6 * want.abs(),
+            "mu {mu}: {got} vs {want}"
+        );
+    }
+    let faded = lateral_correction(o, 0.25, c, g, |m| (m * m, beta));
+    let full = o.d() * g * (2.0 - 6.0 * 0.0625)
+        / (o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta));
+    assert!((faded - 0.5 * full).abs() < 1e-6 * full.abs());
+    assert_eq!(lateral_correction(o, 0.0, c, g, |m| (m * m, beta)), 0.0);
+    assert_eq!(
+        lateral_correction(o, 0.5, c, g, |m| if m < 0.5 {
+            (0.0, 0.0)
+        } else {
+            (m, beta)
+        }),
+        0.0
+    );
+    assert_eq!(
+        lateral_correction(o, 0.5, c, f64::NAN, |m| (m * m, beta)),
+        0.0
+    );
 }
