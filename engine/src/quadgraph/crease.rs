@@ -170,7 +170,8 @@ mod tests {
 
     use super::*;
     use crate::mesh::MeshSolid;
-    use crate::quadgraph::{BakeParams, QuadGraph};
+    use crate::quadgraph::BakeParams;
+    use crate::QuadGraph;
 
     /// The boundary of a union of 1 mm voxels (`filled(i, j, k)` over `n`), welded by lattice
     /// index, wound outward.
@@ -325,5 +326,58 @@ mod tests {
             base_nodes_near > 0,
             "no base node next to the crease: the test sees nothing"
         );
+        // The plain rule (the averaged normal, n . n_node > 0) does take base nodes there: the
+        // assertions above are what the crease rule changes.
+        let fi = finest.inner_count();
+        let plain = super::super::shepard::ShepardIndex::new(
+            &finest.positions[fi..],
+            Some(&finest.surface_normals),
+        );
+        let mixed = crease.iter().any(|&v| {
+            let (ids, w) = plain.weights::<4>(
+                mesh.positions[v],
+                Some(mesh.normals[v]),
+                2.0 * finest.spacing,
+                1e-3 * finest.spacing,
+            );
+            ids.iter()
+                .zip(&w)
+                .any(|(&s, &w)| w > 0.0 && finest.surface_normals[s as usize].dot(DVec3::Y) > 0.9)
+        });
+        assert!(
+            mixed,
+            "the averaged normal takes no base node: the test sees nothing"
+        );
+    }
+
+    #[test]
+    fn a_crease_vertex_sees_the_base_in_front_and_itself() {
+        let mesh = plate_on_base();
+        let links = crate::frame::bounce::BounceLinks::build(
+            &mesh,
+            &crate::frame::bounce::BounceParams::default(),
+        )
+        .expect("links");
+        for v in front_crease(&mesh) {
+            // From the plate's face the base in front (7 mm deep, 30 mm wide) fills most of the
+            // lower half of the hemisphere (an infinite floor: 1/2); the rays that land next to
+            // the vertex are its own exitance. Rays from the averaged normal started in the
+            // base's plane and lost every ray towards it (form factor ~0).
+            let f = links.form_factor(v);
+            assert!((0.25..=0.55).contains(&f), "vertex {v}: form factor {f}");
+            assert!(
+                links
+                    .incoming(v)
+                    .iter()
+                    .any(|&(y, w)| y as usize == v && w > 0.0),
+                "vertex {v}: no self-link"
+            );
+            let wall = links.crossing(v);
+            assert!(
+                (wall.thickness - 2.0).abs() < 1e-3,
+                "vertex {v}: crossing {} mm, the plate is 2",
+                wall.thickness
+            );
+        }
     }
 }
