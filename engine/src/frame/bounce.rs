@@ -192,8 +192,12 @@ impl BounceLinks {
         let jitter: Vec<(f64, f64)> = (0..strata * strata)
             .map(|k| (hash01(u64::from(k), 1), hash01(u64::from(k), 2)))
             .collect();
-        // A vertex on a concave crease sees and is crossed from the face it shades from (the
-        // same group as its shading weights), not from the averaged normal between the faces.
+        // A vertex on a concave crease casts its rays and its wall crossing along the normal of
+        // the face it shades from (the same group as its shading weights), not the averaged
+        // normal between the faces. The crossing starts at the vertex: at a plate's foot it runs
+        // along the junction and leaves through the thick part (R near the half-space's, T ~ 0);
+        // started inside the plate's face it passed the lit back corner's light and overshot
+        // (benches/RESULTS.md, "Thin walls: the plate's crease").
         let creases = crate::quadgraph::crease::crease_normals(mesh, &mesh.normals, &solid);
         let per_vertex: Vec<(Vec<(u32, f32)>, WallCrossing)> = (0..mesh.positions.len())
             .into_par_iter()
