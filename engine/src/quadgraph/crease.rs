@@ -74,7 +74,7 @@ fn crease_normal(
     faces: &[u32],
 ) -> Option<(DVec3, f64)> {
     let p = surface.positions[v];
-    if !(outward.length_squared() > 0.0) {
+    if !outward.is_finite() || outward.length_squared() <= 0.0 {
         return None;
     }
     let mut groups: Vec<Group> = Vec::new();
@@ -82,7 +82,7 @@ fn crease_normal(
         let c = surface.indices[f as usize].map(|i| surface.positions[i as usize]);
         let cross = (c[1] - c[0]).cross(c[2] - c[0]);
         let area = 0.5 * cross.length();
-        if !(area > 0.0) || !cross.is_finite() {
+        if !cross.is_finite() || area <= 0.0 {
             continue;
         }
         let nf = cross / (2.0 * area);
@@ -151,7 +151,7 @@ fn thickness(solid: &dyn Solid, p: DVec3, g: &Group) -> f64 {
     let into = g.centroid - p;
     let along = (into - g.normal * g.normal.dot(into)).normalize_or_zero();
     let delta = 0.25 * g.shortest_edge;
-    if along == DVec3::ZERO || !(delta > 0.0) || g.normal == DVec3::ZERO {
+    if along == DVec3::ZERO || !delta.is_finite() || delta <= 0.0 || g.normal == DVec3::ZERO {
         return f64::INFINITY;
     }
     let start = p + along * delta - g.normal * delta;
@@ -253,9 +253,8 @@ mod tests {
         let creases = crease_normals(&mesh, &mesh.normals, &solid);
         let crease = front_crease(&mesh);
         assert_eq!(crease.len(), 19);
-        for v in 0..mesh.positions.len() {
+        for (v, &got) in creases.iter().enumerate() {
             let p = mesh.positions[v];
-            let got = creases[v];
             let on_junction =
                 p.y == 4.0 && (p.z == 7.0 || p.z == 9.0) && (5.0..=25.0).contains(&p.x);
             let on_foot_sides = p.y == 4.0 && (p.x == 5.0 || p.x == 25.0) && p.z > 7.0 && p.z < 9.0;
