@@ -192,13 +192,30 @@ impl BounceLinks {
         let jitter: Vec<(f64, f64)> = (0..strata * strata)
             .map(|k| (hash01(u64::from(k), 1), hash01(u64::from(k), 2)))
             .collect();
+        // A vertex on a concave crease casts its rays and its wall crossing along the normal of
+        // the face it shades from (the same group as its shading weights), not the averaged
+        // normal between the faces. The crossing starts at the vertex: at a plate's foot it runs
+        // along the junction and leaves through the thick part (R near the half-space's, T ~ 0);
+        // started inside the plate's face it passed the lit back corner's light and overshot
+        // (benches/RESULTS.md, "Thin walls: the plate's crease").
+        let creases = crate::quadgraph::crease::crease_normals(mesh, &mesh.normals, &solid);
         let per_vertex: Vec<(Vec<(u32, f32)>, WallCrossing)> = (0..mesh.positions.len())
             .into_par_iter()
             .map(|v| {
-                let (x, n) = (mesh.positions[v], mesh.normals[v]);
+                let x = mesh.positions[v];
+                let n = creases[v].map_or(mesh.normals[v], |(face, _)| face);
                 if !x.is_finite() || !n.is_finite() || n.length_squared() < 0.5 {
                     return (Vec::new(), WallCrossing::NONE);
                 }
+                // A crease vertex's rays start off the averaged normal (into the free wedge, clear
+                // of both faces' planes), and what they hit next to it is its own exitance: the
+                // corner lights itself (a self-link; Jacobi over the bounces as any other link).
+                let (start, own) = match creases[v] {
+                    Some(_) if mesh.normals[v].length_squared() > 0.5 => {
+                        (x + mesh.normals[v].normalize() * offset, true)
+                    }
+                    _ => (x + n * offset, false),
+                };
                 let across = wall_crossing(&solid, x, n.normalize(), offset);
                 let (t, b) = tangent_frame(n);
                 let mut weights: Vec<(u32, f64)> = Vec::new();
@@ -211,8 +228,7 @@ impl BounceLinks {
                         let (r, phi) = (u1.sqrt(), 2.0 * PI * u2);
                         let dir: DVec3 =
                             n * (1.0 - u1).max(0.0).sqrt() + (t * phi.cos() + b * phi.sin()) * r;
-                        let Some(hit) = solid.closest_hit(x + n * offset, dir, f64::INFINITY)
-                        else {
+                        let Some(hit) = solid.closest_hit(start, dir, f64::INFINITY) else {
                             continue;
                         };
                         // A hit from inside: the start was not outside (a sliver); no light.
@@ -222,7 +238,7 @@ impl BounceLinks {
                         let face = mesh.indices[hit.face as usize];
                         for (k, &y) in face.iter().enumerate() {
                             let w = hit.barycentric[k] / total;
-                            if y as usize == v || w <= 0.0 {
+                            if (y as usize == v && !own) || w <= 0.0 {
                                 continue;
                             }
                             match weights.iter_mut().find(|(s, _)| *s == y) {

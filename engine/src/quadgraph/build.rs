@@ -313,7 +313,7 @@ impl QuadGraph {
         let finest = levels
             .last()
             .ok_or_else(|| BakeError::Invalid("no levels".into()))?;
-        let shading = shepard::shading_weights(surface, finest);
+        let shading = shepard::shading_weights(surface, finest, solid);
         timings.push(("shading".into(), start.elapsed().as_secs_f64()));
         let start = Instant::now();
         let samples = surface_samples::surface_samples(surface, finest, solid);

@@ -20,6 +20,7 @@
 
 pub mod build;
 pub mod cache;
+pub mod crease;
 pub mod export;
 pub mod graph;
 pub mod packing;

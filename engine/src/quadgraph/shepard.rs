@@ -24,8 +24,9 @@ use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
+use super::crease::crease_normals;
 use super::graph::{GraphLevel, ShadingWeights, ShepardLinks, NO_NODE};
-use crate::mesh::TriMesh;
+use crate::mesh::{Solid, TriMesh};
 
 /// How many nearest points are examined before the normal and distance filters (enough that 4
 /// agreeing ones are found next to a thin part, where half the near points face the other way).
@@ -57,6 +58,17 @@ impl<'a> ShepardIndex<'a> {
         reach: f64,
         eps: f64,
     ) -> ([u32; B], [f64; B]) {
+        self.weights_within::<B>(x, normal.map(|n| (n, 0.0)), reach, eps)
+    }
+
+    /// [`ShepardIndex::weights`] with the agreement `n . n_y > min_cos` for `(n, min_cos)`.
+    pub fn weights_within<const B: usize>(
+        &self,
+        x: DVec3,
+        normal: Option<(DVec3, f64)>,
+        reach: f64,
+        eps: f64,
+    ) -> ([u32; B], [f64; B]) {
         let mut ids = [NO_NODE; B];
         let mut w = [0.0; B];
         if self.points.is_empty() {
@@ -76,7 +88,7 @@ impl<'a> ShepardIndex<'a> {
                 break;
             }
             let agrees = match (normal, self.normals) {
-                (Some(n), Some(ns)) => n.dot(ns[nb.item as usize]) > 0.0,
+                (Some((n, min_cos)), Some(ns)) => n.dot(ns[nb.item as usize]) > min_cos,
                 _ => true,
             };
             if agrees {
@@ -139,8 +151,14 @@ pub fn level_links(fine: &GraphLevel, coarse: &GraphLevel) -> ShepardLinks {
 }
 
 /// Shading weights of the display mesh's vertices into the finest level's surface nodes (surface
-/// indices). Vertex normals come from `surface.normals` (recomputed from the faces when missing).
-pub fn shading_weights(surface: &TriMesh, finest: &GraphLevel) -> ShadingWeights {
+/// indices). Vertex normals come from `surface.normals` (recomputed from the faces when missing);
+/// a vertex on a concave crease takes the nodes of its thinnest face group only
+/// ([`super::crease`]).
+pub fn shading_weights(
+    surface: &TriMesh,
+    finest: &GraphLevel,
+    solid: &dyn Solid,
+) -> ShadingWeights {
     let normals: Vec<DVec3> = if surface.normals.len() == surface.positions.len() {
         surface.normals.clone()
     } else {
@@ -152,11 +170,16 @@ pub fn shading_weights(surface: &TriMesh, finest: &GraphLevel) -> ShadingWeights
     let index = ShepardIndex::new(&finest.positions[fi..], Some(&finest.surface_normals));
     let reach = 2.0 * finest.spacing;
     let eps = 1e-3 * finest.spacing;
+    let creases = crease_normals(surface, &normals, solid);
     let per_vertex: Vec<([u32; 4], [f64; 4])> = surface
         .positions
         .par_iter()
         .zip(&normals)
-        .map(|(&p, &n)| index.weights::<4>(p, (n != DVec3::ZERO).then_some(n), reach, eps))
+        .zip(&creases)
+        .map(|((&p, &n), &crease)| {
+            let agree = crease.or((n != DVec3::ZERO).then_some((n, 0.0)));
+            index.weights_within::<4>(p, agree, reach, eps)
+        })
         .collect();
     let (links, weights) = per_vertex.into_iter().unzip();
     ShadingWeights { links, weights }
