@@ -90,7 +90,7 @@ mod recorder;
 mod report;
 use kernels::*;
 use pack::pack_operators;
-pub use probe::FinestProducts;
+pub use probe::{FinestProducts, LevelMagnitudes};
 use recorder::Recorder;
 
 pub const PASS_MG_START: &str = "multigrid start";
@@ -697,7 +697,12 @@ impl GpuMultigrid {
             Smoother::Chebyshev { lower } => lower,
             Smoother::Jacobi { .. } => 0.0,
         };
-        let coarse_bounds = eigenvalue_bounds(&hierarchy.levels[0].operator, COARSE_LANCZOS);
+        // TRANSLUCENT_MULTIGRID_COARSE_LANCZOS: another step count, for measurements.
+        let coarse_lanczos = std::env::var("TRANSLUCENT_MULTIGRID_COARSE_LANCZOS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(COARSE_LANCZOS);
+        let coarse_bounds = eigenvalue_bounds(&hierarchy.levels[0].operator, coarse_lanczos);
         let mut worst_condition: f64 = 1.0;
         let levels: Vec<Level> = hierarchy
             .levels
