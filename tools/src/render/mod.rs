@@ -468,7 +468,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             };
             // Measurement only: the cold start replayed stage by stage, every level's largest
             // magnitudes after each (benches/RESULTS.md "Large lattices: the fp16 update").
-            if mg_report.is_some() && std::env::var("TRANSLUCENT_MULTIGRID_PROBE").as_deref() == Ok("1")
+            if mg_report.is_some()
+                && std::env::var("TRANSLUCENT_MULTIGRID_PROBE").as_deref() == Ok("1")
             {
                 let solve = translucent
                     .quadgraph()

@@ -111,6 +111,31 @@ const MAX_COARSE_STEPS: u32 = 512;
 /// largest.
 const COARSE_LANCZOS: u32 = 60;
 
+/// The largest exposed q ([`super::GpuDiffusion::exposure_for`] maps the largest q to 512..1024).
+const EXPOSED_Q_MAX: f64 = 1024.0;
+/// Where the solve puts the bound of its solution (`q_gain` times the largest q, by the maximum
+/// principle: every row is a convex combination of its neighbours and, on the surface, of
+/// `q_gain q`): fp16 updates ([`UpdateStorage::F16`], max 65504) keep 32x of headroom above it
+/// for the Chebyshev steps' overshoot and the coarse corrections (benches/RESULTS.md "Large
+/// lattices: the fp16 update and the coarsest level": eta 3.5 puts phi at 1.8e5 unscaled).
+const SOLUTION_BOUND: f64 = 2048.0;
+
+/// The power of two the solve's vectors are scaled by ([`GpuMultigrid::solution_scale`]): the
+/// largest whose solution bound `q_gain * EXPOSED_Q_MAX` stays at or below [`SOLUTION_BOUND`].
+/// A power of two scales every f32 and fp16 value exactly: where no value left fp16's range
+/// before, the solve is bit for bit the unscaled one.
+pub fn solution_scale(q_gain: f64) -> f32 {
+    let bound = q_gain.abs() * EXPOSED_Q_MAX;
+    if !(bound.is_finite() && bound > 0.0) {
+        return 1.0;
+    }
+    (SOLUTION_BOUND / bound)
+        .log2()
+        .floor()
+        .clamp(-60.0, 60.0)
+        .exp2() as f32
+}
+
 /// Push constants of every `multigrid/*.comp` kernel (`MultigridPush` in `common.glsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -260,6 +285,9 @@ pub struct GpuMultigrid {
     /// the fused pass forms a paired node's partner row as well, and measured no faster on
     /// lavapipe; benches/RESULTS.md "Time per work unit (wave 9)").
     relax_finest: bool,
+    /// The solve's vectors are `scale` times phi ([`solution_scale`] of the finest level's
+    /// `q_gain`): folded into `rhs_coef`, divided out by `output.comp`.
+    scale: f32,
 }
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
@@ -419,10 +447,13 @@ impl GpuMultigrid {
             .iter()
             .map(|&[u, v]| v * packing.width + u)
             .collect();
+        // The solve runs in units of `scale` phi (f = S b scale, x = phi scale; output.comp
+        // divides): its fp16 updates stay in range whatever eta's q_gain.
+        let scale = solution_scale(finest.q_gain);
         let rhs_coef: Vec<f32> = (0..n_top)
             .map(|i| {
                 if i >= finest.inner_count {
-                    (finest.row_scale[i] * finest.q_gain) as f32
+                    (finest.row_scale[i] * finest.q_gain * f64::from(scale)) as f32
                 } else {
                     0.0
                 }
@@ -677,6 +708,7 @@ impl GpuMultigrid {
                 && std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref() != Ok("split"),
             fine_scopes: std::env::var("TRANSLUCENT_MULTIGRID_SCOPES").as_deref() == Ok("1"),
             relax_finest: std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() == Ok("fused"),
+            scale,
         })
     }
 
@@ -917,7 +949,9 @@ impl GpuMultigrid {
                 cb,
                 Some(PASS_MG_OUTPUT),
             );
-            rec.direct(OUTPUT, top, 0, n_top);
+            // alpha.x: 1 / scale, back to phi's units.
+            let unscale = f64::from(self.scale).recip();
+            rec.direct_with(OUTPUT, top, 0, [unscale; 3], n_top);
             scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
         }
     }

@@ -217,22 +217,30 @@ impl GpuMultigrid {
             run(&format!("L{l} prolong"), &mut rows, &|rec| unsafe {
                 rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3])
             })?;
-            run(&format!("L{l} pre-smooth {pre}"), &mut rows, &|rec| unsafe {
-                rec.smooth(l, pre, false)
-            })?;
+            run(
+                &format!("L{l} pre-smooth {pre}"),
+                &mut rows,
+                &|rec| unsafe { rec.smooth(l, pre, false) },
+            )?;
             run(&format!("L{l} restrict"), &mut rows, &|rec| unsafe {
                 rec.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
                 rec.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
             })?;
-            run(&format!("L{l} coarse correction"), &mut rows, &|rec| unsafe {
-                rec.v_cycle(l - 1, true)
-            })?;
-            run(&format!("L{l} prolong correction"), &mut rows, &|rec| unsafe {
-                rec.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3])
-            })?;
-            run(&format!("L{l} post-smooth {post}"), &mut rows, &|rec| unsafe {
-                rec.smooth(l, post, false)
-            })?;
+            run(
+                &format!("L{l} coarse correction"),
+                &mut rows,
+                &|rec| unsafe { rec.v_cycle(l - 1, true) },
+            )?;
+            run(
+                &format!("L{l} prolong correction"),
+                &mut rows,
+                &|rec| unsafe { rec.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]) },
+            )?;
+            run(
+                &format!("L{l} post-smooth {post}"),
+                &mut rows,
+                &|rec| unsafe { rec.smooth(l, post, false) },
+            )?;
         }
         Ok(rows)
     }
@@ -243,7 +251,9 @@ impl GpuMultigrid {
         let stride = self.params.vector_storage.floats();
         let half = self.params.update_storage == UpdateStorage::F16;
         let floats = |name: &str| -> Result<Vec<f32>, Error> {
-            Ok(bytemuck::pod_collect_to_vec(self.buffers[at(name)].read_bytes()?))
+            Ok(bytemuck::pod_collect_to_vec(
+                self.buffers[at(name)].read_bytes()?,
+            ))
         };
         let (x, f, r) = (floats("x")?, floats("f")?, floats("r")?);
         let d_raw: Vec<u32> = bytemuck::pod_collect_to_vec(self.buffers[at("d")].read_bytes()?);
@@ -281,7 +291,12 @@ impl GpuMultigrid {
             };
             for i in nodes {
                 for c in 0..3 {
-                    let vals = [x[stride * i + c], f[stride * i + c], r[stride * i + c], d_at(i)[c]];
+                    let vals = [
+                        x[stride * i + c],
+                        f[stride * i + c],
+                        r[stride * i + c],
+                        d_at(i)[c],
+                    ];
                     for (k, v) in vals.into_iter().enumerate() {
                         if !v.is_finite() {
                             m.non_finite[k] += 1;
