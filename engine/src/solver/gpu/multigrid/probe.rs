@@ -210,37 +210,51 @@ impl GpuMultigrid {
                 }
             }
         })?;
-        // SAFETY (every closure below): as above.
-        run("coarse solve", &mut rows, &|rec| unsafe { rec.coarse() })?;
+        // The stages after the first: (name, what they record).
+        type Stage<'s> = (String, Box<dyn Fn(&Recorder<'_, '_>) + 's>);
+        let mut stages: Vec<Stage<'_>> = vec![(
+            "coarse solve".into(),
+            // SAFETY: as above.
+            Box::new(|rec| unsafe { rec.coarse() }),
+        )];
         for l in 1..=top {
             let (pre, post) = self.params.fmg_sweeps_at(l, top);
-            run(&format!("L{l} prolong"), &mut rows, &|rec| unsafe {
-                rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3])
-            })?;
-            run(
-                &format!("L{l} pre-smooth {pre}"),
-                &mut rows,
-                &|rec| unsafe { rec.smooth(l, pre, false) },
-            )?;
-            run(&format!("L{l} restrict"), &mut rows, &|rec| unsafe {
-                rec.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
-                rec.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
-            })?;
-            run(
-                &format!("L{l} coarse correction"),
-                &mut rows,
-                &|rec| unsafe { rec.v_cycle(l - 1, true) },
-            )?;
-            run(
-                &format!("L{l} prolong correction"),
-                &mut rows,
-                &|rec| unsafe { rec.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]) },
-            )?;
-            run(
-                &format!("L{l} post-smooth {post}"),
-                &mut rows,
-                &|rec| unsafe { rec.smooth(l, post, false) },
-            )?;
+            stages.push((
+                format!("L{l} prolong"),
+                // SAFETY: as above.
+                Box::new(move |rec| unsafe { rec.indirect(PROLONG, l, 1, [0.0; 3], [0.0; 3]) }),
+            ));
+            stages.push((
+                format!("L{l} pre-smooth {pre}"),
+                // SAFETY: as above.
+                Box::new(move |rec| unsafe { rec.smooth(l, pre, false) }),
+            ));
+            stages.push((
+                format!("L{l} restrict"),
+                // SAFETY: as above.
+                Box::new(move |rec| unsafe {
+                    rec.indirect(RESIDUAL, l, 0, [0.0; 3], [0.0; 3]);
+                    rec.indirect(RESTRICT, l - 1, 0, [0.0; 3], [0.0; 3]);
+                }),
+            ));
+            stages.push((
+                format!("L{l} coarse correction"),
+                // SAFETY: as above.
+                Box::new(move |rec| unsafe { rec.v_cycle(l - 1, true) }),
+            ));
+            stages.push((
+                format!("L{l} prolong correction"),
+                // SAFETY: as above.
+                Box::new(move |rec| unsafe { rec.indirect(PROLONG, l, 0, [0.0; 3], [0.0; 3]) }),
+            ));
+            stages.push((
+                format!("L{l} post-smooth {post}"),
+                // SAFETY: as above.
+                Box::new(move |rec| unsafe { rec.smooth(l, post, false) }),
+            ));
+        }
+        for (name, body) in &stages {
+            run(name, &mut rows, body.as_ref())?;
         }
         Ok(rows)
     }
