@@ -15,7 +15,8 @@ void main() {
         return;
     }
     uint node = gl_GlobalInvocationID.x;
-    vec3 v = RGB(x, pc.offset + node);
+    // x is phi times the solve's power-of-two scale (GpuMultigrid::scale); alpha.x undoes it.
+    vec3 v = RGB(x, pc.offset + node) * pc.alpha.x;
     bvec3 bad = bvec3(isnan(v.r) || isinf(v.r), isnan(v.g) || isinf(v.g), isnan(v.b) || isinf(v.b));
     v = mix(v, vec3(0.0), bad);
     uint t = node_texel.v[node];

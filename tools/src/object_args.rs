@@ -29,9 +29,11 @@ pub struct ObjectArgs {
     /// Grading K: 0 keeps the interior lattice uniform; larger values coarsen it faster.
     #[arg(short = 'K', default_value_t = BakeParams::default().k, allow_negative_numbers = true)]
     pub k: f64,
-    /// Number of levels (coarsest first; each finer level has about 4x the surface nodes).
-    #[arg(long, default_value_t = BakeParams::default().levels)]
-    pub levels: u32,
+    /// Number of levels (coarsest first; each finer level has about 4x the surface nodes), or
+    /// `auto` (the default): 3, one more per halving the coarsest level needs to come to 8
+    /// cells across or fewer (`BakeParams::levels_for`: 4 at resolution 48, 5 at 96).
+    #[arg(long, value_name = "N|auto", default_value = "auto")]
+    pub levels: LevelsArg,
     /// Lattice cells across the longest side at the finest level, or `auto` (the default): the
     /// coarser of what the material needs (its diffusion length and transport mean free path)
     /// and, for a single render, what the image shows (two pixels of the object per node),
@@ -52,6 +54,44 @@ pub struct ObjectArgs {
     /// generalized winding number describes.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `--levels N|auto`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LevelsArg {
+    Auto,
+    Count(u32),
+}
+
+impl LevelsArg {
+    /// The levels of a bake at `resolution` cells.
+    pub fn at(self, resolution: u32) -> u32 {
+        match self {
+            Self::Auto => BakeParams::levels_for(resolution),
+            Self::Count(n) => n,
+        }
+    }
+}
+
+impl std::str::FromStr for LevelsArg {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        if text.eq_ignore_ascii_case("auto") {
+            return Ok(Self::Auto);
+        }
+        text.parse::<u32>()
+            .map(Self::Count)
+            .map_err(|_| format!("{text:?}: expected a number of levels or auto"))
+    }
+}
+
+impl std::fmt::Display for LevelsArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Auto => f.write_str("auto"),
+            Self::Count(n) => write!(f, "{n}"),
+        }
+    }
 }
 
 /// `--resolution N|auto`.
@@ -250,7 +290,7 @@ impl ObjectArgs {
         BakeParams {
             resolution: resolution.cells,
             k: self.k,
-            levels: self.levels,
+            levels: self.levels.at(resolution.cells),
             relax: self.relax,
             ..Default::default()
         }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use glam::DVec3;
 use translucent::mesh::TriMesh;
 use translucent_tools::framing::{choose_up, Side, UpReason};
-use translucent_tools::object_args::{Object, ObjectArgs, ResolutionArg};
+use translucent_tools::object_args::{LevelsArg, Object, ObjectArgs, ResolutionArg};
 
 fn mesh_path(name: &str) -> Option<PathBuf> {
     let dir = std::env::var_os("TRANSLUCENT_MESH_DIR")
@@ -40,7 +40,7 @@ fn load(path: PathBuf, up: &str) -> Object {
         shape: None,
         size_mm: 50.0,
         k: 1.0,
-        levels: 1,
+        levels: LevelsArg::Count(1),
         resolution: ResolutionArg::Cells(8),
         relax: false,
         up: up.into(),

@@ -52,6 +52,37 @@ impl Default for BakeParams {
     }
 }
 
+/// The coarsest level's lattice cells across the longest side above which
+/// [`BakeParams::levels_for`] adds a level: the coarsest level's solve (one workgroup's
+/// Chebyshev polynomial, `multigrid/coarse.comp`) grows with its nodes and its condition
+/// (benches/RESULTS.md "Large lattices: the fp16 update and the coarsest level").
+pub const COARSEST_CELLS: u32 = 8;
+
+impl BakeParams {
+    /// The levels for a finest lattice of `resolution` cells (`--levels auto`): the default 3,
+    /// plus one per halving the coarsest level needs to come to [`COARSEST_CELLS`] cells or fewer,
+    /// never a coarsest level under the bake's 4 cells, at most 8.
+    ///
+    /// ```
+    /// use translucent::quadgraph::BakeParams;
+    /// assert_eq!(BakeParams::levels_for(24), 3); // the reference scenes' lattices: as before
+    /// assert_eq!(BakeParams::levels_for(35), 3);
+    /// assert_eq!(BakeParams::levels_for(48), 4);
+    /// assert_eq!(BakeParams::levels_for(96), 5);
+    /// assert_eq!(BakeParams::levels_for(8), 2); // a coarsest level of 4 cells at least
+    /// ```
+    pub fn levels_for(resolution: u32) -> u32 {
+        let mut levels = Self::default().levels;
+        while levels < 8 && resolution >> (levels - 1) > COARSEST_CELLS {
+            levels += 1;
+        }
+        while levels > 1 && resolution >> (levels - 1) < 4 {
+            levels -= 1;
+        }
+        levels
+    }
+}
+
 /// Reported to the progress callback when a stage starts.
 #[derive(Clone, Copy, Debug)]
 pub struct BakeProgress {

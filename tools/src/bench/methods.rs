@@ -255,7 +255,9 @@ pub(super) fn run(args: &BenchArgs, methods_text: &str) -> anyhow::Result<()> {
             shape: scene_options.shape.clone(),
             size_mm: 20.0,
             k: translucent::quadgraph::BakeParams::default().k,
-            levels: translucent::quadgraph::BakeParams::default().levels,
+            levels: crate::object_args::LevelsArg::Count(
+                translucent::quadgraph::BakeParams::default().levels,
+            ),
             resolution: crate::object_args::ResolutionArg::Cells(fixed_cells),
             // The automatic up axis, as `render` (tools/src/framing.rs).
             up: "auto".into(),

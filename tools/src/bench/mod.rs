@@ -341,7 +341,7 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
         shape: args.shape.clone(),
         size_mm: args.size_mm,
         k: sweep.k[0],
-        levels: sweep.levels[0],
+        levels: crate::object_args::LevelsArg::Count(sweep.levels[0]),
         resolution: crate::object_args::ResolutionArg::Cells(sweep.resolution[0]),
         relax: args.relax,
         up: "auto".into(),
@@ -426,7 +426,7 @@ fn run_sweep(args: &BenchArgs) -> anyhow::Result<()> {
                 ));
                 let params = ObjectArgs {
                     k,
-                    levels,
+                    levels: crate::object_args::LevelsArg::Count(levels),
                     ..object_args.clone()
                 }
                 .bake_params(&crate::object_args::Resolution {
@@ -603,7 +603,7 @@ mod tests {
             shape: Some("sphere".into()),
             size_mm: 20.0,
             k: 1.0,
-            levels: 1,
+            levels: crate::object_args::LevelsArg::Count(1),
             resolution: crate::object_args::ResolutionArg::Cells(8),
             relax: false,
             up: "auto".into(),

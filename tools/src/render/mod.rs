@@ -468,6 +468,22 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     .multigrid_report(&ctx)?,
                 _ => None,
             };
+            // Measurement only: the cold start replayed stage by stage, every level's largest
+            // magnitudes after each (benches/RESULTS.md "Large lattices: the fp16 update").
+            if mg_report.is_some()
+                && std::env::var("TRANSLUCENT_MULTIGRID_PROBE").as_deref() == Ok("1")
+            {
+                let solve = translucent
+                    .quadgraph()
+                    .context("the QuadGraph method reports the solve")?
+                    .solve();
+                for m in solve.multigrid_probe(&ctx)?.unwrap_or_default() {
+                    eprintln!(
+                        "probe {:<24} L{} x {:>10.3e} f {:>10.3e} r {:>10.3e} d {:>10.3e} non-finite {:?} d at {} diag {:?} paired {}",
+                        m.stage, m.level, m.x, m.f, m.r, m.d, m.non_finite, m.d_node, m.d_node_diag, m.d_node_paired
+                    );
+                }
+            }
             // A diverged (or non-finite) solve must not reach an image: fail before any output.
             if let Some(m) = &mg_report {
                 let solve = translucent

@@ -90,7 +90,7 @@ mod recorder;
 mod report;
 use kernels::*;
 use pack::pack_operators;
-pub use probe::FinestProducts;
+pub use probe::{FinestProducts, LevelMagnitudes};
 use recorder::Recorder;
 
 /// The levels whose Chebyshev steps run as one `multigrid/relax.comp` pass each (the residual
@@ -136,6 +136,31 @@ const MAX_COARSE_STEPS: u32 = 512;
 /// Lanczos steps for the coarsest level's interval: its smallest Ritz value needs more than the
 /// largest.
 const COARSE_LANCZOS: u32 = 60;
+
+/// The largest exposed q ([`super::GpuDiffusion::exposure_for`] maps the largest q to 512..1024).
+const EXPOSED_Q_MAX: f64 = 1024.0;
+/// Where the solve puts the bound of its solution (`q_gain` times the largest q, by the maximum
+/// principle: every row is a convex combination of its neighbours and, on the surface, of
+/// `q_gain q`): fp16 updates ([`UpdateStorage::F16`], max 65504) keep 32x of headroom above it
+/// for the Chebyshev steps' overshoot and the coarse corrections (benches/RESULTS.md "Large
+/// lattices: the fp16 update and the coarsest level": eta 3.5 puts phi at 1.8e5 unscaled).
+const SOLUTION_BOUND: f64 = 2048.0;
+
+/// The power of two the solve's vectors are scaled by ([`GpuMultigrid::solution_scale`]): the
+/// largest whose solution bound `q_gain * EXPOSED_Q_MAX` stays at or below [`SOLUTION_BOUND`].
+/// A power of two scales every f32 and fp16 value exactly: where no value left fp16's range
+/// before, the solve is bit for bit the unscaled one.
+pub fn solution_scale(q_gain: f64) -> f32 {
+    let bound = q_gain.abs() * EXPOSED_Q_MAX;
+    if !(bound.is_finite() && bound > 0.0) {
+        return 1.0;
+    }
+    (SOLUTION_BOUND / bound)
+        .log2()
+        .floor()
+        .clamp(-60.0, 60.0)
+        .exp2() as f32
+}
 
 /// Push constants of every `multigrid/*.comp` kernel (`MultigridPush` in `common.glsl`).
 #[repr(C)]
@@ -283,6 +308,9 @@ pub struct GpuMultigrid {
     fine_scopes: bool,
     /// The levels whose smoothing steps run as one fused pass each (`multigrid/relax.comp`).
     relax: RelaxLevels,
+    /// The solve's vectors are `scale` times phi ([`solution_scale`] of the finest level's
+    /// `q_gain`): folded into `rhs_coef`, divided out by `output.comp`.
+    scale: f32,
 }
 
 fn rgb(v: [f64; 3]) -> [f32; 4] {
@@ -442,10 +470,13 @@ impl GpuMultigrid {
             .iter()
             .map(|&[u, v]| v * packing.width + u)
             .collect();
+        // The solve runs in units of `scale` phi (f = S b scale, x = phi scale; output.comp
+        // divides): its fp16 updates stay in range whatever eta's q_gain.
+        let scale = solution_scale(finest.q_gain);
         let rhs_coef: Vec<f32> = (0..n_top)
             .map(|i| {
                 if i >= finest.inner_count {
-                    (finest.row_scale[i] * finest.q_gain) as f32
+                    (finest.row_scale[i] * finest.q_gain * f64::from(scale)) as f32
                 } else {
                     0.0
                 }
@@ -700,6 +731,7 @@ impl GpuMultigrid {
                 && std::env::var("TRANSLUCENT_MULTIGRID_COARSE").as_deref() != Ok("split"),
             fine_scopes: std::env::var("TRANSLUCENT_MULTIGRID_SCOPES").as_deref() == Ok("1"),
             relax: RelaxLevels::from_env(),
+            scale,
         })
     }
 
@@ -720,7 +752,12 @@ impl GpuMultigrid {
             Smoother::Chebyshev { lower } => lower,
             Smoother::Jacobi { .. } => 0.0,
         };
-        let coarse_bounds = eigenvalue_bounds(&hierarchy.levels[0].operator, COARSE_LANCZOS);
+        // TRANSLUCENT_MULTIGRID_COARSE_LANCZOS: another step count, for measurements.
+        let coarse_lanczos = std::env::var("TRANSLUCENT_MULTIGRID_COARSE_LANCZOS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(COARSE_LANCZOS);
+        let coarse_bounds = eigenvalue_bounds(&hierarchy.levels[0].operator, coarse_lanczos);
         let mut worst_condition: f64 = 1.0;
         let levels: Vec<Level> = hierarchy
             .levels
@@ -935,7 +972,9 @@ impl GpuMultigrid {
                 cb,
                 Some(PASS_MG_OUTPUT),
             );
-            rec.direct(OUTPUT, top, 0, n_top);
+            // alpha.x: 1 / scale, back to phi's units.
+            let unscale = f64::from(self.scale).recip();
+            rec.direct_with(OUTPUT, top, 0, [unscale; 3], n_top);
             scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
         }
     }

@@ -40,6 +40,20 @@ impl GpuDiffusion {
         Ok(Some(mg.report()?))
     }
 
+    /// Headless, after a solve (measurement only): the cold start replayed stage by stage with
+    /// every level's largest magnitudes after each ([`multigrid::GpuMultigrid::probe_cold_start`];
+    /// `None` with the cascade). Overwrites the solve's vectors: for a last frame only.
+    pub fn multigrid_probe(
+        &self,
+        ctx: &Context,
+    ) -> Result<Option<Vec<multigrid::LevelMagnitudes>>, Error> {
+        self.sync_host(ctx)?;
+        match &self.multigrid {
+            Some(mg) => Ok(Some(mg.probe_cold_start(ctx)?)),
+            None => Ok(None),
+        }
+    }
+
     /// Headless, between solves: the finest level's `f - K x` and `K x` as the multigrid's
     /// kernels form them ([`multigrid::GpuMultigrid::apply_finest`]; `None` with the cascade).
     /// The next solve starts cold.

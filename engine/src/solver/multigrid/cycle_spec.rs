@@ -9,6 +9,7 @@
 //! | `cheb` | `Smoother::Chebyshev { lower }` | `cheb=0.2` |
 //! | `jacobi` | `Smoother::Jacobi { omega }` | `jacobi=0.8` |
 //! | `ctol` | `coarse_tolerance` | `ctol=0.3` |
+//! | `lanczos` | `power_iterations` (Lanczos steps for each level's lambda_max) | `lanczos=40` |
 //! | `fmg` | `fmg_cycles` | `fmg=2` |
 //! | `cap` | `max_cycles` (the GPU records at most 40 after the start) | `cap=8` |
 //! | `fnu` | `fmg_sweeps` (the finest level's V-cycle in the full multigrid start) | `fnu=1/3` |
@@ -90,6 +91,7 @@ impl MultigridParams {
                     }
                 }
                 "ctol" => p.coarse_tolerance = number(value)?,
+                "lanczos" => p.power_iterations = count(value)?,
                 "fmg" => p.fmg_cycles = count(value)?,
                 "cap" => p.max_cycles = count(value)?,
                 "krylov" => {
@@ -143,7 +145,7 @@ impl MultigridParams {
                 }
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom, local)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, lanczos, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom, local)"
                     )))
                 }
             }
