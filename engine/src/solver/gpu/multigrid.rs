@@ -91,7 +91,7 @@ mod report;
 use kernels::*;
 use pack::pack_operators;
 pub use probe::{FinestProducts, LevelMagnitudes};
-use recorder::Recorder;
+use recorder::{Recorder, Start};
 
 /// The levels whose Chebyshev steps run as one `multigrid/relax.comp` pass each (the residual
 /// formed where the step uses it, not stored) instead of a residual pass and a step pass

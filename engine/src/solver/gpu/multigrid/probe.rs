@@ -227,7 +227,7 @@ impl GpuMultigrid {
             stages.push((
                 format!("L{l} pre-smooth {pre}"),
                 // SAFETY: as above.
-                Box::new(move |rec| unsafe { rec.smooth(l, pre, false) }),
+                Box::new(move |rec| unsafe { rec.smooth(l, pre, Start::X) }),
             ));
             stages.push((
                 format!("L{l} restrict"),
@@ -250,7 +250,7 @@ impl GpuMultigrid {
             stages.push((
                 format!("L{l} post-smooth {post}"),
                 // SAFETY: as above.
-                Box::new(move |rec| unsafe { rec.smooth(l, post, false) }),
+                Box::new(move |rec| unsafe { rec.smooth(l, post, Start::X) }),
             ));
         }
         for (name, body) in &stages {
