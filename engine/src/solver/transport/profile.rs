@@ -188,7 +188,7 @@ mod tests {
 
     /// The largest error of phi(0) read from the bake's sample depth on a field that varies
     /// along the surface on the scale of the bunny's unlit side (see the next test).
-    const LATERAL_MODE: f64 = 0.04;
+    const LATERAL_MODE: f64 = 0.10;
 
     #[test]
     fn profile_from_the_bake_depth_holds_on_a_laterally_varying_field() {
@@ -197,8 +197,9 @@ mod tests {
         // The 1D profile has no lateral term; its error grows with the depth squared. lambda =
         // +-1 / (2 mm)^2 (a lateral minimum, an unlit side, and a lateral maximum, under the
         // light), marble (Jensen 2001, eta 1: h = 2 D) at the auto spacing of a 20 mm object
-        // (0.833 mm): -3.5 / +3.6% at 0.875 spacings, -4.4 / +4.5% at 1.0, -8.8 / +9.3% at the
-        // former 1.5 (the bunny side's unlit 0.91 of path tracing).
+        // (0.833 mm): -3.5 / +3.6% at 0.875 spacings, -4.4 / +4.5% at 1.0, -8.8 / +9.3% at 1.5
+        // (the bunny side's unlit 0.91 of path tracing; kept for skin1's flatness, see
+        // DEPTH_SPACINGS).
         use crate::quadgraph::surface_samples::DEPTH_SPACINGS;
         let spacing = 20.0 / 24.0;
         let depth = DEPTH_SPACINGS * spacing;
