@@ -449,11 +449,21 @@ const UPSTREAM_GPU_VS_CPU: f64 = 2e-3;
 /// 0.095 on this sphere), well above the bound above: a GPU ignoring the option fails.
 const UPSTREAM_DIFFERS: f64 = 0.02;
 
-#[test]
-fn gpu_upstream_beam_matches_the_cpu_reference() {
+/// Name, GPU vertex J+, CPU of the same formula, CPU of the replaced one.
+type BeamRun = (&'static str, Vec<[f32; 3]>, Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// The 3 mm marble sphere and the skim milk | skin1 split under `light`, each solved on the GPU
+/// with `gpu_params` and twice by the f64 CPU with `transport(true)` (the formula the GPU runs)
+/// and `transport(false)` (the one it replaces): per field its name, the GPU's vertex J+, the
+/// CPU's of the same formula and the CPU's of the replaced one. Shared by the upstream-beam and
+/// curved-particular tests.
+fn beam_variant_runs(
+    gpu: &GpuTest,
+    light: &str,
+    transport: impl Fn(bool) -> Transport,
+    gpu_params: &GpuSolveParams,
+) -> Vec<BeamRun> {
     use translucent::material::Procedural;
-    use translucent::solver::transport::Source;
-    let gpu = GpuTest::new();
     let ctx = &gpu.ctx;
     let graph = bake(&Shape::Sphere { radius: 3.0 }, 16, 2);
     let marble = MaterialField::Homogeneous(Material::preset("marble").unwrap());
@@ -468,17 +478,14 @@ fn gpu_upstream_beam_matches_the_cpu_reference() {
     )
     .unwrap();
     let scene = Scene {
-        lights: vec!["dir:0.2,-0.35,1:5,5,5".parse().unwrap()],
+        lights: vec![light.parse().unwrap()],
         environment: Environment::None,
     };
+    let mut runs = Vec::new();
     for (name, field) in [("marble", &marble), ("milk | skin1 split", &split)] {
-        let cpu_vertex = |upstream_beam: bool| -> Vec<[f64; 3]> {
+        let cpu_vertex = |variant: bool| -> Vec<[f64; 3]> {
             let params = CpuSolveParams {
-                transport: Transport {
-                    source: Source::SecondCollision,
-                    upstream_beam,
-                    ..Transport::gpu_collimated()
-                },
+                transport: transport(variant),
                 ..CpuSolveParams::default()
             };
             solver::solve(&graph, field, &scene, None, &params)
@@ -488,17 +495,7 @@ fn gpu_upstream_beam_matches_the_cpu_reference() {
                 .map(|x| x.map(f64::from))
                 .collect()
         };
-        let (want, planar) = (cpu_vertex(true), cpu_vertex(false));
-        let params = GpuSolveParams {
-            iterations: vec![4000],
-            tolerance: 1e-6,
-            exit: ExitQuery::Moments,
-            collimated: true,
-            second_collision: true,
-            upstream_beam: true,
-            ..Default::default()
-        };
-        let mut object = multilevel_object(ctx, &graph, field, &scene, params);
+        let mut object = multilevel_object(ctx, &graph, field, &scene, gpu_params.clone());
         render_once(ctx, &mut object, 32, 32);
         let v = object
             .quadgraph()
@@ -506,11 +503,37 @@ fn gpu_upstream_beam_matches_the_cpu_reference() {
             .solve()
             .read_vertex_j_plus(ctx)
             .expect("vertex J+");
+        drop(object);
+        gpu.assert_no_messages();
+        runs.push((name, v, cpu_vertex(true), cpu_vertex(false)));
+    }
+    runs
+}
+
+#[test]
+fn gpu_upstream_beam_matches_the_cpu_reference() {
+    use translucent::solver::transport::Source;
+    let gpu = GpuTest::new();
+    let transport = |upstream_beam: bool| Transport {
+        source: Source::SecondCollision,
+        upstream_beam,
+        ..Transport::gpu_collimated()
+    };
+    let params = GpuSolveParams {
+        iterations: vec![4000],
+        tolerance: 1e-6,
+        exit: ExitQuery::Moments,
+        collimated: true,
+        second_collision: true,
+        upstream_beam: true,
+        ..Default::default()
+    };
+    for (name, v, want, planar) in
+        beam_variant_runs(&gpu, "dir:0.2,-0.35,1:5,5,5", transport, &params)
+    {
         let err = rel_rms(&v, &want);
         let apart = rel_rms(&v, &planar);
         println!("upstream beam, {name}: GPU vs CPU {err:.2e}, vs the planar beam {apart:.3}");
-        drop(object);
-        gpu.assert_no_messages();
         assert!(err <= UPSTREAM_GPU_VS_CPU, "{name}: relative RMS {err}");
         assert!(apart > UPSTREAM_DIFFERS, "{name}: {apart}");
     }
@@ -527,68 +550,30 @@ const CURVED_DIFFERS: f64 = 0.01;
 
 #[test]
 fn gpu_curved_particular_matches_the_cpu_reference() {
-    use translucent::material::Procedural;
     use translucent::solver::transport::Source;
     let gpu = GpuTest::new();
-    let ctx = &gpu.ctx;
-    let graph = bake(&Shape::Sphere { radius: 3.0 }, 16, 2);
-    let marble = MaterialField::Homogeneous(Material::preset("marble").unwrap());
-    let split = MaterialField::procedural(
-        Procedural::Split {
-            normal: glam::DVec3::Y,
-            offset: 0.0,
-            below: Material::preset("skimmilk").unwrap().coefficients(),
-            above: Material::preset("skin1").unwrap().coefficients(),
-        },
-        1.0,
-    )
-    .unwrap();
-    let scene = Scene {
-        lights: vec!["dir:0.5,-1,-0.5:4,4,4".parse().unwrap()],
-        environment: Environment::None,
+    let transport = |curved_particular: bool| Transport {
+        source: Source::SecondCollision,
+        upstream_beam: true,
+        curved_particular,
+        ..Transport::gpu_collimated()
     };
-    for (name, field) in [("marble", &marble), ("milk | skin1 split", &split)] {
-        let cpu_vertex = |curved_particular: bool| -> Vec<[f64; 3]> {
-            let params = CpuSolveParams {
-                transport: Transport {
-                    source: Source::SecondCollision,
-                    upstream_beam: true,
-                    curved_particular,
-                    ..Transport::gpu_collimated()
-                },
-                ..CpuSolveParams::default()
-            };
-            solver::solve(&graph, field, &scene, None, &params)
-                .unwrap()
-                .vertex_j_plus
-                .iter()
-                .map(|x| x.map(f64::from))
-                .collect()
-        };
-        let (want, area) = (cpu_vertex(true), cpu_vertex(false));
-        let params = GpuSolveParams {
-            iterations: vec![4000],
-            tolerance: 1e-6,
-            exit: ExitQuery::Moments,
-            collimated: true,
-            second_collision: true,
-            upstream_beam: true,
-            curved_particular: true,
-            ..Default::default()
-        };
-        let mut object = multilevel_object(ctx, &graph, field, &scene, params);
-        render_once(ctx, &mut object, 32, 32);
-        let v = object
-            .quadgraph()
-            .expect("a QuadGraph object")
-            .solve()
-            .read_vertex_j_plus(ctx)
-            .expect("vertex J+");
+    let params = GpuSolveParams {
+        iterations: vec![4000],
+        tolerance: 1e-6,
+        exit: ExitQuery::Moments,
+        collimated: true,
+        second_collision: true,
+        upstream_beam: true,
+        curved_particular: true,
+        ..Default::default()
+    };
+    for (name, v, want, area) in
+        beam_variant_runs(&gpu, "dir:0.5,-1,-0.5:4,4,4", transport, &params)
+    {
         let err = rel_rms(&v, &want);
         let apart = rel_rms(&v, &area);
         println!("curved particular, {name}: GPU vs CPU {err:.2e}, vs the area factor {apart:.3}");
-        drop(object);
-        gpu.assert_no_messages();
         assert!(v.iter().flatten().all(|x| x.is_finite()), "{name}");
         assert!(err <= UPSTREAM_GPU_VS_CPU, "{name}: relative RMS {err}");
         assert!(apart > CURVED_DIFFERS, "{name}: {apart}");
