@@ -8,9 +8,9 @@
 // R is DESIGN section 2's albedo of a semi-infinite medium under uniform light, and
 // P(d) exp(-sigma_tr d) its transmittance T of a slab of thickness d lit on one face:
 //   P(d) = 8 D s / ((1 - F_dr) [(1 + h s)^2 - (1 - h s)^2 exp(-2 s d)]),  s = sigma_tr, h = 2 A D,
-// G(d) = P(d) + (R - P(0)) exp(-d / (2 h)): a uniformly lit flat face returns R q, and the far face
-// of a lit slab T(d) q: the diffusion falloff along the path, with its 1/d spreading
-// (P -> 4 D / ((1 - F_dr)(2 h + d)) when s d << 1).
+// G(d) = P(d) + (R - P(0)) exp(-d / (2 h)) - B(d): a uniformly lit flat face returns R q, and the
+// far face of a lit slab T(d) q less its unscattered part B: the diffusion falloff along the path,
+// with its 1/d spreading (P -> 4 D / ((1 - F_dr)(2 h + d)) when s d << 1).
 // Stored premultiplied by coverage (rgb J+, a = 1) in the surface shell only (solid voxels next to
 // an empty one, where the injection starts the light); empty and interior voxels hold 0, so the
 // trilinear read at the surface (vertex_exitance.comp, which divides by a) sees neither the air

@@ -33,10 +33,12 @@
 //! benches/RESULTS.md, "Voxel method"): the cost along the path is the diffusion's effective
 //! transport coefficient sigma_tr = sqrt(3 sigma_a sigma_t'), and the exit is DESIGN section 2's
 //! diffusion closed forms along the path: M = q exp(-integral of sigma_tr) G(d) with
-//! G(d) = P(d) + (R - P(0)) exp(-d / 4AD), R the semi-infinite albedo (a uniformly lit flat face
-//! returns R q), P(d) exp(-sigma_tr d) the transmittance of a slab as thick as the path is long
+//! G(d) = P(d) + (R - P(0)) exp(-d / 4AD) - B(d), R the semi-infinite albedo (a uniformly lit flat
+//! face returns R q), P(d) exp(-sigma_tr d) the transmittance of a slab as thick as the path is long
 //! (the far face of a lit slab returns T q; for sigma_tr d << 1 it falls as 4D / (2h + d): the 1/d
-//! spreading), `voxel/exit_volume.comp`, `diffusion_profile.glsl`. (min(R, P(d)) before took
+//! spreading), B(d) exp(-sigma_tr d) = exp(-sigma_t' d) (1 - exp(-d / 4AD)) its unscattered part,
+//! which no path through the voxels carries to the eye (without it ketchup's green and blue were
+//! 10x and 33x the path-traced exitance), `voxel/exit_volume.comp`, `diffusion_profile.glsl`. (min(R, P(d)) before took
 //! P(0) = 1 / (1 + F_dr), equal in all channels, on every lit face at eta > 1: grey, issue 14.)
 //! The hard minimum keeps one path per voxel for the three channels (their summed contribution).
 //! [`VoxelParams::soft_beta`] > 0 replaces the minimum over neighbours with a log-sum-exp soft
