@@ -309,6 +309,48 @@ fn facing_plates_link_with_the_closed_form_factor() {
     assert!((capped.form_factor(v) - got).abs() < 1e-6);
 }
 
+/// The per-vertex form factors of the facing plates' inner vertices with `params`: the rms and the
+/// largest error against the closed form (four corner rectangles about the vertex's foot).
+fn plate_form_factor_errors(params: &BounceParams) -> (f64, f64) {
+    let mesh = facing_boxes();
+    let (half, gap) = (5.0, 4.0);
+    let links = BounceLinks::build(&mesh, params).expect("links");
+    let mut errors = Vec::new();
+    for (v, p) in mesh.positions.iter().enumerate() {
+        // The lower box's facing square, a millimetre in from its edges.
+        if (p.y + 0.5 * gap).abs() > 1e-9 || p.x.abs() > half - 1.0 || p.z.abs() > half - 1.0 {
+            continue;
+        }
+        let expected: f64 = [half - p.x, half + p.x]
+            .iter()
+            .flat_map(|&a| [half - p.z, half + p.z].map(|b| corner_form_factor(a, b, gap)))
+            .sum();
+        errors.push(links.form_factor(v) - expected);
+    }
+    assert!(errors.len() >= 49, "{} inner vertices", errors.len());
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    (rms, errors.iter().fold(0.0, |m: f64, e| m.max(e.abs())))
+}
+
+/// The default links' ray noise: the inner vertices of the facing plates get their form factors
+/// within 0.015 rms (the default's 256 rays: 0.0095; 64, the default before wave 11: 0.022, which
+/// fails it; benches/RESULTS.md "The front-lit bunny (wave 11)").
+#[test]
+fn the_default_rays_give_each_plate_vertex_its_closed_form_factor() {
+    let (rms, worst) = plate_form_factor_errors(&BounceParams::default());
+    let (rms_64, worst_64) = plate_form_factor_errors(&BounceParams {
+        rays: 64,
+        ..BounceParams::default()
+    });
+    eprintln!(
+        "form factor error rms {rms:.4} (worst {worst:.4}); at 64 rays {rms_64:.4} ({worst_64:.4})"
+    );
+    assert!(
+        rms < 0.015,
+        "form factor error rms {rms} (worst {worst}); at 64 rays {rms_64} ({worst_64})"
+    );
+}
+
 #[test]
 fn a_convex_sphere_has_no_links_and_bad_parameters_are_typed_errors() {
     let mesh = Shape::Sphere { radius: 10.0 }.triangulate(16);
