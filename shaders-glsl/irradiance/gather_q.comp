@@ -249,6 +249,9 @@ float entry_distance(uint index, vec3 p, vec3 l) {
 // resonance, transport::beam_share; otherwise none, as the f64 continuation). DESIGN 2.7.
 // `curved`: the mean curvature in transport mean free paths, H / sigma_t' per channel (0: planar):
 // K = Q0 / (sigma_a - D beta^2 (1 + 2 curved mu_p)), transport::beam_particular_curved.
+// transport::NARROWING_RETURN.
+const float NARROWING_RETURN = 1.0;
+
 void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
                      vec3 beam_d, vec3 curved, out vec3 k, out vec3 beta_k, out vec3 flux) {
     vec3 sigma_a = beam_a;
@@ -274,6 +277,18 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
     // Under a curved surface the depth's Laplacian adds D 2 H beta (the share stays planar).
     vec3 b_curved = b * (1.0 + 2.0 * curved * mu_p);
     vec3 denom = a - b_curved;
+    // What the narrowing by the fitted depth takes beyond the light's returns as flux
+    // (transport::narrowing_return): loss(mu_p) - loss(mu_t), loss(mu) = 1 - (sigma_a mu^2 -
+    // D sigma_t'^2) / (sigma_a mu^2 - D sigma_t'^2 (1 + 2 c mu)).
+    vec3 convex = max(curved, vec3(0.0));
+    vec3 mu_b = max(mu_t, vec3(1e-6));
+    vec3 a_t = sigma_a * (mu_b * mu_b);
+    vec3 back = NARROWING_RETURN
+        * ((a_t - b) / (a_t - b * (1.0 + 2.0 * convex * mu_b))
+           - (a - b) / (a - b * (1.0 + 2.0 * convex * mu_p)));
+    back = clamp(back, vec3(0.0), vec3(1.0));
+    back = mix(back, vec3(0.0), bvec3(vec3(isnan(back)) + vec3(isinf(back))));
+    flux += transmitted * share * gain * back;
     vec3 guard = BEAM_RESONANCE_GUARD * (a + b_curved);
     denom = mix(denom, -guard, lessThan(abs(denom), guard));
     // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
@@ -316,6 +331,7 @@ void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, bool curved, v
 // transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
 const float LATERAL_STEP = 0.02;
 const float LATERAL_FULL_ABOVE = 0.5;
+const float LATERAL_GUARD_FROM = 0.15;
 
 // transport::lateral_correction: the particular solution's lateral terms folded into K (dK per
 // channel), from central differences in the node cosine about min(mu, 1 - step); g =
@@ -328,6 +344,9 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
     if (fade == 0.0 || !(g > 0.0)) {
         return vec3(0.0);
     }
+    // transport::LATERAL_GUARD_FROM: none where the unclamped c = sqrt(g) / sigma_t' nears the clamp.
+    vec3 guard = vec3(1.0) - smoothstep(vec3(LATERAL_GUARD_FROM), vec3(UPSTREAM_SHIFT_LIMIT),
+                                        vec3(sqrt(g)) / sigma_t);
     float m = min(mu, 1.0 - LATERAL_STEP);
     vec3 k0, bk0, kp, bkp, km, bkm, unused;
     upstream_particular(m, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
@@ -353,7 +372,7 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
         + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
     vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
     vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * narrowing * sigma_t / b0);
-    vec3 d_k = fade * beam_d * gc * lat * b0 / denom;
+    vec3 d_k = fade * guard * beam_d * gc * lat * b0 / denom;
     bvec3 bad = bvec3(vec3(isnan(d_k)) + vec3(isinf(d_k)));
     return mix(mix(vec3(0.0), d_k, lit), vec3(0.0), bad);
 }

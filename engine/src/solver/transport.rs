@@ -488,6 +488,37 @@ pub fn beam_particular_curved(
     (q0 / (o.sigma_a - d * beta * beta * curved), beta)
 }
 
+/// The share of a beam's power the sources return as boundary flux under a convex surface
+/// (`curvature` = c > 0, [`UpstreamBeam::curvature`]): loss(c, mu_e) - loss(c, mu_t), loss(c, mu) =
+/// 1 - (sigma_a - D beta^2) / (sigma_a - D beta^2 (1 + 2 c mu)) with beta = sigma_t' / mu, the share
+/// [`beam_particular_curved`]'s narrowing takes from K for a profile of cosine mu; `r_fit.mu_t` =
+/// mu_e, the fitted second-collision cosine, `mu_t` the beam's refracted cosine. The narrowing
+/// by mu_e is right for the exitance near the lit face (benches/RESULTS.md, "The front-lit milk
+/// sphere's mid latitudes"), but the fitted profile is deeper than the light (the fit keeps the
+/// half-space reflectance's moment, not the depth), and the volume a convex surface narrows
+/// takes power only to the light's real depth: the excess (mu_e - mu_t) took 3-5% of the light
+/// that reaches the far side. In [0, 1]; 0 where not convex, or not finite.
+pub fn narrowing_return(o: Optics, r_fit: Refraction, mu_t: f64, curvature: f64) -> f64 {
+    let c = curvature.max(0.0);
+    let d = o.d();
+    let loss = |mu: f64| {
+        let mu = mu.max(MIN_MU_T);
+        let beta = o.sigma_t() / mu;
+        let planar = o.sigma_a - d * beta * beta;
+        1.0 - planar / (o.sigma_a - d * beta * beta * (1.0 + 2.0 * c * mu))
+    };
+    let back = NARROWING_RETURN * (loss(r_fit.mu_t) - loss(mu_t));
+    if back.is_finite() {
+        back.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The share of [`narrowing_return`]'s excess the sources return (0: none, wave 10's
+/// `--upstream-beam curved`).
+pub const NARROWING_RETURN: f64 = 1.0;
+
 /// Below this relative distance from the resonance, |sigma_a - D beta^2| / (sigma_a + D beta^2),
 /// none of a beam enters as the particular solution; above [`RESONANCE_BEAM_ABOVE`], all of it;
 /// between, a smoothstep share (the rest as the boundary flux). Near the resonance K is large
@@ -789,6 +820,13 @@ pub const LATERAL_STEP: f64 = 0.02;
 /// `benches/milk10/cont2.py mR,mG,mB 0,1,1` against `0,1,-0.5`).
 pub const LATERAL_FULL_ABOVE: f64 = 0.5;
 
+/// [`lateral_correction`]'s guard: in full where the unclamped curvature in transport mean free
+/// paths, sqrt(g) / sigma_t', is below this, none from [`UPSTREAM_SHIFT_LIMIT`] (smoothstep
+/// between). The second order in c is the first to fail where c is not small: the 20 mm ketchup
+/// sphere's red (sigma_t' 0.24/mm, c = 0.41, clamped to 0.2) went 16 -> 26% relative RMS with the
+/// term, while skim milk's red (c = 0.14) needs it in full.
+pub const LATERAL_GUARD_FROM: f64 = 0.15;
+
 /// The particular solution's lateral terms (second order in the curvature): K(mu) e^(-beta(mu) z)
 /// varies along the surface with the node's cosine mu = n . l, so its surface Laplacian
 /// g [(1 - mu^2) f'' - 2 mu f'] (a sphere's, g = 1 / R^2; here g = (k1^2 + k2^2) / 2 =
@@ -817,6 +855,13 @@ pub fn lateral_correction(
     let sigma_t = o.sigma_t();
     // NaN fails the test (f64::min would return the clamp for it).
     if fade == 0.0 || g.is_nan() || g <= 0.0 {
+        return 0.0;
+    }
+    // The guard: none where the unclamped curvature sqrt(g) / sigma_t' reaches the clamp.
+    let u = ((g.sqrt() / sigma_t - LATERAL_GUARD_FROM) / (UPSTREAM_SHIFT_LIMIT - LATERAL_GUARD_FROM))
+        .clamp(0.0, 1.0);
+    let fade = fade * (1.0 - u * u * (3.0 - 2.0 * u));
+    if fade == 0.0 {
         return 0.0;
     }
     let g = g.min((UPSTREAM_SHIFT_LIMIT * sigma_t).powi(2));
