@@ -34,7 +34,6 @@ use glam::DVec3;
 
 use super::transport::{
     beam_particular, beam_particular_curved, beam_share, diffuse_quadrature, lateral_correction,
-    narrowing_return,
     second_collision_fit, tangent_frame, upstream_beam, upstream_beam_with, Boundary, ExitQuery,
     Optics, Refraction, Source, SurfaceCurvature, Transport, UPSTREAM_SHIFT_LIMIT,
 };
@@ -341,11 +340,8 @@ impl<'a> SourceModel<'a> {
                     (curvature, lateral),
                 );
                 // The second-collision source scales its flux part too (the
-                // once-scattered light is single scattering's, added whole). What the curved
-                // particular solution's narrowing by the fitted depth takes beyond the light's
-                // returns as flux.
-                let back = share * narrowing_return(o, fit, r.mu_t, curvature);
-                out.q_flux[ch] += ratio * irr * ((1.0 - share) + back) * r.t_i;
+                // once-scattered light is single scattering's, added whole).
+                out.q_flux[ch] += ratio * irr * (1.0 - share) * r.t_i;
                 out.transmitted[ch] += irr * (1.0 - share) * r.t_i;
             } else {
                 out.q_flux[ch] += irr * r.t_i;

@@ -488,37 +488,6 @@ pub fn beam_particular_curved(
     (q0 / (o.sigma_a - d * beta * beta * curved), beta)
 }
 
-/// The share of a beam's power the sources return as boundary flux under a convex surface
-/// (`curvature` = c > 0, [`UpstreamBeam::curvature`]): loss(c, mu_e) - loss(c, mu_t), loss(c, mu) =
-/// 1 - (sigma_a - D beta^2) / (sigma_a - D beta^2 (1 + 2 c mu)) with beta = sigma_t' / mu, the share
-/// [`beam_particular_curved`]'s narrowing takes from K for a profile of cosine mu; `r_fit.mu_t` =
-/// mu_e, the fitted second-collision cosine, `mu_t` the beam's refracted cosine. The narrowing
-/// by mu_e is right for the exitance near the lit face (benches/RESULTS.md, "The front-lit milk
-/// sphere's mid latitudes"), but the fitted profile is deeper than the light (the fit keeps the
-/// half-space reflectance's moment, not the depth), and the volume a convex surface narrows
-/// takes power only to the light's real depth: the excess (mu_e - mu_t) took 3-5% of the light
-/// that reaches the far side. In [0, 1]; 0 where not convex, or not finite.
-pub fn narrowing_return(o: Optics, r_fit: Refraction, mu_t: f64, curvature: f64) -> f64 {
-    let c = curvature.max(0.0);
-    let d = o.d();
-    let loss = |mu: f64| {
-        let mu = mu.max(MIN_MU_T);
-        let beta = o.sigma_t() / mu;
-        let planar = o.sigma_a - d * beta * beta;
-        1.0 - planar / (o.sigma_a - d * beta * beta * (1.0 + 2.0 * c * mu))
-    };
-    let back = NARROWING_RETURN * (loss(r_fit.mu_t) - loss(mu_t));
-    if back.is_finite() {
-        back.clamp(0.0, 1.0)
-    } else {
-        0.0
-    }
-}
-
-/// The share of [`narrowing_return`]'s excess the sources return (0: none, wave 10's
-/// `--upstream-beam curved`).
-pub const NARROWING_RETURN: f64 = 1.0;
-
 /// Below this relative distance from the resonance, |sigma_a - D beta^2| / (sigma_a + D beta^2),
 /// none of a beam enters as the particular solution; above [`RESONANCE_BEAM_ABOVE`], all of it;
 /// between, a smoothstep share (the rest as the boundary flux). Near the resonance K is large
@@ -840,7 +809,8 @@ pub const LATERAL_GUARD_FROM: f64 = 0.15;
 /// (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes"). `at(mu)` gives (K, beta)
 /// of the node's beam (everything else held) for a node cosine `mu`; derivatives by central
 /// differences of [`LATERAL_STEP`] about min(mu, 1 - step) (K is smooth in mu up to the pole);
-/// 0 where any of the three is unlit or not finite. `curvature` = H / sigma_t' (clamped, as
+/// 0 where any of the three is unlit or not finite, faded out where the unclamped curvature
+/// reaches the clamp ([`LATERAL_GUARD_FROM`]). `curvature` = H / sigma_t' (clamped, as
 /// [`UpstreamBeam::curvature`]), `g` in 1/mm^2. The GPU gather computes the same.
 pub fn lateral_correction(
     o: Optics,
@@ -858,7 +828,8 @@ pub fn lateral_correction(
         return 0.0;
     }
     // The guard: none where the unclamped curvature sqrt(g) / sigma_t' reaches the clamp.
-    let u = ((g.sqrt() / sigma_t - LATERAL_GUARD_FROM) / (UPSTREAM_SHIFT_LIMIT - LATERAL_GUARD_FROM))
+    let u = ((g.sqrt() / sigma_t - LATERAL_GUARD_FROM)
+        / (UPSTREAM_SHIFT_LIMIT - LATERAL_GUARD_FROM))
         .clamp(0.0, 1.0);
     let fade = fade * (1.0 - u * u * (3.0 - 2.0 * u));
     if fade == 0.0 {
