@@ -249,9 +249,6 @@ float entry_distance(uint index, vec3 p, vec3 l) {
 // resonance, transport::beam_share; otherwise none, as the f64 continuation). DESIGN 2.7.
 // `curved`: the mean curvature in transport mean free paths, H / sigma_t' per channel (0: planar):
 // K = Q0 / (sigma_a - D beta^2 (1 + 2 curved mu_p)), transport::beam_particular_curved.
-// transport::NARROWING_RETURN.
-const float NARROWING_RETURN = 1.0;
-
 void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, vec3 beam_a,
                      vec3 beam_d, vec3 curved, out vec3 k, out vec3 beta_k, out vec3 flux) {
     vec3 sigma_a = beam_a;
@@ -277,18 +274,6 @@ void beam_particular(vec3 transmitted, vec3 mu_t, bool resonance, vec3 beam_s, v
     // Under a curved surface the depth's Laplacian adds D 2 H beta (the share stays planar).
     vec3 b_curved = b * (1.0 + 2.0 * curved * mu_p);
     vec3 denom = a - b_curved;
-    // What the narrowing by the fitted depth takes beyond the light's returns as flux
-    // (transport::narrowing_return): loss(mu_p) - loss(mu_t), loss(mu) = 1 - (sigma_a mu^2 -
-    // D sigma_t'^2) / (sigma_a mu^2 - D sigma_t'^2 (1 + 2 c mu)).
-    vec3 convex = max(curved, vec3(0.0));
-    vec3 mu_b = max(mu_t, vec3(1e-6));
-    vec3 a_t = sigma_a * (mu_b * mu_b);
-    vec3 back = NARROWING_RETURN
-        * ((a_t - b) / (a_t - b * (1.0 + 2.0 * convex * mu_b))
-           - (a - b) / (a - b * (1.0 + 2.0 * convex * mu_p)));
-    back = clamp(back, vec3(0.0), vec3(1.0));
-    back = mix(back, vec3(0.0), bvec3(vec3(isnan(back)) + vec3(isinf(back))));
-    flux += transmitted * share * gain * back;
     vec3 guard = BEAM_RESONANCE_GUARD * (a + b_curved);
     denom = mix(denom, -guard, lessThan(abs(denom), guard));
     // The fitted source keeps the half-space reflectance's moment: gain r (1 + s~ mu_e) /
