@@ -316,6 +316,7 @@ void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, bool curved, v
 // transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
 const float LATERAL_STEP = 0.02;
 const float LATERAL_FULL_ABOVE = 0.5;
+const float LATERAL_GUARD_FROM = 0.15;
 
 // transport::lateral_correction: the particular solution's lateral terms folded into K (dK per
 // channel), from central differences in the node cosine about min(mu, 1 - step); g =
@@ -328,6 +329,9 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
     if (fade == 0.0 || !(g > 0.0)) {
         return vec3(0.0);
     }
+    // transport::LATERAL_GUARD_FROM: none where the unclamped c = sqrt(g) / sigma_t' nears the clamp.
+    vec3 guard = vec3(1.0) - smoothstep(vec3(LATERAL_GUARD_FROM), vec3(UPSTREAM_SHIFT_LIMIT),
+                                        vec3(sqrt(g)) / sigma_t);
     float m = min(mu, 1.0 - LATERAL_STEP);
     vec3 k0, bk0, kp, bkp, km, bkm, unused;
     upstream_particular(m, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
@@ -353,7 +357,7 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
         + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
     vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
     vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * narrowing * sigma_t / b0);
-    vec3 d_k = fade * beam_d * gc * lat * b0 / denom;
+    vec3 d_k = fade * guard * beam_d * gc * lat * b0 / denom;
     bvec3 bad = bvec3(vec3(isnan(d_k)) + vec3(isinf(d_k)));
     return mix(mix(vec3(0.0), d_k, lit), vec3(0.0), bad);
 }

@@ -395,3 +395,45 @@ fn lateral_correction_matches_its_closed_form() {
         0.0
     );
 }
+
+/// [`lateral_correction`]'s guard ([`LATERAL_GUARD_FROM`]): in full where the unclamped
+/// curvature sqrt(g) / sigma_t' is below 0.15 (skim-milk red on the 10 mm sphere, 0.143),
+/// half at 0.175 (the smoothstep's middle), none from the clamp [`UPSTREAM_SHIFT_LIMIT`] on
+/// (ketchup red on the same sphere, sigma_t' 0.241/mm: 0.415, where the term took the 20 mm
+/// ketchup sphere's red from 16 to 26% relative RMS). Against the closed form of
+/// [`lateral_correction_matches_its_closed_form`] without the guard.
+#[test]
+fn lateral_correction_is_guarded_where_the_curvature_reaches_the_clamp() {
+    let (beta, c, mu) = (1.5, 0.1, 0.8);
+    let closed = |o: Optics, g: f64| {
+        let g = g.min((UPSTREAM_SHIFT_LIMIT * o.sigma_t()).powi(2));
+        let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
+        o.d() * g * (2.0 - 6.0 * mu * mu) / denom
+    };
+    let milk = Optics {
+        sigma_s: 0.7,
+        sigma_a: 0.0014,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let ketchup = Optics {
+        sigma_s: 0.18,
+        sigma_a: 0.061,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let g_sphere = 0.01; // 1 / R^2, R = 10 mm
+    let lateral = |o: Optics, g: f64| lateral_correction(o, mu, c, g, |m| (m * m, beta));
+    let full = lateral(milk, g_sphere);
+    let want = closed(milk, g_sphere);
+    assert!(
+        want != 0.0 && (full - want).abs() < 1e-6 * want.abs(),
+        "{full} vs {want}"
+    );
+    let middle = ((LATERAL_GUARD_FROM + UPSTREAM_SHIFT_LIMIT) / 2.0 * milk.sigma_t()).powi(2);
+    let half = lateral(milk, middle);
+    let want = 0.5 * closed(milk, middle);
+    assert!((half - want).abs() < 1e-6 * want.abs(), "{half} vs {want}");
+    assert!(closed(ketchup, g_sphere) != 0.0);
+    assert_eq!(lateral(ketchup, g_sphere), 0.0);
+    let at_clamp = (UPSTREAM_SHIFT_LIMIT * milk.sigma_t()).powi(2);
+    assert_eq!(lateral(milk, at_clamp), 0.0);
+}
