@@ -24,7 +24,7 @@ use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
-use super::crease::crease_normals;
+use super::crease::{crease_normals, CREASE_MIN_COS};
 use super::graph::{GraphLevel, ShadingWeights, ShepardLinks, NO_NODE};
 use crate::mesh::{Solid, TriMesh};
 
@@ -153,7 +153,8 @@ pub fn level_links(fine: &GraphLevel, coarse: &GraphLevel) -> ShepardLinks {
 /// Shading weights of the display mesh's vertices into the finest level's surface nodes (surface
 /// indices). Vertex normals come from `surface.normals` (recomputed from the faces when missing);
 /// a vertex on a concave crease takes the nodes of its thinnest face group only
-/// ([`super::crease`]).
+/// ([`super::crease`]), and a vertex split at a sharp edge ([`TriMesh::split_sharp_edges`]) the
+/// nodes within 60 degrees of its own normal.
 pub fn shading_weights(
     surface: &TriMesh,
     finest: &GraphLevel,
@@ -171,13 +172,17 @@ pub fn shading_weights(
     let reach = 2.0 * finest.spacing;
     let eps = 1e-3 * finest.spacing;
     let creases = crease_normals(surface, &normals, solid);
+    let split = super::crease::Welded::new(surface, &normals).split;
     let per_vertex: Vec<([u32; 4], [f64; 4])> = surface
         .positions
         .par_iter()
         .zip(&normals)
         .zip(&creases)
-        .map(|((&p, &n), &crease)| {
-            let agree = crease.or((n != DVec3::ZERO).then_some((n, 0.0)));
+        .zip(&split)
+        .map(|(((&p, &n), &crease), &split)| {
+            // A vertex split at a sharp edge shades from its own face group's side only.
+            let min_cos = if split { CREASE_MIN_COS } else { 0.0 };
+            let agree = crease.or((n != DVec3::ZERO).then_some((n, min_cos)));
             index.weights_within::<4>(p, agree, reach, eps)
         })
         .collect();
