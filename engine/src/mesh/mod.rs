@@ -25,7 +25,7 @@ mod obj;
 mod orient;
 pub mod shapes;
 mod solid;
-mod split;
+pub(crate) mod split;
 mod validate;
 
 pub use gpu::{GpuMesh, Vertex};

@@ -8,9 +8,10 @@
 //! ```
 //! use translucent::mesh::{shapes::Shape, SHARP_EDGE_COS};
 //!
-//! let cube = Shape::Box { half_extents: glam::DVec3::splat(5.0) }.triangulate(1);
+//! let cube = Shape::Box { half_extents: glam::DVec3::splat(5.0) }.triangulate(4);
 //! let (display, origin) = cube.split_sharp_edges(SHARP_EDGE_COS);
-//! assert_eq!(display.positions.len(), 24); // 8 corners x 3 faces
+//! // A vertex on an edge gets a copy per face it touches, with that face's normal.
+//! assert!(display.positions.len() > cube.positions.len());
 //! assert!(display.normals.iter().all(|n| n.abs().max_element() == 1.0));
 //! assert!(origin.iter().all(|&o| (o as usize) < cube.positions.len()));
 //! ```
@@ -176,6 +177,36 @@ impl TriMesh {
     }
 }
 
+/// A box from `-half` to `half` with one vertex per corner (8) and two triangles per face, wound
+/// outward (`Shape::Box` tessellates finer).
+#[cfg(test)]
+pub(crate) fn corner_box(half: DVec3) -> TriMesh {
+    let mut mesh = TriMesh {
+        positions: (0..8)
+            .map(|i| {
+                let bit = |k: u32| if i >> k & 1 == 1 { 1.0 } else { -1.0 };
+                half * DVec3::new(bit(0), bit(1), bit(2))
+            })
+            .collect(),
+        ..Default::default()
+    };
+    for axis in 0..3 {
+        // (u, v, axis) cyclic, so u x v = +axis.
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [0u32, 1] {
+            let [a, b, c, d] = [(0, 0), (1, 0), (1, 1), (0, 1)]
+                .map(|(du, dv): (u32, u32)| side << axis | du << u | dv << v);
+            if side == 0 {
+                mesh.indices.extend([[a, c, b], [a, d, c]]);
+            } else {
+                mesh.indices.extend([[a, b, c], [a, c, d]]);
+            }
+        }
+    }
+    mesh.compute_normals();
+    mesh
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,11 +214,9 @@ mod tests {
 
     #[test]
     fn a_cube_splits_into_four_vertices_per_face_and_a_sphere_stays_as_it_is() {
-        let cube = Shape::Box {
-            half_extents: DVec3::new(5.0, 3.0, 2.0),
-        }
-        .triangulate(1);
+        let cube = corner_box(DVec3::new(5.0, 3.0, 2.0));
         assert_eq!(cube.positions.len(), 8);
+        assert!(cube.signed_volume() > 0.0, "wound outward");
         let (display, origin) = cube.split_sharp_edges(SHARP_EDGE_COS);
         assert_eq!(display.positions.len(), 24);
         assert_eq!(display.indices.len(), cube.indices.len());

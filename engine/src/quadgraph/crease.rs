@@ -123,7 +123,11 @@ impl Welded {
                 }
             })
             .collect();
-        Welded { of, split, averaged }
+        Welded {
+            of,
+            split,
+            averaged,
+        }
     }
 }
 
