@@ -201,6 +201,9 @@ impl BounceLinks {
         // started inside the plate's face it passed the lit back corner's light and overshot
         // (benches/RESULTS.md, "Thin walls: the plate's crease").
         let creases = crate::quadgraph::crease::crease_normals(mesh, &mesh.normals, &solid);
+        // A vertex split at a sharp edge casts its rays along its own face group's normal; a
+        // crease's copies start off the normal averaged over all the faces at their position.
+        let averaged = crate::quadgraph::crease::Welded::new(mesh, &mesh.normals).averaged;
         let per_vertex: Vec<(Vec<(u32, f32)>, WallCrossing)> = (0..mesh.positions.len())
             .into_par_iter()
             .map(|v| {
@@ -213,8 +216,8 @@ impl BounceLinks {
                 // of both faces' planes), and what they hit next to it is its own exitance: the
                 // corner lights itself (a self-link; Jacobi over the bounces as any other link).
                 let (start, own) = match creases[v] {
-                    Some(_) if mesh.normals[v].length_squared() > 0.5 => {
-                        (x + mesh.normals[v].normalize() * offset, true)
+                    Some(_) if averaged[v].length_squared() > 0.5 => {
+                        (x + averaged[v].normalize() * offset, true)
                     }
                     _ => (x + n * offset, false),
                 };
@@ -378,8 +381,9 @@ impl BounceLinks {
 /// lies on or behind the other face's plane (within [`CONVEX_TOL`] of the bounding radius), on
 /// the same side for every edge (outward or inside-out winding alike). A connected closed
 /// embedded surface that is locally convex at every edge bounds a convex solid (Tietze's
-/// theorem), so no point of it sees another. O(faces); a mesh that fails any condition (seams
-/// of split vertices, several parts, a torus's or a bunny's concave edges) gets the rays.
+/// theorem), so no point of it sees another. Vertices at one position count as one (a display
+/// mesh split at sharp edges). O(faces); a mesh that fails any condition (open seams, several
+/// parts, a torus's or a bunny's concave edges) gets the rays.
 pub fn is_convex(mesh: &TriMesh) -> bool {
     use std::collections::HashMap;
     let n = mesh.positions.len();
@@ -389,13 +393,20 @@ pub fn is_convex(mesh: &TriMesh) -> bool {
     {
         return false;
     }
+    // Vertices split at sharp edges (a box's display mesh) are one vertex here.
+    let welded = crate::mesh::weld_by_position(&mesh.positions);
+    let indices: Vec<[u32; 3]> = mesh
+        .indices
+        .iter()
+        .map(|t| t.map(|i| welded[i as usize]))
+        .collect();
     let (_, radius) = crate::mesh::bounding_sphere(&mesh.positions);
     let tol = CONVEX_TOL * radius;
     /// A face at an edge: (face, traversed from the lower index, the face's far corner).
     type EdgeFace = (usize, bool, u32);
     // Per undirected edge: its faces, at most two.
     let mut edges: HashMap<(u32, u32), Vec<EdgeFace>> =
-        HashMap::with_capacity(mesh.indices.len() * 3 / 2);
+        HashMap::with_capacity(indices.len() * 3 / 2);
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn root(parent: &mut [u32], mut i: u32) -> u32 {
         while parent[i as usize] != i {
@@ -404,7 +415,7 @@ pub fn is_convex(mesh: &TriMesh) -> bool {
         }
         i
     }
-    for (f, t) in mesh.indices.iter().enumerate() {
+    for (f, t) in indices.iter().enumerate() {
         for k in 0..3 {
             let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
             if a == b {
@@ -419,9 +430,8 @@ pub fn is_convex(mesh: &TriMesh) -> bool {
             parent[ra as usize] = rb;
         }
     }
-    let first = root(&mut parent, mesh.indices[0][0]);
-    if mesh
-        .indices
+    let first = root(&mut parent, indices[0][0]);
+    if indices
         .iter()
         .flatten()
         .any(|&i| root(&mut parent, i) != first)
@@ -429,7 +439,7 @@ pub fn is_convex(mesh: &TriMesh) -> bool {
         return false;
     }
     let normal = |f: usize| {
-        let p = mesh.indices[f].map(|i| mesh.positions[i as usize]);
+        let p = indices[f].map(|i| mesh.positions[i as usize]);
         (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
     };
     let (mut front, mut behind) = (false, false);
@@ -810,5 +820,13 @@ mod tests {
         let v = dented.positions.len() / 2;
         dented.positions[v] *= 0.8;
         assert!(!is_convex(&dented));
+        // A box's display mesh, split at its edges: still one convex solid.
+        let cube = Shape::Box {
+            half_extents: DVec3::new(5.0, 3.0, 2.0),
+        }
+        .triangulate(2);
+        let (display, _) = cube.split_sharp_edges(crate::mesh::SHARP_EDGE_COS);
+        assert!(display.positions.len() > cube.positions.len());
+        assert!(is_convex(&display));
     }
 }

@@ -25,10 +25,12 @@ mod obj;
 mod orient;
 pub mod shapes;
 mod solid;
+pub(crate) mod split;
 mod validate;
 
 pub use gpu::{GpuMesh, Vertex};
 pub use solid::{ClosestPoint, MeshSolid, RayHit};
+pub use split::{weld_by_position, SHARP_EDGE_COS};
 pub use validate::{MeshReport, Normalization, ValidateOptions};
 
 use std::path::PathBuf;

@@ -344,6 +344,9 @@ impl QuadGraph {
         let finest = levels
             .last()
             .ok_or_else(|| BakeError::Invalid("no levels".into()))?;
+        // The display mesh: the input surface with its vertices split at sharp edges, so each
+        // face of a 90-degree edge has its own normal, shading weights, sample and bounce links.
+        let surface = &display_surface(surface);
         let shading = shepard::shading_weights(surface, finest, solid);
         timings.push(("shading".into(), start.elapsed().as_secs_f64()));
         let start = Instant::now();
@@ -422,6 +425,13 @@ impl QuadGraph {
             timings_s: Vec::new(),
         }
     }
+}
+
+/// The display mesh a bake of `surface` keeps in [`QuadGraph::surface`]: `surface` with its
+/// vertices split at sharp edges ([`TriMesh::split_sharp_edges`] at
+/// [`crate::mesh::SHARP_EDGE_COS`]); `surface` itself when it has none.
+pub fn display_surface(surface: &TriMesh) -> TriMesh {
+    surface.split_sharp_edges(crate::mesh::SHARP_EDGE_COS).0
 }
 
 /// Where a surface node ended up (counted in [`LevelStats`]).

@@ -33,28 +33,102 @@ const SAME_THICKNESS: f64 = 0.1;
 /// Per display vertex: the normal its shading candidates must agree with and the smallest
 /// cosine accepted (`None`: the plain rule, the vertex's own normal and `n . n_node > 0`).
 /// `normals` are the vertices' outward normals (a face is turned to agree with them, whatever
-/// the winding).
+/// the winding). Vertices at one position (a display mesh split at sharp edges,
+/// [`TriMesh::split_sharp_edges`]) are one vertex here: the rule looks at all their faces, with
+/// their averaged normal ([`Welded`]), and every copy gets the same answer.
 pub fn crease_normals(
     surface: &TriMesh,
     normals: &[DVec3],
     solid: &dyn Solid,
 ) -> Vec<Option<(DVec3, f64)>> {
     let n = surface.positions.len();
+    let welded = Welded::new(surface, normals);
     let mut faces_of: Vec<Vec<u32>> = vec![Vec::new(); n];
     for (f, tri) in surface.indices.iter().enumerate() {
         for &v in tri {
-            if let Some(list) = faces_of.get_mut(v as usize) {
-                list.push(f as u32);
+            if let Some(&w) = welded.of.get(v as usize) {
+                faces_of[w as usize].push(f as u32);
             }
         }
     }
-    (0..n)
+    let per_weld: Vec<Option<(DVec3, f64)>> = (0..n)
         .into_par_iter()
         .map(|v| {
-            let outward = normals.get(v).copied().unwrap_or(DVec3::ZERO);
+            if welded.of[v] as usize != v {
+                return None;
+            }
+            let outward = welded.averaged[v];
             crease_normal(surface, solid, v, outward, &faces_of[v])
         })
-        .collect()
+        .collect();
+    welded.of.iter().map(|&w| per_weld[w as usize]).collect()
+}
+
+/// The display vertices that share a position: a vertex split at a sharp edge has one copy per
+/// smooth group of faces ([`TriMesh::split_sharp_edges`]).
+pub struct Welded {
+    /// Per vertex, the first vertex at its position (itself for a vertex that is not split).
+    pub of: Vec<u32>,
+    /// Per vertex, whether another vertex shares its position.
+    pub split: Vec<bool>,
+    /// Per vertex, the outward normal of the welded vertex: its own normal where it is not split,
+    /// else the area-weighted normal of all the faces at its position (turned to agree with the
+    /// copies' normals).
+    pub averaged: Vec<DVec3>,
+}
+
+impl Welded {
+    pub fn new(surface: &TriMesh, normals: &[DVec3]) -> Welded {
+        let n = surface.positions.len();
+        let of = crate::mesh::weld_by_position(&surface.positions);
+        let mut copies = vec![0u32; n];
+        for &w in &of {
+            copies[w as usize] += 1;
+        }
+        let split: Vec<bool> = of.iter().map(|&w| copies[w as usize] > 1).collect();
+        let own = |v: usize| normals.get(v).copied().unwrap_or(DVec3::ZERO);
+        let mut sums = vec![DVec3::ZERO; n];
+        let mut hint = vec![DVec3::ZERO; n];
+        for v in (0..n).filter(|&v| split[v]) {
+            hint[of[v] as usize] += own(v);
+        }
+        for tri in &surface.indices {
+            let Some(c) = tri
+                .iter()
+                .map(|&i| surface.positions.get(i as usize).copied())
+                .collect::<Option<Vec<DVec3>>>()
+            else {
+                continue;
+            };
+            let cross = (c[1] - c[0]).cross(c[2] - c[0]);
+            for &v in tri {
+                let w = of[v as usize] as usize;
+                if split[w] {
+                    sums[w] += cross;
+                }
+            }
+        }
+        let averaged = (0..n)
+            .map(|v| {
+                if !split[v] {
+                    return own(v);
+                }
+                let w = of[v] as usize;
+                let sum = sums[w].normalize_or_zero();
+                // An inward-wound surface: the copies' normals say which way is out.
+                if sum.dot(hint[w]) < 0.0 {
+                    -sum
+                } else {
+                    sum
+                }
+            })
+            .collect();
+        Welded {
+            of,
+            split,
+            averaged,
+        }
+    }
 }
 
 /// One normal group at a vertex: area-weighted normal and centroid of its faces, its shortest

@@ -30,7 +30,7 @@ pub mod surface_samples;
 
 use std::path::PathBuf;
 
-pub use build::{BakeParams, BakeProgress, BakeStats, LevelStats};
+pub use build::{display_surface, BakeParams, BakeProgress, BakeStats, LevelStats};
 pub use graph::{BounceLinks, WallCrossing};
 
 /// A bake that cannot proceed, or a cache file that cannot be used. Each variant names the problem

@@ -24,7 +24,7 @@ use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
-use super::crease::crease_normals;
+use super::crease::{crease_normals, CREASE_MIN_COS};
 use super::graph::{GraphLevel, ShadingWeights, ShepardLinks, NO_NODE};
 use crate::mesh::{Solid, TriMesh};
 
@@ -150,10 +150,21 @@ pub fn level_links(fine: &GraphLevel, coarse: &GraphLevel) -> ShepardLinks {
     ShepardLinks { links, weights }
 }
 
+/// A vertex split at a sharp edge that is not a concave crease takes its shading weights at a
+/// point this many finest spacings into its own face, away from the edge. The surface nodes of
+/// the lattice cells along a convex edge are lit through both faces and stand out: at the edge
+/// itself the U-block's lit front face read 0.91 where path tracing has 0.67 (green, the first
+/// pixel row under the top edge; benches/RESULTS.md, "Split display vertices at sharp edges").
+/// Measured on the U-block front / back and the plate (relative RMS %): 0 spacings 10.7 / 11.5 /
+/// 10.3, 1.0: 9.4 / 11.1 / 10.1, 1.5: 9.2 / 11.1 / 10.2, 2.0: 9.1 / 11.2 / 10.2.
+pub const SPLIT_INSET_SPACINGS: f64 = 1.5;
+
 /// Shading weights of the display mesh's vertices into the finest level's surface nodes (surface
 /// indices). Vertex normals come from `surface.normals` (recomputed from the faces when missing);
 /// a vertex on a concave crease takes the nodes of its thinnest face group only
-/// ([`super::crease`]).
+/// ([`super::crease`]), and a vertex split at a sharp edge ([`TriMesh::split_sharp_edges`]) the
+/// nodes within 60 degrees of its own normal, around a point [`SPLIT_INSET_SPACINGS`] into its
+/// face.
 pub fn shading_weights(
     surface: &TriMesh,
     finest: &GraphLevel,
@@ -171,14 +182,24 @@ pub fn shading_weights(
     let reach = 2.0 * finest.spacing;
     let eps = 1e-3 * finest.spacing;
     let creases = crease_normals(surface, &normals, solid);
+    let welded = super::crease::Welded::new(surface, &normals);
     let per_vertex: Vec<([u32; 4], [f64; 4])> = surface
         .positions
         .par_iter()
         .zip(&normals)
         .zip(&creases)
-        .map(|((&p, &n), &crease)| {
-            let agree = crease.or((n != DVec3::ZERO).then_some((n, 0.0)));
-            index.weights_within::<4>(p, agree, reach, eps)
+        .zip(welded.split.par_iter().zip(&welded.averaged))
+        .map(|(((&p, &n), &crease), (&split, &averaged))| {
+            // A vertex split at a sharp edge shades from its own face group's side only.
+            let min_cos = if split { CREASE_MIN_COS } else { 0.0 };
+            let agree = crease.or((n != DVec3::ZERO).then_some((n, min_cos)));
+            let into_face = -(averaged - n * n.dot(averaged)).normalize_or_zero();
+            let q = if split && crease.is_none() {
+                p + into_face * SPLIT_INSET_SPACINGS * finest.spacing
+            } else {
+                p
+            };
+            index.weights_within::<4>(q, agree, reach, eps)
         })
         .collect();
     let (links, weights) = per_vertex.into_iter().unzip();

@@ -635,3 +635,47 @@ fn real_mesh_surface_nodes_stay_in_front_of_their_inner_nodes() {
         l.surface_count()
     );
 }
+
+/// A box's display mesh is split at its edges: 24 vertices (4 per face) with the faces' axis
+/// normals, and each vertex shades from surface nodes on its own face only (a lit face's corner
+/// takes nothing from the nodes under a dark neighbouring face; with one vertex per corner, its
+/// averaged normal took the nodes of all three faces).
+#[test]
+fn a_box_display_mesh_has_a_vertex_per_face_shading_from_its_own_face() {
+    let shape = Shape::Box {
+        half_extents: DVec3::new(10.0, 6.0, 4.0),
+    };
+    let surface = crate::mesh::split::corner_box(DVec3::new(10.0, 6.0, 4.0));
+    assert_eq!(surface.positions.len(), 8);
+    let params = BakeParams {
+        resolution: 16,
+        levels: 1,
+        ..Default::default()
+    };
+    let (graph, _) = QuadGraph::bake(&surface, &shape, &params, &mut |_| {}).expect("bake");
+    let display = &graph.surface;
+    assert_eq!(display.positions.len(), 24);
+    assert_eq!(graph.shading.links.len(), 24);
+    assert_eq!(graph.samples.depth.len(), 24);
+    let finest = graph.finest();
+    for (v, n) in display.normals.iter().enumerate() {
+        assert_eq!(
+            n.abs().max_element(),
+            1.0,
+            "vertex {v}: normal {n} is not an axis"
+        );
+        let links = graph.shading.links[v];
+        let weights = graph.shading.weights[v];
+        assert!(weights.iter().sum::<f64>() > 0.0, "vertex {v}: no weight");
+        for (&s, &w) in links.iter().zip(&weights) {
+            if s == NO_NODE || w == 0.0 {
+                continue;
+            }
+            let m = finest.surface_normals[s as usize];
+            assert!(
+                m.dot(*n) > 0.99,
+                "vertex {v} (normal {n}) takes weight {w} from node {s} with normal {m}"
+            );
+        }
+    }
+}

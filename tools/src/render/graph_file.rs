@@ -48,7 +48,9 @@ pub fn load_graph_file(
             path: path.to_path_buf(),
             source,
         })?;
-    let (ours, theirs) = (&object.surface, &graph.surface);
+    // The bake keeps the display mesh: the object's surface split at its sharp edges.
+    let ours = &translucent::quadgraph::display_surface(&object.surface);
+    let theirs = &graph.surface;
     if ours.positions != theirs.positions || ours.indices != theirs.indices {
         return Err(GraphFileError::OtherSurface {
             path: path.to_path_buf(),
