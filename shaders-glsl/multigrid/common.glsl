@@ -22,6 +22,11 @@ layout(constant_id = 2) const uint VECTOR_STRIDE = 3u;
         buf.v[at_ + 1u] = rgb_.y; \
         buf.v[at_ + 2u] = rgb_.z; \
     } while (false)
+// The same RGB read through a uniform texel buffer of R32 floats over the same buffer
+// (`TEXEL_READS` in the kernels that have it; `solver::gpu::multigrid::texels`).
+#define RGB_TEXELS(tex, i) \
+    vec3(texelFetch(tex, int(VECTOR_STRIDE * (i))).x, texelFetch(tex, int(VECTOR_STRIDE * (i) + 1u)).x, \
+         texelFetch(tex, int(VECTOR_STRIDE * (i) + 2u)).x)
 // The vectors that tolerate fp16 (UpdateStorage::F16, `--update-storage f16`: the smoother's
 // update d and the CG's last z, `z_old`) are uint arrays: fp16 RGB in two uints (r|g, b|0) per
 // node, or (F32) the bits of VECTOR_STRIDE floats as RGB above.

@@ -217,6 +217,7 @@ impl GpuMultigrid {
             mean_factor,
             coarse_steps: self.coarse_steps,
             local_nodes: listed as u32,
+            texel_reads: self.reads == texels::Reads::Texel,
         })
     }
 }
