@@ -49,6 +49,12 @@ layout(constant_id = 8) const bool HALF_UPDATES = false;
             buf.v[at_ + 2u] = floatBitsToUint(u_.z); \
         } \
     } while (false)
+// A coarse level's fp16 entry (`values16`, r|g, b|c) carries its column in its top 16 bits, the
+// node's index in its level (at pc.offset), where every fp16 level has at most 65536 nodes
+// (`pack_operators`; `TRANSLUCENT_MULTIGRID_COLUMNS`): the row reads one record per entry instead
+// of the record and `cols`. Else `cols` holds it (global).
+layout(constant_id = 11) const bool PACKED_COLUMNS = false;
+#define HALF_COLUMN(h, cols_e) (PACKED_COLUMNS ? pc.offset + ((h).y >> 16) : (cols_e))
 #define MAX_LEVELS 8
 #define MAX_LOG 64
 

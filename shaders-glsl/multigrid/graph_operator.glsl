@@ -11,7 +11,7 @@
 // `node_texel` the node to its texel.
 //
 // Include after common.glsl and the kernel's buffer `x` (the vector K multiplies); the kernel's
-// own constants take ids 0-2 or from 9, its bindings numbers below 20.
+// own constants take ids 0-2, 9, 10 or from 12 (11: common.glsl), its bindings numbers below 20.
 #ifndef GRAPH_OPERATOR_GLSL
 #define GRAPH_OPERATOR_GLSL
 

@@ -61,7 +61,7 @@ void main() {
         for (uint e = first; e < end; ++e) {
             uvec2 h = TEXEL_READS ? texelFetch(values16_t, int(e)).xy : values16.v[e];
             vec3 v = vec3(unpackHalf2x16(h.x), unpackHalf2x16(h.y).x);
-            scaled += v * READ_X(READ_U(cols, e));
+            scaled += v * READ_X(HALF_COLUMN(h, READ_U(cols, e)));
         }
         acc += d.a * scaled;
     } else {

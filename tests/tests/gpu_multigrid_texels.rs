@@ -4,10 +4,12 @@
 //! finest pass (wave 11)") do the storage-buffer reads' solve: the same residual after every cycle,
 //! the same work units, the same J+; and both reach the f64 exact solve. Cold and warm solves, on
 //! the matrix-free finest level (the default) and on its compressed rows (where level 1's fp16
-//! Galerkin rows and the finest f32 rows are read through `values16_t` and `values_t`).
+//! Galerkin rows and the finest f32 rows are read through `values16_t` and `values_t`). Likewise
+//! the coarse levels' fp16 rows reading each entry's column from the entry's top 16 bits
+//! (`TRANSLUCENT_MULTIGRID_COLUMNS`, the default) instead of from `cols`.
 //! Validation (with synchronization validation) is on and any message fails.
 //!
-//! One test in this binary: the reads are chosen by an environment variable read when the
+//! One test in this binary: the reads are chosen by environment variables read when the
 //! multigrid is created, which no other test of this process may see.
 
 use translucent::material::{Material, MaterialField};
@@ -24,7 +26,7 @@ use translucent_tests::{solve_once, tol, GpuTest};
 
 /// Relative residual the GPU cycles stop at (as tests/tests/gpu_multigrid.rs).
 const TOLERANCE: f32 = 1e-5;
-/// The texel and the storage-buffer reads' residual after each cycle: the same values read, the
+/// A variant's and the reference's residual after each cycle: the same values read, the
 /// same operations in the same order, so equal to f32 rounding at most (measured: identical).
 const SAME_RESIDUAL: f64 = 1e-6;
 /// J+ of the texel against the storage-buffer reads (measured: identical).
@@ -95,7 +97,7 @@ fn solves(
 }
 
 #[test]
-fn texel_reads_give_the_storage_buffer_reads_solve() {
+fn texel_reads_and_packed_columns_give_the_same_solve() {
     let t = GpuTest::new();
     let graph = graph();
     let field = MaterialField::Homogeneous(Material::preset("skimmilk").unwrap());
@@ -108,66 +110,82 @@ fn texel_reads_give_the_storage_buffer_reads_solve() {
     )
     .expect("exact");
     for finest in [FinestOperator::Graph, FinestOperator::Csr] {
+        // The storage-buffer reads with `cols` are the reference.
         std::env::set_var("TRANSLUCENT_MULTIGRID_READS", "buffer");
-        let buffer = solves(&t.ctx, &graph, &field, finest);
-        std::env::set_var("TRANSLUCENT_MULTIGRID_READS", "texel");
-        let texel = solves(&t.ctx, &graph, &field, finest);
-        for ((j_buffer, buffer), (j_texel, texel)) in buffer.iter().zip(&texel) {
-            let what = format!("{finest:?}, warm {}", buffer.warm);
-            // The switch reached the kernels.
-            assert!(
-                texel.texel_reads && !buffer.texel_reads,
-                "{what}: texel reads {} / {}",
-                texel.texel_reads,
-                buffer.texel_reads
-            );
-            assert!(
-                texel.converged && buffer.converged,
-                "{what}: {texel:?} / {buffer:?}"
-            );
-            assert_eq!(texel.cycles.len(), buffer.cycles.len(), "{what}: cycles");
-            assert!(
-                (texel.work_units - buffer.work_units).abs() < 1e-9,
-                "{what}: work units {} against {}",
-                texel.work_units,
-                buffer.work_units
-            );
-            let logs = [
-                (texel.start_residual, buffer.start_residual),
-                (texel.residual, buffer.residual),
-            ];
-            let cycles = texel.cycles.iter().zip(&buffer.cycles);
-            for (a, b) in logs
-                .into_iter()
-                .chain(cycles.map(|(a, b)| (a.residual, b.residual)))
-            {
-                let rel = (a - b).abs() / b;
-                assert!(
-                    rel <= SAME_RESIDUAL,
-                    "{what}: residual {a} against {b} ({rel:.1e})"
-                );
+        std::env::set_var("TRANSLUCENT_MULTIGRID_COLUMNS", "cols");
+        let reference = solves(&t.ctx, &graph, &field, finest);
+        for (reads, columns) in [("texel", "cols"), ("buffer", "packed"), ("texel", "packed")] {
+            std::env::set_var("TRANSLUCENT_MULTIGRID_READS", reads);
+            std::env::set_var("TRANSLUCENT_MULTIGRID_COLUMNS", columns);
+            let variant = solves(&t.ctx, &graph, &field, finest);
+            let what = format!("{finest:?}, {reads} reads, {columns}");
+            for (a, b) in variant.iter().zip(&reference) {
+                same_solve(a, b, reads == "texel", columns == "packed", &what);
             }
-            let to64 =
-                |v: &[[f32; 3]]| -> Vec<[f64; 3]> { v.iter().map(|p| p.map(f64::from)).collect() };
-            let d = rel_rms(&to64(j_texel), &to64(j_buffer));
+            // The cold solve reaches the f64 exact one (the warm one solves another light).
+            let d = rel_rms(&to64(&variant[0].0), &exact.j_plus_clamped);
             assert!(
-                d <= SAME_J_PLUS,
-                "{what}: J+ {d:.1e} from the storage-buffer reads'"
+                d < tol::GPU_VS_EXACT,
+                "{what}: J+ {d:.2e} from the f64 exact solve"
             );
         }
-        // The cold solve reaches the f64 exact one (the warm one solves another light).
-        let d = rel_rms(
-            &texel[0]
-                .0
-                .iter()
-                .map(|p| p.map(f64::from))
-                .collect::<Vec<_>>(),
-            &exact.j_plus_clamped,
-        );
-        assert!(
-            d < tol::GPU_VS_EXACT,
-            "{finest:?}: J+ {d:.2e} from the f64 exact solve"
-        );
     }
     t.finish();
+}
+
+fn to64(v: &[[f32; 3]]) -> Vec<[f64; 3]> {
+    v.iter().map(|p| p.map(f64::from)).collect()
+}
+
+/// One solve of a variant (`texel` reads, `packed` columns) against the reference's.
+fn same_solve(
+    (j_variant, variant): &(Vec<[f32; 3]>, GpuMultigridReport),
+    (j_reference, reference): &(Vec<[f32; 3]>, GpuMultigridReport),
+    texel: bool,
+    packed: bool,
+    what: &str,
+) {
+    let what = format!("{what}, warm {}", reference.warm);
+    // The switches reached the kernels (the bake's coarse levels have < 65536 nodes).
+    assert_eq!(
+        (variant.texel_reads, variant.packed_columns),
+        (texel, packed),
+        "{what}: the variant's switches"
+    );
+    assert!(
+        !reference.texel_reads && !reference.packed_columns,
+        "{what}: the reference's switches"
+    );
+    assert!(
+        variant.converged && reference.converged,
+        "{what}: {variant:?} / {reference:?}"
+    );
+    assert_eq!(
+        variant.cycles.len(),
+        reference.cycles.len(),
+        "{what}: cycles"
+    );
+    assert!(
+        (variant.work_units - reference.work_units).abs() < 1e-9,
+        "{what}: work units {} against {}",
+        variant.work_units,
+        reference.work_units
+    );
+    let logs = [
+        (variant.start_residual, reference.start_residual),
+        (variant.residual, reference.residual),
+    ];
+    let cycles = variant.cycles.iter().zip(&reference.cycles);
+    for (a, b) in logs
+        .into_iter()
+        .chain(cycles.map(|(a, b)| (a.residual, b.residual)))
+    {
+        let rel = (a - b).abs() / b;
+        assert!(
+            rel <= SAME_RESIDUAL,
+            "{what}: residual {a} against {b} ({rel:.1e})"
+        );
+    }
+    let d = rel_rms(&to64(j_variant), &to64(j_reference));
+    assert!(d <= SAME_J_PLUS, "{what}: J+ {d:.1e} from the reference's");
 }

@@ -216,6 +216,7 @@ mod tests {
                 warm_order: 0,
                 local_nodes: 0,
                 texel_reads: false,
+                packed_columns: true,
             }),
         };
         let (text, colour) = solve_line(&solve);

@@ -90,7 +90,7 @@ mod recorder;
 mod report;
 mod texels;
 use kernels::*;
-use pack::pack_operators;
+use pack::{pack_operators, packed_columns_from_env};
 pub use probe::{FinestProducts, LevelMagnitudes};
 use recorder::{Recorder, Start};
 
@@ -232,9 +232,10 @@ pub struct GpuMultigridReport {
     pub coarse_steps: u32,
     /// Finest nodes the warm start's local relaxation relaxed (0: none, or a cold start).
     pub local_nodes: u32,
-    /// The residual and smoothing kernels read their read-only inputs through texel views
-    /// (`TRANSLUCENT_MULTIGRID_READS`; the same arithmetic).
+    /// Read-only inputs read through texel views (`TRANSLUCENT_MULTIGRID_READS`).
     pub texel_reads: bool,
+    /// The fp16 rows' columns read from their entries (`TRANSLUCENT_MULTIGRID_COLUMNS`).
+    pub packed_columns: bool,
 }
 
 struct Level {
@@ -262,8 +263,10 @@ pub struct GpuMultigrid {
     partials: u32,
     /// Texel views of `buffers` for the descriptor sets' `*_t` bindings (held; dropped first).
     _texel_views: texels::TexelViews,
-    /// Where the residual and smoothing kernels read from (`texels::Reads`).
+    /// Where the residual, smoothing and CG kernels read from; whether the fp16 rows read their
+    /// columns from the entries (`pack::PackedOperators::packed_columns`).
     reads: texels::Reads,
+    packed_columns: bool,
     buffers: Vec<Buffer>,
     control: Buffer,
     /// The warm start's local relaxation: header, flag bits, list (`multigrid/local.comp`).
@@ -563,6 +566,7 @@ impl GpuMultigrid {
         bytes += local.size;
         buffer_bytes.push(("local", local.size));
         let reads = texels::Reads::from_env();
+        let packed_columns = ops.packed_columns && packed_columns_from_env();
         let texel_views = texels::TexelViews::new(
             ctx,
             &buffers,
@@ -611,6 +615,9 @@ impl GpuMultigrid {
             }
             if bindings.contains(&"local") {
                 constants.extend(local_layout.spec_constants());
+            }
+            if bindings.contains(&"values16") {
+                constants.push(SpecConstant::bool(11, packed_columns));
             }
             if bindings.iter().any(|b| texels::viewed(b).is_some()) {
                 constants.push(SpecConstant::bool(9, reads == texels::Reads::Texel));
@@ -714,6 +721,7 @@ impl GpuMultigrid {
             partials,
             _texel_views: texel_views,
             reads,
+            packed_columns,
             buffers,
             control,
             local,
