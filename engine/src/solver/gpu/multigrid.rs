@@ -348,6 +348,7 @@ impl GpuMultigrid {
         }
         let graph_finest = params.finest_operator == FinestOperator::Graph;
         let ops = pack_operators(hierarchy, &offsets, params)?;
+        let packed_columns = ops.packed_columns && packed_columns_from_env();
         let packed = params.link_storage == LinkStorage::Packed;
         if packed && total >= (NO_NODE >> 8) as usize {
             return Err(too_big("a packed link's node (24 bits)"));
@@ -499,7 +500,7 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&d_zeros).to_vec(),
             bytemuck::cast_slice(&ops.row_start).to_vec(),
-            bytemuck::cast_slice(&ops.cols).to_vec(),
+            bytemuck::cast_slice(ops.stored_cols(graph_finest && packed_columns)).to_vec(),
             bytemuck::cast_slice(&ops.values).to_vec(),
             bytemuck::cast_slice(&ops.diag).to_vec(),
             bytemuck::cast_slice(&ops.partner).to_vec(),
@@ -566,7 +567,6 @@ impl GpuMultigrid {
         bytes += local.size;
         buffer_bytes.push(("local", local.size));
         let reads = texels::Reads::from_env();
-        let packed_columns = ops.packed_columns && packed_columns_from_env();
         let texel_views = texels::TexelViews::new(
             ctx,
             &buffers,

@@ -27,6 +27,18 @@ pub(super) struct PackedOperators {
     pub(super) partner_value: Vec<f32>,
 }
 
+impl PackedOperators {
+    /// What the `cols` buffer holds: nothing where no kernel reads it (`unread`: the fp16 rows
+    /// read their columns from their entries and the finest level stores no rows), else `cols`.
+    pub(super) fn stored_cols(&self, unread: bool) -> &[u32] {
+        if unread {
+            &[]
+        } else {
+            &self.cols
+        }
+    }
+}
+
 /// Whether the kernels read the fp16 entries' columns from `values16` where
 /// [`PackedOperators::packed_columns`] allows it: the environment variable
 /// `TRANSLUCENT_MULTIGRID_COLUMNS`, read when the solver is created: `cols` (from `cols`, as
