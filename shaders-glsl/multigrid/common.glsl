@@ -22,6 +22,11 @@ layout(constant_id = 2) const uint VECTOR_STRIDE = 3u;
         buf.v[at_ + 1u] = rgb_.y; \
         buf.v[at_ + 2u] = rgb_.z; \
     } while (false)
+// The same RGB read through a uniform texel buffer of R32 floats over the same buffer
+// (`TEXEL_READS` in the kernels that have it; `solver::gpu::multigrid::texels`).
+#define RGB_TEXELS(tex, i) \
+    vec3(texelFetch(tex, int(VECTOR_STRIDE * (i))).x, texelFetch(tex, int(VECTOR_STRIDE * (i) + 1u)).x, \
+         texelFetch(tex, int(VECTOR_STRIDE * (i) + 2u)).x)
 // The vectors that tolerate fp16 (UpdateStorage::F16, `--update-storage f16`: the smoother's
 // update d and the CG's last z, `z_old`) are uint arrays: fp16 RGB in two uints (r|g, b|0) per
 // node, or (F32) the bits of VECTOR_STRIDE floats as RGB above.
@@ -44,6 +49,12 @@ layout(constant_id = 8) const bool HALF_UPDATES = false;
             buf.v[at_ + 2u] = floatBitsToUint(u_.z); \
         } \
     } while (false)
+// A coarse level's fp16 entry (`values16`, r|g, b|c) carries its column in its top 16 bits, the
+// node's index in its level (at pc.offset), where every fp16 level has at most 65536 nodes
+// (`pack_operators`; `TRANSLUCENT_MULTIGRID_COLUMNS`): the row reads one record per entry instead
+// of the record and `cols`. Else `cols` holds it (global).
+layout(constant_id = 11) const bool PACKED_COLUMNS = false;
+#define HALF_COLUMN(h, cols_e) (PACKED_COLUMNS ? pc.offset + ((h).y >> 16) : (cols_e))
 #define MAX_LEVELS 8
 #define MAX_LOG 64
 

@@ -11,7 +11,7 @@
 // `node_texel` the node to its texel.
 //
 // Include after common.glsl and the kernel's buffer `x` (the vector K multiplies); the kernel's
-// own constants take ids 0-2 or from 9, its bindings numbers below 20.
+// own constants take ids 0-2, 9, 10 or from 12 (11: common.glsl), its bindings numbers below 20.
 #ifndef GRAPH_OPERATOR_GLSL
 #define GRAPH_OPERATOR_GLSL
 
@@ -24,6 +24,14 @@ layout(constant_id = 7) const uint FINEST_OFFSET = 0u;
 layout(set = 0, binding = 24, rgba32ui) uniform readonly uimage2D connectivity;
 layout(set = 0, binding = 25, std430) readonly buffer NodeTexel { uint v[]; } node_texel;
 layout(set = 0, binding = 26, std430) readonly buffer TexelNode { uint v[]; } texel_node;
+
+// How graph_apply reads node_texel, texel_node and x: a kernel that reads them another way
+// (residual.comp's texel buffers) defines all three before the include.
+#ifndef GRAPH_NODE_TEXEL
+#define GRAPH_NODE_TEXEL(node) node_texel.v[node]
+#define GRAPH_TEXEL_NODE(texel) texel_node.v[texel]
+#define GRAPH_X(i) RGB(x, i)
+#endif
 
 ivec2 texel_of(uint linear) {
     return ivec2(int(linear % pc.width), int(linear / pc.width));
@@ -41,7 +49,7 @@ bool reads_graph(uint offset) {
 // (K x)_i of the finest level at its node `node` (global index `i`, the level at pc.offset), with
 // `k_ii` the diagonal K_ii.
 vec3 graph_apply(uint node, uint i, vec3 k_ii) {
-    ivec2 p = texel_of(node_texel.v[node]);
+    ivec2 p = texel_of(GRAPH_NODE_TEXEL(node));
     uvec4 nb = imageLoad(connectivity, p);
     bool surface = uint(p.y) < pc.surface_rows;
     vec3 w[4];
@@ -49,13 +57,13 @@ vec3 graph_apply(uint node, uint i, vec3 k_ii) {
     node_weights(p, nb, surface, w, gain);
     vec3 acc = vec3(0.0);
     for (int k = 0; k < (surface ? 1 : 4); ++k) {
-        uint j = texel_node.v[nb[k]];
+        uint j = GRAPH_TEXEL_NODE(nb[k]);
         // (Every finest node's slots are nodes; padding is never a node's neighbour.)
         if (j != NO_NODE) {
-            acc += w[k] * RGB(x, pc.offset + j);
+            acc += w[k] * GRAPH_X(pc.offset + j);
         }
     }
-    return k_ii * (RGB(x, i) - acc);
+    return k_ii * (GRAPH_X(i) - acc);
 }
 
 #endif

@@ -24,6 +24,9 @@ layout(local_size_x = 64) in;
 // coarse levels' fp16 entries come first and live elsewhere); under GRAPH_FINEST K comes from
 // the cascade's graph textures (graph_operator.glsl) instead.
 layout(constant_id = 0) const uint HALF_ENTRIES = 0u;
+// TEXEL_READS: K z reads z, the diagonal, the rows and the graph's maps through uniform texel
+// buffers over the same buffers (the `*_t` bindings; residual.comp).
+layout(constant_id = 9) const bool TEXEL_READS = false;
 
 #include "common.glsl"
 
@@ -40,7 +43,20 @@ layout(set = 0, binding = 9, std430) readonly buffer Diag { vec4 v[]; } diag;
 layout(set = 0, binding = 10, std430) writeonly buffer Partials { vec4 v[]; } partials;
 layout(set = 0, binding = 11, std430) readonly buffer Control { MultigridControl c; } control;
 layout(set = 0, binding = 12, std430) buffer KDir { float v[]; } kdir;
+layout(set = 0, binding = 13) uniform samplerBuffer x_t;
+layout(set = 0, binding = 14) uniform samplerBuffer diag_t;
+layout(set = 0, binding = 15) uniform usamplerBuffer row_start_t;
+layout(set = 0, binding = 16) uniform usamplerBuffer cols_t;
+layout(set = 0, binding = 17) uniform samplerBuffer values_t;
+layout(set = 0, binding = 18) uniform usamplerBuffer node_texel_t;
+layout(set = 0, binding = 19) uniform usamplerBuffer texel_node_t;
 
+// (Only K z reads through these: z is not written in the passes that form it.)
+#define READ_X(i) (TEXEL_READS ? RGB_TEXELS(x_t, i) : RGB(x, i))
+#define READ_U(buf, i) (TEXEL_READS ? texelFetch(buf##_t, int(i)).x : buf.v[i])
+#define GRAPH_NODE_TEXEL(node) READ_U(node_texel, node)
+#define GRAPH_TEXEL_NODE(texel) READ_U(texel_node, texel)
+#define GRAPH_X(i) READ_X(i)
 #include "graph_operator.glsl"
 
 #define MODE_START 0u
@@ -75,13 +91,18 @@ void reduce(vec3 s[4], uint blocks, uint group) {
 
 // (K v)_i of the finest level's operator for v = x (z) of the concatenated vectors.
 vec3 apply_k(uint i) {
+    vec3 k_ii = TEXEL_READS ? texelFetch(diag_t, int(i)).rgb : diag.v[i].rgb;
     if (reads_graph(pc.offset)) {
-        return graph_apply(i - pc.offset, i, diag.v[i].rgb);
+        return graph_apply(i - pc.offset, i, k_ii);
     }
-    vec3 acc = diag.v[i].rgb * RGB(x, i);
-    for (uint e = row_start.v[i]; e < row_start.v[i + 1u]; ++e) {
+    vec3 acc = k_ii * READ_X(i);
+    for (uint e = READ_U(row_start, i); e < READ_U(row_start, i + 1u); ++e) {
         uint j = 3u * (e - HALF_ENTRIES);
-        acc += vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]) * RGB(x, cols.v[e]);
+        vec3 v = TEXEL_READS ? vec3(texelFetch(values_t, int(j)).x,
+                                    texelFetch(values_t, int(j + 1u)).x,
+                                    texelFetch(values_t, int(j + 2u)).x)
+                             : vec3(values.v[j], values.v[j + 1u], values.v[j + 2u]);
+        acc += v * READ_X(READ_U(cols, e));
     }
     return acc;
 }

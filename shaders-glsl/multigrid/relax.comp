@@ -47,7 +47,7 @@ vec3 row_residual(uint i) {
         for (uint e = first; e < end; ++e) {
             uvec2 h = values16.v[e];
             vec3 v = vec3(unpackHalf2x16(h.x), unpackHalf2x16(h.y).x);
-            scaled += v * RGB(x, cols.v[e]);
+            scaled += v * RGB(x, HALF_COLUMN(h, cols.v[e]));
         }
         acc += di.a * scaled;
     } else {

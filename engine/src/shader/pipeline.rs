@@ -57,6 +57,12 @@ pub enum DescriptorWrite<'a> {
         offset: u64,
         range: u64,
     },
+    /// A uniform texel buffer (`samplerBuffer` / `usamplerBuffer`, read with `texelFetch`): a view
+    /// the caller created and keeps alive while the set is used.
+    UniformTexelBuffer {
+        name: &'a str,
+        view: vk::BufferView,
+    },
 }
 
 impl<'a> DescriptorWrite<'a> {
@@ -70,7 +76,8 @@ impl<'a> DescriptorWrite<'a> {
             | DescriptorWrite::SampledImage { name, .. }
             | DescriptorWrite::UniformBuffer { name, .. }
             | DescriptorWrite::StorageBuffer { name, .. }
-            | DescriptorWrite::StorageBufferRange { name, .. } => name,
+            | DescriptorWrite::StorageBufferRange { name, .. }
+            | DescriptorWrite::UniformTexelBuffer { name, .. } => name,
         }
     }
 
@@ -82,6 +89,7 @@ impl<'a> DescriptorWrite<'a> {
             DescriptorWrite::StorageBuffer { .. } | DescriptorWrite::StorageBufferRange { .. } => {
                 vk::DescriptorType::STORAGE_BUFFER
             }
+            DescriptorWrite::UniformTexelBuffer { .. } => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
         }
     }
 }
@@ -379,6 +387,13 @@ impl Interface {
                 _ => [vk::DescriptorBufferInfo::default()],
             })
             .collect();
+        let texel_views: Vec<[vk::BufferView; 1]> = slots
+            .iter()
+            .map(|(_, w)| match *w {
+                DescriptorWrite::UniformTexelBuffer { view, .. } => [view],
+                _ => [vk::BufferView::null()],
+            })
+            .collect();
         let descriptor_writes: Vec<_> = slots
             .iter()
             .enumerate()
@@ -390,6 +405,9 @@ impl Interface {
                 match w {
                     DescriptorWrite::StorageImage { .. } | DescriptorWrite::SampledImage { .. } => {
                         write.image_info(&image_infos[i])
+                    }
+                    DescriptorWrite::UniformTexelBuffer { .. } => {
+                        write.texel_buffer_view(&texel_views[i])
                     }
                     _ => write.buffer_info(&buffer_infos[i]),
                 }

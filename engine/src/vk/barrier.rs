@@ -29,6 +29,9 @@ pub enum Access {
     ComputeWrite,
     // why: a dispatch that both reads and writes (or a later one that may do either).
     ComputeReadWrite,
+    // why: as ComputeReadWrite, for dispatches that may also read the buffers through uniform
+    // texel views (the multigrid's `*_t` bindings: SHADER_SAMPLED_READ in synchronization2).
+    ComputeReadWriteTexels,
     // why: color attachment written by a dynamic-rendering pass (load op clear/load counts as write).
     ColorAttachmentWrite,
     // why: depth tests read and write the attachment in early and late fragment tests.
@@ -75,6 +78,11 @@ impl Access {
             Access::ComputeReadWrite => (
                 S::COMPUTE_SHADER,
                 A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                L::GENERAL,
+            ),
+            Access::ComputeReadWriteTexels => (
+                S::COMPUTE_SHADER,
+                A::SHADER_SAMPLED_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
                 L::GENERAL,
             ),
             Access::ColorAttachmentWrite => (

@@ -53,6 +53,7 @@ pub(crate) enum Retired {
     DescriptorPool(vk::DescriptorPool),
     QueryPool(vk::QueryPool),
     Sampler(vk::Sampler),
+    BufferView(vk::BufferView),
 }
 
 #[derive(Default)]
@@ -192,6 +193,7 @@ impl Device {
                 Retired::DescriptorPool(p) => device.destroy_descriptor_pool(p, None),
                 Retired::QueryPool(q) => device.destroy_query_pool(q, None),
                 Retired::Sampler(s) => device.destroy_sampler(s, None),
+                Retired::BufferView(v) => device.destroy_buffer_view(v, None),
             }
         }
     }

@@ -450,3 +450,50 @@ impl Drop for Sampler {
         self.device.retire(Retired::Sampler(self.raw));
     }
 }
+
+/// A texel view of a [`Buffer`] (a uniform texel buffer's descriptor), released through the
+/// context like every other object. The buffer must outlive it and carry
+/// `UNIFORM_TEXEL_BUFFER` usage.
+pub struct BufferView {
+    pub raw: vk::BufferView,
+    device: Arc<Device>,
+}
+
+impl BufferView {
+    /// The whole of `buffer` as texels of `format` (`texel_bytes` each). A buffer of more texels
+    /// than the device's `maxTexelBufferElements` is an error, not a view.
+    pub fn new(
+        ctx: &Context,
+        buffer: &Buffer,
+        format: vk::Format,
+        texel_bytes: u64,
+    ) -> Result<BufferView, VkError> {
+        let texels = buffer.size / texel_bytes.max(1);
+        let limit = u64::from(ctx.limits().max_texel_buffer_elements);
+        if texels > limit {
+            return Err(VkError::invalid(
+                buffer.name,
+                format!("{texels} texels in a texel view, device limit {limit}"),
+            ));
+        }
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(buffer.raw)
+            .format(format)
+            .offset(0)
+            .range(texels * texel_bytes);
+        // SAFETY: valid create info on a live device; the range lies inside the buffer.
+        let raw = unsafe { ctx.raw().create_buffer_view(&info, None) }
+            .map_err(VkError::call("vkCreateBufferView"))?;
+        ctx.set_name(raw, buffer.name);
+        Ok(BufferView {
+            raw,
+            device: ctx.device.clone(),
+        })
+    }
+}
+
+impl Drop for BufferView {
+    fn drop(&mut self) {
+        self.device.retire(Retired::BufferView(self.raw));
+    }
+}

@@ -53,7 +53,9 @@ pub use context::{
     Context, ContextDesc, DeviceInfo, HostVulkan, Severity, Submission, ValidationLog,
     ValidationMessage,
 };
-pub use memory::{Buffer, BufferDesc, Image, ImageDesc, MemoryUse, Sampler, VolumeDesc};
+pub use memory::{
+    Buffer, BufferDesc, BufferView, Image, ImageDesc, MemoryUse, Sampler, VolumeDesc,
+};
 pub use profiler::{FrameTimings, GpuProfiler, ScopeTiming};
 
 /// The Vulkan version and features every context requires.

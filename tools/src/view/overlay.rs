@@ -215,6 +215,8 @@ mod tests {
                 coarse_steps: 8,
                 warm_order: 0,
                 local_nodes: 0,
+                texel_reads: false,
+                packed_columns: true,
             }),
         };
         let (text, colour) = solve_line(&solve);

@@ -88,36 +88,11 @@ mod pack;
 mod probe;
 mod recorder;
 mod report;
+mod texels;
 use kernels::*;
-use pack::pack_operators;
+use pack::{pack_operators, packed_columns_from_env};
 pub use probe::{FinestProducts, LevelMagnitudes};
 use recorder::{Recorder, Start};
-
-/// The levels whose Chebyshev steps run as one `multigrid/relax.comp` pass each (the residual
-/// formed where the step uses it, not stored) instead of a residual pass and a step pass
-/// (benches/RESULTS.md "Cheaper multigrid passes (wave 10)": fewer passes, but slower on
-/// lavapipe). The environment variable `TRANSLUCENT_MULTIGRID_RELAX`, read when the solver is
-/// created, picks it for measurements: unset or `split` ([`Self::None`], the default), `fused`
-/// ([`Self::Finest`]), `all` ([`Self::AboveCoarsest`]).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) enum RelaxLevels {
-    /// Two passes per step everywhere.
-    None,
-    /// The finest level's steps fused.
-    Finest,
-    /// Every level's but the coarsest (whose solve is `coarse.comp`'s).
-    AboveCoarsest,
-}
-
-impl RelaxLevels {
-    fn from_env() -> Self {
-        match std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() {
-            Ok("fused") => Self::Finest,
-            Ok("all") => Self::AboveCoarsest,
-            _ => Self::None,
-        }
-    }
-}
 
 pub const PASS_MG_START: &str = "multigrid start";
 pub const PASS_MG_CYCLES: &str = "multigrid v-cycles";
@@ -257,6 +232,10 @@ pub struct GpuMultigridReport {
     pub coarse_steps: u32,
     /// Finest nodes the warm start's local relaxation relaxed (0: none, or a cold start).
     pub local_nodes: u32,
+    /// Read-only inputs read through texel views (`TRANSLUCENT_MULTIGRID_READS`).
+    pub texel_reads: bool,
+    /// The fp16 rows' columns read from their entries (`TRANSLUCENT_MULTIGRID_COLUMNS`).
+    pub packed_columns: bool,
 }
 
 struct Level {
@@ -282,6 +261,12 @@ pub struct GpuMultigrid {
     kappa: [f32; 4],
     mu_gain: [f32; 4],
     partials: u32,
+    /// Texel views of `buffers` for the descriptor sets' `*_t` bindings (held; dropped first).
+    _texel_views: texels::TexelViews,
+    /// Where the residual, smoothing and CG kernels read from; whether the fp16 rows read their
+    /// columns from the entries (`pack::PackedOperators::packed_columns`).
+    reads: texels::Reads,
+    packed_columns: bool,
     buffers: Vec<Buffer>,
     control: Buffer,
     /// The warm start's local relaxation: header, flag bits, list (`multigrid/local.comp`).
@@ -363,6 +348,7 @@ impl GpuMultigrid {
         }
         let graph_finest = params.finest_operator == FinestOperator::Graph;
         let ops = pack_operators(hierarchy, &offsets, params)?;
+        let packed_columns = ops.packed_columns && packed_columns_from_env();
         let packed = params.link_storage == LinkStorage::Packed;
         if packed && total >= (NO_NODE >> 8) as usize {
             return Err(too_big("a packed link's node (24 bits)"));
@@ -514,7 +500,7 @@ impl GpuMultigrid {
             bytemuck::cast_slice(&zeros).to_vec(),
             bytemuck::cast_slice(&d_zeros).to_vec(),
             bytemuck::cast_slice(&ops.row_start).to_vec(),
-            bytemuck::cast_slice(&ops.cols).to_vec(),
+            bytemuck::cast_slice(ops.stored_cols(graph_finest && packed_columns)).to_vec(),
             bytemuck::cast_slice(&ops.values).to_vec(),
             bytemuck::cast_slice(&ops.diag).to_vec(),
             bytemuck::cast_slice(&ops.partner).to_vec(),
@@ -546,7 +532,9 @@ impl GpuMultigrid {
                 &BufferDesc {
                     name,
                     size,
-                    usage: vk::BufferUsageFlags::STORAGE_BUFFER,
+                    // Texel views: the `*_t` bindings (`texels`).
+                    usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                        | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
                     // why Upload: written once per material from the host; on lavapipe every
                     // heap is host memory (a discrete GPU would stage into GpuOnly).
                     memory: MemoryUse::Upload,
@@ -578,6 +566,12 @@ impl GpuMultigrid {
         let local = local_layout.buffer(ctx)?;
         bytes += local.size;
         buffer_bytes.push(("local", local.size));
+        let reads = texels::Reads::from_env();
+        let texel_views = texels::TexelViews::new(
+            ctx,
+            &buffers,
+            KERNELS.iter().flat_map(|k| k.2.iter().copied()),
+        )?;
         let mut pipelines = Vec::with_capacity(KERNELS.len());
         let mut relax_back = vk::DescriptorSet::null();
         for (kernel, (name, shader, bindings)) in KERNELS.into_iter().enumerate() {
@@ -621,6 +615,12 @@ impl GpuMultigrid {
             }
             if bindings.contains(&"local") {
                 constants.extend(local_layout.spec_constants());
+            }
+            if bindings.contains(&"values16") {
+                constants.push(SpecConstant::bool(11, packed_columns));
+            }
+            if bindings.iter().any(|b| texels::viewed(b).is_some()) {
+                constants.push(SpecConstant::bool(9, reads == texels::Reads::Texel));
             }
             let pipeline = ComputePipeline::new_specialized(
                 ctx,
@@ -669,35 +669,40 @@ impl GpuMultigrid {
             }
             let writes: Vec<DescriptorWrite<'_>> = bindings
                 .iter()
-                .map(|&b| match b {
-                    "x_out" => DescriptorWrite::StorageBuffer {
-                        name: "x_out",
-                        buffer: buffer_of("x_out", false).1,
-                    },
-                    "q" => DescriptorWrite::storage_image("q", q),
-                    "phi" => DescriptorWrite::storage_image("phi", phi),
-                    "connectivity" => {
-                        DescriptorWrite::storage_image("connectivity", graph.connectivity)
-                    }
-                    "weight_geo" => DescriptorWrite::storage_image("weight_geo", graph.weights[0]),
-                    "weight_r" => DescriptorWrite::storage_image("weight_r", graph.weights[1]),
-                    "weight_g" => DescriptorWrite::storage_image("weight_g", graph.weights[2]),
-                    "weight_b" => DescriptorWrite::storage_image("weight_b", graph.weights[3]),
-                    "control" => DescriptorWrite::StorageBuffer {
-                        name: "control",
-                        buffer: &control,
-                    },
-                    "local" => DescriptorWrite::StorageBuffer {
-                        name: "local",
-                        buffer: &local,
-                    },
-                    other => {
-                        let i = BUFFER_NAMES.iter().position(|&n| n == other).unwrap_or(0);
-                        DescriptorWrite::StorageBuffer {
-                            name: BUFFER_NAMES[i],
-                            buffer: &buffers[i],
+                .map(|&b| match (b, texel_views.get(b)) {
+                    (name, Some(view)) => DescriptorWrite::UniformTexelBuffer { name, view },
+                    (b, None) => match b {
+                        "x_out" => DescriptorWrite::StorageBuffer {
+                            name: "x_out",
+                            buffer: buffer_of("x_out", false).1,
+                        },
+                        "q" => DescriptorWrite::storage_image("q", q),
+                        "phi" => DescriptorWrite::storage_image("phi", phi),
+                        "connectivity" => {
+                            DescriptorWrite::storage_image("connectivity", graph.connectivity)
                         }
-                    }
+                        "weight_geo" => {
+                            DescriptorWrite::storage_image("weight_geo", graph.weights[0])
+                        }
+                        "weight_r" => DescriptorWrite::storage_image("weight_r", graph.weights[1]),
+                        "weight_g" => DescriptorWrite::storage_image("weight_g", graph.weights[2]),
+                        "weight_b" => DescriptorWrite::storage_image("weight_b", graph.weights[3]),
+                        "control" => DescriptorWrite::StorageBuffer {
+                            name: "control",
+                            buffer: &control,
+                        },
+                        "local" => DescriptorWrite::StorageBuffer {
+                            name: "local",
+                            buffer: &local,
+                        },
+                        other => {
+                            let i = BUFFER_NAMES.iter().position(|&n| n == other).unwrap_or(0);
+                            DescriptorWrite::StorageBuffer {
+                                name: BUFFER_NAMES[i],
+                                buffer: &buffers[i],
+                            }
+                        }
+                    },
                 })
                 .collect();
             let set = pipeline.allocate_set(ctx, &writes)?;
@@ -714,6 +719,9 @@ impl GpuMultigrid {
             kappa: graph.kappa,
             mu_gain: graph.mu_gain,
             partials,
+            _texel_views: texel_views,
+            reads,
+            packed_columns,
             buffers,
             control,
             local,

@@ -3,6 +3,32 @@
 //! ([`GpuMultigrid::new`](super::GpuMultigrid::new) builds one pipeline and descriptor set per
 //! [`KERNELS`] entry, specialized from its bindings).
 
+/// The levels whose Chebyshev steps run as one `multigrid/relax.comp` pass each (the residual
+/// formed where the step uses it, not stored) instead of a residual pass and a step pass
+/// (benches/RESULTS.md "Cheaper multigrid passes (wave 10)": fewer passes, but slower on
+/// lavapipe). The environment variable `TRANSLUCENT_MULTIGRID_RELAX`, read when the solver is
+/// created, picks it for measurements: unset or `split` ([`Self::None`], the default), `fused`
+/// ([`Self::Finest`]), `all` ([`Self::AboveCoarsest`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum RelaxLevels {
+    /// Two passes per step everywhere.
+    None,
+    /// The finest level's steps fused.
+    Finest,
+    /// Every level's but the coarsest (whose solve is `coarse.comp`'s).
+    AboveCoarsest,
+}
+
+impl RelaxLevels {
+    pub(super) fn from_env() -> Self {
+        match std::env::var("TRANSLUCENT_MULTIGRID_RELAX").as_deref() {
+            Ok("fused") => Self::Finest,
+            Ok("all") => Self::AboveCoarsest,
+            _ => Self::None,
+        }
+    }
+}
+
 /// Pipeline indices into [`GpuMultigrid::pipelines`](super::GpuMultigrid::pipelines).
 pub(super) const RHS: usize = 0;
 pub(super) const RESIDUAL: usize = 1;
@@ -65,12 +91,34 @@ pub(super) const KERNELS: [(&str, &str, &[&str]); 12] = [
             "weight_r",
             "weight_g",
             "weight_b",
+            "x_t",
+            "f_t",
+            "diag_t",
+            "row_start_t",
+            "cols_t",
+            "values_t",
+            "values16_t",
+            "node_texel_t",
+            "texel_node_t",
         ],
     ),
     (
         "multigrid smooth",
         "multigrid/smooth.comp",
-        &["x", "d", "r", "diag", "partner", "partner_value", "f"],
+        &[
+            "x",
+            "d",
+            "r",
+            "diag",
+            "partner",
+            "partner_value",
+            "f",
+            "r_t",
+            "diag_t",
+            "partner_t",
+            "partner_value_t",
+            "f_t",
+        ],
     ),
     (
         "multigrid restrict",
@@ -121,6 +169,13 @@ pub(super) const KERNELS: [(&str, &str, &[&str]); 12] = [
             "weight_r",
             "weight_g",
             "weight_b",
+            "x_t",
+            "diag_t",
+            "row_start_t",
+            "cols_t",
+            "values_t",
+            "node_texel_t",
+            "texel_node_t",
         ],
     ),
     (

@@ -15,12 +15,36 @@ pub(super) struct PackedOperators {
     pub(super) values16: Vec<[u32; 2]>,
     /// Entries stored in `values16`: those of every level below the finest (0 with f32 storage).
     pub(super) half_entries: u32,
+    /// Every `values16` entry holds its column, the node's index in its level, in its top 16
+    /// bits (`HALF_COLUMN` in `common.glsl`): every fp16 level has at most 65536 nodes. `cols`
+    /// holds the columns too (the f32 entries' readers index it by entry).
+    pub(super) packed_columns: bool,
     /// RGB diagonal (with fp16 entries: plus the row's rounding, so the row sums as before) and
     /// the row's scale of its fp16 entries in the fourth lane (0 where unused).
     pub(super) diag: Vec<[f32; 4]>,
     pub(super) partner: Vec<u32>,
     /// RGB, the vectors' stride of floats per node.
     pub(super) partner_value: Vec<f32>,
+}
+
+impl PackedOperators {
+    /// What the `cols` buffer holds: nothing where no kernel reads it (`unread`: the fp16 rows
+    /// read their columns from their entries and the finest level stores no rows), else `cols`.
+    pub(super) fn stored_cols(&self, unread: bool) -> &[u32] {
+        if unread {
+            &[]
+        } else {
+            &self.cols
+        }
+    }
+}
+
+/// Whether the kernels read the fp16 entries' columns from `values16` where
+/// [`PackedOperators::packed_columns`] allows it: the environment variable
+/// `TRANSLUCENT_MULTIGRID_COLUMNS`, read when the solver is created: `cols` (from `cols`, as
+/// before wave 11), unset or `packed` (from the entries).
+pub(super) fn packed_columns_from_env() -> bool {
+    std::env::var("TRANSLUCENT_MULTIGRID_COLUMNS").as_deref() != Ok("cols")
 }
 
 /// The row of `values16` and its effective f32 values (what `residual.comp` multiplies with):
@@ -47,12 +71,17 @@ pub(super) fn pack_operators(
     let stride = params.vector_storage.floats();
     let total = offsets.last().copied().unwrap_or(0);
     let top = hierarchy.levels.len().saturating_sub(1);
+    let packed_columns = storage == OperatorStorage::F16
+        && hierarchy.levels[..top]
+            .iter()
+            .all(|level| level.operator.node_count() <= 1 << 16);
     let mut out = PackedOperators {
         row_start: Vec::with_capacity(total + 1),
         cols: Vec::new(),
         values: Vec::new(),
         values16: Vec::new(),
         half_entries: 0,
+        packed_columns,
         diag: Vec::with_capacity(total),
         partner: Vec::with_capacity(total),
         partner_value: Vec::with_capacity(stride * total),
@@ -77,7 +106,10 @@ pub(super) fn pack_operators(
                     let scale = f64::from(d[0].max(d[1]).max(d[2]));
                     let mut diag = k.diag[i];
                     for e in row {
-                        let (bits, effective) = half_entry(k.values[e], scale);
+                        let (mut bits, effective) = half_entry(k.values[e], scale);
+                        if packed_columns {
+                            bits[1] |= k.cols[e] << 16;
+                        }
                         out.values16.push(bits);
                         for c in 0..3 {
                             diag[c] += k.values[e][c] - effective[c];

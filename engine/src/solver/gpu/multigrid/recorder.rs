@@ -81,7 +81,7 @@ impl Recorder<'_, '_> {
                 self.ctx,
                 self.cb,
                 Access::ComputeWrite,
-                Access::ComputeReadWrite,
+                Access::ComputeReadWriteTexels,
             );
             pipeline.dispatch(self.ctx, self.cb, *set, &push, [invocations, 1, 1]);
         }
@@ -129,7 +129,7 @@ impl Recorder<'_, '_> {
                 self.ctx,
                 self.cb,
                 Access::ComputeWrite,
-                Access::ComputeReadWrite,
+                Access::ComputeReadWriteTexels,
             );
             pipeline.dispatch_indirect(self.ctx, self.cb, set, &push, &self.mg.control, offset);
         }
@@ -223,7 +223,7 @@ impl Recorder<'_, '_> {
                     self.ctx,
                     self.cb,
                     Access::ComputeWrite,
-                    Access::ComputeReadWrite,
+                    Access::ComputeReadWriteTexels,
                 );
                 pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
             } else {
@@ -362,7 +362,7 @@ impl Recorder<'_, '_> {
                 self.ctx,
                 self.cb,
                 Access::ComputeWrite,
-                Access::ComputeReadWrite,
+                Access::ComputeReadWriteTexels,
             );
             pipeline.dispatch(self.ctx, self.cb, *set, &push, [GROUP, 1, 1]);
             // why: the next cycle's indirect dispatches read the arguments the check may have

@@ -217,6 +217,8 @@ impl GpuMultigrid {
             mean_factor,
             coarse_steps: self.coarse_steps,
             local_nodes: listed as u32,
+            texel_reads: self.reads == texels::Reads::Texel,
+            packed_columns: self.packed_columns,
         })
     }
 }
