@@ -134,6 +134,18 @@ impl GpuDiffusion {
         self.read_nodes(ctx, l.result(), l, 1.0 / self.q_scale)
     }
 
+    /// Headless: q of `level` in node order (inner, then surface), unscaled (what the gather
+    /// and, with `--bounce source`, the bounced light wrote).
+    pub fn read_q(&self, ctx: &Context, level: usize) -> Result<Vec<[f32; 3]>, Error> {
+        let l = self.levels.get(level).ok_or_else(|| {
+            bad_param(
+                "level",
+                format!("{level} (only {} levels)", self.levels.len()),
+            )
+        })?;
+        self.read_nodes(ctx, &l.q, l, 1.0 / self.q_scale)
+    }
+
     /// Headless: clamped J+ per surface node of the finest level (surface index order).
     pub fn read_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
         let l = &self.levels[self.levels.len() - 1];
