@@ -57,13 +57,13 @@ use crate::Error;
 
 mod optics;
 mod source;
-pub use source::{
-    BounceSourcePass, BounceSourcePush, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE,
-    PASS_BOUNCE_SOURCE,
-};
 pub use optics::{
     diffuse_reflectance, slab_reflectance_transmittance, vertex_reflectance, vertex_wall_optics,
     WallOptics,
+};
+pub use source::{
+    BounceSourcePass, BounceSourcePush, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE,
+    PASS_BOUNCE_SOURCE,
 };
 
 /// The pass's name (graph pass, debug label, profiler scope).

@@ -566,7 +566,10 @@ impl Method for QuadGraphMethod {
             .uses(self.solve.exitance_uses())
             .record(move |p| {
                 // SAFETY: inside the graph's pass declaring the exitance's uses.
-                unsafe { self.solve.record_exitance_to_mesh(p.ctx, p.cb, p.profiler()) };
+                unsafe {
+                    self.solve
+                        .record_exitance_to_mesh(p.ctx, p.cb, p.profiler())
+                };
                 Ok(())
             });
     }

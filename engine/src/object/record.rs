@@ -173,7 +173,8 @@ impl TranslucentObject {
                         Ok(())
                     });
                 // `--bounce source`: E_b into the solve's q, a second solve, its exitance.
-                self.method.add_bounce_passes(&mut graph, bounce.irradiance());
+                self.method
+                    .add_bounce_passes(&mut graph, bounce.irradiance());
             } else {
                 graph.skip(PASS_BOUNCE, crate::frame::SkipReason::Unchanged);
             }
