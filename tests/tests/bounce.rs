@@ -698,9 +698,7 @@ fn the_bounce_source_adds_the_f64_node_sources_and_carries_light_inside() {
     // (2) Vertices that see nothing: the local bounce leaves them, the source lights them.
     let mut raised = 0;
     for v in 0..plain.len() {
-        for c in 0..3 {
-            assert!(source[v][c].is_finite() && source[v][c] >= 0.0);
-        }
+        assert!(source[v].iter().all(|x| x.is_finite() && *x >= 0.0));
         // Nothing arrives here or at the wall's far side (the tube's top and bottom).
         let wall = links.crossing(v);
         let far_dark = (0..3).all(|k| {
