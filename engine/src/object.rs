@@ -311,7 +311,7 @@ impl TranslucentObject {
         };
         // The bounce links stored with the bake, when the parameters ask for the bounce.
         let bounce_links = match &method {
-            MethodDesc::QuadGraph(graph) if params.bounce == crate::frame::BounceMode::Local => {
+            MethodDesc::QuadGraph(graph) if params.bounce != crate::frame::BounceMode::Off => {
                 graph.bounce.clone()
             }
             _ => None,
@@ -640,6 +640,10 @@ impl TranslucentObject {
         links: Option<&BounceLinks>,
         field: &MaterialField,
     ) -> Result<(), Error> {
+        // The source's pass holds the bounce pass's irradiance buffer: dropped first.
+        if let Some(q) = self.method.as_any_mut().downcast_mut::<QuadGraphMethod>() {
+            q.set_bounce_source(ctx, None)?;
+        }
         let Some(links) = links else {
             self.bounce = None;
             self.changes.material = true;
@@ -659,7 +663,12 @@ impl TranslucentObject {
         );
         let mut pass = BouncePass::new(ctx, &self.mesh, links, &optics)?;
         pass.set_bounces(self.bounces)?;
-        self.bounce = Some(pass);
+        let pass = self.bounce.insert(pass);
+        if self.params.bounce == crate::frame::BounceMode::Source {
+            if let Some(q) = self.method.as_any_mut().downcast_mut::<QuadGraphMethod>() {
+                q.set_bounce_source(ctx, Some(pass.irradiance()))?;
+            }
+        }
         self.changes.material = true;
         Ok(())
     }

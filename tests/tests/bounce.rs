@@ -631,3 +631,132 @@ fn a_thin_wall_passes_re_entering_light_to_its_far_face() {
     drop(object);
     gpu.finish();
 }
+
+/// q is stored in fp16 (a relative step of 2^-11 on q, twice: with and without the source).
+const Q_FP16: f32 = 2e-3;
+
+/// `--bounce source` (issue 12, the back-lit plate's base front): the bounced light is a source of
+/// a second solve. (1) The finest surface nodes' q grows by exactly the f64 reference's
+/// T_d E_b (`NodeGather::node_sources` of `BounceLinks::last_irradiance` of the exitance without
+/// bounce) at the solve's exposure; (2) light that re-entered the torus's hole travels inside:
+/// vertices that see nothing (no links, E_b = 0: the local bounce leaves them as they were) get
+/// brighter only with the source (the tube's top and bottom: nothing reaches them or their
+/// wall's far side through the air).
+#[test]
+fn the_bounce_source_adds_the_f64_node_sources_and_carries_light_inside() {
+    use translucent::frame::bounce::{
+        NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE, PASS_BOUNCE_SOURCE,
+    };
+    use translucent::frame::{BounceMode, QuadGraphMethod};
+    let gpu = GpuTest::new();
+    let field = marble();
+    let torus = bake(&Shape::Torus {
+        major: 8.0,
+        minor: 3.0,
+    });
+    let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
+    let object = |mode: BounceMode| {
+        let mut object = TranslucentObject::new(
+            &gpu.ctx,
+            std::sync::Arc::new(torus.clone()),
+            &field,
+            &scene(),
+            &ObjectParams {
+                single_scattering: None,
+                diffusion: field.diffusion(),
+                bounce: mode,
+                ..ObjectParams::default()
+            },
+        )
+        .expect("object");
+        if mode != BounceMode::Off {
+            object
+                .set_bounce(&gpu.ctx, Some(&links), &field)
+                .expect("bounce");
+        }
+        let (captured, report) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert!(captured
+            .image
+            .pixels
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite()));
+        let method = object
+            .method()
+            .as_any()
+            .downcast_ref::<QuadGraphMethod>()
+            .expect("quadgraph");
+        let q = method.solve().read_q(&gpu.ctx).expect("q");
+        (read_exitance(&gpu, &object), q, report.passes)
+    };
+    let (plain, q_plain, _) = object(BounceMode::Off);
+    let (local, q_local, passes) = object(BounceMode::Local);
+    assert!(!passes.contains(&PASS_BOUNCE_SOURCE), "{passes:?}");
+    assert_eq!(q_local, q_plain);
+    let (source, q_source, passes) = object(BounceMode::Source);
+    for pass in [
+        PASS_BOUNCE,
+        PASS_BOUNCE_SOURCE,
+        PASS_BOUNCE_SOLVE,
+        PASS_BOUNCE_EXITANCE,
+    ] {
+        assert!(passes.contains(&pass), "{pass}: {passes:?}");
+    }
+    // (1) q grows by the f64 source.
+    let optics = vertex_wall_optics(
+        &field,
+        ObjectParams::default().solve.exit,
+        &torus.surface.positions,
+        &links.across,
+    );
+    let e_b = links.last_irradiance(&plain, &optics, translucent::defaults::BOUNCES);
+    let t_d = translucent::solver::transport::Boundary::new(
+        field.eta(),
+        ObjectParams::default().solve.exit,
+    )
+    .diffuse_transmittance();
+    let gather = NodeGather::build(&torus);
+    assert_eq!(
+        gather.covered(),
+        gather.node_count(),
+        "every node takes E_b"
+    );
+    let want = gather.node_sources(&e_b, t_d);
+    assert_eq!(q_plain.len(), want.len());
+    let top = q_plain.iter().flatten().fold(0.0f32, |m, &v| m.max(v));
+    let mut lit = 0;
+    for (s, w) in want.iter().enumerate() {
+        for c in 0..3 {
+            let got = q_source[s][c] - q_plain[s][c];
+            assert!(
+                (f64::from(got) - w[c]).abs() <= f64::from(Q_FP16 * q_source[s][c].max(1e-3 * top)),
+                "surface node {s} channel {c}: q grew by {got}, the f64 source is {}",
+                w[c]
+            );
+        }
+        lit += usize::from(w[0] > 1e-2 * f64::from(top));
+    }
+    assert!(lit > 0, "no node takes a bounce worth testing");
+    // (2) Vertices that see nothing: the local bounce leaves them, the source lights them.
+    let mut raised = 0;
+    for v in 0..plain.len() {
+        assert!(source[v].iter().all(|x| x.is_finite() && *x >= 0.0));
+        // Nothing arrives here or at the wall's far side (the tube's top and bottom).
+        let wall = links.crossing(v);
+        let far_dark = (0..3).all(|k| {
+            wall.weights[k] <= 0.0 || links.incoming(wall.vertices[k] as usize).is_empty()
+        });
+        if !links.incoming(v).is_empty() || !far_dark {
+            continue;
+        }
+        assert!(
+            (local[v][0] - plain[v][0]).abs() <= SOLVE_REPEAT * plain[v][0].max(1e-3),
+            "vertex {v}: {local:?} {plain:?}",
+            local = local[v],
+            plain = plain[v]
+        );
+        raised += usize::from(source[v][0] > plain[v][0] * 1.001 + 1e-6);
+    }
+    assert!(raised > 0, "no vertex without links got light from inside");
+    gpu.finish();
+}

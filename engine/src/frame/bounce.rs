@@ -56,9 +56,14 @@ use crate::vk::{barrier, Access, Buffer, Context};
 use crate::Error;
 
 mod optics;
+mod source;
 pub use optics::{
     diffuse_reflectance, slab_reflectance_transmittance, vertex_reflectance, vertex_wall_optics,
     WallOptics,
+};
+pub use source::{
+    BounceSourcePass, BounceSourcePush, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE,
+    PASS_BOUNCE_SOURCE,
 };
 
 /// The pass's name (graph pass, debug label, profiler scope).
@@ -88,6 +93,10 @@ pub enum BounceMode {
     Off,
     /// One bounce, re-emitted where it enters (R_d E_b, no second solve).
     Local,
+    /// The bounces as [`Self::Local`], then the last gathered irradiance as a source of a second,
+    /// warm-started solve whose exitance replaces the local re-emission ([`NodeGather`]): light
+    /// that re-enters travels inside (QuadGraph method).
+    Source,
 }
 
 impl BounceMode {
@@ -95,6 +104,7 @@ impl BounceMode {
         match self {
             BounceMode::Off => "off",
             BounceMode::Local => "local",
+            BounceMode::Source => "source",
         }
     }
 }
@@ -105,9 +115,10 @@ impl std::str::FromStr for BounceMode {
         match s {
             "off" => Ok(BounceMode::Off),
             "local" => Ok(BounceMode::Local),
+            "source" => Ok(BounceMode::Source),
             _ => Err(invalid(
                 "bounce",
-                format!("unknown bounce {s:?} (off, local)"),
+                format!("unknown bounce {s:?} (off, local, source)"),
             )),
         }
     }

@@ -121,6 +121,13 @@ pub trait Method: Send {
         shadows: &'g ShadowMaps,
     ) -> Result<(), Error>;
 
+    /// [`super::BounceMode::Source`]: after the bounce pass left E_b per display vertex in
+    /// `irradiance`, the passes that add it to the solve's source, solve again and write the new
+    /// exitance (nothing where the method takes no bounce source: the default).
+    fn add_bounce_passes<'g>(&'g self, graph: &mut FrameGraph<'g>, irradiance: &'g Buffer) {
+        let _ = (graph, irradiance);
+    }
+
     /// Updates of frames `<= completed_frame` not reported yet (GPU counters read after the
     /// host's fence; no wait).
     fn completed(&mut self, completed_frame: u64) -> Result<Vec<CompletedSolve>, Error>;

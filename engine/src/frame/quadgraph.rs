@@ -25,6 +25,9 @@ use std::sync::Arc;
 use ash::vk;
 use glam::DVec3;
 
+use super::bounce::{
+    BounceSourcePass, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE, PASS_BOUNCE_SOURCE,
+};
 use super::graph::FrameGraph;
 use super::method::{Method, MethodFrame};
 use super::plan::{MethodWork, Update};
@@ -89,6 +92,8 @@ struct Prepared {
     solve: Option<SolvePlan>,
     /// The control-copy slot this frame's solve writes.
     slot: usize,
+    /// The second, warm-started solve with the bounced light as a source (`--bounce source`).
+    bounce_solve: Option<SolvePlan>,
 }
 
 /// The QuadGraph method (see the module doc).
@@ -105,6 +110,8 @@ pub struct QuadGraphMethod {
     control_copies: Vec<ControlCopy>,
     single_level_nodes: usize,
     prepared: Prepared,
+    /// [`crate::frame::BounceMode::Source`]'s pass (q += q_scale T_d E_b), when on.
+    bounce_source: Option<BounceSourcePass>,
 }
 
 /// The gather's collimated source (DESIGN 2.7) for the solve's boundary model: on when the solve
@@ -222,7 +229,47 @@ impl QuadGraphMethod {
             control_copies,
             single_level_nodes,
             prepared: Prepared::default(),
+            bounce_source: None,
         })
+    }
+
+    /// [`crate::frame::BounceMode::Source`]: the bounce pass's `irradiance` (E_b per display
+    /// vertex) becomes a source of a second solve every frame that solves ([`NodeGather`] of the
+    /// graph's finest surface nodes); `None`: off. The buffer must outlive this method or the
+    /// next call.
+    pub fn set_bounce_source(
+        &mut self,
+        ctx: &Context,
+        irradiance: Option<&Buffer>,
+    ) -> Result<(), Error> {
+        self.bounce_source = None;
+        let Some(irradiance) = irradiance else {
+            return Ok(());
+        };
+        let finest = self.graph.finest();
+        let texels: Vec<u32> = (finest.inner_count()..finest.positions.len())
+            .map(|node| finest.packing.linear_index(node as u32))
+            .collect();
+        let gather = NodeGather::build(&self.graph);
+        let q = self
+            .solve
+            .q_image(self.graph.levels.len() - 1)
+            .ok_or(Error::Solver(SolverError::EmptyGraph))?;
+        self.bounce_source = Some(BounceSourcePass::new(
+            ctx,
+            &gather,
+            &texels,
+            finest.packing.width,
+            irradiance,
+            q,
+            self.graph.surface.positions.len(),
+        )?);
+        Ok(())
+    }
+
+    /// The bounce source's pass, when on.
+    pub fn bounce_source(&self) -> Option<&BounceSourcePass> {
+        self.bounce_source.as_ref()
     }
 
     /// The GPU solve (textures, read-backs, record statistics).
@@ -400,7 +447,20 @@ impl Method for QuadGraphMethod {
             self.control_copies[slot].frame = Some(frame);
             self.control_copies[slot].warm = plan.warm;
         }
-        self.prepared = Prepared { edits, solve, slot };
+        // The bounce's second solve starts from the first (warm, same exposure).
+        let bounce_solve = match (&solve, &self.bounce_source) {
+            (Some(_), Some(_)) => {
+                let small = self.finest_nodes() < self.single_level_nodes;
+                Some(self.solve.plan(true, small))
+            }
+            _ => None,
+        };
+        self.prepared = Prepared {
+            edits,
+            solve,
+            slot,
+            bounce_solve,
+        };
         Ok(out)
     }
 
@@ -467,6 +527,51 @@ impl Method for QuadGraphMethod {
                 Ok(())
             });
         Ok(())
+    }
+
+    fn add_bounce_passes<'g>(&'g self, graph: &mut FrameGraph<'g>, irradiance: &'g Buffer) {
+        let (Some(source), Some(plan)) = (&self.bounce_source, &self.prepared.bounce_solve) else {
+            return;
+        };
+        let Some(q) = self.solve.q_image(self.graph.levels.len() - 1) else {
+            return;
+        };
+        let gain = self.q_scale * self.solve.boundary().diffuse_transmittance() as f32;
+        graph
+            .pass(PASS_BOUNCE_SOURCE)
+            .uses(source.uses(irradiance, q))
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the source's uses; `self` and the
+                // bounce pass's buffer outlive the frame.
+                unsafe { source.record(p.ctx, p.cb, gain) };
+                Ok(())
+            });
+        // The second solve writes the same control-copy slot: the frame reports its cycles
+        // (the first solve's are those of the same frame without the source).
+        let slot = &self.control_copies[self.prepared.slot].buffer;
+        graph
+            .pass(PASS_BOUNCE_SOLVE)
+            .uses(self.solve.solve_uses(Some(slot)))
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the solve's uses; `self` outlives
+                // the frame.
+                unsafe {
+                    self.solve
+                        .record_solve(p.ctx, p.cb, plan, Some(slot), p.profiler())
+                };
+                Ok(())
+            });
+        graph
+            .pass(PASS_BOUNCE_EXITANCE)
+            .uses(self.solve.exitance_uses())
+            .record(move |p| {
+                // SAFETY: inside the graph's pass declaring the exitance's uses.
+                unsafe {
+                    self.solve
+                        .record_exitance_to_mesh(p.ctx, p.cb, p.profiler())
+                };
+                Ok(())
+            });
     }
 
     /// The control records of every recorded solve whose frame is `<= completed` and was not

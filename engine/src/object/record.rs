@@ -172,6 +172,9 @@ impl TranslucentObject {
                         unsafe { bounce.record(p.ctx, p.cb) };
                         Ok(())
                     });
+                // `--bounce source`: E_b into the solve's q, a second solve, its exitance.
+                self.method
+                    .add_bounce_passes(&mut graph, bounce.irradiance());
             } else {
                 graph.skip(PASS_BOUNCE, crate::frame::SkipReason::Unchanged);
             }

@@ -217,8 +217,12 @@ pub struct RenderArgs {
     /// second solve). `local` is the default with `--method quadgraph` on the GPU (the links are
     /// stored with the bake: the next render of the mesh casts no ray; a convex mesh gets none
     /// without casting rays); `off`: no links, no pass, and the default of the other methods
-    /// and of `--solver cpu` (benches/RESULTS.md, "One bounce between surface points").
-    #[arg(long, value_name = "off|local", value_parser = ["off", "local"])]
+    /// and of `--solver cpu` (benches/RESULTS.md, "One bounce between surface points");
+    /// `source`: the bounces as `local`, then the last gathered E_b enters the surface nodes' q
+    /// (T_d E_b, as diffuse light) and a second, warm-started solve carries it inside; its
+    /// exitance replaces the local re-emission (benches/RESULTS.md, "Bounced light as a source
+    /// of the solve").
+    #[arg(long, value_name = "off|local|source", value_parser = ["off", "local", "source"])]
     pub bounce: Option<String>,
     /// Bounces per solve of `--bounce local` (1..=16): 1 is light that left the surface once and
     /// entered it again; each more lets it leave and enter again (a concave corner's

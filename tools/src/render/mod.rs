@@ -336,7 +336,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     // `--bounce local`: the links stored with the bake, or built now and stored with it (in the
     // bake cache; a `--graph FILE` is not rewritten), so the next render of this mesh casts no ray.
-    let bounce_links = if on_gpu && settings.bounce == translucent::frame::BounceMode::Local {
+    let bounce_links = if on_gpu && settings.bounce != translucent::frame::BounceMode::Off {
         let params = translucent::frame::BounceParams {
             rays: args.bounce_rays,
             ..Default::default()
@@ -402,7 +402,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 );
             }
             bounce_json = Some(serde_json::json!({
-                "mode": "local",
+                "mode": settings.bounce.name(),
+                "source_nodes": translucent
+                    .method()
+                    .as_any()
+                    .downcast_ref::<translucent::frame::QuadGraphMethod>()
+                    .and_then(|q| q.bounce_source())
+                    .map(|s| s.covered()),
                 "bounces": args.bounces,
                 "rays": params.rays,
                 "max_links": params.max_links,

@@ -96,7 +96,7 @@ impl Setup {
         // The bounce (the library's default for the QuadGraph, as `render`'s): the links stored
         // with the bake, or built once and stored with it.
         let method: translucent::frame::MethodKind = args.method.parse().unwrap_or_default();
-        if Settings::for_method(method, true).bounce == translucent::frame::BounceMode::Local {
+        if Settings::for_method(method, true).bounce != translucent::frame::BounceMode::Off {
             let key = translucent::quadgraph::cache::cache_key(&object.surface, &params);
             crate::cache::bounce_links(
                 &mut graph,

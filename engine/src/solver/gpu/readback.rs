@@ -134,6 +134,22 @@ impl GpuDiffusion {
         self.read_nodes(ctx, l.result(), l, 1.0 / self.q_scale)
     }
 
+    /// Headless: q per surface node of the finest level (surface index order), unscaled: what
+    /// the gather and, with `--bounce source`, the bounced light wrote (the q image holds the
+    /// surface rows only).
+    pub fn read_q(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
+        let l = &self.levels[self.levels.len() - 1];
+        let scale = 1.0 / self.q_scale;
+        let linear = ImageReadback::capture(ctx, &l.q, Access::ComputeReadWrite)?;
+        Ok(l.packing.texels[l.inner_count..]
+            .iter()
+            .map(|&[u, v]| {
+                let p = linear.pixel(u, v);
+                [p[0] * scale, p[1] * scale, p[2] * scale]
+            })
+            .collect())
+    }
+
     /// Headless: clamped J+ per surface node of the finest level (surface index order).
     pub fn read_j_plus(&self, ctx: &Context) -> Result<Vec<[f32; 3]>, Error> {
         let l = &self.levels[self.levels.len() - 1];

@@ -523,7 +523,34 @@ impl GpuDiffusion {
         &self,
         ctx: &Context,
         cb: vk::CommandBuffer,
+        profiler: Option<&mut GpuProfiler>,
+    ) {
+        // SAFETY: the caller's contract.
+        unsafe { self.record_exitance_into(ctx, cb, profiler, true) }
+    }
+
+    /// As [`Self::record_exitance`], into the bound display mesh only: our per-vertex buffer
+    /// (the exit lobe's share, [`Self::vertex_j_plus_buffer`]) keeps the last solve's values
+    /// (`--bounce source`'s second solve: the shading draws what it added as the bounce's).
+    ///
+    /// # Safety
+    /// As [`Self::record_exitance`].
+    pub unsafe fn record_exitance_to_mesh(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
+        profiler: Option<&mut GpuProfiler>,
+    ) {
+        // SAFETY: the caller's contract.
+        unsafe { self.record_exitance_into(ctx, cb, profiler, false) }
+    }
+
+    unsafe fn record_exitance_into(
+        &self,
+        ctx: &Context,
+        cb: vk::CommandBuffer,
         mut profiler: Option<&mut GpuProfiler>,
+        ours: bool,
     ) {
         let finest = &self.levels[self.levels.len() - 1];
         // The exit query (DESIGN 2.6 or the flux-only one): X = f_phi phi - f_q q per node.
@@ -563,8 +590,8 @@ impl GpuDiffusion {
             // why: the vertex pass reads the J+ image just written (RAW).
             barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
             match &self.interior {
-                Some(interior) => self.dispatch_interior(ctx, cb, interior),
-                None => self.dispatch_shepard(ctx, cb),
+                Some(interior) => self.dispatch_interior(ctx, cb, interior, ours),
+                None => self.dispatch_shepard(ctx, cb, ours),
             }
             scope(&mut profiler, ctx, cb, None);
         }
@@ -575,10 +602,13 @@ impl GpuDiffusion {
     ///
     /// # Safety
     /// As [`Self::record_exitance`], after its J+ pass.
-    unsafe fn dispatch_shepard(&self, ctx: &Context, cb: vk::CommandBuffer) {
+    unsafe fn dispatch_shepard(&self, ctx: &Context, cb: vk::CommandBuffer, ours: bool) {
         let finest = &self.levels[self.levels.len() - 1];
         // Our buffer also takes the diffused share (the per-node exit lobe's vertex stream).
-        let mut targets = vec![(self.vertex_set, 4u32, 0u32, 1u32)];
+        let mut targets = Vec::new();
+        if ours {
+            targets.push((self.vertex_set, 4u32, 0u32, 1u32));
+        }
         if let Some((_, set)) = &self.mesh {
             let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
             targets.push((
@@ -618,6 +648,7 @@ impl GpuDiffusion {
         ctx: &Context,
         cb: vk::CommandBuffer,
         interior: &InteriorSamples,
+        ours: bool,
     ) {
         let finest = &self.levels[self.levels.len() - 1];
         let boundary = self.boundary();
@@ -654,7 +685,10 @@ impl GpuDiffusion {
             ],
         };
         let h = usize::from(heterogeneous);
-        let mut targets = vec![(interior.sets[h], 4u32, 0u32)];
+        let mut targets = Vec::new();
+        if ours {
+            targets.push((interior.sets[h], 4u32, 0u32));
+        }
         if self.mesh.is_some() {
             let floats = |bytes: usize| (bytes / std::mem::size_of::<f32>()) as u32;
             targets.push((
