@@ -24,7 +24,9 @@ pub const LATERAL_SLOTS: usize = 16;
 
 /// The stencil's radius in finest spacings: the Laplacian is that of the samples smoothed over
 /// about this scale (the lattice's noise in a second difference falls with the radius squared).
-pub const LATERAL_SPACINGS: f64 = 2.0;
+/// Measured on the side-lit bunny at render's defaults (benches/RESULTS.md, "The profile's
+/// lateral term"): 1.5 spacings 10.95%, 2 10.68, **3 9.93**, 4 10.00 (no term: 10.72).
+pub const LATERAL_SPACINGS: f64 = 3.0;
 
 /// Points (the vertex included) a stencil needs.
 pub const LATERAL_MIN_POINTS: usize = 8;
