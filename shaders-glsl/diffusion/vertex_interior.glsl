@@ -73,8 +73,12 @@ vec2 profile_terms(float s2, float depth) {
     return vec2(sin_over_w, cos(x));
 }
 
-// `solver::transport::lateral_lambda`: the stencil's Laplacian over the sample, clamped.
-float lateral_lambda(float laplacian, float p, float depth) {
+// `solver::transport::LATERAL_FLOOR`.
+const float LATERAL_FLOOR = 0.5;
+
+// `solver::transport::lateral_lambda`: the stencil's Laplacian over the sample, less the noise
+// floor LATERAL_FLOOR s^2, clamped.
+float lateral_lambda(float laplacian, float p, float s, float depth) {
     if (!(p > 0.0) || !(depth > 0.0) || isinf(p)) {
         return 0.0;
     }
@@ -82,6 +86,7 @@ float lateral_lambda(float laplacian, float p, float depth) {
     if (isnan(lambda) || isinf(lambda)) {
         return 0.0;
     }
+    lambda = sign(lambda) * max(abs(lambda) - LATERAL_FLOOR * s * s, 0.0);
     float limit = LATERAL_LIMIT / (depth * depth);
     return clamp(lambda, -limit, limit);
 }
@@ -208,7 +213,7 @@ void main() {
         float s = sqrt(max(sigma_a[c], 0.0) / max(d[c], 1e-30));
         float limit = depth > 0.0 ? PROFILE_CURVATURE_LIMIT / depth : 0.0;
         float k = clamp(curvature, -limit, limit);
-        float lambda = lateral_lambda(laplacian[c], p[c], depth);
+        float lambda = lateral_lambda(laplacian[c], p[c], s, depth);
         // The sample read back onto the profile: the linear weights' bias is linear in (p, rhs).
         float p_sample = p[c];
         if (spread.x != 0.0 || spread.y != 0.0) {
