@@ -43,7 +43,7 @@ pub fn lateral_stencils(
     radius: f64,
 ) -> Vec<([u32; LATERAL_SLOTS], [f64; LATERAL_SLOTS])> {
     let none = ([NO_NODE; LATERAL_SLOTS], [0.0; LATERAL_SLOTS]);
-    if points.is_empty() || normals.len() != points.len() || !(radius > 0.0) {
+    if points.is_empty() || normals.len() != points.len() || radius.is_nan() || radius <= 0.0 {
         return vec![none; points.len()];
     }
     let coords: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
@@ -149,8 +149,9 @@ fn solve6(mut m: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
         b.swap(col, pivot);
         for r in col + 1..6 {
             let f = m[r][col] / m[col][col];
-            for k in col..6 {
-                m[r][k] -= f * m[col][k];
+            let pivot_row = m[col];
+            for (x, p) in m[r].iter_mut().zip(pivot_row).skip(col) {
+                *x -= f * p;
             }
             b[r] -= f * b[col];
         }
