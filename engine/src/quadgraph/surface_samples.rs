@@ -53,7 +53,9 @@ pub const SAMPLE_NODES: usize = 16;
 /// 0.32% at 1.5; the bound is 1%); 1.0: 9.6 / 8.1%. benches/RESULTS.md, "The bunny, wave 10".
 /// Kept at 1.5: at render's defaults (auto resolution, 64 px) skin1's blue under a constant
 /// environment (`tools/tests/env_sphere_cli.rs`, the 1% flatness) varies by 1.88% at
-/// 0.875 and 1.67% at 1.0 spacings (lead, wave-10 merge).
+/// 0.875 and 1.67% at 1.0 spacings (lead, wave-10 merge). Since wave 11 the profile has the
+/// lateral term ([`super::lateral`], `solver::transport::lateral_profile_from_sample`): bunny
+/// side 10.7 -> 9.9% at this depth.
 pub const DEPTH_SPACINGS: f64 = 1.5;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
