@@ -9,8 +9,13 @@
 //   p'     = p read back onto the profile: the weights are exact for linear phi only, and the
 //            profile's Hessian over the nodes' second moments adds (phi_zz m_nn - kappa phi_z
 //            m_tt) / 2, linear in (p', rhs) (`solver::transport::sample_on_profile`);
+//   lambda = the lateral term (wave 11): the along-surface Laplacian of the samples p over the
+//            vertex's lateral stencil (the bake's `SurfaceSamples::lateral`: its own and up to 15
+//            neighbouring vertices' samples) divided by its own p, |lambda| depth^2 <= 1
+//            (`solver::transport::lateral_lambda`); two stages (push scale.w): 0 writes every
+//            vertex's p to `sample_phi`, 1 reads them back and does the rest;
 //   phi0, dphi0 = the local 1D profile through p' at `depth` on a surface of mean curvature H:
-//            g = phi (1 - H z), g'' = s^2 g, Robin g(0) (1 - h H) - h g'(0) = rhs = flux_gain q,
+//            g = phi (1 - H z), g'' = (s^2 - lambda) g (cos / sin where negative), Robin g(0) (1 - h H) - h g'(0) = rhs = flux_gain q,
 //            phi0 = g(0), dphi0 = g'(0) + H g(0) (h = 2 A D, s = sqrt(mu / D), D and mu of the
 //            tetrahedron holding the sample: `solver::transport::curved_profile_from_sample`,
 //            H clamped to PROFILE_CURVATURE_LIMIT / depth);
@@ -39,42 +44,92 @@ layout(set = 0, binding = 8, std430) readonly buffer SampleWeights { vec4 weight
 // nodes' second moments (m_nn, m_tt) in mm^2 as two halves (`SurfaceSamples::spread`).
 layout(set = 0, binding = 9, std430) readonly buffer SampleCells { uvec4 cells[]; } sample_cells;
 layout(set = 0, binding = 10, std430) writeonly buffer VertexJPlus { float values[]; } vertex_j_plus;
+// Per vertex its sample's phi (rgb), written by stage 0 and read by stage 1.
+layout(set = 0, binding = 11, std430) buffer SamplePhi { vec4 values[]; } sample_phi;
+// Per vertex 4 uvec4: 16 vertex ids of its lateral stencil; 4 vec4: their weights (1/mm^2).
+layout(set = 0, binding = 12, std430) readonly buffer LateralNodes { uvec4 nodes[]; } lateral_nodes;
+layout(set = 0, binding = 13, std430) readonly buffer LateralWeights { vec4 weights[]; } lateral_weights;
 
 // `solver::transport::PROFILE_CURVATURE_LIMIT`.
 const float PROFILE_CURVATURE_LIMIT = 0.5;
 // `solver::transport::SAMPLE_CORRECTION_LIMIT`.
 const float SAMPLE_CORRECTION_LIMIT = 0.25;
+// `solver::transport::LATERAL_LIMIT`.
+const float LATERAL_LIMIT = 1.0;
 
-// g(0) of the curved profile through phi = p at `depth` with Robin right-hand side rhs
-// (`solver::transport::curved_profile_from_sample`; k already clamped).
-float profile_g0(float p, float rhs, float s, float h, float depth, float k) {
-    float x = s * depth;
-    // sinh(s depth) / s with its s -> 0 limit; cosh (exp overflow: far beyond any sample).
-    float sinh_over_s = x < 1e-3 ? depth * (1.0 + x * x / 6.0) : sinh(min(x, 80.0)) / s;
-    float cosh_x = cosh(min(x, 80.0));
-    return (p * (1.0 - k * depth) + rhs * sinh_over_s / h)
-        / (cosh_x + (1.0 - h * k) * sinh_over_s / h);
+// sinh(x) / s_eff and cosh(x) of x = s_eff depth, s_eff^2 = s2 (s^2 - lambda), or sin(x) / w
+// and cos(x) where s2 = -w^2 < 0 (w depth <= 1 by the clamp).
+vec2 profile_terms(float s2, float depth) {
+    if (s2 >= 0.0) {
+        float s = sqrt(s2);
+        float x = s * depth;
+        // sinh(s depth) / s with its s -> 0 limit; cosh (exp overflow: far beyond any sample).
+        float sinh_over_s = x < 1e-3 ? depth * (1.0 + x * x / 6.0) : sinh(min(x, 80.0)) / s;
+        return vec2(sinh_over_s, cosh(min(x, 80.0)));
+    }
+    float w = sqrt(-s2);
+    float x = w * depth;
+    float sin_over_w = x < 1e-3 ? depth * (1.0 - x * x / 6.0) : sin(x) / w;
+    return vec2(sin_over_w, cos(x));
 }
 
-// The bias (phi_zz m_nn - kappa phi_z m_tt) / 2 that the sample's linear weights add to the
-// profile through (p, rhs) (`solver::transport::sample_on_profile`).
-float profile_bias(float p, float rhs, float s, float h, float depth, float k, vec2 spread) {
-    float g0 = profile_g0(p, rhs, s, h, depth, k);
-    float x = s * depth;
+// `solver::transport::LATERAL_FLOOR`.
+const float LATERAL_FLOOR = 0.5;
+
+// `solver::transport::lateral_lambda`: the stencil's Laplacian over the sample, less the noise
+// floor LATERAL_FLOOR s^2, clamped.
+float lateral_lambda(float laplacian, float p, float s, float depth) {
+    if (!(p > 0.0) || !(depth > 0.0) || isinf(p)) {
+        return 0.0;
+    }
+    float lambda = laplacian / p;
+    if (isnan(lambda) || isinf(lambda)) {
+        return 0.0;
+    }
+    lambda = sign(lambda) * max(abs(lambda) - LATERAL_FLOOR * s * s, 0.0);
+    float limit = LATERAL_LIMIT / (depth * depth);
+    return clamp(lambda, -limit, limit);
+}
+
+// g(0) of the curved profile through phi = p at `depth` with Robin right-hand side rhs, g'' =
+// s2 g (`solver::transport::lateral_profile_from_sample`; k and lambda already clamped).
+float profile_g0(float p, float rhs, float s2, float h, float depth, float k) {
+    vec2 t = profile_terms(s2, depth);
+    return (p * (1.0 - k * depth) + rhs * t.x / h) / (t.y + (1.0 - h * k) * t.x / h);
+}
+
+// The bias (phi_zz m_nn + (lambda p / 2 - kappa phi_z) m_tt) / 2 that the sample's linear
+// weights add to the profile through (p, rhs) (`solver::transport::sample_on_lateral_profile`).
+float profile_bias(float p, float rhs, float s, float lambda, float h, float depth, float k,
+                   vec2 spread) {
+    float s2 = s * s - lambda;
+    float g0 = profile_g0(p, rhs, s2, h, depth, k);
     float ck = 1.0 - k * depth;
     float gd = p * ck;
     float dgd;
-    if (x < 1e-6) {
-        dgd = (gd - g0) / max(depth, 1e-30);
-    } else if (x > 80.0) {
-        dgd = s * gd;
+    if (s2 >= 0.0) {
+        float se = sqrt(s2);
+        float x = se * depth;
+        if (x < 1e-6) {
+            dgd = (gd - g0) / max(depth, 1e-30);
+        } else if (x > 80.0) {
+            dgd = se * gd;
+        } else {
+            dgd = se * (gd / tanh(x) - g0 / sinh(x));
+        }
     } else {
-        dgd = s * (gd / tanh(x) - g0 / sinh(x));
+        float w = sqrt(-s2);
+        float x = w * depth;
+        if (x < 1e-6) {
+            dgd = (gd - g0) / max(depth, 1e-30);
+        } else {
+            dgd = w * (gd / tan(x) - g0 / sin(x));
+        }
     }
     float kappa = k / ck;
     float phi_z = (dgd + k * p) / ck;
-    float phi_zz = s * s * p + 2.0 * kappa * phi_z;
-    return 0.5 * (phi_zz * spread.x - kappa * phi_z * spread.y);
+    float phi_zz = s2 * p + 2.0 * kappa * phi_z;
+    return 0.5 * (phi_zz * spread.x + (0.5 * lambda * p - kappa * phi_z) * spread.y);
 }
 
 layout(push_constant) uniform InteriorPush {
@@ -85,7 +140,8 @@ layout(push_constant) uniform InteriorPush {
     vec4 kappa;     // homogeneous: D rgb; a: 1 = read the kappa / mu images (heterogeneous)
     vec4 mu;        // homogeneous: sigma_a rgb; a: 2A (h = 2 A D)
     vec4 exit;      // x: phi factor, y: D dphi factor, z: q factor (flux query), w: flux gain
-    vec4 scale;     // x: 1 / q_scale, y: shading input per unit exitance, z: 1 = add P
+    vec4 scale;     // x: 1 / q_scale, y: shading input per unit exitance, z: 1 = add P,
+                    // w: the stage (0: the samples' phi into sample_phi, 1: the exitance)
 } pc;
 
 ivec2 texel(uint linear) {
@@ -97,14 +153,30 @@ void main() {
     if (v >= pc.count) {
         return;
     }
-    // phi at the sample point.
-    vec3 p = vec3(0.0);
+    if (pc.scale.w < 0.5) {
+        // Stage 0: phi at the sample point.
+        vec3 p = vec3(0.0);
+        for (uint g = 0u; g < 4u; ++g) {
+            uvec4 n = sample_nodes.nodes[4u * v + g];
+            vec4 w = sample_weights.weights[4u * v + g];
+            for (int k = 0; k < 4; ++k) {
+                if (w[k] != 0.0) {
+                    p += w[k] * imageLoad(phi, texel(n[k])).rgb;
+                }
+            }
+        }
+        sample_phi.values[v] = vec4(p, 0.0);
+        return;
+    }
+    vec3 p = sample_phi.values[v].rgb;
+    // The samples' along-surface Laplacian (the lateral stencil; all weights 0 without one).
+    vec3 laplacian = vec3(0.0);
     for (uint g = 0u; g < 4u; ++g) {
-        uvec4 n = sample_nodes.nodes[4u * v + g];
-        vec4 w = sample_weights.weights[4u * v + g];
+        uvec4 n = lateral_nodes.nodes[4u * v + g];
+        vec4 w = lateral_weights.weights[4u * v + g];
         for (int k = 0; k < 4; ++k) {
             if (w[k] != 0.0) {
-                p += w[k] * imageLoad(phi, texel(n[k])).rgb;
+                laplacian += w[k] * sample_phi.values[n[k]].rgb;
             }
         }
     }
@@ -141,11 +213,12 @@ void main() {
         float s = sqrt(max(sigma_a[c], 0.0) / max(d[c], 1e-30));
         float limit = depth > 0.0 ? PROFILE_CURVATURE_LIMIT / depth : 0.0;
         float k = clamp(curvature, -limit, limit);
+        float lambda = lateral_lambda(laplacian[c], p[c], s, depth);
         // The sample read back onto the profile: the linear weights' bias is linear in (p, rhs).
         float p_sample = p[c];
         if (spread.x != 0.0 || spread.y != 0.0) {
-            float b_p = profile_bias(1.0, 0.0, s, h, depth, k, spread);
-            float b_r = profile_bias(0.0, 1.0, s, h, depth, k, spread);
+            float b_p = profile_bias(1.0, 0.0, s, lambda, h, depth, k, spread);
+            float b_r = profile_bias(0.0, 1.0, s, lambda, h, depth, k, spread);
             if (abs(b_p) > SAMPLE_CORRECTION_LIMIT) {
                 float f = SAMPLE_CORRECTION_LIMIT / abs(b_p);
                 b_p *= f;
@@ -156,7 +229,7 @@ void main() {
                 p_sample = corrected;
             }
         }
-        float g0 = profile_g0(p_sample, rhs[c], s, h, depth, k);
+        float g0 = profile_g0(p_sample, rhs[c], s * s - lambda, h, depth, k);
         float phi0 = g0;
         float dphi0 = (g0 * (1.0 - h * k) - rhs[c]) / h + k * g0;
         m[c] = pc.exit.x * phi0 + pc.exit.y * d[c] * dphi0 - pc.exit.z * qv[c];

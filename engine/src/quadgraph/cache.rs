@@ -34,7 +34,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 13;
+pub const FORMAT_VERSION: u32 = 14;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
@@ -393,6 +393,9 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
     w.f64s(&g.samples.curvature.iter().map(|&k| [k]).collect::<Vec<_>>());
     // Format 7: the sample nodes' second moments (the interior sample's profile correction).
     w.f64s(&g.samples.spread);
+    // Format 13: the lateral stencils (the interior profile's lateral term).
+    w.u32s(&g.samples.lateral);
+    w.f64s(&g.samples.lateral_weights);
     w.len(g.levels.len());
     for l in &g.levels {
         w.f64(l.spacing);
@@ -474,7 +477,11 @@ fn decode(r: &mut Reader) -> Result<QuadGraph, String> {
     let source_weights = r.f64s()?;
     let curvature: Vec<[f64; 1]> = r.f64s()?;
     let spread: Vec<[f64; 2]> = r.f64s()?;
+    let lateral = r.u32s()?;
+    let lateral_weights = r.f64s()?;
     let samples = SurfaceSamples {
+        lateral,
+        lateral_weights,
         curvature: curvature.into_iter().map(|[k]| k).collect(),
         spread,
         depth: depth.into_iter().map(|[d]| d).collect(),
@@ -658,7 +665,9 @@ fn check(g: &QuadGraph) -> Result<(), String> {
             || samples.sources.len() != nv
             || samples.source_weights.len() != nv
             || samples.curvature.len() != nv
-            || samples.spread.len() != nv)
+            || samples.spread.len() != nv
+            || samples.lateral.len() != nv
+            || samples.lateral_weights.len() != nv)
     {
         return Err("surface samples do not match the surface's vertices".into());
     }
@@ -674,12 +683,21 @@ fn check(g: &QuadGraph) -> Result<(), String> {
         || samples.spread.iter().flatten().any(|m| !m.is_finite())
         || samples.weights.iter().flatten().any(|w| !w.is_finite())
         || samples
+            .lateral_weights
+            .iter()
+            .flatten()
+            .any(|w| !w.is_finite())
+        || samples
             .source_weights
             .iter()
             .flatten()
             .any(|w| !w.is_finite())
     {
         return Err("surface sample depths or weights are not finite".into());
+    }
+    for ids in &samples.lateral {
+        ids.iter()
+            .try_for_each(|&i| in_range("lateral stencil vertex", i, nv))?;
     }
     let finest_surface = g.finest().surface_count();
     for sources in &samples.sources {

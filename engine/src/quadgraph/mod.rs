@@ -23,6 +23,7 @@ pub mod cache;
 pub mod crease;
 pub mod export;
 pub mod graph;
+pub mod lateral;
 pub mod packing;
 pub mod resolution;
 pub mod shepard;

@@ -32,6 +32,7 @@ use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
 use super::graph::{GraphLevel, NO_NODE};
+use super::lateral::{lateral_stencils, LATERAL_SLOTS, LATERAL_SPACINGS};
 use crate::mesh::{Solid, TriMesh};
 use crate::solver::transport::SurfaceCurvature;
 
@@ -52,7 +53,9 @@ pub const SAMPLE_NODES: usize = 16;
 /// 0.32% at 1.5; the bound is 1%); 1.0: 9.6 / 8.1%. benches/RESULTS.md, "The bunny, wave 10".
 /// Kept at 1.5: at render's defaults (auto resolution, 64 px) skin1's blue under a constant
 /// environment (`tools/tests/env_sphere_cli.rs`, the 1% flatness) varies by 1.88% at
-/// 0.875 and 1.67% at 1.0 spacings (lead, wave-10 merge).
+/// 0.875 and 1.67% at 1.0 spacings (lead, wave-10 merge). Since wave 11 the profile has the
+/// lateral term ([`super::lateral`], `solver::transport::lateral_profile_from_sample`): bunny
+/// side 10.7 -> 9.9% at this depth.
 pub const DEPTH_SPACINGS: f64 = 1.5;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
@@ -129,6 +132,12 @@ pub struct SurfaceSamples {
     /// The weights are exact for a linear field only; the profile's curvature
     /// (`solver::transport::sample_on_profile`) is read back out of the sample with these.
     pub spread: Vec<[f64; 2]>,
+    /// The lateral stencil ([`super::lateral`]): vertex ids ([`NO_NODE`] in unused slots, the
+    /// vertex itself first; all unused where the display mesh is too coarse for one)...
+    pub lateral: Vec<[u32; LATERAL_SLOTS]>,
+    /// ...and their weights (1/mm^2, summing to 0): sum_k w_k p_k is the along-surface
+    /// Laplacian of the samples' values p at the vertex's sample point.
+    pub lateral_weights: Vec<[f64; LATERAL_SLOTS]>,
 }
 
 impl SurfaceSamples {
@@ -139,6 +148,23 @@ impl SurfaceSamples {
             if s != NO_NODE {
                 for c in 0..3 {
                     out[c] += w * per_node[s as usize][c];
+                }
+            }
+        }
+        out
+    }
+
+    /// The along-surface Laplacian at vertex `v`'s sample point of the per-vertex sample values
+    /// `per_vertex` (its lateral stencil; zero where it has none).
+    pub fn lateral_laplacian(&self, v: usize, per_vertex: &[[f64; 3]]) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        let (Some(ids), Some(weights)) = (self.lateral.get(v), self.lateral_weights.get(v)) else {
+            return out;
+        };
+        for (&u, &w) in ids.iter().zip(weights) {
+            if let Some(p) = per_vertex.get(u as usize).filter(|_| u != NO_NODE) {
+                for c in 0..3 {
+                    out[c] += w * p[c];
                 }
             }
         }
@@ -782,6 +808,17 @@ pub fn surface_samples(
     for (ids, w) in sources {
         out.sources.push(ids);
         out.source_weights.push(w);
+    }
+    let points: Vec<DVec3> = anchors
+        .iter()
+        .zip(&normals)
+        .zip(&per_vertex)
+        .map(|((&x, &n), sample)| x - n.normalize_or(DVec3::Y) * sample.0)
+        .collect();
+    let unit: Vec<DVec3> = normals.iter().map(|n| n.normalize_or(DVec3::Y)).collect();
+    for (ids, w) in lateral_stencils(&points, &unit, LATERAL_SPACINGS * h) {
+        out.lateral.push(ids);
+        out.lateral_weights.push(w);
     }
     for (depth, ids, w, cell, spread) in per_vertex {
         out.spread.push(spread);

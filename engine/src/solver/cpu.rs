@@ -40,8 +40,8 @@ use super::multigrid::{Hierarchy, MultigridParams, MultigridReport, Start};
 use super::operator::{check_level, LevelOperator, Scheme};
 use super::sources::{LocalSource, SourceModel};
 use super::transport::{
-    curved_profile_from_sample, sample_on_profile, Boundary, Optics, SurfaceReconstruction,
-    Transport,
+    lateral_lambda, lateral_profile_from_sample, sample_on_lateral_profile, Boundary, Optics,
+    SurfaceReconstruction, Transport,
 };
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};

@@ -19,6 +19,10 @@ pub fn reconstruct_vertices(
     let samples = &graph.samples;
     let level = graph.finest();
     let boundary = model.boundary;
+    let sampled: Vec<[f64; 3]> = (0..surface.positions.len())
+        .into_par_iter()
+        .map(|v| samples.interpolate(v, phi_h))
+        .collect();
     (0..surface.positions.len())
         .into_par_iter()
         .map(|v| {
@@ -54,15 +58,19 @@ pub fn reconstruct_vertices(
                 });
                 src.add(&e);
             }
-            let p = samples.interpolate(v, phi_h);
+            let p = sampled[v];
+            let laplacian = samples.lateral_laplacian(v, &sampled);
             let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
             let spread = samples.spread.get(v).copied().unwrap_or_default();
             std::array::from_fn(|c| {
                 let o = optics[c];
                 let depth = samples.depth[v];
-                let p = sample_on_profile(o.s(), h[c], depth, p[c], src.rhs[c], curvature, spread);
+                let (s, rhs) = (o.s(), src.rhs[c]);
+                let lambda = lateral_lambda(laplacian[c], p[c], s, depth);
+                let p =
+                    sample_on_lateral_profile(s, lambda, h[c], depth, p[c], rhs, curvature, spread);
                 let (phi0, dphi0) =
-                    curved_profile_from_sample(o.s(), h[c], depth, p, src.rhs[c], curvature);
+                    lateral_profile_from_sample(s, lambda, h[c], depth, p, rhs, curvature);
                 boundary.exitance(
                     o.d(),
                     phi0 + src.phi_p[c],
@@ -115,13 +123,18 @@ pub fn interior_vertices(
             ),
         });
     }
+    let sampled: Vec<[f64; 3]> = (0..vertices)
+        .into_par_iter()
+        .map(|v| samples.interpolate(v, phi_h))
+        .collect();
     Ok((0..vertices)
         .into_par_iter()
         .map(|v| {
             let cell = (samples.cell[v] as usize).min(inner.saturating_sub(1));
             let here = material.sample(level.positions[cell]);
             let kappa = here.kappa_with(material.diffusion());
-            let p = samples.interpolate(v, phi_h);
+            let p = sampled[v];
+            let laplacian = samples.lateral_laplacian(v, &sampled);
             let (q_v, part_v) = (
                 samples.source_average(v, &q),
                 samples.source_average(v, &part),
@@ -133,8 +146,12 @@ pub fn interior_vertices(
                 let s = (here.mu()[c] / d).sqrt();
                 let qv = q_v[c];
                 let (depth, rhs) = (samples.depth[v], boundary.flux_gain * qv);
-                let p = sample_on_profile(s, h, depth, p[c], rhs, curvature, spread);
-                let (phi0, dphi0) = curved_profile_from_sample(s, h, depth, p, rhs, curvature);
+                // The lateral term: the samples' along-surface Laplacian over the sample.
+                let lambda = lateral_lambda(laplacian[c], p[c], s, depth);
+                let p =
+                    sample_on_lateral_profile(s, lambda, h, depth, p[c], rhs, curvature, spread);
+                let (phi0, dphi0) =
+                    lateral_profile_from_sample(s, lambda, h, depth, p, rhs, curvature);
                 boundary.exitance(d, phi0, dphi0, qv) + part_v[c]
             })
         })

@@ -21,6 +21,11 @@ pub(crate) struct InteriorSamples {
     pub(super) nodes: Buffer,
     pub(super) weights: Buffer,
     pub(super) cells: Buffer,
+    /// The lateral stencils (vertex ids, weights), 4 x 4 per vertex; zeros without one.
+    pub(super) lateral_nodes: Buffer,
+    pub(super) lateral_weights: Buffer,
+    /// Per vertex its sample's phi (vec4), between the pass's two stages.
+    pub(super) sample_phi: Buffer,
     pub(super) sets: [Option<vk::DescriptorSet>; 4],
 }
 
@@ -49,6 +54,27 @@ impl GpuDiffusion {
         let mut sources: Vec<[u32; 4]> = Vec::with_capacity(4 * vertices);
         let mut source_weights: Vec<[f32; 4]> = Vec::with_capacity(4 * vertices);
         let surface = graph.finest().surface_count();
+        let mut lateral_nodes: Vec<[u32; 4]> = vec![[0; 4]; 4 * vertices];
+        let mut lateral_weights: Vec<[f32; 4]> = vec![[0.0; 4]; 4 * vertices];
+        for v in 0..vertices {
+            let (Some(ids), Some(w)) = (samples.lateral.get(v), samples.lateral_weights.get(v))
+            else {
+                break;
+            };
+            for (slot, (&u, &wk)) in ids.iter().zip(w).enumerate() {
+                if u == NO_NODE {
+                    continue;
+                }
+                if u as usize >= vertices || !wk.is_finite() {
+                    return Err(bad(
+                        v,
+                        "a lateral stencil vertex out of range or a weight not finite",
+                    ));
+                }
+                lateral_nodes[4 * v + slot / 4][slot % 4] = u;
+                lateral_weights[4 * v + slot / 4][slot % 4] = wk as f32;
+            }
+        }
         for v in 0..vertices {
             let (ids, w) = (&samples.sources[v], &samples.source_weights[v]);
             for g in 0..4 {
@@ -126,6 +152,24 @@ impl GpuDiffusion {
             nodes: Buffer::with_data(ctx, "diffusion sample nodes", storage, &nodes)?,
             weights: Buffer::with_data(ctx, "diffusion sample weights", storage, &weights)?,
             cells: Buffer::with_data(ctx, "diffusion sample cells", storage, &cells)?,
+            lateral_nodes: Buffer::with_data(
+                ctx,
+                "diffusion lateral stencil",
+                storage,
+                &lateral_nodes,
+            )?,
+            lateral_weights: Buffer::with_data(
+                ctx,
+                "diffusion lateral weights",
+                storage,
+                &lateral_weights,
+            )?,
+            sample_phi: Buffer::with_data(
+                ctx,
+                "diffusion sample phi",
+                storage,
+                &vec![[0f32; 4]; vertices],
+            )?,
             sets: [None; 4],
         }))
     }
@@ -184,6 +228,18 @@ impl GpuDiffusion {
                     DescriptorWrite::StorageBuffer {
                         name: "vertex_j_plus",
                         buffer: out,
+                    },
+                    DescriptorWrite::StorageBuffer {
+                        name: "sample_phi",
+                        buffer: &interior.sample_phi,
+                    },
+                    DescriptorWrite::StorageBuffer {
+                        name: "lateral_nodes",
+                        buffer: &interior.lateral_nodes,
+                    },
+                    DescriptorWrite::StorageBuffer {
+                        name: "lateral_weights",
+                        buffer: &interior.lateral_weights,
                     },
                 ],
             )?);

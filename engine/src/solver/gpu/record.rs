@@ -506,6 +506,9 @@ impl GpuDiffusion {
             uses.push(Use::buffer(&interior.nodes, Access::ComputeRead));
             uses.push(Use::buffer(&interior.weights, Access::ComputeRead));
             uses.push(Use::buffer(&interior.cells, Access::ComputeRead));
+            uses.push(Use::buffer(&interior.lateral_nodes, Access::ComputeRead));
+            uses.push(Use::buffer(&interior.lateral_weights, Access::ComputeRead));
+            uses.push(Use::buffer(&interior.sample_phi, Access::ComputeReadWrite));
             if let (false, Some([kappa, mu])) = (self.homogeneous, &finest.material) {
                 uses.push(Use::image(kappa, Access::ComputeRead));
                 uses.push(Use::image(mu, Access::ComputeRead));
@@ -654,7 +657,7 @@ impl GpuDiffusion {
         let boundary = self.boundary();
         let (f_phi, f_d, f_q) = boundary.exitance_factors();
         let heterogeneous = !self.homogeneous;
-        let push = |stride: u32, offset: u32| InteriorPush {
+        let push = |stride: u32, offset: u32, stage: f32| InteriorPush {
             count: self.vertex_count,
             width: finest.packing.width,
             stride,
@@ -681,10 +684,25 @@ impl GpuDiffusion {
                 1.0 / self.q_scale,
                 boundary.shading_input(1.0) as f32,
                 if self.params.collimated { 1.0 } else { 0.0 },
-                0.0,
+                stage,
             ],
         };
         let h = usize::from(heterogeneous);
+        // Stage 0: every vertex's sample phi, which the lateral stencils of stage 1 read.
+        if let Some(set) = interior.sets[h] {
+            // SAFETY: the caller's contract; the set's resources live in `self`.
+            unsafe {
+                self.pipelines.interior.dispatch(
+                    ctx,
+                    cb,
+                    set,
+                    &push(4, 0, 0.0),
+                    [self.vertex_count.max(1), 1, 1],
+                );
+                // why: stage 1 reads the neighbours' samples stage 0 just wrote (RAW).
+                barrier::memory(ctx, cb, Access::ComputeWrite, Access::ComputeReadWrite);
+            }
+        }
         let mut targets = Vec::new();
         if ours {
             targets.push((interior.sets[h], 4u32, 0u32));
@@ -707,7 +725,7 @@ impl GpuDiffusion {
                     ctx,
                     cb,
                     set,
-                    &push(stride, offset),
+                    &push(stride, offset, 1.0),
                     [self.vertex_count.max(1), 1, 1],
                 );
             }
