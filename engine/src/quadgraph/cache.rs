@@ -393,7 +393,7 @@ fn encode(g: &QuadGraph, w: &mut Writer) {
     w.f64s(&g.samples.curvature.iter().map(|&k| [k]).collect::<Vec<_>>());
     // Format 7: the sample nodes' second moments (the interior sample's profile correction).
     w.f64s(&g.samples.spread);
-    // Format 13: the lateral stencils (the interior profile's lateral term).
+    // Format 14: the lateral stencils (the interior profile's lateral term).
     w.u32s(&g.samples.lateral);
     w.f64s(&g.samples.lateral_weights);
     w.len(g.levels.len());
