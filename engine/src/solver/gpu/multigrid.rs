@@ -156,6 +156,8 @@ pub struct MultigridPush {
     pub surface_rows: u32,
     pub kappa: [f32; 4],
     pub mu_gain: [f32; 4],
+    /// check: also converged below this fraction of the start's residual (0: off).
+    pub start_tolerance: f32,
 }
 
 /// The finest level's graph textures, which [`FinestOperator::Graph`] reads its operator from
@@ -835,7 +837,10 @@ impl GpuMultigrid {
         self.levels.len() - 1
     }
 
-    /// Records one solve (see the module doc): cold (full multigrid) or warm (from x).
+    /// Records one solve (see the module doc): cold (full multigrid) or warm (from x). It
+    /// converges below `tolerance` relative to ||f||, or (`start_tolerance > 0`) below
+    /// `start_tolerance` times the start's relative residual: a warm solve of a small change of
+    /// f converges relative to the change (`render --bounce source`'s second solve).
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
@@ -846,6 +851,7 @@ impl GpuMultigrid {
         cb: vk::CommandBuffer,
         warm: bool,
         tolerance: f32,
+        start_tolerance: f32,
         profiler: &mut Option<&mut GpuProfiler>,
     ) {
         use vk::AccessFlags2 as A;
@@ -874,6 +880,7 @@ impl GpuMultigrid {
         let base = MultigridPush {
             width: self.width,
             tolerance,
+            start_tolerance,
             max_log,
             sums: self.partials,
             surface_rows: self.surface_rows,
