@@ -97,6 +97,11 @@ pub const BOUNCE: BounceMode = BounceMode::Local;
 /// bounces change the plate by 0.1 (the series has converged), each costs two dispatches over
 /// the display vertices.
 pub const BOUNCES: u32 = 4;
+/// `--bounce source`'s second solve (`render --bounce-tolerance`; benches/RESULTS.md, "A cheaper
+/// bounce source"): it starts from the first solve's solution, so its start residual is the
+/// bounce's share of q; it stops below this fraction of that residual (or at the solve's own
+/// tolerance, whichever comes first). 0: the solve's tolerance alone (the full second solve).
+pub const BOUNCE_TOLERANCE: f32 = 1e-2;
 /// The QuadGraph method's diffusion coefficient (benches/RESULTS.md, "Diffusion coefficient at
 /// low albedo": against the path-traced references Grosjean's D is level or better on every
 /// scene with the Shepard surface; it differs from 1 / (3 sigma_t') only at low albedo). The

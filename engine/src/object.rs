@@ -703,6 +703,20 @@ impl TranslucentObject {
         )
     }
 
+    /// `--bounce source`'s second solve: its tolerance relative to its start
+    /// ([`QuadGraphMethod::set_bounce_tolerance`]; in [0, 1), else a typed error; other methods
+    /// have no second solve). From the next frame.
+    pub fn set_bounce_tolerance(&mut self, relative: f32) -> Result<(), Error> {
+        match self.method_mut::<QuadGraphMethod>() {
+            Some(q) => q.set_bounce_tolerance(relative),
+            None if relative.is_finite() && (0.0..1.0).contains(&relative) => Ok(()),
+            None => Err(invalid(
+                "bounce tolerance",
+                format!("{relative}: must be in [0, 1)"),
+            )),
+        }
+    }
+
     /// The bounce pass, when on.
     pub fn bounce(&self) -> Option<&BouncePass> {
         self.bounce.as_ref()

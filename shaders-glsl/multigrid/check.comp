@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Second stage of the residual norm and the convergence decision, one workgroup: sums the
 // partials; mode 0 stores ||f||^2 as the reference; mode 1 logs the relative residual
-// max_c ||r||_2 / ||f||_2 (absolute where f = 0) and, converged (below the tolerance), diverged
+// max_c ||r||_2 / ||f||_2 (absolute where f = 0) and, converged (below the tolerance, or below
+// start_tolerance times the first logged residual: the start's), diverged
 // (above 1e3 or not finite) or at the cycle cap, zeroes every level's indirect arguments: the
 // cycles recorded after it dispatch nothing. The conjugate gradients' scalars (krylov.comp):
 // mode 2 sums the apply pass's four blocks (R . z, R . z_old, z . K z, z . K dir_old) into
@@ -111,7 +112,7 @@ void main() {
     uint state = 0u;
     if (!(rel < DIVERGED)) {
         state = 2u;
-    } else if (rel < pc.tolerance) {
+    } else if (rel < pc.tolerance || (n > 0u && rel < pc.start_tolerance * control.c.residual[0])) {
         state = 1u;
     } else if (n + 1u >= pc.max_log) {
         state = 3u;

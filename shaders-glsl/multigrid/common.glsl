@@ -81,6 +81,10 @@ layout(push_constant) uniform MultigridPush {
     uint surface_rows;
     vec4 kappa;
     vec4 mu_gain;
+    // check: also stop below this fraction of the first logged residual (the solve's start; 0:
+    // off). A warm solve of a small increment of f (`render --bounce source`'s second solve)
+    // converges relative to the increment rather than to the whole f.
+    float start_tolerance;
 } pc;
 
 struct MultigridControl {

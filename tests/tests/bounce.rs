@@ -760,3 +760,131 @@ fn the_bounce_source_adds_the_f64_node_sources_and_carries_light_inside() {
     assert!(raised > 0, "no vertex without links got light from inside");
     gpu.finish();
 }
+
+/// `--bounce source`'s second solve converged relative to its start (the bounce's share of q,
+/// [`translucent::frame::QuadGraphMethod::set_bounce_tolerance`]) against the full second solve
+/// (relative tolerance 0: the solve's own tolerance) on the torus: (1) the cheap solve stops
+/// below its tolerance times its start residual, in no more V-cycles than the full solve's mean
+/// factor needs for that reduction (+1), and does less work than the full solve; (2) its
+/// exitance is within the tolerance times what the source adds (the full solve's exitance minus
+/// the one without bounce) of the full solve's, at every display vertex; (3) a tolerance outside
+/// [0, 1) is a typed error.
+#[test]
+fn the_cheap_bounce_solve_converges_on_its_increment_and_keeps_the_full_solves_exitance() {
+    use translucent::frame::BounceMode;
+    use translucent::solver::gpu::multigrid::GpuMultigridReport;
+    let gpu = GpuTest::new();
+    let field = marble();
+    let torus = bake(&Shape::Torus {
+        major: 8.0,
+        minor: 3.0,
+    });
+    let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
+    let object = |mode: BounceMode, tolerance: f32| {
+        let mut object = TranslucentObject::new(
+            &gpu.ctx,
+            std::sync::Arc::new(torus.clone()),
+            &field,
+            &scene(),
+            &ObjectParams {
+                single_scattering: None,
+                diffusion: field.diffusion(),
+                bounce: mode,
+                ..ObjectParams::default()
+            },
+        )
+        .expect("object");
+        if mode != BounceMode::Off {
+            object
+                .set_bounce(&gpu.ctx, Some(&links), &field)
+                .expect("bounce");
+        }
+        object.set_bounce_tolerance(tolerance).expect("tolerance");
+        let (captured, _) = render_once(&gpu.ctx, &mut object, 32, 32);
+        assert!(captured
+            .image
+            .pixels
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite()));
+        // The frame's reported multigrid is the second solve's (it writes the same record).
+        let report: GpuMultigridReport = object
+            .completed_solves(u64::MAX)
+            .expect("solves")
+            .pop()
+            .and_then(|s| s.multigrid)
+            .expect("a multigrid report");
+        (read_exitance(&gpu, &object), report)
+    };
+    let tolerance = translucent::defaults::BOUNCE_TOLERANCE;
+    let (plain, _) = object(BounceMode::Off, tolerance);
+    let (full, full_report) = object(BounceMode::Source, 0.0);
+    let (cheap, cheap_report) = object(BounceMode::Source, tolerance);
+    println!("full: {full_report:?}\ncheap: {cheap_report:?}");
+    // (1) Converged on the increment, in the cycles the full solve's factor allows.
+    for r in [&full_report, &cheap_report] {
+        assert!(r.warm && r.converged, "{r:?}");
+        assert!(
+            r.residual.is_finite() && r.start_residual.is_finite(),
+            "{r:?}"
+        );
+    }
+    assert!(
+        cheap_report.residual <= f64::from(tolerance) * cheap_report.start_residual
+            || cheap_report.residual <= f64::from(ObjectParams::default().solve.tolerance),
+        "{cheap_report:?}"
+    );
+    let rho = full_report
+        .mean_factor
+        .expect("the full solve runs two cycles or more");
+    assert!(rho > 0.0 && rho < 1.0, "{full_report:?}");
+    let allowed = (f64::from(tolerance).ln() / rho.ln()).ceil() as usize + 1;
+    assert!(
+        cheap_report.cycles.len() <= allowed,
+        "{} cycles, the full solve's factor {rho:.3} reaches {tolerance} in {allowed}",
+        cheap_report.cycles.len()
+    );
+    assert!(
+        cheap_report.work_units < full_report.work_units,
+        "cheap {} work units, full {}",
+        cheap_report.work_units,
+        full_report.work_units
+    );
+    // (2) The exitance: within the tolerance times the source's share of the full solve's.
+    let share = full
+        .iter()
+        .zip(&plain)
+        .flat_map(|(f, p)| (0..3).map(move |c| (f[c] - p[c]).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(share > 0.0, "the source added nothing");
+    let worst = cheap
+        .iter()
+        .zip(&full)
+        .flat_map(|(c, f)| (0..3).map(move |k| (c[k] - f[k]).abs()))
+        .fold(0.0f32, f32::max);
+    println!("cheap - full: at most {worst}, the source's share at most {share}");
+    for (v, (c, f)) in cheap.iter().zip(&full).enumerate() {
+        for k in 0..3 {
+            assert!(c[k].is_finite(), "vertex {v}: {c:?}");
+            assert!(
+                (c[k] - f[k]).abs() <= tolerance * share,
+                "vertex {v} channel {k}: cheap {} full {} (the source's share {share})",
+                c[k],
+                f[k]
+            );
+        }
+    }
+    // (3) Bad tolerances are typed errors.
+    let mut object = quadgraph_object(
+        &gpu.ctx,
+        &torus,
+        &field,
+        &scene(),
+        ObjectParams::default().solve,
+    );
+    for bad in [-0.1, 1.0, f32::NAN, f32::INFINITY] {
+        assert!(object.set_bounce_tolerance(bad).is_err(), "{bad}");
+    }
+    drop(object);
+    gpu.finish();
+}

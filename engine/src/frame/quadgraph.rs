@@ -112,6 +112,8 @@ pub struct QuadGraphMethod {
     prepared: Prepared,
     /// [`crate::frame::BounceMode::Source`]'s pass (q += q_scale T_d E_b), when on.
     bounce_source: Option<BounceSourcePass>,
+    /// The second solve's tolerance relative to its start ([`Self::set_bounce_tolerance`]).
+    bounce_tolerance: f32,
 }
 
 /// The gather's collimated source (DESIGN 2.7) for the solve's boundary model: on when the solve
@@ -230,6 +232,7 @@ impl QuadGraphMethod {
             single_level_nodes,
             prepared: Prepared::default(),
             bounce_source: None,
+            bounce_tolerance: crate::defaults::BOUNCE_TOLERANCE,
         })
     }
 
@@ -264,6 +267,20 @@ impl QuadGraphMethod {
             q,
             self.graph.surface.positions.len(),
         )?);
+        Ok(())
+    }
+
+    /// [`crate::frame::BounceMode::Source`]'s second solve stops below `relative` times its
+    /// start residual (the bounce's share of q: it starts from the first solve's solution) or at
+    /// the solve's tolerance, whichever comes first; 0: the solve's tolerance alone. In [0, 1)
+    /// (else a typed error); default [`crate::defaults::BOUNCE_TOLERANCE`]. From the next frame.
+    pub fn set_bounce_tolerance(&mut self, relative: f32) -> Result<(), Error> {
+        if !(relative.is_finite() && (0.0..1.0).contains(&relative)) {
+            return Err(Error::Solver(SolverError::Invalid(format!(
+                "bounce tolerance {relative}: must be in [0, 1)"
+            ))));
+        }
+        self.bounce_tolerance = relative;
         Ok(())
     }
 
@@ -451,10 +468,17 @@ impl Method for QuadGraphMethod {
         let bounce_solve = match (&solve, &self.bounce_source) {
             (Some(_), Some(_)) => {
                 let small = self.finest_nodes() < self.single_level_nodes;
-                Some(self.solve.plan(true, small))
+                // It solves for the bounce's share: converged relative to that share.
+                let mut plan = self.solve.plan(true, small);
+                plan.start_tolerance = self.bounce_tolerance;
+                Some(plan)
             }
             _ => None,
         };
+        if let Some(plan) = &bounce_solve {
+            // Its control record replaces the first's in the slot: read it as warm.
+            self.control_copies[slot].warm = plan.warm;
+        }
         self.prepared = Prepared {
             edits,
             solve,

@@ -230,6 +230,12 @@ pub struct RenderArgs {
     /// foot and interreflection"). Two dispatches over the display vertices each.
     #[arg(long, value_name = "N", default_value_t = translucent::defaults::BOUNCES)]
     pub bounces: u32,
+    /// `--bounce source`'s second solve stops below this fraction of its start residual (the
+    /// bounce's share of q; it starts from the first solve's solution) or at the solve's own
+    /// tolerance; 0: the solve's tolerance alone (the full second solve). In [0, 1)
+    /// (benches/RESULTS.md, "A cheaper bounce source").
+    #[arg(long, value_name = "REL", default_value_t = translucent::defaults::BOUNCE_TOLERANCE)]
+    pub bounce_tolerance: f32,
     /// Rays per display vertex of `--bounce local`'s links (1..=4096).
     #[arg(long, value_name = "N", default_value_t = translucent::frame::BounceParams::default().rays)]
     pub bounce_rays: u32,

@@ -378,6 +378,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let mut translucent =
             TranslucentObject::new(&ctx, graph.clone(), &field, &solver_scene, &object_params)?;
         translucent.set_bounces(args.bounces)?;
+        translucent.set_bounce_tolerance(args.bounce_tolerance)?;
         if let (Some((params, build_s, stored)), Some(links)) =
             (bounce_links, graph.bounce.as_ref())
         {
@@ -410,6 +411,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     .and_then(|q| q.bounce_source())
                     .map(|s| s.covered()),
                 "bounces": args.bounces,
+                "tolerance": args.bounce_tolerance,
                 "rays": params.rays,
                 "max_links": params.max_links,
                 "links": links.link_count(),

@@ -156,6 +156,8 @@ pub struct MultigridPush {
     pub surface_rows: u32,
     pub kappa: [f32; 4],
     pub mu_gain: [f32; 4],
+    /// check: also converged below this fraction of the start's residual (0: off).
+    pub start_tolerance: f32,
 }
 
 /// The finest level's graph textures, which [`FinestOperator::Graph`] reads its operator from
@@ -835,7 +837,11 @@ impl GpuMultigrid {
         self.levels.len() - 1
     }
 
-    /// Records one solve (see the module doc): cold (full multigrid) or warm (from x).
+    /// Records one solve (see the module doc): cold (full multigrid) or warm (from x). It
+    /// converges below `tolerance` relative to ||f||, or (`start_tolerance > 0`) below
+    /// `start_tolerance` times the start's relative residual: a warm solve of a small change of
+    /// f converges relative to the change (`render --bounce source`'s second solve); such a
+    /// solve starts from the last solution unextrapolated and keeps the warm start's history.
     ///
     /// # Safety
     /// `cb` must be recording outside a rendering scope, inside a frame-graph pass declaring
@@ -846,6 +852,7 @@ impl GpuMultigrid {
         cb: vk::CommandBuffer,
         warm: bool,
         tolerance: f32,
+        start_tolerance: f32,
         profiler: &mut Option<&mut GpuProfiler>,
     ) {
         use vk::AccessFlags2 as A;
@@ -854,17 +861,23 @@ impl GpuMultigrid {
         // The warm start's order: what the kept solutions allow; each warm solve keeps one more
         // (the oldest drops out), a cold one starts a new chain.
         let slots = self.params.warm_start.history();
-        let order = if warm {
+        // A solve of an increment (`start_tolerance > 0`, warm) starts from the last solution as
+        // it is (no extrapolation: the increment is this frame's, not the history's trend) and
+        // leaves the kept solutions alone.
+        let increment = warm && start_tolerance > 0.0;
+        let order = if warm && !increment {
             self.history.get().min(slots)
         } else {
             0
         };
         self.warm_order.set(order);
-        self.history.set(if warm {
-            (self.history.get() + 1).min(slots)
-        } else {
-            0
-        });
+        if !increment {
+            self.history.set(if warm {
+                (self.history.get() + 1).min(slots)
+            } else {
+                0
+            });
+        }
         let top = self.top();
         let mut control: MultigridControl = bytemuck::Zeroable::zeroed();
         for (l, level) in self.levels.iter().enumerate() {
@@ -874,6 +887,7 @@ impl GpuMultigrid {
         let base = MultigridPush {
             width: self.width,
             tolerance,
+            start_tolerance,
             max_log,
             sums: self.partials,
             surface_rows: self.surface_rows,
@@ -918,6 +932,7 @@ impl GpuMultigrid {
             let n_top = self.levels[top].count;
             let rhs_mode = match (warm, slots) {
                 (false, _) => RHS_COLD,
+                (true, _) if increment => RHS_WARM,
                 (true, 0) => RHS_WARM,
                 (true, n) => RHS_EXTRAPOLATE + n - 1,
             };

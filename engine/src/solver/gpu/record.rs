@@ -32,7 +32,7 @@ pub const PASS_SOLVE: &str = "diffusion";
 pub const PASS_EXITANCE: &str = "exitance";
 
 /// One solve as [`GpuDiffusion::plan`] decided it.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SolvePlan {
     /// Starts from the last solution (every iterated level holds one at the current exposure).
     pub warm: bool,
@@ -40,6 +40,9 @@ pub struct SolvePlan {
     pub blocks: Vec<u32>,
     /// Per level, the warm start's [`WARM_CORRECT`] / [`WARM_SAVE`] flags.
     warm_flags: Vec<u32>,
+    /// Multigrid schedule: also converged below this fraction of the start's residual (0, as
+    /// [`GpuDiffusion::plan`] leaves it: the solve's tolerance alone). The cascade ignores it.
+    pub start_tolerance: f32,
 }
 
 impl SolvePlan {
@@ -126,6 +129,7 @@ impl GpuDiffusion {
             warm,
             blocks,
             warm_flags,
+            start_tolerance: 0.0,
         };
         self.stats = RecordStats {
             iteration_dispatches: total_blocks * per_block,
@@ -257,7 +261,14 @@ impl GpuDiffusion {
             );
             if let Some(mg) = &self.multigrid {
                 // The multigrid schedule replaces the cascade's levels (`multigrid.rs`).
-                mg.record(ctx, cb, plan.warm, self.params.tolerance, &mut profiler);
+                mg.record(
+                    ctx,
+                    cb,
+                    plan.warm,
+                    self.params.tolerance,
+                    plan.start_tolerance,
+                    &mut profiler,
+                );
             }
             for (h, level) in self
                 .levels
