@@ -89,10 +89,12 @@ mod probe;
 mod recorder;
 mod report;
 mod texels;
+
 use kernels::*;
 use pack::{pack_operators, packed_columns_from_env};
 pub use probe::{FinestProducts, LevelMagnitudes};
 use recorder::{Recorder, Start};
+pub use report::{CycleState, GpuMultigridReport};
 
 pub const PASS_MG_START: &str = "multigrid start";
 pub const PASS_MG_CYCLES: &str = "multigrid v-cycles";
@@ -193,51 +195,6 @@ pub struct MultigridControl {
     /// `dir . K dir` of the current direction (the next iteration's recurrence reads it).
     pub dkd: [f32; 4],
     pub residual: [f32; MAX_LOG],
-}
-
-/// How a GPU multigrid solve ended ([`MultigridControl::state`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum CycleState {
-    Running,
-    Converged,
-    Diverged,
-    CycleCap,
-}
-
-/// What the last GPU multigrid solve did, read after its frame.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct GpuMultigridReport {
-    /// Started from the last solution (V-cycles only).
-    pub warm: bool,
-    /// Order of the warm start's extrapolation (0: the last solution; 1: linear through the last
-    /// two; 2: quadratic through the last three); 0 when cold.
-    pub warm_order: u32,
-    /// Cold: the full multigrid pass first, then the V-cycles; warm: the V-cycles (factor against
-    /// the starting residual).
-    pub cycles: Vec<CycleReport>,
-    /// Relative residual at the start (warm: after the local relaxation, if any) or after the
-    /// full multigrid pass (cold).
-    pub start_residual: f64,
-    pub residual: f64,
-    pub converged: bool,
-    pub state: CycleState,
-    /// Node updates / finest nodes (as the CPU [`Hierarchy::solve`] counts them; a CG iteration
-    /// also counts its two passes over the finest level: K z with the dots, and the step).
-    pub work_units: f64,
-    /// Matrix entries read (operator rows with their diagonal, prolongation and restriction
-    /// links) / the entries of one finest-level operator application: the work unit that
-    /// weighs the coarse levels' wider rows (a Galerkin row holds ~10x a finest row's entries).
-    pub matvec_units: f64,
-    /// Geometric mean of the V-cycles' factors; `None` before two.
-    pub mean_factor: Option<f64>,
-    /// Chebyshev steps of every coarsest-level solve.
-    pub coarse_steps: u32,
-    /// Finest nodes the warm start's local relaxation relaxed (0: none, or a cold start).
-    pub local_nodes: u32,
-    /// Read-only inputs read through texel views (`TRANSLUCENT_MULTIGRID_READS`).
-    pub texel_reads: bool,
-    /// The fp16 rows' columns read from their entries (`TRANSLUCENT_MULTIGRID_COLUMNS`).
-    pub packed_columns: bool,
 }
 
 struct Level {
