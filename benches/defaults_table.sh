@@ -7,11 +7,14 @@
 #
 #   sh benches/defaults_table.sh
 #   DEFAULTS_EXTRA="--bounce off" DEFAULTS_OUT=target/defaults-off sh benches/defaults_table.sh
+#   ONLY="milk-sphere marble-back" sh benches/defaults_table.sh   # the named scenes only
+#   T=path/to/other/translucent sh benches/defaults_table.sh      # another binary
 #
 # Prints per scene: relative RMS R, G, B (all) in % (tools/compare_exr.py) and the wall seconds.
-. benches/pt_scenes.sh; T=target/release/translucent
+. benches/pt_scenes.sh; T=${T:-target/release/translucent}
 O=${DEFAULTS_OUT:-target/defaults-table}; mkdir -p $O
 run() { name=$1; ref=$2; shift 2
+  if [ -n "$ONLY" ]; then case " $ONLY " in *" $name "*) ;; *) return;; esac; fi
   out=$O/$name; start=$(date +%s)
   nice -n 10 $T render "$@" $S $DEFAULTS_EXTRA --json --out $out.exr > $out.json 2> $out.log
   rc=$?; end=$(date +%s)
