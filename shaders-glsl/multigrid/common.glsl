@@ -98,7 +98,8 @@ struct MultigridControl {
     uint state;
     // Finest nodes the warm start's local relaxation listed (local.comp; 0 without it).
     uint local_nodes;
-    uint pad1;
+    // The warm start's order (written by the host with the record's reset; no kernel reads it).
+    uint warm_order;
     // Conjugate gradients (krylov.comp): R . z of the current direction, the step alpha and the
     // direction update beta, per channel.
     vec4 rz;

@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 use translucent::frame::bounce::{vertex_wall_optics, WallOptics};
-use translucent::frame::{BounceLinks, BounceParams, SkipReason, PASS_BOUNCE};
+use translucent::frame::{BounceLinks, BounceParams, CompletedSolve, SkipReason, PASS_BOUNCE};
 use translucent::material::{Material, MaterialField};
 use translucent::mesh::shapes::Shape;
 use translucent::mesh::{TriMesh, Vertex};
@@ -763,7 +763,8 @@ fn the_bounce_source_adds_the_f64_node_sources_and_carries_light_inside() {
 
 /// `--bounce source`'s second solve converged relative to its start (the bounce's share of q,
 /// [`translucent::frame::QuadGraphMethod::set_bounce_tolerance`]) against the full second solve
-/// (relative tolerance 0: the solve's own tolerance) on the torus: (1) the cheap solve stops
+/// (relative tolerance 0: the solve's own tolerance) on the torus: (0) the frame reports both
+/// solves, the first as the frame without the source ran it; (1) the cheap solve stops
 /// below its tolerance times its start residual, in no more V-cycles than the full solve's mean
 /// factor needs for that reduction (+1), and does less work than the full solve; (2) its
 /// exitance is within the tolerance times what the source adds (the full solve's exitance minus
@@ -807,19 +808,40 @@ fn the_cheap_bounce_solve_converges_on_its_increment_and_keeps_the_full_solves_e
             .iter()
             .flatten()
             .all(|v| v.is_finite()));
-        // The frame's reported multigrid is the second solve's (it writes the same record).
-        let report: GpuMultigridReport = object
+        let solve = object
             .completed_solves(u64::MAX)
             .expect("solves")
             .pop()
-            .and_then(|s| s.multigrid)
-            .expect("a multigrid report");
-        (read_exitance(&gpu, &object), report)
+            .expect("a completed solve");
+        (read_exitance(&gpu, &object), solve)
     };
     let tolerance = translucent::defaults::BOUNCE_TOLERANCE;
-    let (plain, _) = object(BounceMode::Off, tolerance);
-    let (full, full_report) = object(BounceMode::Source, 0.0);
-    let (cheap, cheap_report) = object(BounceMode::Source, tolerance);
+    let (plain, plain_solve) = object(BounceMode::Off, tolerance);
+    let (full, full_solve) = object(BounceMode::Source, 0.0);
+    let (cheap, cheap_solve) = object(BounceMode::Source, tolerance);
+    // (0) The frame reports both solves: the first as the frame without the source ran it (the
+    // same q), the second on its own.
+    let first = |s: &CompletedSolve| -> GpuMultigridReport {
+        s.multigrid.clone().expect("the first solve's report")
+    };
+    assert!(plain_solve.bounce.is_none(), "{plain_solve:?}");
+    for s in [&full_solve, &cheap_solve] {
+        let (f, p) = (first(s), first(&plain_solve));
+        assert!(!f.warm && f.converged, "{f:?}");
+        assert_eq!(
+            (f.cycles.len(), f.work_units),
+            (p.cycles.len(), p.work_units),
+            "the first solve of a --bounce source frame against the frame without it"
+        );
+    }
+    let full_report = full_solve
+        .bounce
+        .clone()
+        .expect("the bounce solve's report");
+    let cheap_report = cheap_solve
+        .bounce
+        .clone()
+        .expect("the bounce solve's report");
     println!("full: {full_report:?}\ncheap: {cheap_report:?}");
     // (1) Converged on the increment, in the cycles the full solve's factor allows.
     for r in [&full_report, &cheap_report] {
@@ -886,5 +908,95 @@ fn the_cheap_bounce_solve_converges_on_its_increment_and_keeps_the_full_solves_e
         assert!(object.set_bounce_tolerance(bad).is_err(), "{bad}");
     }
     drop(object);
+    gpu.finish();
+}
+
+/// `--bounce source` on warm frames (the light turning 3 degrees a frame, as a host's frames):
+/// each frame's first solve is the solve of the frame without the source, to its cycles, work
+/// units and residual, because it continues the last first solution, kept across the second
+/// solve; and the frame reports both solves. (Before the kept solution, a warm first solve
+/// started from the second's sum, a whole bounce away: on the default scene 51.3 work units
+/// against 29.7.)
+#[test]
+fn a_warm_frame_with_the_bounce_source_solves_first_as_the_frame_without_it() {
+    use translucent::frame::BounceMode;
+    let gpu = GpuTest::new();
+    let field = marble();
+    let torus = bake(&Shape::Torus {
+        major: 8.0,
+        minor: 3.0,
+    });
+    let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
+    let frames = |mode: BounceMode| -> Vec<CompletedSolve> {
+        let mut object = TranslucentObject::new(
+            &gpu.ctx,
+            std::sync::Arc::new(torus.clone()),
+            &field,
+            &scene(),
+            &ObjectParams {
+                single_scattering: None,
+                diffusion: field.diffusion(),
+                bounce: mode,
+                ..ObjectParams::default()
+            },
+        )
+        .expect("object");
+        if mode != BounceMode::Off {
+            object
+                .set_bounce(&gpu.ctx, Some(&links), &field)
+                .expect("bounce");
+        }
+        let mut solves = Vec::new();
+        for k in 0..4 {
+            let angle = (3.0 * f64::from(k)).to_radians();
+            let direction = glam::DMat3::from_rotation_y(angle) * DVec3::new(0.5, -1.0, -0.5);
+            let lit = Scene {
+                lights: vec![translucent::scene::Light::Directional {
+                    direction: direction.normalize(),
+                    irradiance: [4.0; 3],
+                }],
+                environment: Environment::None,
+            };
+            object.set_lights(&lit).expect("lights");
+            let _ = render_once(&gpu.ctx, &mut object, 32, 32);
+            solves.extend(object.completed_solves(u64::MAX).expect("solves"));
+        }
+        solves
+    };
+    let plain = frames(BounceMode::Off);
+    let source = frames(BounceMode::Source);
+    assert_eq!(plain.len(), 4, "{plain:?}");
+    assert_eq!(source.len(), 4, "{source:?}");
+    for (k, (p, s)) in plain.iter().zip(&source).enumerate() {
+        let (p1, s1) = (
+            p.multigrid.as_ref().expect("multigrid"),
+            s.multigrid.as_ref().expect("multigrid"),
+        );
+        println!(
+            "frame {k}: first solve {} / {} work units (without / with the source), second {:?}",
+            p1.work_units,
+            s1.work_units,
+            s.bounce.as_ref().map(|b| b.work_units)
+        );
+        assert_eq!(s1.warm, k > 0, "frame {k}");
+        assert_eq!(
+            (s1.cycles.len(), s1.work_units, s1.warm_order),
+            (p1.cycles.len(), p1.work_units, p1.warm_order),
+            "frame {k}: the first solve with the source against the frame without it"
+        );
+        let rel = (s1.residual - p1.residual).abs() / p1.residual;
+        assert!(
+            rel < 1e-3,
+            "frame {k}: residual {} against {}",
+            s1.residual,
+            p1.residual
+        );
+        assert!(p.bounce.is_none(), "frame {k}");
+        let b = s.bounce.as_ref().expect("the bounce solve's report");
+        assert!(
+            b.warm && b.converged && b.work_units > 0.0,
+            "frame {k}: {b:?}"
+        );
+    }
     gpu.finish();
 }

@@ -62,8 +62,8 @@ pub use optics::{
     WallOptics,
 };
 pub use source::{
-    BounceSourcePass, BounceSourcePush, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE,
-    PASS_BOUNCE_SOURCE,
+    BounceSourcePass, BounceSourcePush, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_KEEP,
+    PASS_BOUNCE_RESTORE, PASS_BOUNCE_SOLVE, PASS_BOUNCE_SOURCE,
 };
 
 /// The pass's name (graph pass, debug label, profiler scope).

@@ -26,7 +26,8 @@ use ash::vk;
 use glam::DVec3;
 
 use super::bounce::{
-    BounceSourcePass, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_SOLVE, PASS_BOUNCE_SOURCE,
+    BounceSourcePass, NodeGather, PASS_BOUNCE_EXITANCE, PASS_BOUNCE_KEEP, PASS_BOUNCE_RESTORE,
+    PASS_BOUNCE_SOLVE, PASS_BOUNCE_SOURCE,
 };
 use super::graph::FrameGraph;
 use super::method::{Method, MethodFrame};
@@ -83,6 +84,11 @@ struct ControlCopy {
     frame: Option<u64>,
     /// Whether that frame's solve started warm (the multigrid's report counts its start).
     warm: bool,
+    /// `--bounce source`'s second solve of the same frame writes here (its record would
+    /// otherwise replace the first's).
+    bounce: Buffer,
+    /// Whether that frame ran the second solve, and whether it started warm.
+    bounce_warm: Option<bool>,
 }
 
 /// This frame's work, decided by [`Method::prepare`].
@@ -94,6 +100,19 @@ struct Prepared {
     slot: usize,
     /// The second, warm-started solve with the bounced light as a source (`--bounce source`).
     bounce_solve: Option<SolvePlan>,
+    /// The first solve starts warm from the last frame's first solution ([`KeptX`]).
+    restore_x: bool,
+}
+
+/// `--bounce source` under the multigrid: the first solve's finest x, copied before the second
+/// solve and back before the next frame's first. Without it the next first solve would start
+/// from the second's solution, a whole bounce away from its own problem (the default scene's
+/// warm frames: 51.3 work units against 29.7 without the bounce; benches/RESULTS.md "Lead notes
+/// after the wave-13 merge").
+struct KeptX {
+    buffer: Buffer,
+    /// Whether `buffer` holds the last solving frame's first solution.
+    valid: bool,
 }
 
 /// The QuadGraph method (see the module doc).
@@ -114,6 +133,8 @@ pub struct QuadGraphMethod {
     bounce_source: Option<BounceSourcePass>,
     /// The second solve's tolerance relative to its start ([`Self::set_bounce_tolerance`]).
     bounce_tolerance: f32,
+    /// The first solve's x across the second (with the bounce source and the multigrid).
+    kept_x: Option<KeptX>,
 }
 
 /// The gather's collimated source (DESIGN 2.7) for the solve's boundary model: on when the solve
@@ -203,20 +224,25 @@ impl QuadGraphMethod {
             )?);
         }
         let uniforms = GatherScene::new(scene, shadows)?;
+        let copy = |name| {
+            Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name,
+                    size: solve.control_copy_size(),
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    memory: MemoryUse::Readback,
+                },
+            )
+        };
         let control_copies = (0..=ctx.frames_in_flight())
             .map(|_| {
                 Ok(ControlCopy {
-                    buffer: Buffer::new(
-                        ctx,
-                        &BufferDesc {
-                            name: "diffusion control copy",
-                            size: solve.control_copy_size(),
-                            usage: vk::BufferUsageFlags::TRANSFER_DST,
-                            memory: MemoryUse::Readback,
-                        },
-                    )?,
+                    buffer: copy("diffusion control copy")?,
                     frame: None,
                     warm: false,
+                    bounce: copy("bounce solve control copy")?,
+                    bounce_warm: None,
                 })
             })
             .collect::<Result<Vec<_>, Error>>()?;
@@ -233,6 +259,7 @@ impl QuadGraphMethod {
             prepared: Prepared::default(),
             bounce_source: None,
             bounce_tolerance: crate::defaults::BOUNCE_TOLERANCE,
+            kept_x: None,
         })
     }
 
@@ -246,9 +273,25 @@ impl QuadGraphMethod {
         irradiance: Option<&Buffer>,
     ) -> Result<(), Error> {
         self.bounce_source = None;
+        self.kept_x = None;
         let Some(irradiance) = irradiance else {
             return Ok(());
         };
+        if let Some(mg) = &self.solve.multigrid {
+            self.kept_x = Some(KeptX {
+                buffer: Buffer::new(
+                    ctx,
+                    &BufferDesc {
+                        name: "bounce kept x",
+                        size: mg.finest_x().2,
+                        usage: vk::BufferUsageFlags::TRANSFER_SRC
+                            | vk::BufferUsageFlags::TRANSFER_DST,
+                        memory: MemoryUse::GpuOnly,
+                    },
+                )?,
+                valid: false,
+            });
+        }
         let finest = self.graph.finest();
         let texels: Vec<u32> = (finest.inner_count()..finest.positions.len())
             .map(|node| finest.packing.linear_index(node as u32))
@@ -464,6 +507,7 @@ impl Method for QuadGraphMethod {
             self.control_copies[slot].frame = Some(frame);
             self.control_copies[slot].warm = plan.warm;
         }
+        self.control_copies[slot].bounce_warm = None;
         // The bounce's second solve starts from the first (warm, same exposure).
         let bounce_solve = match (&solve, &self.bounce_source) {
             (Some(_), Some(_)) => {
@@ -476,14 +520,22 @@ impl Method for QuadGraphMethod {
             _ => None,
         };
         if let Some(plan) = &bounce_solve {
-            // Its control record replaces the first's in the slot: read it as warm.
-            self.control_copies[slot].warm = plan.warm;
+            // Its control record goes to the slot's second copy.
+            self.control_copies[slot].bounce_warm = Some(plan.warm);
+        }
+        // A warm first solve continues the last first solution (kept before that frame's second
+        // solve); a frame that solves keeps its own when it runs the second solve.
+        let mut restore_x = false;
+        if let (Some(plan), Some(kept)) = (&solve, &mut self.kept_x) {
+            restore_x = plan.warm && kept.valid && bounce_solve.is_some();
+            kept.valid = bounce_solve.is_some();
         }
         self.prepared = Prepared {
             edits,
             solve,
             slot,
             bounce_solve,
+            restore_x,
         };
         Ok(out)
     }
@@ -529,6 +581,11 @@ impl Method for QuadGraphMethod {
                 }
                 Ok(())
             });
+        if let (true, Some(kept), Some(mg)) =
+            (self.prepared.restore_x, &self.kept_x, &self.solve.multigrid)
+        {
+            add_copy_pass(graph, PASS_BOUNCE_RESTORE, kept, mg.finest_x(), false);
+        }
         let slot = &self.control_copies[self.prepared.slot].buffer;
         graph
             .pass(PASS_SOLVE)
@@ -570,9 +627,11 @@ impl Method for QuadGraphMethod {
                 unsafe { source.record(p.ctx, p.cb, gain) };
                 Ok(())
             });
-        // The second solve writes the same control-copy slot: the frame reports its cycles
-        // (the first solve's are those of the same frame without the source).
-        let slot = &self.control_copies[self.prepared.slot].buffer;
+        if let (Some(kept), Some(mg)) = (&self.kept_x, &self.solve.multigrid) {
+            add_copy_pass(graph, PASS_BOUNCE_KEEP, kept, mg.finest_x(), true);
+        }
+        // The second solve's record goes to the slot's own copy: the frame reports both.
+        let slot = &self.control_copies[self.prepared.slot].bounce;
         graph
             .pass(PASS_BOUNCE_SOLVE)
             .uses(self.solve.solve_uses(Some(slot)))
@@ -610,16 +669,24 @@ impl Method for QuadGraphMethod {
             let bytes = slot.buffer.read_bytes()?;
             let levels_size = self.solve.control_buffer().size as usize;
             let (levels, rest) = bytes.split_at(levels_size.min(bytes.len()));
-            let multigrid = match &self.solve.multigrid {
-                Some(mg) if rest.len() >= std::mem::size_of::<MultigridControl>() => {
-                    Some(mg.report_of(
+            let report = |rest: &[u8], warm: bool| match &self.solve.multigrid {
+                Some(mg) if rest.len() >= std::mem::size_of::<MultigridControl>() => mg
+                    .report_of(
                         &bytemuck::pod_read_unaligned(
                             &rest[..std::mem::size_of::<MultigridControl>()],
                         ),
-                        slot.warm,
-                    )?)
+                        warm,
+                    )
+                    .map(Some),
+                _ => Ok(None),
+            };
+            let multigrid = report(rest, slot.warm)?;
+            let bounce = match slot.bounce_warm.take() {
+                Some(warm) => {
+                    let bytes = slot.bounce.read_bytes()?;
+                    report(&bytes[levels_size.min(bytes.len())..], warm)?
                 }
-                _ => None,
+                None => None,
             };
             out.push(CompletedSolve {
                 frame,
@@ -628,6 +695,7 @@ impl Method for QuadGraphMethod {
                     .map(bytemuck::pod_read_unaligned)
                     .collect(),
                 multigrid,
+                bounce,
             });
         }
         out.sort_by_key(|s| s.frame);
@@ -636,6 +704,11 @@ impl Method for QuadGraphMethod {
 
     fn gpu_bytes(&self) -> u64 {
         self.solve.bytes().0
+            + self
+                .bounce_source
+                .as_ref()
+                .map_or(0, BounceSourcePass::bytes)
+            + self.kept_x.as_ref().map_or(0, |k| k.buffer.size)
     }
 
     fn exit_share(&self) -> Option<&Buffer> {
@@ -655,6 +728,42 @@ impl Method for QuadGraphMethod {
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
         self
     }
+}
+
+/// The pass copying the finest x into `kept` (`keep`) or back.
+fn add_copy_pass<'g>(
+    graph: &mut FrameGraph<'g>,
+    name: &'static str,
+    kept: &'g KeptX,
+    (x, offset, size): (&'g Buffer, u64, u64),
+    keep: bool,
+) {
+    let (src, dst) = if keep {
+        (x, &kept.buffer)
+    } else {
+        (&kept.buffer, x)
+    };
+    let (src_offset, dst_offset) = if keep { (offset, 0) } else { (0, offset) };
+    graph
+        .pass(name)
+        .uses([
+            Use::buffer(src, Access::TransferSrc),
+            Use::buffer(dst, Access::TransferDst),
+        ])
+        .record(move |p| {
+            let region = vk::BufferCopy::default()
+                .src_offset(src_offset)
+                .dst_offset(dst_offset)
+                .size(size);
+            // SAFETY: inside the pass declaring both buffers; they live in the method, which
+            // outlives the frame.
+            unsafe {
+                p.ctx
+                    .raw()
+                    .cmd_copy_buffer(p.cb, src.raw, dst.raw, &[region])
+            };
+            Ok(())
+        });
 }
 
 /// Headless: one solve of `solve` (its q uploaded or gathered before) in its own submission,

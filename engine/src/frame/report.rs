@@ -65,6 +65,9 @@ pub struct CompletedSolve {
     /// The multigrid schedule's cycles, work units and residual (`None` with the cascade and
     /// the methods without a solve).
     pub multigrid: Option<crate::solver::gpu::multigrid::GpuMultigridReport>,
+    /// `--bounce source`'s second solve of the same frame (warm from the first, the bounced
+    /// light added to q: [`crate::frame::BounceMode::Source`]); `None` without it.
+    pub bounce: Option<crate::solver::gpu::multigrid::GpuMultigridReport>,
 }
 
 impl CompletedSolve {
@@ -76,7 +79,7 @@ impl CompletedSolve {
     /// level did not).
     pub fn converged(&self) -> bool {
         if let Some(mg) = &self.multigrid {
-            return mg.converged;
+            return mg.converged && self.bounce.as_ref().is_none_or(|b| b.converged);
         }
         self.levels
             .iter()

@@ -468,7 +468,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             let iterations = solve.map_or_else(|| vec![0; level_count], |s| s.iterations());
             // A level that ran to its cap did not reach --tolerance (optically thin objects need
             // many more Jacobi iterations than the default cap): say so rather than stay silent.
-            let mg_report = match (multigrid, solve) {
+            let mut mg_report = match (multigrid, solve) {
                 (true, Some(_)) => translucent
                     .quadgraph()
                     .context("the QuadGraph method reports the solve")?
@@ -476,6 +476,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     .multigrid_report(&ctx)?,
                 _ => None,
             };
+            // `--bounce source`: the solver's record is the second solve's; the frame's copies
+            // hold both.
+            let bounce_report = solve.and_then(|s| s.bounce.clone());
+            if bounce_report.is_some() {
+                mg_report = solve.and_then(|s| s.multigrid.clone());
+            }
             // Measurement only: the cold start replayed stage by stage, every level's largest
             // magnitudes after each (benches/RESULTS.md "Large lattices: the fp16 update").
             if mg_report.is_some()
@@ -493,7 +499,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 }
             }
             // A diverged (or non-finite) solve must not reach an image: fail before any output.
-            if let Some(m) = &mg_report {
+            for m in mg_report.iter().chain(&bounce_report) {
                 let solve = translucent
                     .quadgraph()
                     .context("the QuadGraph method reports the solve")?
@@ -502,7 +508,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     .with_context(|| format!("frame {i}"))?;
             }
             let converged = match &mg_report {
-                Some(m) => Some(m.converged),
+                Some(m) => Some(m.converged && bounce_report.as_ref().is_none_or(|b| b.converged)),
                 None => solve.map(|s| s.converged()),
             };
             // The cascade's fp16 phi stops when its update rounds to zero: stalled, not converged.
@@ -511,11 +517,17 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 None => solve.map(|s| s.stalled()),
             };
             if let (Some(m), false) = (&mg_report, args.json) {
-                if !m.converged {
-                    eprintln!(
-                        "warning: frame {i}: the multigrid cycles stopped at relative residual {:.1e} ({:?})",
-                        m.residual, m.state
-                    );
+                for (what, m) in [
+                    ("", Some(m)),
+                    (" of the bounce solve", bounce_report.as_ref()),
+                ] {
+                    match m {
+                        Some(m) if !m.converged => eprintln!(
+                            "warning: frame {i}: the multigrid cycles{what} stopped at relative residual {:.1e} ({:?})",
+                            m.residual, m.state
+                        ),
+                        _ => {}
+                    }
                 }
             } else if stalled == Some(true) && !args.json {
                 eprintln!(
@@ -543,6 +555,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // Only multigrid frames carry the key (a `null` in frames reads as NaN to the checks).
             if let (Some(m), Some(frame)) = (&mg_report, frames.last_mut()) {
                 frame["multigrid"] = gpu_multigrid_json(m);
+                if let Some(b) = &bounce_report {
+                    // `--bounce source`'s second solve, and the frame's solve work in all.
+                    frame["bounce_multigrid"] = gpu_multigrid_json(b);
+                    frame["solve_work_units"] = (m.work_units + b.work_units).into();
+                }
             }
             // Only cascade frames that solved carry `stalled` (likewise no `null`).
             if let (Some(stalled), Some(frame)) = (stalled, frames.last_mut()) {

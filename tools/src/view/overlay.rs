@@ -88,15 +88,21 @@ pub fn solve_line(solve: &translucent::frame::CompletedSolve) -> (String, Colour
     let converged = solve.converged();
     let text = match &solve.multigrid {
         Some(mg) => format!(
-            "solve of frame {frame}: multigrid, {} cycles{}, {:.1} work units, residual {:.1e}{}",
+            "solve of frame {frame}: multigrid, {} cycles{}, {:.1} work units, residual {:.1e}{}{}",
             mg.cycles.len(),
             if mg.warm { " (warm)" } else { "" },
             mg.work_units,
             mg.residual,
-            if converged {
-                String::new()
-            } else {
-                format!(" ({:?})", mg.state)
+            // `--bounce source`: the second solve of the same frame.
+            solve.bounce.as_ref().map_or_else(String::new, |b| format!(
+                "; bounce {} cycles, {:.1} work units",
+                b.cycles.len(),
+                b.work_units
+            )),
+            match (converged, &solve.bounce) {
+                (true, _) => String::new(),
+                (false, Some(b)) if mg.converged => format!(" (bounce {:?})", b.state),
+                (false, _) => format!(" ({:?})", mg.state),
             }
         ),
         None => format!(
@@ -218,6 +224,7 @@ mod tests {
                 texel_reads: false,
                 packed_columns: true,
             }),
+            bounce: None,
         };
         let (text, colour) = solve_line(&solve);
         assert_eq!(
@@ -233,6 +240,24 @@ mod tests {
         let (text, colour) = solve_line(&solve);
         assert!(text.ends_with("(Diverged)"), "{text}");
         assert_eq!(colour, Colour::Warning);
+        // `--bounce source`: the second solve's work shows, and so does its failure.
+        if let Some(mg) = &mut solve.multigrid {
+            mg.converged = true;
+            mg.state = CycleState::Converged;
+        }
+        let mut second = solve.multigrid.clone().expect("a multigrid report");
+        second.converged = false;
+        second.state = CycleState::Diverged;
+        second.work_units = 27.7;
+        second.cycles.truncate(2);
+        solve.bounce = Some(second);
+        let (text, colour) = solve_line(&solve);
+        assert!(
+            text.contains("; bounce 2 cycles, 27.7 work units"),
+            "{text}"
+        );
+        assert!(text.ends_with("(bounce Diverged)"), "{text}");
+        assert_eq!(colour, Colour::Warning);
         // The cascade keeps its iterations per level.
         let cascade = translucent::frame::CompletedSolve {
             frame: 3,
@@ -241,6 +266,7 @@ mod tests {
                 level(12, translucent::solver::gpu::LevelControl::CONVERGED),
             ],
             multigrid: None,
+            bounce: None,
         };
         assert_eq!(
             solve_line(&cascade),

@@ -41,6 +41,10 @@ pub const PASS_BOUNCE_SOURCE: &str = "bounce source";
 /// The second solve's pass, and its exitance's.
 pub const PASS_BOUNCE_SOLVE: &str = "bounce solve";
 pub const PASS_BOUNCE_EXITANCE: &str = "bounce exitance";
+/// The first solve's finest x kept before the second solve, and put back before the next
+/// frame's first solve (which continues it, not the second's sum).
+pub const PASS_BOUNCE_KEEP: &str = "bounce keep";
+pub const PASS_BOUNCE_RESTORE: &str = "bounce restore";
 
 /// Display vertices examined per surface node.
 const CANDIDATES: usize = 8;
@@ -197,6 +201,11 @@ pub struct BounceSourcePass {
 }
 
 impl BounceSourcePass {
+    /// GPU bytes of the pass's own buffers (the gather's offsets and entries, the texels).
+    pub fn bytes(&self) -> u64 {
+        self.offsets.size + self.entries.size + self.texels.size
+    }
+
     /// The pass adding the bounce pass's `irradiance` (E_b per display vertex, vec4) to `q` (the
     /// finest level's q image) through `gather`; `texels` the linear texel index of each finest
     /// surface node, `width` the image's row width.

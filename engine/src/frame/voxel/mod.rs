@@ -415,6 +415,7 @@ impl Method for VoxelMethod {
                     stopped_early: control.converged,
                 }],
                 multigrid: None,
+                bounce: None,
             });
         }
         out.sort_by_key(|s| s.frame);

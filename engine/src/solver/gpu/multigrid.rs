@@ -187,7 +187,10 @@ pub struct MultigridControl {
     pub state: u32,
     /// Finest nodes the warm start's local relaxation listed (`multigrid/local.comp`).
     pub local_nodes: u32,
-    pub pad: u32,
+    /// The warm start's order (the host writes it with the record's reset): a record copied
+    /// for a later report carries it (`--bounce source` runs a second solve of order 0 before
+    /// the first's report is read).
+    pub warm_order: u32,
     /// Conjugate gradients: `R . z` of the current direction, the step and the direction update.
     pub rz: [f32; 4],
     pub alpha: [f32; 4],
@@ -236,8 +239,6 @@ pub struct GpuMultigrid {
     /// into r).
     relax_back: vk::DescriptorSet,
     warm: Cell<bool>,
-    /// The warm start's order of the last solve ([`GpuMultigridReport::warm_order`]).
-    warm_order: Cell<u32>,
     /// Earlier solutions in `x_history` of the chain the finest x continues (0 after a cold
     /// start: its x was not warm-started from them).
     history: Cell<u32>,
@@ -491,9 +492,12 @@ impl GpuMultigrid {
                 &BufferDesc {
                     name,
                     size,
-                    // Texel views: the `*_t` bindings (`texels`).
+                    // Texel views: the `*_t` bindings (`texels`); transfers: the finest x kept
+                    // across `--bounce source`'s second solve (`Self::finest_x`).
                     usage: vk::BufferUsageFlags::STORAGE_BUFFER
-                        | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+                        | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                        | vk::BufferUsageFlags::TRANSFER_SRC
+                        | vk::BufferUsageFlags::TRANSFER_DST,
                     // why Upload: written once per material from the host; on lavapipe every
                     // heap is host memory (a discrete GPU would stage into GpuOnly).
                     memory: MemoryUse::Upload,
@@ -688,7 +692,6 @@ impl GpuMultigrid {
             pipelines,
             relax_back,
             warm: Cell::new(false),
-            warm_order: Cell::new(0),
             history: Cell::new(0),
             bytes,
             buffer_bytes,
@@ -827,7 +830,6 @@ impl GpuMultigrid {
         } else {
             0
         };
-        self.warm_order.set(order);
         if !increment {
             self.history.set(if warm {
                 (self.history.get() + 1).min(slots)
@@ -840,6 +842,7 @@ impl GpuMultigrid {
         for (l, level) in self.levels.iter().enumerate() {
             control.args[l] = [level.count.div_ceil(GROUP), 1, 1, 0];
         }
+        control.warm_order = order;
         let max_log = self.params.max_cycles.min(MAX_RECORDED_CYCLES) + 1;
         let base = MultigridPush {
             width: self.width,
@@ -957,6 +960,20 @@ impl GpuMultigrid {
             rec.direct_with(OUTPUT, top, 0, [unscale; 3], n_top);
             scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
         }
+    }
+
+    /// The finest level's x (after a solve its solution, `scale` times phi): its buffer and
+    /// byte range. `render --bounce source` keeps the first solve's across the second, whose
+    /// sum would otherwise start the next frame's first solve a whole bounce away.
+    pub fn finest_x(&self) -> (&Buffer, u64, u64) {
+        let top = &self.levels[self.top()];
+        let bytes = (self.params.vector_storage.floats() * std::mem::size_of::<f32>()) as u64;
+        debug_assert_eq!(BUFFER_NAMES[0], "x");
+        (
+            &self.buffers[0],
+            u64::from(top.offset) * bytes,
+            u64::from(top.count) * bytes,
+        )
     }
 
     /// The control record of the last solve (call after its submission completed and its writes

@@ -164,7 +164,7 @@ impl GpuMultigrid {
         };
         // A warm start relaxed locally: the marking pass and the listed nodes' updates.
         let listed = if warm { u64::from(c.local_nodes) } else { 0 };
-        let relaxed = warm && self.warm_order.get() > 0;
+        let relaxed = warm && c.warm_order > 0;
         let local = if relaxed {
             self.local_updates(listed)
         } else {
@@ -251,7 +251,7 @@ impl GpuMultigrid {
             (start_entries + v_cycles * v_entries) as f64 / top_entries.max(1) as f64;
         Ok(GpuMultigridReport {
             warm,
-            warm_order: self.warm_order.get(),
+            warm_order: c.warm_order,
             start_residual: log.first().copied().unwrap_or(f64::NAN),
             residual,
             converged: state == CycleState::Converged,
