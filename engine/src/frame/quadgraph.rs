@@ -541,17 +541,10 @@ impl Method for QuadGraphMethod {
     }
 
     fn add_edit_passes<'g>(&'g self, graph: &mut FrameGraph<'g>) {
+        // The staged edits are held until the next `prepare`, released after the frame
+        // completes.
         if let Some(edits) = &self.prepared.edits {
-            graph
-                .pass(PASS_EDITS)
-                .uses(self.solve.edit_uses(edits))
-                .record(move |p| {
-                    // SAFETY: inside the graph's pass declaring the edits' uses; `self` and the
-                    // staged edits outlive the frame (held until the next `prepare`, released
-                    // after the frame completes).
-                    unsafe { self.solve.record_edits(p.ctx, p.cb, edits, p.profiler()) };
-                    Ok(())
-                });
+            add_edits_pass(graph, &self.solve, edits);
         }
     }
 
@@ -587,26 +580,7 @@ impl Method for QuadGraphMethod {
             add_copy_pass(graph, PASS_BOUNCE_RESTORE, kept, mg.finest_x(), false);
         }
         let slot = &self.control_copies[self.prepared.slot].buffer;
-        graph
-            .pass(PASS_SOLVE)
-            .uses(self.solve.solve_uses(Some(slot)))
-            .record(move |p| {
-                // SAFETY: inside the graph's pass declaring the solve's uses; `self` outlives
-                // the frame.
-                unsafe {
-                    self.solve
-                        .record_solve(p.ctx, p.cb, plan, Some(slot), p.profiler())
-                };
-                Ok(())
-            });
-        graph
-            .pass(PASS_EXITANCE)
-            .uses(self.solve.exitance_uses())
-            .record(move |p| {
-                // SAFETY: inside the graph's pass declaring the exitance's uses.
-                unsafe { self.solve.record_exitance(p.ctx, p.cb, p.profiler()) };
-                Ok(())
-            });
+        add_solve_passes(graph, &self.solve, plan, Some(slot), false);
         Ok(())
     }
 
@@ -632,29 +606,7 @@ impl Method for QuadGraphMethod {
         }
         // The second solve's record goes to the slot's own copy: the frame reports both.
         let slot = &self.control_copies[self.prepared.slot].bounce;
-        graph
-            .pass(PASS_BOUNCE_SOLVE)
-            .uses(self.solve.solve_uses(Some(slot)))
-            .record(move |p| {
-                // SAFETY: inside the graph's pass declaring the solve's uses; `self` outlives
-                // the frame.
-                unsafe {
-                    self.solve
-                        .record_solve(p.ctx, p.cb, plan, Some(slot), p.profiler())
-                };
-                Ok(())
-            });
-        graph
-            .pass(PASS_BOUNCE_EXITANCE)
-            .uses(self.solve.exitance_uses())
-            .record(move |p| {
-                // SAFETY: inside the graph's pass declaring the exitance's uses.
-                unsafe {
-                    self.solve
-                        .record_exitance_to_mesh(p.ctx, p.cb, p.profiler())
-                };
-                Ok(())
-            });
+        add_solve_passes(graph, &self.solve, plan, Some(slot), true);
     }
 
     /// The control records of every recorded solve whose frame is `<= completed` and was not
@@ -730,6 +682,61 @@ impl Method for QuadGraphMethod {
     }
 }
 
+/// The staged edits' pass (a heterogeneous material's weights, a material change, a
+/// deformation).
+fn add_edits_pass<'g>(graph: &mut FrameGraph<'g>, solve: &'g GpuDiffusion, edits: &'g StagedEdits) {
+    graph
+        .pass(PASS_EDITS)
+        .uses(solve.edit_uses(edits))
+        .record(move |p| {
+            // SAFETY: inside the graph's pass declaring the edits' uses; `solve` and `edits`
+            // outlive the frame.
+            unsafe { solve.record_edits(p.ctx, p.cb, edits, p.profiler()) };
+            Ok(())
+        });
+}
+
+/// A solve's pass (its control record copied to `slot` for the host when given) and its
+/// exitance's: [`PASS_SOLVE`], [`PASS_EXITANCE`] (the vertex J+ the frame's bounce and shading
+/// read), or with `bounce` the second solve of `--bounce source`, [`PASS_BOUNCE_SOLVE`] and
+/// [`PASS_BOUNCE_EXITANCE`] (its exitance straight into the display mesh).
+fn add_solve_passes<'g>(
+    graph: &mut FrameGraph<'g>,
+    solve: &'g GpuDiffusion,
+    plan: &'g SolvePlan,
+    slot: Option<&'g Buffer>,
+    bounce: bool,
+) {
+    let (solve_pass, exitance_pass) = if bounce {
+        (PASS_BOUNCE_SOLVE, PASS_BOUNCE_EXITANCE)
+    } else {
+        (PASS_SOLVE, PASS_EXITANCE)
+    };
+    graph
+        .pass(solve_pass)
+        .uses(solve.solve_uses(slot))
+        .record(move |p| {
+            // SAFETY: inside the graph's pass declaring the solve's uses; `solve`, `plan` and
+            // `slot` outlive the frame.
+            unsafe { solve.record_solve(p.ctx, p.cb, plan, slot, p.profiler()) };
+            Ok(())
+        });
+    graph
+        .pass(exitance_pass)
+        .uses(solve.exitance_uses())
+        .record(move |p| {
+            // SAFETY: inside the graph's pass declaring the exitance's uses.
+            unsafe {
+                if bounce {
+                    solve.record_exitance_to_mesh(p.ctx, p.cb, p.profiler());
+                } else {
+                    solve.record_exitance(p.ctx, p.cb, p.profiler());
+                }
+            }
+            Ok(())
+        });
+}
+
 /// The pass copying the finest x into `kept` (`keep`) or back.
 fn add_copy_pass<'g>(
     graph: &mut FrameGraph<'g>,
@@ -785,33 +792,9 @@ pub fn solve_headless(
     ctx.execute("diffusion solve", |cb| {
         let mut graph = FrameGraph::new(ctx);
         if let Some(edits) = edits {
-            graph
-                .pass(PASS_EDITS)
-                .uses(solve.edit_uses(edits))
-                .record(move |p| {
-                    // SAFETY: inside the pass declaring the edits' uses; `solve` and `edits`
-                    // outlive the waited submission.
-                    unsafe { solve.record_edits(p.ctx, p.cb, edits, p.profiler()) };
-                    Ok(())
-                });
+            add_edits_pass(&mut graph, solve, edits);
         }
-        graph
-            .pass(PASS_SOLVE)
-            .uses(solve.solve_uses(None))
-            .record(|p| {
-                // SAFETY: inside the pass declaring the solve's uses; `solve` outlives the waited
-                // submission.
-                unsafe { solve.record_solve(p.ctx, p.cb, &plan, None, p.profiler()) };
-                Ok(())
-            });
-        graph
-            .pass(PASS_EXITANCE)
-            .uses(solve.exitance_uses())
-            .record(|p| {
-                // SAFETY: as above.
-                unsafe { solve.record_exitance(p.ctx, p.cb, p.profiler()) };
-                Ok(())
-            });
+        add_solve_passes(&mut graph, solve, &plan, None, false);
         // SAFETY: `cb` is recording outside a rendering scope; everything outlives the wait.
         result = unsafe { graph.execute(cb, None, false) }.map(|_| ());
         Ok(())
