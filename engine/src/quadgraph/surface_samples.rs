@@ -57,6 +57,8 @@ pub const SAMPLE_NODES: usize = 16;
 /// lateral term ([`super::lateral`], `solver::transport::lateral_profile_from_sample`): bunny
 /// side 10.7 -> 9.9% at this depth.
 pub const DEPTH_SPACINGS: f64 = 1.5;
+/// The sample depths (finest spacings) a bake accepts (`BakeParams::sample_depth`).
+pub const DEPTH_RANGE: std::ops::RangeInclusive<f64> = 0.5..=4.0;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
 /// The direction a sample is taken in: the vertex normals averaged over this many finest
@@ -703,11 +705,13 @@ fn wall_thickness(solid: &dyn Solid, x: DVec3, n: DVec3, reach: f64, spacing: f6
 }
 
 /// The sample points of `surface`'s vertices (outward unit normals in `surface.normals`, or
-/// computed from the faces) in the finest level, inside `solid`.
+/// computed from the faces) in the finest level, inside `solid`, `depth_spacings` finest
+/// spacings below the smoothed surface ([`DEPTH_SPACINGS`] by default).
 pub fn surface_samples(
     surface: &TriMesh,
     finest: &GraphLevel,
     solid: &dyn Solid,
+    depth_spacings: f64,
 ) -> SurfaceSamples {
     let normals: Vec<DVec3> = if surface.normals.len() == surface.positions.len() {
         surface.normals.clone()
@@ -754,8 +758,8 @@ pub fn surface_samples(
         .zip(&normals)
         .map(|(&x, &n)| {
             let n = n.normalize_or(DVec3::Y);
-            let thickness = wall_thickness(solid, x, n, 4.0 * DEPTH_SPACINGS * h, h);
-            let depth = (DEPTH_SPACINGS * h).min(DEPTH_WALL_SHARE * thickness);
+            let thickness = wall_thickness(solid, x, n, 4.0 * depth_spacings * h, h);
+            let depth = (depth_spacings * h).min(DEPTH_WALL_SHARE * thickness);
             let p = x - n * depth;
             let nearest = tree.nearest_one::<SquaredEuclidean>(&p.to_array()).item as usize;
             let cell = locate(finest, nearest, p).unwrap_or(nearest);
