@@ -55,7 +55,9 @@ pub const SAMPLE_NODES: usize = 16;
 /// environment (`tools/tests/env_sphere_cli.rs`, the 1% flatness) varies by 1.88% at
 /// 0.875 and 1.67% at 1.0 spacings (lead, wave-10 merge). Since wave 11 the profile has the
 /// lateral term ([`super::lateral`], `solver::transport::lateral_profile_from_sample`): bunny
-/// side 10.7 -> 9.9% at this depth.
+/// side 10.7 -> 9.9% at this depth. Since wave 13 this is `BakeParams::sample_depth`'s default;
+/// the CLI bakes 1.0 where the material's s * spacing <= 0.5 (`defaults::sample_depth_for`:
+/// marble bunny front 8.02 -> 7.82%, side 9.80 -> 8.97% with the depth alone).
 pub const DEPTH_SPACINGS: f64 = 1.5;
 /// The sample depths (finest spacings) a bake accepts (`BakeParams::sample_depth`).
 pub const DEPTH_RANGE: std::ops::RangeInclusive<f64> = 0.5..=4.0;
