@@ -504,11 +504,11 @@ mod tests {
         let spacing_mm = 0.69;
         let sphere = crate::mesh::shapes::Shape::Sphere { radius: 10.0 }.triangulate(64);
         assert_eq!(
-            surface_for(&field(split), &sphere, spacing_mm),
+            surface_for(&field(split.clone()), &sphere, spacing_mm),
             SurfaceReconstruction::Interior
         );
         assert_eq!(
-            surface_for(&field(uniform), &sphere, spacing_mm),
+            surface_for(&field(uniform.clone()), &sphere, spacing_mm),
             SurfaceReconstruction::Shepard
         );
         assert_eq!(
@@ -518,6 +518,28 @@ mod tests {
                 spacing_mm
             ),
             SurfaceReconstruction::Interior
+        );
+        // The sample depth follows the same s * spacing: the split sphere and skin1 keep the
+        // deep sample (their lattice would show), the marble grid and marble take the shallow
+        // one; a lattice coarse enough to put marble above the threshold takes the deep one.
+        use crate::quadgraph::surface_samples::DEPTH_SPACINGS;
+        let homogeneous = |m: &Material| MaterialField::Homogeneous(m.with_diffusion(DIFFUSION));
+        assert_eq!(sample_depth_for(&field(split), spacing_mm), DEPTH_SPACINGS);
+        assert_eq!(
+            sample_depth_for(&homogeneous(&skin1), spacing_mm),
+            DEPTH_SPACINGS
+        );
+        assert_eq!(
+            sample_depth_for(&field(uniform), spacing_mm),
+            SHALLOW_SAMPLE_DEPTH
+        );
+        assert_eq!(
+            sample_depth_for(&homogeneous(&marble), spacing_mm),
+            SHALLOW_SAMPLE_DEPTH
+        );
+        assert_eq!(
+            sample_depth_for(&homogeneous(&marble), 10.0),
+            DEPTH_SPACINGS
         );
     }
 
