@@ -11,7 +11,8 @@
 //            m_tt) / 2, linear in (p', rhs) (`solver::transport::sample_on_profile`);
 //   lambda = the lateral term (wave 11): the along-surface Laplacian of the samples p over the
 //            vertex's lateral stencil (the bake's `SurfaceSamples::lateral`: its own and up to 15
-//            neighbouring vertices' samples) divided by its own p, |lambda| depth^2 <= 1
+//            neighbouring vertices' samples) divided by its own p, a negative one cut by its lit
+//            share rhs / (rhs + p) (wave 13), |lambda| depth^2 <= 1
 //            (`solver::transport::lateral_lambda`); two stages (push scale.w): 0 writes every
 //            vertex's p to `sample_phi`, 1 reads them back and does the rest;
 //   phi0, dphi0 = the local 1D profile through p' at `depth` on a surface of mean curvature H:
@@ -75,10 +76,13 @@ vec2 profile_terms(float s2, float depth) {
 
 // `solver::transport::LATERAL_FLOOR`.
 const float LATERAL_FLOOR = 0.5;
+// `solver::transport::LATERAL_LIT_CUT`.
+const float LATERAL_LIT_CUT = 1.0;
 
 // `solver::transport::lateral_lambda`: the stencil's Laplacian over the sample, less the noise
-// floor LATERAL_FLOOR s^2, clamped.
-float lateral_lambda(float laplacian, float p, float s, float depth) {
+// floor LATERAL_FLOOR s^2; a negative one (a lateral maximum) times 1 - LATERAL_LIT_CUT rhs /
+// (rhs + p) (its lit share); clamped.
+float lateral_lambda(float laplacian, float p, float s, float depth, float rhs) {
     if (!(p > 0.0) || !(depth > 0.0) || isinf(p)) {
         return 0.0;
     }
@@ -87,6 +91,9 @@ float lateral_lambda(float laplacian, float p, float s, float depth) {
         return 0.0;
     }
     lambda = sign(lambda) * max(abs(lambda) - LATERAL_FLOOR * s * s, 0.0);
+    if (lambda < 0.0 && rhs > 0.0) {
+        lambda *= max(1.0 - LATERAL_LIT_CUT * rhs / (rhs + p), 0.0);
+    }
     float limit = LATERAL_LIMIT / (depth * depth);
     return clamp(lambda, -limit, limit);
 }
@@ -213,7 +220,7 @@ void main() {
         float s = sqrt(max(sigma_a[c], 0.0) / max(d[c], 1e-30));
         float limit = depth > 0.0 ? PROFILE_CURVATURE_LIMIT / depth : 0.0;
         float k = clamp(curvature, -limit, limit);
-        float lambda = lateral_lambda(laplacian[c], p[c], s, depth);
+        float lambda = lateral_lambda(laplacian[c], p[c], s, depth, rhs[c]);
         // The sample read back onto the profile: the linear weights' bias is linear in (p, rhs).
         float p_sample = p[c];
         if (spread.x != 0.0 || spread.y != 0.0) {

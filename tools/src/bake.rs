@@ -42,7 +42,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<()> {
         translucent::material::Material::preset(crate::render::DEFAULT_MATERIAL)?,
     );
     let resolution = args.object.resolution(&object, &field, None);
-    let params = args.object.bake_params(&resolution);
+    let params = args.object.bake_params_for(&resolution, &field);
     let Object {
         name,
         surface,

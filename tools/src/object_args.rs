@@ -296,6 +296,16 @@ impl ObjectArgs {
         }
     }
 
+    /// [`ObjectArgs::bake_params`] with the interior samples' depth for the material `field`
+    /// ([`translucent::defaults::sample_depth_for`] at the resolution's spacing): what `render`,
+    /// `view` and `bake` bake, so they share cache files.
+    pub fn bake_params_for(&self, resolution: &Resolution, field: &MaterialField) -> BakeParams {
+        BakeParams {
+            sample_depth: translucent::defaults::sample_depth_for(field, resolution.spacing_mm),
+            ..self.bake_params(resolution)
+        }
+    }
+
     /// `--resolution` for `object`: the given cells, or `auto` from the material `field` and,
     /// for a single render, the `image` it is drawn at (camera, height in pixels; `None` for a
     /// host that zooms, or a bake).

@@ -33,6 +33,10 @@ pub struct BakeParams {
     /// Texture block size `r` (paper section 5.1).
     pub block: u32,
     pub stuffing: StuffParams,
+    /// The interior surface samples' depth in finest lattice spacings
+    /// ([`surface_samples::DEPTH_SPACINGS`] by default; `translucent::defaults::sample_depth_for`
+    /// picks it for a material: shallower where the lattice does not show in the sample).
+    pub sample_depth: f64,
     /// Resource limits (surface size, lattice nodes, surface samples), checked before the memory
     /// they bound is allocated; [`Limits::from_env`] by default. Not part of the cache key.
     pub limits: Limits,
@@ -47,6 +51,7 @@ impl Default for BakeParams {
             relax: false,
             block: 32,
             stuffing: StuffParams::default(),
+            sample_depth: surface_samples::DEPTH_SPACINGS,
             limits: Limits::from_env(),
         }
     }
@@ -176,6 +181,13 @@ impl BakeParams {
                 "resolution",
                 self.resolution.to_string(),
                 "the coarsest level would have fewer than 4 cells",
+            );
+        }
+        if !surface_samples::DEPTH_RANGE.contains(&self.sample_depth) {
+            return bad(
+                "sample depth",
+                self.sample_depth.to_string(),
+                "must be 0.5 to 4 finest spacings",
             );
         }
         if !self.k.is_finite() || self.k < 0.0 || self.k > 100.0 {
@@ -350,7 +362,7 @@ impl QuadGraph {
         let shading = shepard::shading_weights(surface, finest, solid);
         timings.push(("shading".into(), start.elapsed().as_secs_f64()));
         let start = Instant::now();
-        let samples = surface_samples::surface_samples(surface, finest, solid);
+        let samples = surface_samples::surface_samples(surface, finest, solid, params.sample_depth);
         timings.push(("samples".into(), start.elapsed().as_secs_f64()));
         let start = Instant::now();
         for (l, level) in levels.iter_mut().enumerate() {

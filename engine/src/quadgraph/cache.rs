@@ -78,6 +78,7 @@ pub fn cache_key(surface: &TriMesh, params: &BakeParams) -> u64 {
     w.f64(params.stuffing.alpha_long);
     w.f64(params.stuffing.alpha_short);
     w.u32(params.stuffing.bisection_steps);
+    w.f64(params.sample_depth);
     fnv1a64(&w.0, FNV_OFFSET)
 }
 

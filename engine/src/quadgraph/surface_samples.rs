@@ -55,8 +55,12 @@ pub const SAMPLE_NODES: usize = 16;
 /// environment (`tools/tests/env_sphere_cli.rs`, the 1% flatness) varies by 1.88% at
 /// 0.875 and 1.67% at 1.0 spacings (lead, wave-10 merge). Since wave 11 the profile has the
 /// lateral term ([`super::lateral`], `solver::transport::lateral_profile_from_sample`): bunny
-/// side 10.7 -> 9.9% at this depth.
+/// side 10.7 -> 9.9% at this depth. Since wave 13 this is `BakeParams::sample_depth`'s default;
+/// the CLI bakes 1.0 where the material's s * spacing <= 0.5 (`defaults::sample_depth_for`:
+/// marble bunny front 8.02 -> 7.82%, side 9.80 -> 8.97% with the depth alone).
 pub const DEPTH_SPACINGS: f64 = 1.5;
+/// The sample depths (finest spacings) a bake accepts (`BakeParams::sample_depth`).
+pub const DEPTH_RANGE: std::ops::RangeInclusive<f64> = 0.5..=4.0;
 pub const DEPTH_WALL_SHARE: f64 = 0.4;
 
 /// The direction a sample is taken in: the vertex normals averaged over this many finest
@@ -703,11 +707,13 @@ fn wall_thickness(solid: &dyn Solid, x: DVec3, n: DVec3, reach: f64, spacing: f6
 }
 
 /// The sample points of `surface`'s vertices (outward unit normals in `surface.normals`, or
-/// computed from the faces) in the finest level, inside `solid`.
+/// computed from the faces) in the finest level, inside `solid`, `depth_spacings` finest
+/// spacings below the smoothed surface ([`DEPTH_SPACINGS`] by default).
 pub fn surface_samples(
     surface: &TriMesh,
     finest: &GraphLevel,
     solid: &dyn Solid,
+    depth_spacings: f64,
 ) -> SurfaceSamples {
     let normals: Vec<DVec3> = if surface.normals.len() == surface.positions.len() {
         surface.normals.clone()
@@ -754,8 +760,8 @@ pub fn surface_samples(
         .zip(&normals)
         .map(|(&x, &n)| {
             let n = n.normalize_or(DVec3::Y);
-            let thickness = wall_thickness(solid, x, n, 4.0 * DEPTH_SPACINGS * h, h);
-            let depth = (DEPTH_SPACINGS * h).min(DEPTH_WALL_SHARE * thickness);
+            let thickness = wall_thickness(solid, x, n, 4.0 * depth_spacings * h, h);
+            let depth = (depth_spacings * h).min(DEPTH_WALL_SHARE * thickness);
             let p = x - n * depth;
             let nearest = tree.nearest_one::<SquaredEuclidean>(&p.to_array()).item as usize;
             let cell = locate(finest, nearest, p).unwrap_or(nearest);

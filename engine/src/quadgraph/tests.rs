@@ -440,6 +440,14 @@ fn bad_parameters_are_typed_errors() {
             block: 0,
             ..Default::default()
         },
+        BakeParams {
+            sample_depth: f64::NAN,
+            ..Default::default()
+        },
+        BakeParams {
+            sample_depth: 0.0,
+            ..Default::default()
+        },
     ] {
         let r = QuadGraph::bake(&surface, &shape, &params, &mut |_| {});
         assert!(matches!(r, Err(BakeError::Parameter { .. })), "{params:?}");
@@ -678,4 +686,34 @@ fn a_box_display_mesh_has_a_vertex_per_face_shading_from_its_own_face() {
             );
         }
     }
+}
+
+#[test]
+fn the_sample_depth_is_a_bake_parameter_and_part_of_the_cache_key() {
+    // A sphere of radius 10 mm on 12 cells (spacing 1.67 mm): no wall is thin enough to bound the
+    // depth, so every vertex's sample lies `sample_depth` finest spacings below it.
+    let shape = Shape::Sphere { radius: 10.0 };
+    let surface = shape.triangulate(16);
+    let mut keys = Vec::new();
+    for sample_depth in [surface_samples::DEPTH_SPACINGS, 1.0] {
+        let params = BakeParams {
+            resolution: 12,
+            levels: 1,
+            sample_depth,
+            ..Default::default()
+        };
+        let (graph, _) = QuadGraph::bake(&surface, &shape, &params, &mut |_| {}).expect("bake");
+        let h = graph.finest().spacing;
+        let depths = &graph.samples.depth;
+        assert!(!depths.is_empty());
+        for (v, d) in depths.iter().enumerate() {
+            assert!(
+                (d / h - sample_depth).abs() < 1e-9,
+                "vertex {v}: depth {d} mm, {} spacings, asked {sample_depth}",
+                d / h
+            );
+        }
+        keys.push(cache::cache_key(&surface, &params));
+    }
+    assert_ne!(keys[0], keys[1], "the cache key ignores the sample depth");
 }

@@ -38,7 +38,7 @@ mod profile;
 pub use profile::{
     curved_profile_from_sample, lateral_clamp, lateral_lambda, lateral_profile_from_sample,
     profile_from_sample, sample_on_lateral_profile, sample_on_profile, LATERAL_FLOOR,
-    LATERAL_LIMIT, PROFILE_CURVATURE_LIMIT, SAMPLE_CORRECTION_LIMIT,
+    LATERAL_LIMIT, LATERAL_LIT_CUT, PROFILE_CURVATURE_LIMIT, SAMPLE_CORRECTION_LIMIT,
 };
 
 /// How exitance is read from phi at the surface.

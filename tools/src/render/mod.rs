@@ -220,7 +220,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 &field,
                 Some((&footprint_camera, frame_desc.height)),
             );
-            let params = args.object.bake_params(&resolution);
+            let params = args.object.bake_params_for(&resolution, &field);
             // The bake cache with its size limit (least recently used bakes are evicted).
             let (graph, stats, outcome, cache_file) =
                 crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;

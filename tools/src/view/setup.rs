@@ -89,7 +89,7 @@ impl Setup {
         let object = args.object.load(Some(DEFAULT_SHAPE))?;
         // `auto`: the material's bound only (the viewer zooms, so no pixel footprint binds).
         let resolution = args.object.resolution(&object, &field, None);
-        let params = args.object.bake_params(&resolution);
+        let params = args.object.bake_params_for(&resolution, &field);
         let start = Instant::now();
         let (mut graph, stats, outcome, file) =
             crate::cache::bake(&object, &params, args.cache_dir.as_deref())?;

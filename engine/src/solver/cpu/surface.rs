@@ -66,7 +66,7 @@ pub fn reconstruct_vertices(
                 let o = optics[c];
                 let depth = samples.depth[v];
                 let (s, rhs) = (o.s(), src.rhs[c]);
-                let lambda = lateral_lambda(laplacian[c], p[c], s, depth);
+                let lambda = lateral_lambda(laplacian[c], p[c], s, depth, rhs);
                 let p =
                     sample_on_lateral_profile(s, lambda, h[c], depth, p[c], rhs, curvature, spread);
                 let (phi0, dphi0) =
@@ -147,7 +147,7 @@ pub fn interior_vertices(
                 let qv = q_v[c];
                 let (depth, rhs) = (samples.depth[v], boundary.flux_gain * qv);
                 // The lateral term: the samples' along-surface Laplacian over the sample.
-                let lambda = lateral_lambda(laplacian[c], p[c], s, depth);
+                let lambda = lateral_lambda(laplacian[c], p[c], s, depth, rhs);
                 let p =
                     sample_on_lateral_profile(s, lambda, h, depth, p[c], rhs, curvature, spread);
                 let (phi0, dphi0) =

@@ -81,16 +81,32 @@ pub fn lateral_clamp(lambda: f64, depth: f64) -> f64 {
 /// The lateral term's lambda at a vertex (1/mm^2): the along-surface Laplacian `laplacian` of
 /// the samples (the vertex's lateral stencil, [`crate::quadgraph::surface_samples::
 /// SurfaceSamples::lateral_laplacian`]) over the vertex's own sample `p`, less the noise floor
-/// [`LATERAL_FLOOR`] s^2 towards 0, clamped by [`lateral_clamp`]; 0 where `p` is not positive
+/// [`LATERAL_FLOOR`] s^2 towards 0; a negative one (a lateral maximum) times 1 -
+/// [`LATERAL_LIT_CUT`] `rhs` / (`rhs` + `p`), its lit share (`rhs`: the profile's Robin
+/// right-hand side at the vertex); clamped by [`lateral_clamp`]; 0 where `p` is not positive
 /// (an absorbing channel that no light reaches).
-pub fn lateral_lambda(laplacian: f64, p: f64, s: f64, depth: f64) -> f64 {
+pub fn lateral_lambda(laplacian: f64, p: f64, s: f64, depth: f64, rhs: f64) -> f64 {
     if !(p > 0.0 && p.is_finite()) {
         return 0.0;
     }
     let lambda = laplacian / p;
     let floor = LATERAL_FLOOR * s * s;
-    lateral_clamp(lambda.signum() * (lambda.abs() - floor).max(0.0), depth)
+    let mut lambda = lambda.signum() * (lambda.abs() - floor).max(0.0);
+    if lambda < 0.0 && rhs > 0.0 {
+        lambda *= (1.0 - LATERAL_LIT_CUT * rhs / (rhs + p)).max(0.0);
+    }
+    lateral_clamp(lambda, depth)
 }
+
+/// How much of a negative lambda (a lateral maximum) [`lateral_lambda`] cuts per unit of its
+/// lit share rhs / (rhs + p) (wave 13, issue 12; benches/RESULTS.md "A shallower interior
+/// sample with the lateral term"): under the light the remainder's lateral shape near the
+/// surface is the sources', not the sample's, and the full term overcorrects (the side-lit
+/// bunny's brightest pixels were 4% dark). Measured against path tracing at 1.0 spacings
+/// (front / side %): no cut 7.82 / 8.97, 0.5 7.64 / 8.99, 1.0 **7.56** / 9.13, 2.0 7.68 / 9.43;
+/// every negative lambda halved 7.61 / 9.02 (but that also halves it where the exact unlit
+/// mode needs all of it). An unlit lateral maximum (rhs <= 0) keeps the whole term.
+pub const LATERAL_LIT_CUT: f64 = 1.0;
 
 /// The noise floor of the estimated lambda per unit s^2: the samples interpolate phi linearly
 /// over the lattice, so where phi falls by e^(s spacing) between nodes (a strongly absorbing
@@ -352,7 +368,7 @@ mod tests {
                     .filter(|(u, _)| **u != NO_NODE)
                     .map(|(&u, &wk)| wk * p(points[u as usize]))
                     .sum();
-                let estimate = lateral_lambda(laplacian, f_depth, s, depth);
+                let estimate = lateral_lambda(laplacian, f_depth, s, depth, 0.0);
                 let (phi0, dphi0) =
                     lateral_profile_from_sample(s, estimate, h, depth, f_depth, 0.0, 0.0);
                 assert!(
@@ -395,12 +411,52 @@ mod tests {
             let p = sample_on_lateral_profile(s, lambda, h, depth, 2.0, 1.0, 0.1, [0.3, 0.6]);
             assert!(p.is_finite() && p > 0.0, "{p}");
         }
-        assert_eq!(lateral_lambda(1.0, 0.0, s, depth), 0.0);
-        assert_eq!(lateral_lambda(1.0, -1.0, s, depth), 0.0);
+        assert_eq!(lateral_lambda(1.0, 0.0, s, depth, 0.0), 0.0);
+        assert_eq!(lateral_lambda(1.0, -1.0, s, depth, 0.0), 0.0);
         assert_eq!(
-            lateral_lambda(1e9, 1.0, s, depth),
+            lateral_lambda(1e9, 1.0, s, depth, 0.0),
             LATERAL_LIMIT / (depth * depth)
         );
+    }
+
+    #[test]
+    fn the_lit_share_cuts_a_negative_lambda_only() {
+        // Unlit (rhs <= 0, or not a number): the wave-11 estimate, whatever its sign; lit: a
+        // negative lambda shrinks with the lit share rhs / (rhs + p) and keeps its sign, a
+        // positive one is left alone.
+        let (s, depth, p) = (0.1, 0.8, 2.0);
+        let unlit = |laplacian: f64| {
+            let lambda = laplacian / p;
+            let floor = LATERAL_FLOOR * s * s;
+            lateral_clamp(lambda.signum() * (lambda.abs() - floor).max(0.0), depth)
+        };
+        for laplacian in [-0.5, -0.1, 0.1, 0.5] {
+            for rhs in [0.0, -1.0, f64::NAN] {
+                assert_eq!(
+                    lateral_lambda(laplacian, p, s, depth, rhs),
+                    unlit(laplacian),
+                    "rhs {rhs}"
+                );
+            }
+            let mut last = unlit(laplacian);
+            for rhs in [0.5, 2.0, 8.0, f64::INFINITY] {
+                let lambda = lateral_lambda(laplacian, p, s, depth, rhs);
+                assert!(lambda.is_finite(), "{lambda}");
+                if laplacian > 0.0 {
+                    assert_eq!(lambda, unlit(laplacian), "rhs {rhs}");
+                } else {
+                    let share = (1.0 - LATERAL_LIT_CUT * rhs / (rhs + p)).max(0.0);
+                    assert!(
+                        lambda <= 0.0 && lambda >= last,
+                        "rhs {rhs}: {lambda} after {last}"
+                    );
+                    if rhs.is_finite() {
+                        assert!((lambda - share * unlit(laplacian)).abs() < 1e-12);
+                    }
+                    last = lambda;
+                }
+            }
+        }
     }
 
     /// The corrected sample's error against phi at the sample point: the quadratic term leaves
