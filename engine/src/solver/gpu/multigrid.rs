@@ -900,6 +900,14 @@ impl GpuMultigrid {
             if let Some(relaxation) = local_relaxation {
                 // Where the start's residual exceeds the tolerance (it needs ||f||).
                 rec.local_relaxation(relaxation);
+                // The smooth remainder: coarse-grid corrections (a V(0,0) cycle each), the local
+                // relaxation again between two of them.
+                for k in 0..self.params.warm_corrections {
+                    if k > 0 {
+                        rec.local_relaxation_again(relaxation);
+                    }
+                    rec.v_cycle_with(top, false, (0, 0));
+                }
             }
             if !warm {
                 for l in (1..=top).rev() {

@@ -185,6 +185,12 @@ pub struct MultigridParams {
     /// The GPU's warm start relaxed locally where its residual exceeds the tolerance before the
     /// cycles (`None`: not; the CPU solve ignores it).
     pub local_relaxation: Option<LocalRelaxation>,
+    /// After the local relaxation, this many coarse-grid corrections of the warm start (the
+    /// finest residual restricted, one V-cycle on the levels below, prolonged and added: a V(0,0)
+    /// cycle), the local relaxation again between two of them (wave 13, benches/RESULTS.md "One
+    /// CG iteration per warm frame"): the smooth remainder the extrapolation misses, which the
+    /// local sweeps do not reach. 0: none. Only where the local relaxation runs.
+    pub warm_corrections: u32,
 }
 
 impl Default for MultigridParams {
@@ -224,6 +230,7 @@ impl Default for MultigridParams {
             power_iterations: 20,
             warm_start: WarmStart::Last,
             local_relaxation: None,
+            warm_corrections: 0,
         }
     }
 }
@@ -290,6 +297,9 @@ impl MultigridParams {
         }
     }
 
+    /// The most [`Self::warm_corrections`] a solve may ask for.
+    pub const MAX_WARM_CORRECTIONS: u32 = 4;
+
     /// Pre- and post-smoothing sweeps on `level` of a hierarchy whose finest level is `finest`.
     pub fn sweeps_at(&self, level: usize, finest: usize) -> (u32, u32) {
         match self.coarse_sweeps {
@@ -319,6 +329,16 @@ impl MultigridParams {
 
     pub fn validate(&self) -> Result<(), SolverError> {
         let bad = |name, problem: String| Err(SolverError::BadParameter { name, problem });
+        if self.warm_corrections > Self::MAX_WARM_CORRECTIONS {
+            return bad(
+                "warm corrections",
+                format!(
+                    "{} (at most {})",
+                    self.warm_corrections,
+                    Self::MAX_WARM_CORRECTIONS
+                ),
+            );
+        }
         match self.smoother {
             Smoother::Jacobi { omega } if !(omega > 0.0 && omega < 2.0) => {
                 return bad("omega", format!("{omega} must lie in (0, 2)"));
