@@ -320,24 +320,35 @@ pub(super) fn probe(
         }
         for tol in [1e-1, 1e-11] {
             let xc = coarse(&xl, tol);
-            report(&format!("+ coarse correction (levels below the finest to {tol:.0e})"), &xc);
+            report(
+                &format!("+ coarse correction (levels below the finest to {tol:.0e})"),
+                &xc,
+            );
             let xcs = sweep(&xc);
             report("  + 1 global sweep", &xcs);
             let xcs2 = sweep(&xcs);
             report("  + 2 global sweeps", &xcs2);
             let (xcl, listed) = local_relaxation(op, f, &xc, tolerance, l.rings, l.sweeps);
-            report(&format!("  + local {}x{} again ({listed} nodes)", l.rings, l.sweeps), &xcl);
+            report(
+                &format!("  + local {}x{} again ({listed} nodes)", l.rings, l.sweeps),
+                &xcl,
+            );
         }
         // Sequences of local relaxations (L: the cycle's, l: 2x8) and coarse corrections (C).
         let lsmall = (2u32, 8u32);
-        for seq in ["CL", "LCL", "LCLC", "LClC", "LCLCL", "LClCl", "LCLs", "LCsL", "LCC", "LCLCs"] {
+        for seq in [
+            "CL", "LCL", "LCLC", "LClC", "LCLCL", "LClCl", "LCLs", "LCsL", "LCC", "LCLCs",
+        ] {
             let mut xq = x0.clone();
             let mut notes = Vec::new();
             for op_ch in seq.chars() {
                 match op_ch {
                     'L' | 'l' => {
-                        let (rings, sweeps) =
-                            if op_ch == 'L' { (l.rings, l.sweeps) } else { lsmall };
+                        let (rings, sweeps) = if op_ch == 'L' {
+                            (l.rings, l.sweeps)
+                        } else {
+                            lsmall
+                        };
                         let (xn, listed) = local_relaxation(op, f, &xq, tolerance, rings, sweeps);
                         notes.push(format!("{op_ch} {listed}"));
                         xq = xn;
@@ -349,9 +360,11 @@ pub(super) fn probe(
             report(&format!("sequence {seq} ({})", notes.join(", ")), &xq);
         }
         for frac in [0.5, 0.25] {
-            let (xf, listed) =
-                local_relaxation(op, f, &x0, tolerance * frac, l.rings, l.sweeps);
-            report(&format!("local marking at {frac} tol ({listed} nodes)"), &xf);
+            let (xf, listed) = local_relaxation(op, f, &x0, tolerance * frac, l.rings, l.sweeps);
+            report(
+                &format!("local marking at {frac} tol ({listed} nodes)"),
+                &xf,
+            );
         }
     }
     // The best any local fix can do: the residual on the jump nodes solved exactly (its far

@@ -906,6 +906,22 @@ impl GpuMultigrid {
                     if k > 0 {
                         rec.local_relaxation_again(relaxation);
                     }
+                    // why: the cycle's indirect dispatches read the control record the local
+                    // relaxation's last range pass wrote (its listed count), and its residual
+                    // reads the x the sweeps wrote (RAW at DRAW_INDIRECT and in compute).
+                    barrier::record(
+                        ctx,
+                        cb,
+                        &[super::raw_barrier(
+                            S::COMPUTE_SHADER,
+                            A::SHADER_STORAGE_WRITE,
+                            S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                            A::INDIRECT_COMMAND_READ
+                                | A::SHADER_STORAGE_READ
+                                | A::SHADER_STORAGE_WRITE,
+                        )],
+                        &[],
+                    );
                     rec.v_cycle_with(top, false, (0, 0));
                 }
             }

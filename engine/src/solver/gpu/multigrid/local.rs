@@ -194,7 +194,9 @@ impl Recorder<'_, '_> {
                 )],
                 &[],
             );
-            self.mg.local_layout.clear(self.ctx, self.cb, &self.mg.local);
+            self.mg
+                .local_layout
+                .clear(self.ctx, self.cb, &self.mg.local);
             // why: the marking reads and updates the cleared flags and header (RAW, WAW after
             // the transfer), the later passes read the header as indirect arguments.
             barrier::record(
