@@ -13,7 +13,8 @@
 //   0 mark:     every finest node: r = f - K x; listed where any channel |r| > tol ||f||
 //   1 ring:     one invocation: the range is the nodes listed since the last range
 //   2 grow:     each node of the range lists its neighbours not flagged yet
-//   3 all:      one invocation: the range is the whole list; control.local_nodes = its length
+//   3 all:      one invocation: the range is the whole list; control.local_nodes += its length
+//               (a warm start with coarse corrections relaxes locally more than once)
 //   4 residual: each listed node: r = f - K x (into the level's r)
 //   5 step:     each listed node: x += omega B^-1 r (B the 2x2 block with the partner where the
 //               partner is listed too, else the diagonal); omega in pc.beta
@@ -106,7 +107,7 @@ void main() {
             set_range(local.v[END], listed);
         } else {
             set_range(0u, listed);
-            control.c.local_nodes = listed;
+            control.c.local_nodes += listed;
         }
         return;
     }

@@ -247,6 +247,126 @@ pub(super) fn probe(
             log(&w.cycles)
         );
     }
+    // What the default local relaxation leaves, and what removes it (wave 13): global damped
+    // block-Jacobi sweeps (a high-frequency remainder), a coarse-grid correction (a smooth one),
+    // both, and the relaxation marking at a fraction of the tolerance.
+    if let Some(l) = cycle.local_relaxation {
+        let (xl, _) = local_relaxation(op, f, &x0, tolerance, l.rings, l.sweeps);
+        let mut rl = vec![[0.0; 3]; n];
+        op.residual(&xl, f, &mut rl);
+        let el = energy(&rl);
+        let tl: f64 = el.iter().sum();
+        let mut sl = el.clone();
+        sl.sort_by(|a, b| b.total_cmp(a));
+        println!(
+            "  after local {}x{}: residual {:.3e}; share on surface nodes {:.3}, top 100 {:.3}, top 1000 {:.3}, top 10000 {:.3}",
+            l.rings,
+            l.sweeps,
+            rel(&rl, f),
+            el[inner..].iter().sum::<f64>() / tl,
+            sl.iter().take(100).sum::<f64>() / tl,
+            sl.iter().take(1000).sum::<f64>() / tl,
+            sl.iter().take(10000).sum::<f64>() / tl,
+        );
+        let top = h.levels.len() - 1;
+        let sweep = |x: &[Rgb]| -> Vec<Rgb> {
+            let mut r = vec![[0.0; 3]; n];
+            op.residual(x, f, &mut r);
+            (0..n)
+                .map(|i| {
+                    let d = op.block_solve(i, &r);
+                    std::array::from_fn(|c| x[i][c] + 0.8 * d[c])
+                })
+                .collect()
+        };
+        let coarse = |x: &[Rgb], tol: f64| -> Vec<Rgb> {
+            let mut r = vec![[0.0; 3]; n];
+            op.residual(x, f, &mut r);
+            let Some(p) = h.levels[top].prolongation.as_ref() else {
+                return x.to_vec();
+            };
+            let mut rc = vec![[0.0; 3]; p.coarse_count()];
+            p.restrict(&r, &mut rc);
+            let sub = Hierarchy {
+                levels: h.levels[..top].to_vec(),
+                finest: h.finest.clone(),
+                coarse: h.coarse,
+            };
+            let sub_params = MultigridParams {
+                tolerance: tol,
+                max_cycles: 200,
+                ..cycle.clone()
+            };
+            let (e, _) = sub.solve(&rc, Start::Cold, &sub_params, &mut |_, _| {});
+            let mut out = x.to_vec();
+            p.prolong_add(&e, &mut out);
+            out
+        };
+        let report = |name: &str, x: &[Rgb]| {
+            let mut rr = vec![[0.0; 3]; n];
+            op.residual(x, f, &mut rr);
+            let (_, w) = h.solve(f, Start::Warm(x), &params, &mut |_, _| {});
+            println!(
+                "    {name}: residual {:.3e}, then {:.1} WU [{}]",
+                rel(&rr, f),
+                w.work_units,
+                log(&w.cycles)
+            );
+        };
+        let mut xs1 = xl.clone();
+        for k in 1..=3 {
+            xs1 = sweep(&xs1);
+            report(&format!("+ {k} global damped block-Jacobi sweeps"), &xs1);
+        }
+        for tol in [1e-1, 1e-11] {
+            let xc = coarse(&xl, tol);
+            report(
+                &format!("+ coarse correction (levels below the finest to {tol:.0e})"),
+                &xc,
+            );
+            let xcs = sweep(&xc);
+            report("  + 1 global sweep", &xcs);
+            let xcs2 = sweep(&xcs);
+            report("  + 2 global sweeps", &xcs2);
+            let (xcl, listed) = local_relaxation(op, f, &xc, tolerance, l.rings, l.sweeps);
+            report(
+                &format!("  + local {}x{} again ({listed} nodes)", l.rings, l.sweeps),
+                &xcl,
+            );
+        }
+        // Sequences of local relaxations (L: the cycle's, l: 2x8) and coarse corrections (C).
+        let lsmall = (2u32, 8u32);
+        for seq in [
+            "CL", "LCL", "LCLC", "LClC", "LCLCL", "LClCl", "LCLs", "LCsL", "LCC", "LCLCs",
+        ] {
+            let mut xq = x0.clone();
+            let mut notes = Vec::new();
+            for op_ch in seq.chars() {
+                match op_ch {
+                    'L' | 'l' => {
+                        let (rings, sweeps) = if op_ch == 'L' {
+                            (l.rings, l.sweeps)
+                        } else {
+                            lsmall
+                        };
+                        let (xn, listed) = local_relaxation(op, f, &xq, tolerance, rings, sweeps);
+                        notes.push(format!("{op_ch} {listed}"));
+                        xq = xn;
+                    }
+                    'C' => xq = coarse(&xq, 1e-1),
+                    _ => xq = sweep(&xq),
+                }
+            }
+            report(&format!("sequence {seq} ({})", notes.join(", ")), &xq);
+        }
+        for frac in [0.5, 0.25] {
+            let (xf, listed) = local_relaxation(op, f, &x0, tolerance * frac, l.rings, l.sweeps);
+            report(
+                &format!("local marking at {frac} tol ({listed} nodes)"),
+                &xf,
+            );
+        }
+    }
     // The best any local fix can do: the residual on the jump nodes solved exactly (its far
     // field too), for each extrapolation order.
     for ord in 0..=2u32.min(earlier.len() as u32 - 1) {

@@ -903,6 +903,30 @@ impl GpuMultigrid {
             if let Some(relaxation) = local_relaxation {
                 // Where the start's residual exceeds the tolerance (it needs ||f||).
                 rec.local_relaxation(relaxation);
+                // The smooth remainder: coarse-grid corrections (a V(0,0) cycle each), the local
+                // relaxation again between two of them.
+                for k in 0..self.params.warm_corrections {
+                    if k > 0 {
+                        rec.local_relaxation_again(relaxation);
+                    }
+                    // why: the cycle's indirect dispatches read the control record the local
+                    // relaxation's last range pass wrote (its listed count), and its residual
+                    // reads the x the sweeps wrote (RAW at DRAW_INDIRECT and in compute).
+                    barrier::record(
+                        ctx,
+                        cb,
+                        &[super::raw_barrier(
+                            S::COMPUTE_SHADER,
+                            A::SHADER_STORAGE_WRITE,
+                            S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                            A::INDIRECT_COMMAND_READ
+                                | A::SHADER_STORAGE_READ
+                                | A::SHADER_STORAGE_WRITE,
+                        )],
+                        &[],
+                    );
+                    rec.v_cycle_with(top, false, (0, 0));
+                }
             }
             if !warm {
                 for l in (1..=top).rev() {

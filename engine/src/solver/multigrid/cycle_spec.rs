@@ -22,6 +22,7 @@
 //! | `pathw` | `path_weight` (each path edge's multiple of the dropped weight) | `pathw=2` |
 //! | `dropfrom` | `sparsify_from_full` (`full`: each product from the exact operator; `sparse`) | `dropfrom=sparse` |
 //! | `local` | `local_relaxation` (`RINGSxSWEEPS` or `off`) | `local=4x16` |
+//! | `wcc` | `warm_corrections` (coarse-grid corrections after the local relaxation, 0-4) | `wcc=2` |
 //!
 //! ```
 //! use translucent::solver::multigrid::MultigridParams;
@@ -33,6 +34,8 @@
 //! assert!(MultigridParams::gpu().with_cycle_spec("local=off")?.local_relaxation.is_none());
 //! assert!(MultigridParams::gpu().with_cycle_spec("local=4").is_err());
 //! assert!(MultigridParams::gpu().with_cycle_spec("local=4x0").is_err());
+//! assert_eq!(MultigridParams::gpu().with_cycle_spec("wcc=2")?.warm_corrections, 2);
+//! assert!(MultigridParams::gpu().with_cycle_spec("wcc=5").is_err());
 //! # Ok::<(), translucent::solver::SolverError>(())
 //! ```
 
@@ -143,9 +146,10 @@ impl MultigridParams {
                         })?),
                     }
                 }
+                "wcc" => p.warm_corrections = count(value)?,
                 k => {
                     return Err(bad(format!(
-                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, lanczos, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom, local)"
+                        "unknown key `{k}` (nu, cnu, cheb, jacobi, ctol, lanczos, fmg, fnu, krylov, interp, psmooth, warm, drop, lump, pathw, dropfrom, local, wcc)"
                     )))
                 }
             }

@@ -70,7 +70,8 @@ mod sparsify;
 
 pub use options::{
     quantized_links, CoarseOperator, FinestOperator, Interpolation, LinkStorage, LocalRelaxation,
-    OperatorStorage, UpdateStorage, VectorStorage, WarmStart, LINK_WEIGHT_STEPS, LINK_WEIGHT_ZERO,
+    OperatorStorage, UpdateStorage, VectorStorage, WarmStart, DIVERGED, LINK_WEIGHT_STEPS,
+    LINK_WEIGHT_ZERO, MAX_WARM_CORRECTIONS,
 };
 pub use prolongation::{linear_links, mixed_links, Prolongation};
 use smoothers::*;
@@ -86,10 +87,6 @@ type SparseRow = Vec<(u32, [f64; 3])>;
 /// Safety factor on the Lanczos estimate of lambda_max (an estimate from below): a Chebyshev
 /// smoother whose upper bound is below the true lambda_max amplifies the modes above it.
 const LAMBDA_MARGIN: f64 = 1.05;
-
-/// A relative residual (against the right-hand side) above this means the cycles diverge: the
-/// solve stops there instead of running to `max_cycles` (a cold start begins at <= 1).
-pub const DIVERGED: f64 = 1e3;
 
 /// The smoother of every level but the coarsest.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -185,6 +182,10 @@ pub struct MultigridParams {
     /// The GPU's warm start relaxed locally where its residual exceeds the tolerance before the
     /// cycles (`None`: not; the CPU solve ignores it).
     pub local_relaxation: Option<LocalRelaxation>,
+    /// Coarse-grid corrections (V(0,0) cycles) after the local relaxation, which runs again
+    /// between two of them; 0: none; only where the local relaxation runs (the GPU's; the CPU
+    /// solve ignores it). At most [`MAX_WARM_CORRECTIONS`].
+    pub warm_corrections: u32,
 }
 
 impl Default for MultigridParams {
@@ -224,6 +225,7 @@ impl Default for MultigridParams {
             power_iterations: 20,
             warm_start: WarmStart::Last,
             local_relaxation: None,
+            warm_corrections: 0,
         }
     }
 }
@@ -319,6 +321,7 @@ impl MultigridParams {
 
     pub fn validate(&self) -> Result<(), SolverError> {
         let bad = |name, problem: String| Err(SolverError::BadParameter { name, problem });
+        options::check_warm_corrections(self.warm_corrections)?;
         match self.smoother {
             Smoother::Jacobi { omega } if !(omega > 0.0 && omega < 2.0) => {
                 return bad("omega", format!("{omega} must lie in (0, 2)"));

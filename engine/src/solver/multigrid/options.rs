@@ -5,6 +5,28 @@
 use crate::quadgraph::graph::{ShepardLinks, NO_NODE};
 use crate::solver::SolverError;
 
+/// A relative residual (against the right-hand side) above this means the cycles diverge: the
+/// solve stops there instead of running to `max_cycles` (a cold start begins at <= 1).
+pub const DIVERGED: f64 = 1e3;
+
+/// The most coarse-grid corrections of a warm start (`MultigridParams::warm_corrections`;
+/// wave 13, benches/RESULTS.md "One CG iteration per warm frame": after the local relaxation,
+/// the finest residual restricted, one V-cycle on the levels below, prolonged and added, the
+/// local relaxation again between two of them; the smooth remainder the extrapolation misses,
+/// which the local sweeps do not reach).
+pub const MAX_WARM_CORRECTIONS: u32 = 4;
+
+/// `warm_corrections` within [`MAX_WARM_CORRECTIONS`].
+pub(super) fn check_warm_corrections(n: u32) -> Result<(), SolverError> {
+    if n > MAX_WARM_CORRECTIONS {
+        return Err(SolverError::BadParameter {
+            name: "warm corrections",
+            problem: format!("{n} (at most {MAX_WARM_CORRECTIONS})"),
+        });
+    }
+    Ok(())
+}
+
 /// How the coarse levels' operators are made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum CoarseOperator {

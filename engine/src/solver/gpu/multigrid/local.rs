@@ -170,28 +170,88 @@ impl Recorder<'_, '_> {
     }
 }
 
+impl Recorder<'_, '_> {
+    /// [`Self::local_relaxation`] once more in the same solve: the list's header and flags
+    /// cleared first (the listed count adds up in the control record).
+    ///
+    /// # Safety
+    /// As [`GpuMultigrid::record`].
+    pub(super) unsafe fn local_relaxation_again(&self, relaxation: LocalRelaxation) {
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        // SAFETY: the caller's contract.
+        unsafe {
+            // why: the last relaxation's passes read and wrote the list and read it as indirect
+            // arguments; the clear overwrites them (WAR, WAW).
+            barrier::record(
+                self.ctx,
+                self.cb,
+                &[super::super::raw_barrier(
+                    S::COMPUTE_SHADER | S::DRAW_INDIRECT,
+                    A::SHADER_STORAGE_WRITE,
+                    S::COPY,
+                    A::TRANSFER_WRITE,
+                )],
+                &[],
+            );
+            self.mg
+                .local_layout
+                .clear(self.ctx, self.cb, &self.mg.local);
+            // why: the marking reads and updates the cleared flags and header (RAW, WAW after
+            // the transfer), the later passes read the header as indirect arguments.
+            barrier::record(
+                self.ctx,
+                self.cb,
+                &[super::super::raw_barrier(
+                    S::COPY,
+                    A::TRANSFER_WRITE,
+                    S::DRAW_INDIRECT | S::COMPUTE_SHADER,
+                    A::INDIRECT_COMMAND_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                )],
+                &[],
+            );
+            self.local_relaxation(relaxation);
+        }
+    }
+}
+
 impl GpuMultigrid {
-    /// Node updates of a warm start's local relaxation that listed `listed` nodes: the marking
-    /// pass over the finest level, one visit per listed node in the ring passes (each visits the
-    /// nodes the one before listed) and one per sweep.
+    /// Local relaxations of one warm start: one, and one more between two coarse corrections
+    /// ([`MultigridParams::warm_corrections`]).
+    fn local_passes(&self) -> u64 {
+        u64::from(self.params.warm_corrections.max(1))
+    }
+
+    /// Node updates of a warm start's local relaxations that listed `listed` nodes together:
+    /// per relaxation the marking pass over the finest level, one visit per listed node in the
+    /// ring passes (each visits the nodes the one before listed) and one per sweep; and the
+    /// coarse corrections after them (a V(0,0) cycle each).
     pub(super) fn local_updates(&self, listed: u64) -> u64 {
         match self.params.local_relaxation {
             Some(r) => {
-                let n_top = u64::from(self.levels[self.top()].count);
-                n_top + listed * u64::from(r.sweeps + u32::from(r.rings > 0))
+                let top = self.top();
+                let n_top = u64::from(self.levels[top].count);
+                self.local_passes() * n_top
+                    + listed * u64::from(r.sweeps + u32::from(r.rings > 0))
+                    + u64::from(self.params.warm_corrections)
+                        * self.v_cycle_updates_with(top, (0, 0))
             }
             None => 0,
         }
     }
 
-    /// Matrix entries the same passes read: the marking's residual and one per sweep on the
-    /// listed nodes (their rows: the finest level's mean).
+    /// Matrix entries the same passes read: the markings' residuals, one per sweep on the
+    /// listed nodes (their rows: the finest level's mean) and the coarse corrections'.
     pub(super) fn local_entries(&self, listed: u64) -> u64 {
         match self.params.local_relaxation {
             Some(r) => {
-                let level = &self.levels[self.top()];
+                let top = self.top();
+                let level = &self.levels[top];
                 let per_row = level.entries as f64 / f64::from(level.count.max(1));
-                level.entries + (listed as f64 * f64::from(r.sweeps) * per_row).round() as u64
+                self.local_passes() * level.entries
+                    + (listed as f64 * f64::from(r.sweeps) * per_row).round() as u64
+                    + u64::from(self.params.warm_corrections)
+                        * self.v_cycle_entries_with(top, false, (0, 0))
             }
             None => 0,
         }
