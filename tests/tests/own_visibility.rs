@@ -25,9 +25,11 @@ use translucent_tests::{multilevel_object, render_once, GpuTest};
 /// off) is a shadow-edge vertex.
 const MOVED: f64 = 0.05;
 
-/// GPU against the f64 reference with the rule, over the shadow-edge vertices: the shadow map's
-/// 3x3 PCF (a fractional visibility within about a texel of the edge) against the CPU's one ray;
-/// and at most this share of the GPU-without-the-rule's distance there.
+/// GPU against the f64 reference with the rule, over the shadow-edge vertices, at most this share
+/// of the GPU-without-the-rule's distance there. Measured: 146 edge vertices of 8192, GPU with the
+/// rule 0.98 (relative RMS; mostly dark vertices, whose small values the shadow map's 3x3 PCF,
+/// fractional within about a texel of the edge, and the CPU's one ray set differently), without
+/// 2.65 (0.37 of it); 0.027 over every vertex.
 const GPU_VS_CPU_EDGE: f64 = 0.5;
 
 #[test]
@@ -63,15 +65,16 @@ fn own_visibility_takes_the_lit_beam_at_the_vertex_visibility() {
         std::array::from_fn(|c| 0.5 * nodes[0].1[c] + 0.2 * nodes[2].1[c]),
         std::array::from_fn(|c| 0.5 * nodes[0].2[c] + 0.2 * nodes[2].2[c]),
     );
-    assert_eq!(average(-1.0), plain);
+    let close = |(q, p): ([f64; 3], [f64; 3]), (wq, wp): ([f64; 3], [f64; 3])| {
+        (0..3).all(|c| (q[c] - wq[c]).abs() < 1e-12 && (p[c] - wp[c]).abs() < 1e-12)
+    };
+    assert!(close(average(-1.0), plain), "{:?}", average(-1.0));
     let dark = [
         (0.5, [0.0; 3], [0.0; 3], OWN_VISIBILITY_LIT / 2.0),
         nodes[2],
     ];
-    assert_eq!(
-        own_visibility_sources(dark.into_iter(), 1.0),
-        ([0.2; 3], [0.6; 3])
-    );
+    let got = own_visibility_sources(dark.into_iter(), 1.0);
+    assert!(close(got, ([0.2; 3], [0.6; 3])), "{got:?}");
 }
 
 #[test]
