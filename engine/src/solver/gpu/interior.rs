@@ -345,9 +345,15 @@ impl GpuDiffusion {
         Ok(())
     }
 
-    /// The display vertices' gather level ([`VertexGather`]), where the interior pass reads it.
+    /// The display vertices' gather level ([`VertexGather`]), where the interior pass reads it
+    /// ([`super::GpuSolveParams::own_visibility`] with a beam source; `None` otherwise: the
+    /// frame then neither gathers nor declares it).
     pub(crate) fn vertex_gather(&self) -> Option<&VertexGather> {
-        self.interior.as_ref().map(|i| &i.vertex_gather)
+        let wanted = self.params.collimated && self.params.own_visibility;
+        self.interior
+            .as_ref()
+            .filter(|_| wanted)
+            .map(|i| &i.vertex_gather)
     }
 
     /// How the display vertices get their exitance in this solve: `Interior` or `Shepard`
