@@ -84,6 +84,11 @@ pub const HETEROGENEOUS_SOURCE: Source = Source::SecondCollision;
 /// GPU": 11 of 13 references better, the back-lit marble sphere 18.4 -> 9.8 %, the back-lit
 /// U-block 18.7 -> 21.7 and the front-lit bunny 11.9 -> 12.4 worse).
 pub const UPSTREAM_BEAM: bool = true;
+/// A display vertex's lit beam sources at its own light visibility where below its source
+/// nodes' (render `--own-visibility`; `solver::transport::Transport::own_visibility`;
+/// benches/RESULTS.md, "Shadow edges on the front-lit bunny (wave 13)": front-lit bunny 8.02 ->
+/// 7.65%, side-lit 9.80 -> 9.88%, the other eleven references unchanged).
+pub const OWN_VISIBILITY: bool = true;
 /// One bounce of exitance between display vertices for the QuadGraph method (benches/RESULTS.md,
 /// "One bounce between surface points": 4-8 points off every concave scene against path tracing,
 /// the convex sphere unchanged, < 1 ms a frame; its links are stored with the bake, a convex mesh

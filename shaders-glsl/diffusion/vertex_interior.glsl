@@ -5,7 +5,11 @@
 //   q, P   = the surface nodes' q and collimated exit part averaged with the vertex's source
 //            weights (the bake's `SurfaceSamples::sources`: up to 16 surface nodes within 1.5
 //            finest spacings, so a scan's bumps do not show through the nodes' cosines; the
-//            lattice is in phi_s - phi_k, which is no longer read);
+//            lattice is in phi_s - phi_k, which is no longer read); with own visibility (push
+//            scale.z 2, wave 13) the lit beam's part of both at the vertex's own light visibility
+//            (`vertex_particular`'s alpha, the gather run at the display vertices) where that is
+//            below the nodes' (their particular alpha), so a cast shadow's dark side ends at the
+//            display mesh's edge, not ~1.5 spacings into it;
 //   p'     = p read back onto the profile: the weights are exact for linear phi only, and the
 //            profile's Hessian over the nodes' second moments adds (phi_zz m_nn - kappa phi_z
 //            m_tt) / 2, linear in (p', rhs) (`solver::transport::sample_on_profile`);
@@ -50,6 +54,15 @@ layout(set = 0, binding = 11, std430) buffer SamplePhi { vec4 values[]; } sample
 // Per vertex 4 uvec4: 16 vertex ids of its lateral stencil; 4 vec4: their weights (1/mm^2).
 layout(set = 0, binding = 12, std430) readonly buffer LateralNodes { uvec4 nodes[]; } lateral_nodes;
 layout(set = 0, binding = 13, std430) readonly buffer LateralWeights { vec4 weights[]; } lateral_weights;
+// The gather at the display vertices themselves (`solver::gpu::interior`'s vertex level, vertex v
+// at texel (v % VERTEX_GATHER_WIDTH, v / VERTEX_GATHER_WIDTH)): rgb the vertex's own collimated
+// exit part, a its own light visibility where that part is the lit beam's (-1 elsewhere).
+layout(set = 0, binding = 14, rgba16f) uniform readonly image2D vertex_particular;
+
+// `solver::gpu::interior::VERTEX_GATHER_WIDTH`.
+const uint VERTEX_GATHER_WIDTH = 256u;
+// `solver::cpu::OWN_VISIBILITY_LIT`.
+const float OWN_VISIBILITY_LIT = 1e-3;
 
 // `solver::transport::PROFILE_CURVATURE_LIMIT`.
 const float PROFILE_CURVATURE_LIMIT = 0.5;
@@ -147,7 +160,8 @@ layout(push_constant) uniform InteriorPush {
     vec4 kappa;     // homogeneous: D rgb; a: 1 = read the kappa / mu images (heterogeneous)
     vec4 mu;        // homogeneous: sigma_a rgb; a: 2A (h = 2 A D)
     vec4 exit;      // x: phi factor, y: D dphi factor, z: q factor (flux query), w: flux gain
-    vec4 scale;     // x: 1 / q_scale, y: shading input per unit exitance, z: 1 = add P,
+    vec4 scale;     // x: 1 / q_scale, y: shading input per unit exitance, z: 1 = add P, 2 = add
+                    // P, the beam's q and P at the vertex's own visibility,
                     // w: the stage (0: the samples' phi into sample_phi, 1: the exitance)
 } pc;
 
@@ -190,17 +204,44 @@ void main() {
     // The sources at the vertex.
     vec3 qv = vec3(0.0);
     vec3 part = vec3(0.0);
+    // The lit beam's share of q and P (nodes whose particular alpha is their visibility, both
+    // then proportional to it), its weight and its visibility-weighted weight.
+    vec3 q_beam = vec3(0.0);
+    vec3 part_beam = vec3(0.0);
+    float w_beam = 0.0;
+    float w_vis = 0.0;
     for (uint g = 0u; g < 4u; ++g) {
         uvec4 l = source_nodes.nodes[4u * v + g];
         vec4 sw = source_weights.weights[4u * v + g];
         for (int k = 0; k < 4; ++k) {
             if (sw[k] != 0.0) {
                 ivec2 t = texel(l[k]);
-                qv += sw[k] * imageLoad(q, t).rgb;
+                vec3 qk = imageLoad(q, t).rgb;
+                qv += sw[k] * qk;
                 if (pc.scale.z > 0.5) {
-                    part += sw[k] * imageLoad(particular, t).rgb;
+                    vec4 pk = imageLoad(particular, t);
+                    part += sw[k] * pk.rgb;
+                    if (pk.a >= 0.0) {
+                        q_beam += sw[k] * qk;
+                        part_beam += sw[k] * pk.rgb;
+                        w_beam += sw[k];
+                        w_vis += sw[k] * pk.a;
+                    }
                 }
             }
+        }
+    }
+    if (pc.scale.z > 1.5) {
+        // The shading point's own visibility (`solver::cpu::own_visibility_sources`): the beam
+        // nodes' q and P per unit visibility, times the vertex's own (the gather's shadow lookup
+        // at the vertex) where that is below the nodes' (a cast shadow's dark side: a lit vertex
+        // keeps the nodes' average); unchanged where no beam node is lit or the vertex has none.
+        float own = imageLoad(vertex_particular,
+                              ivec2(int(v % VERTEX_GATHER_WIDTH), int(v / VERTEX_GATHER_WIDTH))).a;
+        if (own >= 0.0 && w_vis > OWN_VISIBILITY_LIT * w_beam) {
+            float f = min(own * w_beam / w_vis, 1.0) - 1.0;
+            qv += f * q_beam;
+            part += f * part_beam;
         }
     }
     uvec4 cell = sample_cells.cells[v];

@@ -387,6 +387,11 @@ void main() {
 
     vec3 sum = vec3(0.0);
     vec3 part = vec3(0.0);
+    // The light's visibility behind `part` where it is the lit beam's (`part` then proportional
+    // to it), written into the particular image's alpha; -1 where `part` is not (no lit beam, a
+    // wall's continuation, past the terminator, more than one light): the interior pass's own
+    // visibility (vertex_interior.glsl) scales only the first kind.
+    float own = -1.0;
     bool beams = pc.beam_sigma_s.w > 0.5;
     vec3 beam_s = pc.beam_sigma_s.rgb;
     vec3 beam_a = pc.beam_sigma_a.rgb;
@@ -506,6 +511,9 @@ void main() {
                     beta_k = beta * k;
                     sum += flux - (k + h * beta_k) / pc.beam_exit.z;
                     part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
+                    if (cos_l > 0.0) {
+                        own = vis;
+                    }
                 }
                 continue;
             }
@@ -586,6 +594,10 @@ void main() {
         // Robin right-hand side -K (1 + h beta), h = 2 A D, as an equivalent flux.
         sum += -(k + h * beta_k) / pc.beam_exit.z;
         part += pc.beam_exit.x * k - pc.beam_exit.y * beam_d * beta_k;
+        own = vis;
+    }
+    if (scene.counts.x != 1u) {
+        own = -1.0;
     }
 
     uint env = scene.counts.y;
@@ -611,6 +623,6 @@ void main() {
     if (pc.beam_sigma_s.w >= 0.0) {
         vec3 p_scaled = part * pc.q_scale;
         p_scaled = clamp(mix(p_scaled, vec3(0.0), isnan(p_scaled)), vec3(-FP16_MAX), vec3(FP16_MAX));
-        imageStore(particular, texel, vec4(p_scaled, 1.0));
+        imageStore(particular, texel, vec4(p_scaled, own));
     }
 }

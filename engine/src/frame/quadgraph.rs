@@ -121,6 +121,9 @@ pub struct QuadGraphMethod {
     solve: GpuDiffusion,
     gather: IrradiancePass,
     levels: Vec<GatherLevel>,
+    /// The gather at the display vertices (`solver::gpu::interior::VertexGather`), after the
+    /// levels: the interior pass's own visibility.
+    vertex_level: Option<GatherLevel>,
     uniforms: GatherScene,
     q_scale: f32,
     eta: f32,
@@ -204,7 +207,7 @@ impl QuadGraphMethod {
         let eta = field.eta();
         let q_scale = q_scale_for(scene, graph.finest(), eta);
         solve.set_q_scale(q_scale);
-        let mut gather = IrradiancePass::new(ctx, graph.levels.len() as u32)?;
+        let mut gather = IrradiancePass::new(ctx, graph.levels.len() as u32 + 1)?;
         // The environment's transmitted fraction of the solve's boundary model (DESIGN 2.6).
         gather.env_transmittance = Some(solve.boundary().diffuse_transmittance() as f32);
         gather.beam = beam_source(&solve, field);
@@ -223,6 +226,20 @@ impl QuadGraphMethod {
                 solve.surface_rows(h).ok_or_else(missing)?,
             )?);
         }
+        let vertex_level = match solve.vertex_gather() {
+            Some(v) => Some(gather.bind_level_with(
+                ctx,
+                shadows,
+                &v.position,
+                &v.normal,
+                &v.anisotropy,
+                &v.q,
+                &v.particular,
+                None,
+                v.rows,
+            )?),
+            None => None,
+        };
         let uniforms = GatherScene::new(scene, shadows)?;
         let copy = |name| {
             Buffer::new(
@@ -251,6 +268,7 @@ impl QuadGraphMethod {
             solve,
             gather,
             levels,
+            vertex_level,
             uniforms,
             q_scale,
             eta: eta as f32,
@@ -416,6 +434,14 @@ impl QuadGraphMethod {
                 uses.push(Use::image(mu, Access::ComputeRead));
             }
         }
+        if let Some(v) = self.solve.vertex_gather() {
+            for img in [&v.position, &v.normal, &v.anisotropy] {
+                uses.push(Use::image(img, Access::ComputeRead));
+            }
+            for img in [&v.q, &v.particular] {
+                uses.push(Use::image(img, Access::ComputeWrite));
+            }
+        }
         uses
     }
 }
@@ -569,6 +595,13 @@ impl Method for QuadGraphMethod {
                             .record(p.ctx, p.cb, level, self.q_scale, self.eta)
                             .map_err(|e| {
                                 Error::Solver(SolverError::Invalid(format!("level {h}: {e}")))
+                            })?;
+                    }
+                    if let Some(level) = &self.vertex_level {
+                        self.gather
+                            .record(p.ctx, p.cb, level, self.q_scale, self.eta)
+                            .map_err(|e| {
+                                Error::Solver(SolverError::Invalid(format!("vertices: {e}")))
                             })?;
                     }
                 }

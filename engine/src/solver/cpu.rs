@@ -29,7 +29,10 @@
 
 mod surface;
 use surface::shade_sources;
-pub use surface::{interior_vertices, reconstruct_vertices};
+pub use surface::{
+    interior_vertices, own_visibility_sources, reconstruct_vertices, OwnVisibility,
+    OWN_VISIBILITY_LIT,
+};
 
 use rayon::prelude::*;
 
@@ -41,7 +44,7 @@ use super::operator::{check_level, LevelOperator, Scheme};
 use super::sources::{LocalSource, SourceModel};
 use super::transport::{
     lateral_lambda, lateral_profile_from_sample, sample_on_lateral_profile, Boundary, Optics,
-    SurfaceReconstruction, Transport,
+    Source, SurfaceReconstruction, Transport,
 };
 use super::SolverError;
 use crate::material::{fresnel, MaterialField};
@@ -586,7 +589,18 @@ pub fn solve(
             (v, m.iter().map(|m| m.map(f64::from)).collect(), clamped)
         }
         SurfaceReconstruction::Interior => {
-            let m = interior_vertices(graph, &boundary, material, &sources, &phi)?;
+            let own = if transport.own_visibility && transport.source != Source::BoundaryFlux {
+                OwnVisibility::new(
+                    graph,
+                    scene,
+                    occluder,
+                    transport.continuation,
+                    ray_offset(level),
+                )
+            } else {
+                None
+            };
+            let m = interior_vertices(graph, &boundary, material, &sources, &phi, own.as_ref())?;
             let x: Vec<[f64; 3]> = m
                 .iter()
                 .map(|m| m.map(|v| boundary.shading_input(v)))

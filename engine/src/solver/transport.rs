@@ -162,6 +162,12 @@ pub struct Transport {
     /// mu_up) instead of wave 8's area factor ([`upstream_beam_with`]); `render --upstream-beam
     /// curved` (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes").
     pub curved_particular: bool,
+    /// With a beam source and the interior surface: the collimated part P at a display vertex
+    /// follows the vertex's own light visibility (a ray from it) instead of its source nodes'
+    /// (`cpu::own_visibility_sources`; the GPU's `GpuSolveParams::own_visibility`, the same
+    /// formula): shadow edges as sharp as the display mesh, not the lattice (benches/RESULTS.md,
+    /// "Shadow edges on the front-lit bunny"). One light and no environment only.
+    pub own_visibility: bool,
 }
 
 impl Default for Transport {
@@ -178,6 +184,7 @@ impl Default for Transport {
             environment_beams: true,
             upstream_beam: false,
             curved_particular: false,
+            own_visibility: false,
         }
     }
 }

@@ -125,6 +125,14 @@ pub struct RenderArgs {
     /// `--upstream-beam` alone is `on`. Default: see `defaults::DEFAULT_UPSTREAM_BEAM`.
     #[arg(long, value_name = "on|off|curved", value_parser = ["on", "off", "curved"], num_args = 0..=1, default_missing_value = "on")]
     pub upstream_beam: Option<String>,
+    /// With a beam source and the interior surface (GPU and CPU solvers, the same formula):
+    /// `on`, each display vertex's collimated exit part follows the vertex's own light
+    /// visibility (the gather's shadow lookup at the vertex; the CPU's ray), so a cast shadow's
+    /// edge is as sharp as the display mesh; `off`, the source nodes' visibility (blurred over
+    /// about a lattice spacing). One light and no environment only (otherwise off).
+    /// `--own-visibility` alone is `on`. Default: see `defaults::DEFAULT_OWN_VISIBILITY`.
+    #[arg(long, value_name = "on|off", value_parser = ["on", "off"], num_args = 0..=1, default_missing_value = "on")]
+    pub own_visibility: Option<String>,
     /// How exitance is read at the surface (GPU and CPU solvers, same formulas): `moments`, the
     /// Fresnel-moment boundary and exit query of DESIGN 2.6 (phi and its inward derivative from
     /// the node's Robin row), or `flux` (the default), DESIGN section 2's boundary-flux query (J+).

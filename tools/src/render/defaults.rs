@@ -23,6 +23,10 @@ pub const DEFAULT_CONTINUATION: bool = false;
 /// [`translucent::defaults::UPSTREAM_BEAM`].
 pub const DEFAULT_UPSTREAM_BEAM: bool = translucent::defaults::UPSTREAM_BEAM;
 
+/// `render`'s `--own-visibility` when not named (a beam source): the library's
+/// [`translucent::defaults::OWN_VISIBILITY`].
+pub const DEFAULT_OWN_VISIBILITY: bool = translucent::defaults::OWN_VISIBILITY;
+
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
 pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
@@ -107,6 +111,15 @@ impl RenderArgs {
         self.upstream_beam
             .as_deref()
             .map_or(DEFAULT_UPSTREAM_BEAM, |v| v != "off")
+            && self.light_source() != translucent::solver::transport::Source::BoundaryFlux
+    }
+
+    /// `--own-visibility` resolved: the given one, else [`DEFAULT_OWN_VISIBILITY`] (with a beam
+    /// source only).
+    pub fn own_visibility(&self) -> bool {
+        self.own_visibility
+            .as_deref()
+            .map_or(DEFAULT_OWN_VISIBILITY, |v| v == "on")
             && self.light_source() != translucent::solver::transport::Source::BoundaryFlux
     }
 

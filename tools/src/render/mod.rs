@@ -263,6 +263,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     continuation: args.continuation(),
                     upstream_beam: args.upstream_beam(),
                     curved_particular: args.curved_particular(),
+                    own_visibility: args.own_visibility(),
                     ..solver::transport::Transport::gpu_collimated()
                 }
             } else {
@@ -320,6 +321,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         continuation: args.continuation(),
         upstream_beam: args.upstream_beam(),
         curved_particular: args.curved_particular(),
+        own_visibility: args.own_visibility(),
         // The multigrid's coarse operator and cycle as named (`--coarse-*`, `--multigrid-cycle`).
         multigrid: match base.multigrid.as_ref() {
             Some(m) => Some(

@@ -3,6 +3,8 @@
 //! weights' interpolation of per-node sources they start from.
 
 use super::*;
+use crate::scene::Environment;
+use crate::solver::sources::{arrival, Arrival};
 
 /// Per display vertex, the exit query on the local 1D profile through the vertex's interior sample
 /// (issue 12 item 4): the vertex's own sources (lights ray-cast from the vertex, the environment;
@@ -89,12 +91,15 @@ pub fn reconstruct_vertices(
 /// weights (`SurfaceSamples::source_average`), the local
 /// 1D profile through the sample ([`profile_from_sample`], h = 2 A D and s of the tetrahedron
 /// holding the sample) for phi(0) and dphi/dz_in(0), then the exit query plus P. Unclamped.
+/// With `own` ([`Transport::own_visibility`]) the lit beam's q and P follow the vertex's own
+/// light visibility ([`own_visibility_sources`]) instead of the nodes'.
 pub fn interior_vertices(
     graph: &QuadGraph,
     boundary: &Boundary,
     material: &MaterialField,
     sources: &[LocalSource],
     phi_h: &[[f64; 3]],
+    own: Option<&OwnVisibility>,
 ) -> Result<Vec<[f64; 3]>, SolverError> {
     let level = graph.finest();
     let inner = level.inner_count();
@@ -135,10 +140,23 @@ pub fn interior_vertices(
             let kappa = here.kappa_with(material.diffusion());
             let p = sampled[v];
             let laplacian = samples.lateral_laplacian(v, &sampled);
-            let (q_v, part_v) = (
-                samples.source_average(v, &q),
-                samples.source_average(v, &part),
-            );
+            let (q_v, part_v) = match own {
+                Some(own) => own_visibility_sources(
+                    samples.sources[v]
+                        .iter()
+                        .zip(&samples.source_weights[v])
+                        .filter(|(&s, _)| s != NO_NODE)
+                        .map(|(&s, &w)| {
+                            let s = s as usize;
+                            (w, q[s], part[s], own.nodes[s])
+                        }),
+                    own.vertices[v],
+                ),
+                None => (
+                    samples.source_average(v, &q),
+                    samples.source_average(v, &part),
+                ),
+            };
             let curvature = samples.curvature.get(v).copied().unwrap_or(0.0);
             let spread = samples.spread.get(v).copied().unwrap_or_default();
             std::array::from_fn(|c| {
@@ -187,3 +205,97 @@ pub(super) fn shade_sources(
         })
         .collect())
 }
+
+/// The light visibility of the shading points ([`Transport::own_visibility`]): per surface node
+/// its visibility where its sources are the lit beam's (so proportional to it), -1 where they
+/// are not (facing away, a beam through the body); per display vertex the same at the vertex
+/// (its own normal, a ray from it).
+pub struct OwnVisibility {
+    pub nodes: Vec<f64>,
+    pub vertices: Vec<f64>,
+}
+
+impl OwnVisibility {
+    /// `None` unless the scene has exactly one light and no environment (whose sources do not
+    /// follow the light's visibility); `offset` lifts ray origins.
+    pub fn new(
+        graph: &QuadGraph,
+        scene: &Scene,
+        occluder: Option<&dyn Solid>,
+        continuation: bool,
+        offset: f64,
+    ) -> Option<Self> {
+        let ([light], Environment::None) = (scene.lights.as_slice(), &scene.environment) else {
+            return None;
+        };
+        let visibility = |x: DVec3, n: DVec3| -> f64 {
+            let (e, l, _) = light.arriving(x);
+            if n.dot(l) <= 0.0 || e.iter().all(|&v| v == 0.0) {
+                return -1.0;
+            }
+            match arrival(light, x, n, occluder, offset, continuation) {
+                Arrival::Lit { .. } => 1.0,
+                Arrival::Behind { .. } => -1.0,
+                Arrival::Dark => 0.0,
+            }
+        };
+        let level = graph.finest();
+        let inner = level.inner_count();
+        let nodes = (0..level.surface_count())
+            .into_par_iter()
+            .map(|s| visibility(level.positions[inner + s], level.surface_normals[s]))
+            .collect();
+        let surface = &graph.surface;
+        let vertices = (0..surface.positions.len())
+            .into_par_iter()
+            .map(|v| {
+                let n = surface.normals.get(v).copied().unwrap_or(DVec3::Y);
+                visibility(surface.positions[v], n.normalize_or(DVec3::Y))
+            })
+            .collect();
+        Some(Self { nodes, vertices })
+    }
+}
+
+/// A vertex's sources q and collimated part P at its own light visibility `own` (the GPU's
+/// `vertex_interior.glsl`, the same formula), from its source nodes' `(weight, q, P,
+/// visibility)`: those whose visibility is -1 add w q and w P as before; the others' (the lit
+/// beam's, proportional to their visibility) are taken per unit weighted visibility times the
+/// vertex's where that is below their weighted visibility (a cast shadow's dark side: a lit
+/// vertex keeps the nodes' average, whose lateral loss toward the shadow the 1D profile lacks;
+/// taking it whole there made the front-lit bunny's lit edge 1.124x too bright). Unchanged where
+/// the vertex's own is -1 or none of those nodes is lit.
+pub fn own_visibility_sources(
+    nodes: impl Iterator<Item = (f64, [f64; 3], [f64; 3], f64)>,
+    own: f64,
+) -> ([f64; 3], [f64; 3]) {
+    let (mut q, mut part, mut q_beam, mut part_beam) = ([0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]);
+    let (mut w_beam, mut w_vis) = (0.0, 0.0);
+    for (w, qk, pk, vis) in nodes {
+        for c in 0..3 {
+            q[c] += w * qk[c];
+            part[c] += w * pk[c];
+            if vis >= 0.0 {
+                q_beam[c] += w * qk[c];
+                part_beam[c] += w * pk[c];
+            }
+        }
+        if vis >= 0.0 {
+            w_beam += w;
+            w_vis += w * vis;
+        }
+    }
+    if !(own >= 0.0 && w_vis > OWN_VISIBILITY_LIT * w_beam) {
+        return (q, part);
+    }
+    let f = (own * w_beam / w_vis).min(1.0) - 1.0;
+    (
+        std::array::from_fn(|c| q[c] + f * q_beam[c]),
+        std::array::from_fn(|c| part[c] + f * part_beam[c]),
+    )
+}
+
+/// The beam nodes' weighted visibility (a share of their weight) at or below which
+/// [`own_visibility_sources`] leaves a vertex's sources as they are (none of them lit: their
+/// sources per unit visibility are unknown); `vertex_interior.glsl`'s `OWN_VISIBILITY_LIT`.
+pub const OWN_VISIBILITY_LIT: f64 = 1e-3;

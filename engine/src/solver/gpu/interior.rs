@@ -4,12 +4,12 @@
 
 use ash::vk;
 
-use super::{GpuDiffusion, GpuLevel};
-use crate::quadgraph::graph::{QuadGraph, NO_NODE};
+use super::{bytes_of, image, upload_images, GpuDiffusion, GpuLevel};
+use crate::quadgraph::graph::{Packing, QuadGraph, NO_NODE};
 use crate::shader::DescriptorWrite;
 use crate::solver::transport::SurfaceReconstruction;
 use crate::solver::SolverError;
-use crate::vk::{Buffer, Context};
+use crate::vk::{Buffer, Context, Image};
 use crate::Error;
 
 /// Per display vertex, where the interior reconstruction reads phi (see
@@ -26,7 +26,100 @@ pub(crate) struct InteriorSamples {
     pub(super) lateral_weights: Buffer,
     /// Per vertex its sample's phi (vec4), between the pass's two stages.
     pub(super) sample_phi: Buffer,
+    /// The gather at the display vertices themselves (their own visibility, [`VertexGather`]).
+    pub(super) vertex_gather: VertexGather,
     pub(super) sets: [Option<vk::DescriptorSet>; 4],
+}
+
+/// Texels per row of the [`VertexGather`] images: vertex `v` at `(v % width, v / width)`
+/// (`VERTEX_GATHER_WIDTH` in `vertex_interior.glsl`).
+pub(crate) const VERTEX_GATHER_WIDTH: u32 = 256;
+
+/// The display vertices laid out as one more gather level (`irradiance/gather_q.comp`): their
+/// positions, normals (w: the sample's mean curvature) and no anisotropy in, q and the collimated
+/// part out (the particular image's alpha: the vertex's own light visibility where its part is
+/// the lit beam's). The interior pass reads the particular image
+/// ([`super::GpuSolveParams::particular_visibility`]).
+pub(crate) struct VertexGather {
+    pub position: Image,
+    pub normal: Image,
+    pub anisotropy: Image,
+    pub q: Image,
+    pub particular: Image,
+    pub rows: u32,
+}
+
+impl VertexGather {
+    fn new(ctx: &Context, graph: &QuadGraph) -> Result<Self, Error> {
+        let surface = &graph.surface;
+        let vertices = surface.positions.len();
+        let rows = (vertices as u32).div_ceil(VERTEX_GATHER_WIDTH).max(1);
+        let texels = (VERTEX_GATHER_WIDTH * rows) as usize;
+        let packing = Packing {
+            width: VERTEX_GATHER_WIDTH,
+            height: rows,
+            ..Packing::default()
+        };
+        let f16 = half::f16::from_f64;
+        let mut position = vec![[0f32; 4]; texels];
+        let mut normal = vec![[f16(0.0); 4]; texels];
+        for v in 0..vertices {
+            let (p, n) = (surface.positions[v], surface.normals[v]);
+            let h = graph.samples.curvature.get(v).copied().unwrap_or(0.0);
+            if !(p.is_finite() && n.is_finite() && h.is_finite()) {
+                return Err(Error::from(SolverError::BadGraph {
+                    level: graph.levels.len() - 1,
+                    problem: format!(
+                        "display vertex {v}: position, normal or curvature not finite"
+                    ),
+                }));
+            }
+            position[v] = [p.x as f32, p.y as f32, p.z as f32, 1.0];
+            normal[v] = [f16(n.x), f16(n.y), f16(n.z), f16(h)];
+        }
+        use vk::Format as F;
+        let gather = VertexGather {
+            position: image(
+                ctx,
+                "vertex gather position",
+                &packing,
+                F::R32G32B32A32_SFLOAT,
+            )?,
+            normal: image(
+                ctx,
+                "vertex gather normal",
+                &packing,
+                F::R16G16B16A16_SFLOAT,
+            )?,
+            anisotropy: image(
+                ctx,
+                "vertex gather anisotropy",
+                &packing,
+                F::R16G16B16A16_SFLOAT,
+            )?,
+            q: image(ctx, "vertex gather q", &packing, F::R16G16B16A16_SFLOAT)?,
+            particular: image(
+                ctx,
+                "vertex gather particular",
+                &packing,
+                F::R16G16B16A16_SFLOAT,
+            )?,
+            rows,
+        };
+        let zeros = vec![0u8; texels * 8];
+        upload_images(
+            ctx,
+            "vertex gather upload",
+            &[
+                (&gather.position, bytes_of(&position)),
+                (&gather.normal, bytes_of(&normal)),
+                (&gather.anisotropy, zeros.clone()),
+                (&gather.q, zeros.clone()),
+                (&gather.particular, zeros),
+            ],
+        )?;
+        Ok(gather)
+    }
 }
 
 impl GpuDiffusion {
@@ -170,6 +263,7 @@ impl GpuDiffusion {
                 storage,
                 &vec![[0f32; 4]; vertices],
             )?,
+            vertex_gather: VertexGather::new(ctx, graph)?,
             sets: [None; 4],
         }))
     }
@@ -241,10 +335,25 @@ impl GpuDiffusion {
                         name: "lateral_weights",
                         buffer: &interior.lateral_weights,
                     },
+                    DescriptorWrite::storage_image(
+                        "vertex_particular",
+                        &interior.vertex_gather.particular,
+                    ),
                 ],
             )?);
         }
         Ok(())
+    }
+
+    /// The display vertices' gather level ([`VertexGather`]), where the interior pass reads it
+    /// ([`super::GpuSolveParams::own_visibility`] with a beam source; `None` otherwise: the
+    /// frame then neither gathers nor declares it).
+    pub(crate) fn vertex_gather(&self) -> Option<&VertexGather> {
+        let wanted = self.params.collimated && self.params.own_visibility;
+        self.interior
+            .as_ref()
+            .filter(|_| wanted)
+            .map(|i| &i.vertex_gather)
     }
 
     /// How the display vertices get their exitance in this solve: `Interior` or `Shepard`

@@ -101,6 +101,11 @@ pub struct GpuSolveParams {
     /// With `upstream_beam`: the curved particular solution (the f64 reference's
     /// [`crate::solver::transport::Transport::curved_particular`], the same formulas).
     pub curved_particular: bool,
+    /// With `collimated` and the interior surface: each display vertex's collimated part P at
+    /// its own light visibility (the gather run at the display vertices too,
+    /// `solver::gpu::interior::VertexGather`), not its source nodes' (the f64 reference's
+    /// [`crate::solver::transport::Transport::own_visibility`], the same formula). One light.
+    pub own_visibility: bool,
     /// `Some`: multigrid cycles (`--schedule multigrid`, [`super::multigrid`]) with these
     /// parameters (its tolerance is this struct's `tolerance`; `krylov` is not built on the GPU
     /// and ignored; `coarse_tolerance` sets the coarsest level's Chebyshev steps); `None`: the
@@ -142,6 +147,7 @@ impl GpuSolveParams {
         };
         Transport {
             surface: self.surface,
+            own_visibility: self.own_visibility,
             ..base
         }
     }
@@ -162,6 +168,7 @@ impl Default for GpuSolveParams {
             continuation: false,
             upstream_beam: false,
             curved_particular: false,
+            own_visibility: false,
             multigrid: None,
             surface: SurfaceReconstruction::Shepard,
             heterogeneous_weights: HeterogeneousWeights::default(),

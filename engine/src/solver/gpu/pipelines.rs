@@ -177,6 +177,7 @@ impl GpuDiffusion {
                         "sample_phi",
                         "lateral_nodes",
                         "lateral_weights",
+                        "vertex_particular",
                     ],
                     max_sets: 16,
                 },

@@ -520,6 +520,10 @@ impl GpuDiffusion {
             uses.push(Use::buffer(&interior.lateral_nodes, Access::ComputeRead));
             uses.push(Use::buffer(&interior.lateral_weights, Access::ComputeRead));
             uses.push(Use::buffer(&interior.sample_phi, Access::ComputeReadWrite));
+            uses.push(Use::image(
+                &interior.vertex_gather.particular,
+                Access::ComputeRead,
+            ));
             if let (false, Some([kappa, mu])) = (self.homogeneous, &finest.material) {
                 uses.push(Use::image(kappa, Access::ComputeRead));
                 uses.push(Use::image(mu, Access::ComputeRead));
@@ -694,7 +698,11 @@ impl GpuDiffusion {
             scale: [
                 1.0 / self.q_scale,
                 boundary.shading_input(1.0) as f32,
-                if self.params.collimated { 1.0 } else { 0.0 },
+                match (self.params.collimated, self.params.own_visibility) {
+                    (false, _) => 0.0,
+                    (true, false) => 1.0,
+                    (true, true) => 2.0,
+                },
                 stage,
             ],
         };
