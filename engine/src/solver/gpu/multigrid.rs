@@ -760,22 +760,6 @@ impl GpuMultigrid {
         (levels, coarse_steps)
     }
 
-    /// GPU bytes of the buffers.
-    pub fn bytes(&self) -> u64 {
-        self.bytes
-    }
-
-    /// Bytes per buffer (the operators' `row_start`, `cols`, `values`, `values16`, `diag`, ...,
-    /// the vectors, the control record): they sum to [`Self::bytes`].
-    pub fn bytes_by_buffer(&self) -> &[(&'static str, u64)] {
-        &self.buffer_bytes
-    }
-
-    /// Chebyshev steps of one coarsest-level solve.
-    pub fn coarse_steps(&self) -> u32 {
-        self.coarse_steps
-    }
-
     /// What [`Self::record`] uses besides the finest level's q and phi images (the caller's).
     pub fn uses(&self) -> Vec<Use<'_>> {
         let mut uses = vec![
@@ -984,28 +968,5 @@ impl GpuMultigrid {
             rec.direct_with(OUTPUT, top, 0, [unscale; 3], n_top);
             scope(&mut rec.profiler.borrow_mut(), ctx, cb, None);
         }
-    }
-
-    /// The finest level's x (after a solve its solution, `scale` times phi): its buffer and
-    /// byte range. `render --bounce source` keeps the first solve's across the second, whose
-    /// sum would otherwise start the next frame's first solve a whole bounce away.
-    pub fn finest_x(&self) -> (&Buffer, u64, u64) {
-        let top = &self.levels[self.top()];
-        let bytes = (self.params.vector_storage.floats() * std::mem::size_of::<f32>()) as u64;
-        debug_assert_eq!(BUFFER_NAMES[0], "x");
-        (
-            &self.buffers[0],
-            u64::from(top.offset) * bytes,
-            u64::from(top.count) * bytes,
-        )
-    }
-
-    /// The control record of the last solve (call after its submission completed and its writes
-    /// were made host-visible).
-    pub fn control(&self) -> Result<MultigridControl, Error> {
-        let bytes = self.control.read_bytes()?;
-        Ok(bytemuck::pod_read_unaligned(
-            &bytes[..std::mem::size_of::<MultigridControl>()],
-        ))
     }
 }
