@@ -320,9 +320,10 @@ const float LATERAL_GUARD_FROM = 0.15;
 
 // transport::lateral_correction: the particular solution's lateral terms folded into K (dK per
 // channel), from central differences in the node cosine about min(mu, 1 - step); g =
-// H^2 + |a|^4 (1/mm^2), c = H / sigma_t' per channel; 0 where any of the three is unlit.
-vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 beam_s,
-                        vec3 beam_a, vec3 beam_d) {
+// H^2 + |a|^4 and g_along = |S t|^2 along the beam's tangent (1/mm^2), c = H / sigma_t' per
+// channel; 0 where any of the three is unlit.
+vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, float g_along, vec3 e_vis,
+                        vec3 beam_s, vec3 beam_a, vec3 beam_d) {
     vec3 sigma_t = beam_s + beam_a;
     float fade = smoothstep(0.0, LATERAL_FULL_ABOVE, mu);
     vec3 gc = min(vec3(g), (UPSTREAM_SHIFT_LIMIT * sigma_t) * (UPSTREAM_SHIFT_LIMIT * sigma_t));
@@ -350,7 +351,8 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
     vec3 d2k = (kp - 2.0 * k0 + km) / (step * step);
     vec3 db = (bp - bm) / (2.0 * step);
     vec3 d2b = (bp - 2.0 * b0 + bm) / (step * step);
-    float w = 1.0 - m * m;
+    // |grad mu|^2 / g over (1 - mu^2): the beam's direction's share of the curvature.
+    float w = clamp(g_along / g, 0.0, 2.0) * (1.0 - m * m);
     vec3 lk = w * d2k - 2.0 * m * dk;
     vec3 lb = w * d2b - 2.0 * m * db;
     vec3 lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
@@ -450,6 +452,9 @@ void main() {
                 float ta = dot(normalize(beam_tangent), a);
                 along_curvature = curvature - dot(a, a) + 2.0 * ta * ta;
             }
+            // transport::SurfaceCurvature::squared_along: g + 2 H (k_t - H) (g at the pole).
+            float curvature_squared_along =
+                max(curvature_squared + 2.0 * curvature * (along_curvature - curvature), 0.0);
             vec3 inv_eta_sigma = 1.0 / (pc.eta * max(sigma_t, vec3(1e-12)));
             vec3 c_t = clamp(along_curvature * inv_eta_sigma,
                              vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
@@ -498,8 +503,9 @@ void main() {
                                         beam_d, k, beta_k, flux);
                     // The lateral terms: K gains dK, beta unchanged (beta K scales with it).
                     vec3 d_k = curved
-                        ? lateral_correction(mu, c_t, c, curvature_squared, e * vis, beam_s,
-                                             beam_a, beam_d)
+                        ? lateral_correction(mu, c_t, c, curvature_squared,
+                                             curvature_squared_along, e * vis, beam_s, beam_a,
+                                             beam_d)
                         : vec3(0.0);
                     vec3 beta = beta_k / mix(k, vec3(1.0), equal(k, vec3(0.0)));
                     k += d_k;

@@ -368,7 +368,7 @@ fn lateral_correction_matches_its_closed_form() {
     };
     let (beta, c, g) = (1.5, 0.1, 0.01);
     for mu in [0.6, 0.8, 0.95] {
-        let got = lateral_correction(o, mu, c, g, |m| (m * m, beta));
+        let got = lateral_correction(o, mu, c, (g, g), |m| (m * m, beta));
         let m = mu.min(1.0 - LATERAL_STEP);
         let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
         let want = o.d() * g * (2.0 - 6.0 * m * m) / denom;
@@ -377,13 +377,16 @@ fn lateral_correction_matches_its_closed_form() {
             "mu {mu}: {got} vs {want}"
         );
     }
-    let faded = lateral_correction(o, 0.25, c, g, |m| (m * m, beta));
+    let faded = lateral_correction(o, 0.25, c, (g, g), |m| (m * m, beta));
     let full = o.d() * g * (2.0 - 6.0 * 0.0625)
         / (o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta));
     assert!((faded - 0.5 * full).abs() < 1e-6 * full.abs());
-    assert_eq!(lateral_correction(o, 0.0, c, g, |m| (m * m, beta)), 0.0);
     assert_eq!(
-        lateral_correction(o, 0.5, c, g, |m| if m < 0.5 {
+        lateral_correction(o, 0.0, c, (g, g), |m| (m * m, beta)),
+        0.0
+    );
+    assert_eq!(
+        lateral_correction(o, 0.5, c, (g, g), |m| if m < 0.5 {
             (0.0, 0.0)
         } else {
             (m, beta)
@@ -391,9 +394,51 @@ fn lateral_correction_matches_its_closed_form() {
         0.0
     );
     assert_eq!(
-        lateral_correction(o, 0.5, c, f64::NAN, |m| (m * m, beta)),
+        lateral_correction(o, 0.5, c, (f64::NAN, f64::NAN), |m| (m * m, beta)),
         0.0
     );
+}
+
+/// [`lateral_correction`] on a cylinder of radius 10 mm (k1 = 1/10 across the axis e1, k2 = 0):
+/// |grad mu|^2 = |S l_t|^2 is k1^2 (1 - mu^2) for a beam whose tangent crosses the axis and 0 for
+/// one along it, while Lap(mu) = -(k1^2 + k2^2) mu either way. With K = mu^2, beta constant:
+/// lat = (2 r (1 - mu^2) - 4 mu^2) / beta, r = g_t / g = 2 across, 0 along (a sphere's mean, r = 1,
+/// gives 2 - 6 mu^2 for both). [`SurfaceCurvature::squared_along`] gives those g_t.
+#[test]
+fn lateral_correction_follows_the_beam_across_an_anisotropic_surface() {
+    let o = Optics {
+        sigma_s: 0.7,
+        sigma_a: 0.0014,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let (beta, c, mu, radius) = (1.5, 0.05, 0.7, 10.0);
+    let cylinder = SurfaceCurvature {
+        mean: 0.5 / radius,
+        anisotropy: DVec3::X * (0.5 / radius).sqrt(),
+    };
+    let g = cylinder.squared();
+    assert!((g - 0.5 / (radius * radius)).abs() < 1e-12, "{g}");
+    let (across, along) = (
+        cylinder.squared_along(DVec3::X),
+        cylinder.squared_along(DVec3::Z),
+    );
+    assert!((across - 1.0 / (radius * radius)).abs() < 1e-12, "{across}");
+    assert!(along.abs() < 1e-12, "{along}");
+    let sphere = SurfaceCurvature::umbilic(1.0 / radius);
+    let g_sphere = sphere.squared();
+    assert!((sphere.squared_along(DVec3::Y) - g_sphere).abs() < 1e-15);
+    let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
+    let closed = |r: f64| o.d() * g * (2.0 * r * (1.0 - mu * mu) - 4.0 * mu * mu) / denom;
+    for (g_t, r) in [(across, 2.0), (along, 0.0), (g, 1.0)] {
+        let got = lateral_correction(o, mu, c, (g, g_t), |m| (m * m, beta));
+        let want = closed(r);
+        assert!(
+            want != 0.0 && (got - want).abs() < 1e-6 * want.abs(),
+            "r {r}: {got} vs {want}"
+        );
+    }
+    // Across and along differ in sign here (2 (1 - 0.49) 2 = 2.04 > 1.96; 0 < 1.96).
+    assert!(closed(2.0) * closed(0.0) < 0.0);
 }
 
 /// [`lateral_correction`]'s guard ([`LATERAL_GUARD_FROM`]): in full where the unclamped
@@ -421,7 +466,7 @@ fn lateral_correction_is_guarded_where_the_curvature_reaches_the_clamp() {
         diffusion: DiffusionCoefficient::Classical,
     };
     let g_sphere = 0.01; // 1 / R^2, R = 10 mm
-    let lateral = |o: Optics, g: f64| lateral_correction(o, mu, c, g, |m| (m * m, beta));
+    let lateral = |o: Optics, g: f64| lateral_correction(o, mu, c, (g, g), |m| (m * m, beta));
     let full = lateral(milk, g_sphere);
     let want = closed(milk, g_sphere);
     assert!(
