@@ -442,7 +442,7 @@ impl<'a> SourceModel<'a> {
                 beam_particular_curved(o, fit, irr, gain, b.curvature)
             };
             let lateral = if curved && b.irradiance > 0.0 {
-                lateral_correction(o, mu, b.curvature, g, at)
+                curvature.umbilic_share() * lateral_correction(o, mu, b.curvature, g, at)
             } else {
                 0.0
             };

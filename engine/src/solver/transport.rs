@@ -762,12 +762,21 @@ pub fn upstream_beam_with(
             curvature: 0.0,
         };
     }
-    let irradiance = mu_up.max(0.0);
+    // Curved in full on an umbilic node, wave 8's area factor where the principal curvatures
+    // differ most ([`SurfaceCurvature::umbilic_share`]), blended between.
+    let share = curvature.umbilic_share();
+    let irradiance = if mu_up > 0.0 {
+        let c = shift(curvature.mean);
+        let area = (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0);
+        share * mu_up + (1.0 - share) * area
+    } else {
+        0.0
+    };
     // The particular solution's curvature is geometric (eta does not enter the Laplacian), in
     // full from n.l = NARROWING_FULL_ABOVE, faded (smoothstep) to none at the terminator.
     let fade = (mu / NARROWING_FULL_ABOVE).clamp(0.0, 1.0);
-    let curvature = if irradiance > 0.0 {
-        shift(curvature.mean * eta) * fade * fade * (3.0 - 2.0 * fade)
+    let curvature = if mu_up > 0.0 {
+        share * shift(curvature.mean * eta) * fade * fade * (3.0 - 2.0 * fade)
     } else {
         0.0
     };
@@ -905,6 +914,22 @@ impl SurfaceCurvature {
             g
         } else {
             0.0
+        }
+    }
+
+    /// 1 - |k1 - k2| / (|k1| + |k2|): 1 on an umbilic node (a sphere's; or a plane's), 0 where
+    /// one principal curvature is zero (a cylinder's) or they are opposite (a saddle's). The
+    /// curved particular solution's share ([`upstream_beam`]; its lateral term alike): its
+    /// narrowing and lateral term help a sphere lit from the front but cost the bunny and the
+    /// torus (benches/RESULTS.md, "The curved particular solution on non-spherical surfaces").
+    pub fn umbilic_share(&self) -> f64 {
+        let a2 = self.anisotropy.length_squared();
+        let sum = (self.mean + a2).abs() + (self.mean - a2).abs();
+        let share = 1.0 - 2.0 * a2 / sum;
+        if share.is_finite() {
+            share.clamp(0.0, 1.0)
+        } else {
+            1.0
         }
     }
 

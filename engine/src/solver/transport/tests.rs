@@ -298,7 +298,9 @@ fn curved_particular_solution_solves_the_diffusion_below_a_sphere() {
 
 /// A cylinder of radius r along y (k1 = 1 / r around it, k2 = 0 along it): a beam whose
 /// tangent runs around it turns as on a sphere of radius r, one running along the axis
-/// does not turn (mu_up = mu), and both narrow by the mean curvature 1 / (2 r).
+/// does not turn (mu_up = mu). The curved mode's share ([`SurfaceCurvature::umbilic_share`]) is
+/// 0 there: wave 8's area factor (narrowing by the mean curvature 1 / (2 r) in it), no narrowing
+/// in K; in full on the sphere; 2/3 where k1 = 2 k2, blended linearly.
 #[test]
 fn upstream_beam_on_a_cylinder_turns_only_around_it() {
     let (r, sigma_t) = (3.0, 2.62);
@@ -320,13 +322,34 @@ fn upstream_beam_on_a_cylinder_turns_only_around_it() {
         sigma_t,
         1.0,
     );
-    // The same turn as the sphere's, half its narrowing (the mean curvature is 1 / (2 r)).
-    assert!((around.irradiance - sphere.irradiance).abs() < 1e-12);
-    assert!((around.curvature - 0.5 * sphere.curvature).abs() < 1e-12);
+    assert_eq!(cylinder.umbilic_share(), 0.0);
+    assert_eq!(SurfaceCurvature::umbilic(1.0 / r).umbilic_share(), 1.0);
+    assert_eq!(SurfaceCurvature::default().umbilic_share(), 1.0);
+    // The sphere's: the whole turn as the irradiance factor, the narrowing c in K.
+    assert!((sphere.irradiance - sphere.mu_up).abs() < 1e-12);
     assert!((sphere.curvature - c).abs() < 1e-12);
+    // The cylinder's: the area factor, as upstream_beam_with(.., false) (share 0).
+    let area = |t: DVec3| upstream_beam_with(mu, cylinder, t, sigma_t, 1.0, false);
+    assert_eq!(around, area(DVec3::X));
+    let area_factor = mu + c * (1.0 - mu * mu) - 2.0 * 0.5 * c * mu * mu;
+    assert!((around.irradiance - area_factor).abs() < 1e-12);
+    assert!(around.irradiance < around.mu_up);
     let along = upstream_beam(mu, cylinder, DVec3::Y, sigma_t, 1.0);
-    assert_eq!((along.mu_up, along.irradiance), (mu, mu));
-    assert!((along.curvature - 0.5 * c).abs() < 1e-12);
+    assert_eq!(along, area(DVec3::Y));
+    assert_eq!(along.mu_up, mu);
+    // k1 = 2 / r, k2 = 1 / r: share 1 - 1 / 3.
+    let oblate = SurfaceCurvature {
+        mean: 1.5 / r,
+        anisotropy: DVec3::X * (0.5 / r).sqrt(),
+    };
+    assert!((oblate.umbilic_share() - 2.0 / 3.0).abs() < 1e-12);
+    let (full, planar) = (
+        upstream_beam(mu, oblate, DVec3::Y, sigma_t, 1.0),
+        upstream_beam_with(mu, oblate, DVec3::Y, sigma_t, 1.0, false),
+    );
+    let want = (2.0 * full.mu_up + planar.irradiance) / 3.0;
+    assert!((full.irradiance - want).abs() < 1e-12);
+    assert!((full.curvature - 2.0 / 3.0 * 1.5 / (r * sigma_t)).abs() < 1e-12);
 }
 
 /// Wave 8's area factor (`upstream_beam_with(.., false)`, the default): the sphere's lit power is
