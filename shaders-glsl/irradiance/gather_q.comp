@@ -466,7 +466,7 @@ void main() {
             float a2 = dot(a, a);
             float k_sum = abs(curvature + a2) + abs(curvature - a2);
             float curved = pc.beam_upstream > 1.5
-                ? (k_sum > 0.0 ? clamp(1.0 - 2.0 * a2 / k_sum, 0.0, 1.0) : 1.0)
+                ? (k_sum > 0.0 ? pow(clamp(1.0 - 2.0 * a2 / k_sum, 0.0, 1.0), 2.0) : 1.0)
                 : 0.0;
             vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
             vec3 area = max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0));

@@ -917,7 +917,7 @@ impl SurfaceCurvature {
         }
     }
 
-    /// 1 - |k1 - k2| / (|k1| + |k2|): 1 on an umbilic node (a sphere's; or a plane's), 0 where
+    /// (1 - |k1 - k2| / (|k1| + |k2|))^2: 1 on an umbilic node (a sphere's; or a plane's), 0 where
     /// one principal curvature is zero (a cylinder's) or they are opposite (a saddle's). The
     /// curved particular solution's share ([`upstream_beam`]; its lateral term alike): its
     /// narrowing and lateral term help a sphere lit from the front but cost the bunny and the
@@ -927,7 +927,7 @@ impl SurfaceCurvature {
         let sum = (self.mean + a2).abs() + (self.mean - a2).abs();
         let share = 1.0 - 2.0 * a2 / sum;
         if share.is_finite() {
-            share.clamp(0.0, 1.0)
+            share.clamp(0.0, 1.0).powi(2)
         } else {
             1.0
         }
