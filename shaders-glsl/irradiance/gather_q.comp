@@ -312,6 +312,14 @@ void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, float curved, 
                     flux);
 }
 
+// transport::SurfaceCurvature::umbilic_share, UMBILIC_SHARE_POWER = 4, from 1 - |k1 - k2| /
+// (|k1| + |k2|).
+float umbilic_share(float isotropy) {
+    float s = clamp(isotropy, 0.0, 1.0);
+    s *= s;
+    return s * s;
+}
+
 // transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
 const float LATERAL_STEP = 0.02;
 const float LATERAL_FULL_ABOVE = 0.5;
@@ -466,7 +474,7 @@ void main() {
             float a2 = dot(a, a);
             float k_sum = abs(curvature + a2) + abs(curvature - a2);
             float curved = pc.beam_upstream > 1.5
-                ? (k_sum > 0.0 ? pow(clamp(1.0 - 2.0 * a2 / k_sum, 0.0, 1.0), 2.0) : 1.0)
+                ? (k_sum > 0.0 ? umbilic_share(1.0 - 2.0 * a2 / k_sum) : 1.0)
                 : 0.0;
             vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
             vec3 area = max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0));

@@ -886,6 +886,10 @@ pub fn lateral_correction(
     }
 }
 
+/// [`SurfaceCurvature::umbilic_share`]'s power: 1, 2 and 4 measured on the bunny and the torus
+/// (benches/RESULTS.md, "The curved particular solution on non-spherical surfaces").
+pub const UMBILIC_SHARE_POWER: i32 = 4;
+
 /// The curvature of the surface at a node (1/mm, convex > 0): the mean curvature H = (k1 + k2)
 /// / 2 and the anisotropy a = e1 sqrt((k1 - k2) / 2), e1 the unit direction of the larger
 /// principal curvature k1, so that the normal curvature along a unit tangent t is
@@ -917,7 +921,7 @@ impl SurfaceCurvature {
         }
     }
 
-    /// (1 - |k1 - k2| / (|k1| + |k2|))^2: 1 on an umbilic node (a sphere's; or a plane's), 0 where
+    /// (1 - |k1 - k2| / (|k1| + |k2|))^[`UMBILIC_SHARE_POWER`]: 1 on an umbilic node (a sphere's; or a plane's), 0 where
     /// one principal curvature is zero (a cylinder's) or they are opposite (a saddle's). The
     /// curved particular solution's share ([`upstream_beam`]; its lateral term alike): its
     /// narrowing and lateral term help a sphere lit from the front but cost the bunny and the
@@ -927,7 +931,7 @@ impl SurfaceCurvature {
         let sum = (self.mean + a2).abs() + (self.mean - a2).abs();
         let share = 1.0 - 2.0 * a2 / sum;
         if share.is_finite() {
-            share.clamp(0.0, 1.0).powi(2)
+            share.clamp(0.0, 1.0).powi(UMBILIC_SHARE_POWER)
         } else {
             1.0
         }
