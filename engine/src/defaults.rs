@@ -254,7 +254,7 @@ pub struct Settings {
     pub diffusion: DiffusionCoefficient,
     /// The upstream beam ([`UPSTREAM_BEAM`] with a beam source, off with the boundary flux).
     pub upstream_beam: bool,
-    /// Its curved particular solution ([`CURVED_PARTICULAR`]; only with `upstream_beam`).
+    /// Its curved particular solution ([`CURVED_PARTICULAR`] with the upstream beam, else off).
     pub curved_particular: bool,
 }
 
@@ -281,7 +281,7 @@ impl Settings {
             warm_start: WARM_START,
             diffusion: DIFFUSION,
             upstream_beam: UPSTREAM_BEAM && source != Source::BoundaryFlux,
-            curved_particular: CURVED_PARTICULAR,
+            curved_particular: CURVED_PARTICULAR && UPSTREAM_BEAM && source != Source::BoundaryFlux,
         }
     }
 
@@ -318,6 +318,7 @@ impl Settings {
                 .single_scattering
                 .map(|s| scatter_for(source, s.samples, s.skip_front_lit)),
             upstream_beam: UPSTREAM_BEAM && source != Source::BoundaryFlux,
+            curved_particular: CURVED_PARTICULAR && UPSTREAM_BEAM && source != Source::BoundaryFlux,
             ..self
         }
     }
