@@ -89,6 +89,13 @@ pub const UPSTREAM_BEAM: bool = true;
 /// benches/RESULTS.md, "Shadow edges on the front-lit bunny (wave 13)": front-lit bunny 8.02 ->
 /// 7.65%, side-lit 9.80 -> 9.88%, the other eleven references unchanged).
 pub const OWN_VISIBILITY: bool = true;
+/// The upstream beam's curved particular solution (`transport::Transport::curved_particular`:
+/// irradiance factor mu_up, the volume's narrowing and the lateral terms in K, in full on an
+/// umbilic node and faded to wave 8's area factor where the principal curvatures differ,
+/// `transport::SurfaceCurvature::umbilic_share`; benches/RESULTS.md, "The curved particular
+/// solution on non-spherical surfaces": the front-lit milk sphere 5.53 -> 3.35 %, marble 2.45 ->
+/// 1.97, the bunny side 9.80 -> 9.98 and the back-lit marble sphere 6.74 -> 7.18 worse).
+pub const CURVED_PARTICULAR: bool = true;
 /// One bounce of exitance between display vertices for the QuadGraph method (benches/RESULTS.md,
 /// "One bounce between surface points": 4-8 points off every concave scene against path tracing,
 /// the convex sphere unchanged, < 1 ms a frame; its links are stored with the bake, a convex mesh
@@ -293,6 +300,8 @@ pub struct Settings {
     pub diffusion: DiffusionCoefficient,
     /// The upstream beam ([`UPSTREAM_BEAM`] with a beam source, off with the boundary flux).
     pub upstream_beam: bool,
+    /// Its curved particular solution ([`CURVED_PARTICULAR`] with the upstream beam, else off).
+    pub curved_particular: bool,
 }
 
 impl Settings {
@@ -318,6 +327,7 @@ impl Settings {
             warm_start: WARM_START,
             diffusion: DIFFUSION,
             upstream_beam: UPSTREAM_BEAM && source != Source::BoundaryFlux,
+            curved_particular: CURVED_PARTICULAR && UPSTREAM_BEAM && source != Source::BoundaryFlux,
         }
     }
 
@@ -354,6 +364,7 @@ impl Settings {
                 .single_scattering
                 .map(|s| scatter_for(source, s.samples, s.skip_front_lit)),
             upstream_beam: UPSTREAM_BEAM && source != Source::BoundaryFlux,
+            curved_particular: CURVED_PARTICULAR && UPSTREAM_BEAM && source != Source::BoundaryFlux,
             ..self
         }
     }
@@ -381,6 +392,7 @@ impl Settings {
             collimated: beam,
             second_collision: self.source == Source::SecondCollision,
             upstream_beam: beam && self.upstream_beam,
+            curved_particular: beam && self.upstream_beam && self.curved_particular,
             surface: self.surface,
             heterogeneous_weights: self.heterogeneous_weights,
             multigrid: (self.schedule == Schedule::Multigrid).then(|| MultigridParams {
@@ -433,6 +445,7 @@ impl Settings {
             warm_start: s.multigrid.as_ref().map_or(WARM_START, |m| m.warm_start),
             diffusion: params.diffusion,
             upstream_beam: s.upstream_beam,
+            curved_particular: s.curved_particular,
         }
     }
 }

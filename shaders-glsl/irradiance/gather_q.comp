@@ -292,25 +292,32 @@ const float NARROWING_FULL_ABOVE = 0.3;
 // The upstream beam's particular solution for a node cosine `mu` (transport::upstream_beam, then
 // transport::beam_particular_curved), everything else held: c_t the turn's and c the particular
 // solution's curvature per channel, e_vis = E times the visibility.
-// `c_area` = H / (eta sigma_t'): wave 8's area factor when not `curved` (beam_upstream 1).
-void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, bool curved, vec3 e_vis,
+// `c_area` = H / (eta sigma_t'): wave 8's area factor; `curved` the curved particular solution's
+// share (0 with beam_upstream 1; transport::SurfaceCurvature::umbilic_share with 2).
+void upstream_particular(float mu, vec3 c_t, vec3 c, vec3 c_area, float curved, vec3 e_vis,
                          vec3 beam_s, vec3 beam_a, vec3 beam_d, out vec3 k, out vec3 beta_k,
                          out vec3 flux) {
     // Each channel's beam has its own upstream cosine: channel c of every vec3 below is channel
     // c's beam (one evaluation for the three, the same values as three).
     vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
-    vec3 factor = curved
-        ? max(mu_up, vec3(0.0))
-        : mix(vec3(0.0), max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0)),
-              greaterThan(mu_up, vec3(0.0)));
+    vec3 area = max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0));
+    vec3 factor = mix(vec3(0.0), mix(area, mu_up, curved), greaterThan(mu_up, vec3(0.0)));
     vec3 mt = sqrt(max(1.0 - (1.0 - mu_up * mu_up) / (pc.eta * pc.eta), vec3(0.0)));
     vec3 ft = vec3(fresnel_transmittance(pc.eta, max(mu_up.r, 0.0)),
                    fresnel_transmittance(pc.eta, max(mu_up.g, 0.0)),
                    fresnel_transmittance(pc.eta, max(mu_up.b, 0.0)));
     // transport::NARROWING_FULL_ABOVE: the narrowing fades to none at the terminator.
-    vec3 narrowing = curved ? c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu) : vec3(0.0);
+    vec3 narrowing = curved * c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
     beam_particular(e_vis * factor * ft, mt, true, beam_s, beam_a, beam_d, narrowing, k, beta_k,
                     flux);
+}
+
+// transport::SurfaceCurvature::umbilic_share, UMBILIC_SHARE_POWER = 4, from 1 - |k1 - k2| /
+// (|k1| + |k2|).
+float umbilic_share(float isotropy) {
+    float s = clamp(isotropy, 0.0, 1.0);
+    s *= s;
+    return s * s;
 }
 
 // transport::LATERAL_STEP, LATERAL_FULL_ABOVE.
@@ -320,9 +327,10 @@ const float LATERAL_GUARD_FROM = 0.15;
 
 // transport::lateral_correction: the particular solution's lateral terms folded into K (dK per
 // channel), from central differences in the node cosine about min(mu, 1 - step); g =
-// H^2 + |a|^4 (1/mm^2), c = H / sigma_t' per channel; 0 where any of the three is unlit.
-vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 beam_s,
-                        vec3 beam_a, vec3 beam_d) {
+// H^2 + |a|^4 and g_along = |S t|^2 along the beam's tangent (1/mm^2), c = H / sigma_t' per
+// channel; 0 where any of the three is unlit.
+vec3 lateral_correction(float mu, vec3 c_t, vec3 c, vec3 c_area, float g, float g_along,
+                        float share, vec3 e_vis, vec3 beam_s, vec3 beam_a, vec3 beam_d) {
     vec3 sigma_t = beam_s + beam_a;
     float fade = smoothstep(0.0, LATERAL_FULL_ABOVE, mu);
     vec3 gc = min(vec3(g), (UPSTREAM_SHIFT_LIMIT * sigma_t) * (UPSTREAM_SHIFT_LIMIT * sigma_t));
@@ -334,11 +342,11 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
                                         vec3(sqrt(g)) / sigma_t);
     float m = min(mu, 1.0 - LATERAL_STEP);
     vec3 k0, bk0, kp, bkp, km, bkm, unused;
-    upstream_particular(m, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
-    upstream_particular(m + LATERAL_STEP, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, kp, bkp,
-                        unused);
-    upstream_particular(m - LATERAL_STEP, c_t, c, c, true, e_vis, beam_s, beam_a, beam_d, km, bkm,
-                        unused);
+    upstream_particular(m, c_t, c, c_area, share, e_vis, beam_s, beam_a, beam_d, k0, bk0, unused);
+    upstream_particular(m + LATERAL_STEP, c_t, c, c_area, share, e_vis, beam_s, beam_a, beam_d,
+                        kp, bkp, unused);
+    upstream_particular(m - LATERAL_STEP, c_t, c, c_area, share, e_vis, beam_s, beam_a, beam_d,
+                        km, bkm, unused);
     bvec3 lit = bvec3(vec3(notEqual(k0, vec3(0.0))) * vec3(notEqual(kp, vec3(0.0)))
                       * vec3(notEqual(km, vec3(0.0))));
     vec3 safe_k0 = mix(vec3(1.0), k0, lit);
@@ -350,14 +358,15 @@ vec3 lateral_correction(float mu, vec3 c_t, vec3 c, float g, vec3 e_vis, vec3 be
     vec3 d2k = (kp - 2.0 * k0 + km) / (step * step);
     vec3 db = (bp - bm) / (2.0 * step);
     vec3 d2b = (bp - 2.0 * b0 + bm) / (step * step);
-    float w = 1.0 - m * m;
+    // |grad mu|^2 / g over (1 - mu^2): the beam's direction's share of the curvature.
+    float w = clamp(g_along / g, 0.0, 2.0) * (1.0 - m * m);
     vec3 lk = w * d2k - 2.0 * m * dk;
     vec3 lb = w * d2b - 2.0 * m * db;
     vec3 lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
         + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
-    vec3 narrowing = c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
+    vec3 narrowing = share * c * smoothstep(0.0, NARROWING_FULL_ABOVE, mu);
     vec3 denom = beam_a - beam_d * b0 * b0 * (1.0 + 2.0 * narrowing * sigma_t / b0);
-    vec3 d_k = fade * guard * beam_d * gc * lat * b0 / denom;
+    vec3 d_k = share * fade * guard * beam_d * gc * lat * b0 / denom;
     bvec3 bad = bvec3(vec3(isnan(d_k)) + vec3(isinf(d_k)));
     return mix(mix(vec3(0.0), d_k, lit), vec3(0.0), bad);
 }
@@ -455,6 +464,9 @@ void main() {
                 float ta = dot(normalize(beam_tangent), a);
                 along_curvature = curvature - dot(a, a) + 2.0 * ta * ta;
             }
+            // transport::SurfaceCurvature::squared_along: g + 2 H (k_t - H) (g at the pole).
+            float curvature_squared_along =
+                max(curvature_squared + 2.0 * curvature * (along_curvature - curvature), 0.0);
             vec3 inv_eta_sigma = 1.0 / (pc.eta * max(sigma_t, vec3(1e-12)));
             vec3 c_t = clamp(along_curvature * inv_eta_sigma,
                              vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
@@ -463,12 +475,15 @@ void main() {
                            vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
             vec3 c_area = clamp(curvature * inv_eta_sigma,
                                 vec3(-UPSTREAM_SHIFT_LIMIT), vec3(UPSTREAM_SHIFT_LIMIT));
-            bool curved = pc.beam_upstream > 1.5;
+            // transport::SurfaceCurvature::umbilic_share: the curved particular solution's share.
+            float a2 = dot(a, a);
+            float k_sum = abs(curvature + a2) + abs(curvature - a2);
+            float curved = pc.beam_upstream > 1.5
+                ? (k_sum > 0.0 ? umbilic_share(1.0 - 2.0 * a2 / k_sum) : 1.0)
+                : 0.0;
             vec3 mu_up = min(mu + c_t * (1.0 - mu * mu), vec3(1.0));
-            vec3 factor = curved
-                ? max(mu_up, vec3(0.0))
-                : mix(vec3(0.0), max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0)),
-                      greaterThan(mu_up, vec3(0.0)));
+            vec3 area = max(mu + c_t * (1.0 - mu * mu) - 2.0 * c_area * mu * mu, vec3(0.0));
+            vec3 factor = mix(vec3(0.0), mix(area, mu_up, curved), greaterThan(mu_up, vec3(0.0)));
             float vis = 1.0;
             if (light.views.y != 0u) {
                 uint view = light.views.y == 6u ? light.views.x + cube_face(-l) : light.views.x;
@@ -502,8 +517,9 @@ void main() {
                     upstream_particular(mu, c_t, c, c_area, curved, e * vis, beam_s, beam_a,
                                         beam_d, k, beta_k, flux);
                     // The lateral terms: K gains dK, beta unchanged (beta K scales with it).
-                    vec3 d_k = curved
-                        ? lateral_correction(mu, c_t, c, curvature_squared, e * vis, beam_s,
+                    vec3 d_k = curved > 0.0
+                        ? lateral_correction(mu, c_t, c, c_area, curvature_squared,
+                                             curvature_squared_along, curved, e * vis, beam_s,
                                              beam_a, beam_d)
                         : vec3(0.0);
                     vec3 beta = beta_k / mix(k, vec3(1.0), equal(k, vec3(0.0)));

@@ -418,6 +418,15 @@ impl<'a> SourceModel<'a> {
         }
         let eta = self.boundary.eta;
         let curved = self.transport.curved_particular;
+        // lateral_correction's curvatures: along the beam, or every direction's mean at the pole.
+        let g = (
+            curvature.squared(),
+            if along.length() > 1e-9 {
+                curvature.squared_along(t)
+            } else {
+                curvature.squared()
+            },
+        );
         let beams: ChannelBeams = std::array::from_fn(|c| {
             let b = upstream_beam_with(mu, curvature, t, sigma_t[c], eta, curved);
             let o = Optics::channel_with(here, c, self.material.diffusion());
@@ -433,7 +442,7 @@ impl<'a> SourceModel<'a> {
                 beam_particular_curved(o, fit, irr, gain, b.curvature)
             };
             let lateral = if curved && b.irradiance > 0.0 {
-                lateral_correction(o, mu, b.curvature, curvature.squared(), at)
+                curvature.umbilic_share() * lateral_correction(o, mu, b.curvature, g, at)
             } else {
                 0.0
             };

@@ -769,12 +769,21 @@ pub fn upstream_beam_with(
             curvature: 0.0,
         };
     }
-    let irradiance = mu_up.max(0.0);
+    // Curved in full on an umbilic node, wave 8's area factor where the principal curvatures
+    // differ most ([`SurfaceCurvature::umbilic_share`]), blended between.
+    let share = curvature.umbilic_share();
+    let irradiance = if mu_up > 0.0 {
+        let c = shift(curvature.mean);
+        let area = (mu + c_t * (1.0 - mu * mu) - 2.0 * c * mu * mu).max(0.0);
+        share * mu_up + (1.0 - share) * area
+    } else {
+        0.0
+    };
     // The particular solution's curvature is geometric (eta does not enter the Laplacian), in
     // full from n.l = NARROWING_FULL_ABOVE, faded (smoothstep) to none at the terminator.
     let fade = (mu / NARROWING_FULL_ABOVE).clamp(0.0, 1.0);
-    let curvature = if irradiance > 0.0 {
-        shift(curvature.mean * eta) * fade * fade * (3.0 - 2.0 * fade)
+    let curvature = if mu_up > 0.0 {
+        share * shift(curvature.mean * eta) * fade * fade * (3.0 - 2.0 * fade)
     } else {
         0.0
     };
@@ -806,25 +815,29 @@ pub const LATERAL_GUARD_FROM: f64 = 0.15;
 
 /// The particular solution's lateral terms (second order in the curvature): K(mu) e^(-beta(mu) z)
 /// varies along the surface with the node's cosine mu = n . l, so its surface Laplacian
-/// g [(1 - mu^2) f'' - 2 mu f'] (a sphere's, g = 1 / R^2; here g = (k1^2 + k2^2) / 2 =
-/// H^2 + |a|^4 of the node's [`SurfaceCurvature`], at most (UPSTREAM_SHIFT_LIMIT sigma_t')^2)
-/// is a source the planar particular solution leaves out. Integrated over depth (moments 1/beta,
-/// 1/beta^2, 2/beta^3 of e^(-beta z), z e^(-beta z), z^2 e^(-beta z)) and folded into K:
-/// dK = D g lat beta / (sigma_a - D beta^2 (1 + 2 c mu_e)), lat = L[K] / beta - (2 (1 - mu^2)
-/// K' beta' + K L[beta]) / beta^2 + 2 K beta'^2 (1 - mu^2) / beta^3, L[f] = (1 - mu^2) f'' -
-/// 2 mu f'. At a skim-milk sphere's lit pole (red, c = 0.14) it is +9% of K, +1.4% for marble
+/// f'' |grad mu|^2 + f' Lap(mu) is a source the planar particular solution leaves out. With the
+/// shape operator S (principal curvatures k1, k2), grad mu = S l_t (l_t = l - n mu) and
+/// Lap(mu) = Lap(n) . l = -(k1^2 + k2^2) mu (H's gradient left out), so the surface Laplacian is
+/// g [r (1 - mu^2) f'' - 2 mu f'] with g = (k1^2 + k2^2) / 2 = H^2 + |a|^4
+/// ([`SurfaceCurvature::squared`], at most (UPSTREAM_SHIFT_LIMIT sigma_t')^2) and r = g_t / g,
+/// g_t = |S t|^2 the squared curvature along the beam's tangent t
+/// ([`SurfaceCurvature::squared_along`], `g_along`; r in [0, 2], 1 on a sphere, where this is
+/// g L[f] with g = 1 / R^2). Integrated over depth (moments 1/beta, 1/beta^2, 2/beta^3 of
+/// e^(-beta z), z e^(-beta z), z^2 e^(-beta z)) and folded into K:
+/// dK = D g lat beta / (sigma_a - D beta^2 (1 + 2 c mu_e)), lat = L[K] / beta - (2 w K' beta' +
+/// K L[beta]) / beta^2 + 2 K beta'^2 w / beta^3, L[f] = w f'' - 2 mu f', w = r (1 - mu^2). At a skim-milk sphere's lit pole (red, c = 0.14) it is +9% of K, +1.4% for marble
 /// red; it lifts the continuous sphere's lit cap from 0.96-0.99 to 1.00-1.01 of the Monte Carlo
 /// (benches/RESULTS.md, "The front-lit milk sphere's mid latitudes"). `at(mu)` gives (K, beta)
 /// of the node's beam (everything else held) for a node cosine `mu`; derivatives by central
 /// differences of [`LATERAL_STEP`] about min(mu, 1 - step) (K is smooth in mu up to the pole);
 /// 0 where any of the three is unlit or not finite, faded out where the unclamped curvature
 /// reaches the clamp ([`LATERAL_GUARD_FROM`]). `curvature` = H / sigma_t' (clamped, as
-/// [`UpstreamBeam::curvature`]), `g` in 1/mm^2. The GPU gather computes the same.
+/// [`UpstreamBeam::curvature`]), `g` and `g_along` in 1/mm^2. The GPU gather computes the same.
 pub fn lateral_correction(
     o: Optics,
     mu: f64,
     curvature: f64,
-    g: f64,
+    (g, g_along): (f64, f64),
     at: impl Fn(f64) -> (f64, f64),
 ) -> f64 {
     let step = LATERAL_STEP;
@@ -860,7 +873,13 @@ pub fn lateral_correction(
         (bp - bm) / (2.0 * step),
         (bp - 2.0 * b0 + bm) / (step * step),
     );
-    let w = 1.0 - m * m;
+    // |grad mu|^2 / g over (1 - mu^2): the beam's direction's share of the curvature.
+    let r = if g_along.is_finite() {
+        (g_along / g).clamp(0.0, 2.0)
+    } else {
+        1.0
+    };
+    let w = r * (1.0 - m * m);
     let (lk, lb) = (w * d2k - 2.0 * m * dk, w * d2b - 2.0 * m * db);
     let lat = lk / b0 - (2.0 * w * dk * db + k0 * lb) / (b0 * b0)
         + 2.0 * k0 * db * db * w / (b0 * b0 * b0);
@@ -873,6 +892,10 @@ pub fn lateral_correction(
         0.0
     }
 }
+
+/// [`SurfaceCurvature::umbilic_share`]'s power: 1, 2 and 4 measured on the bunny and the torus
+/// (benches/RESULTS.md, "The curved particular solution on non-spherical surfaces").
+pub const UMBILIC_SHARE_POWER: i32 = 4;
 
 /// The curvature of the surface at a node (1/mm, convex > 0): the mean curvature H = (k1 + k2)
 /// / 2 and the anisotropy a = e1 sqrt((k1 - k2) / 2), e1 the unit direction of the larger
@@ -900,6 +923,34 @@ impl SurfaceCurvature {
         let g = self.mean * self.mean + self.anisotropy.length_squared().powi(2);
         if g.is_finite() {
             g
+        } else {
+            0.0
+        }
+    }
+
+    /// (1 - |k1 - k2| / (|k1| + |k2|))^[`UMBILIC_SHARE_POWER`]: 1 on an umbilic node (a sphere's; or a plane's), 0 where
+    /// one principal curvature is zero (a cylinder's) or they are opposite (a saddle's). The
+    /// curved particular solution's share ([`upstream_beam`]; its lateral term alike): its
+    /// narrowing and lateral term help a sphere lit from the front but cost the bunny and the
+    /// torus (benches/RESULTS.md, "The curved particular solution on non-spherical surfaces").
+    pub fn umbilic_share(&self) -> f64 {
+        let a2 = self.anisotropy.length_squared();
+        let sum = (self.mean + a2).abs() + (self.mean - a2).abs();
+        let share = 1.0 - 2.0 * a2 / sum;
+        if share.is_finite() {
+            share.clamp(0.0, 1.0).powi(UMBILIC_SHARE_POWER)
+        } else {
+            1.0
+        }
+    }
+
+    /// |S t|^2 = k1^2 (t . e1)^2 + k2^2 (t . e2)^2 = [`Self::squared`] + 2 H (k_t - H): the
+    /// squared curvature along the unit tangent `t` (the rate at which the normal turns moving
+    /// along t), [`lateral_correction`]'s `g_along` (0 if not finite).
+    pub fn squared_along(&self, t: DVec3) -> f64 {
+        let g = self.squared() + 2.0 * self.mean * (self.along(t) - self.mean);
+        if g.is_finite() {
+            g.max(0.0)
         } else {
             0.0
         }

@@ -119,10 +119,12 @@ pub struct RenderArgs {
     /// With a beam source (GPU and CPU solvers, the same formula and baked curvature): `on`,
     /// each surface node's beam is taken from upstream on the curved surface
     /// (`transport::upstream_beam`: lights the crescent past the terminator of a back-lit
-    /// object); `off`, the planar beam; `curved`, the upstream beam with its particular solution
-    /// below the curved surface (`transport::Transport::curved_particular`: the volume's
-    /// narrowing and the lateral terms in K; the front-lit milk sphere's mid latitudes).
-    /// `--upstream-beam` alone is `on`. Default: see `defaults::DEFAULT_UPSTREAM_BEAM`.
+    /// object) with wave 8's area factor and a planar particular solution; `off`, the planar
+    /// beam; `curved`, the upstream beam with its particular solution below the curved surface
+    /// (`transport::Transport::curved_particular`: the volume's narrowing and the lateral terms
+    /// in K, in full on umbilic nodes, faded to `on` where the principal curvatures differ).
+    /// `--upstream-beam` alone is `on`. Default: `curved` (see `defaults::DEFAULT_UPSTREAM_BEAM`,
+    /// `defaults::DEFAULT_CURVED_PARTICULAR`).
     #[arg(long, value_name = "on|off|curved", value_parser = ["on", "off", "curved"], num_args = 0..=1, default_missing_value = "on")]
     pub upstream_beam: Option<String>,
     /// With a beam source and the interior surface (GPU and CPU solvers, the same formula):

@@ -27,6 +27,10 @@ pub const DEFAULT_UPSTREAM_BEAM: bool = translucent::defaults::UPSTREAM_BEAM;
 /// [`translucent::defaults::OWN_VISIBILITY`].
 pub const DEFAULT_OWN_VISIBILITY: bool = translucent::defaults::OWN_VISIBILITY;
 
+/// `render`'s upstream beam when `--upstream-beam` is not named: curved (the library's
+/// [`translucent::defaults::CURVED_PARTICULAR`]) or wave 8's area factor (`on`).
+pub const DEFAULT_CURVED_PARTICULAR: bool = translucent::defaults::CURVED_PARTICULAR;
+
 /// `--method auto`: the arguments with the method [`choose_method`] picks for this material and
 /// scene (a rigid object: `render` neither deforms nor re-meshes).
 pub fn resolve_auto(args: &RenderArgs) -> anyhow::Result<RenderArgs> {
@@ -123,9 +127,14 @@ impl RenderArgs {
             && self.light_source() != translucent::solver::transport::Source::BoundaryFlux
     }
 
-    /// `--upstream-beam curved`: the upstream beam with the curved particular solution.
+    /// `--upstream-beam curved`: the upstream beam with the curved particular solution; when not
+    /// named, [`DEFAULT_CURVED_PARTICULAR`] (`on` names the area factor).
     pub fn curved_particular(&self) -> bool {
-        self.upstream_beam() && self.upstream_beam.as_deref() == Some("curved")
+        self.upstream_beam()
+            && self
+                .upstream_beam
+                .as_deref()
+                .map_or(DEFAULT_CURVED_PARTICULAR, |v| v == "curved")
     }
 
     /// `--source` resolved: the given one; else [`DEFAULT_SOURCE`] for the QuadGraph method on
@@ -201,6 +210,7 @@ impl RenderArgs {
         settings.bounce = self.bounce_mode()?;
         settings.diffusion = self.diffusion()?;
         settings.upstream_beam = self.upstream_beam();
+        settings.curved_particular = self.curved_particular();
         Ok(settings)
     }
 

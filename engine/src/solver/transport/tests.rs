@@ -298,7 +298,9 @@ fn curved_particular_solution_solves_the_diffusion_below_a_sphere() {
 
 /// A cylinder of radius r along y (k1 = 1 / r around it, k2 = 0 along it): a beam whose
 /// tangent runs around it turns as on a sphere of radius r, one running along the axis
-/// does not turn (mu_up = mu), and both narrow by the mean curvature 1 / (2 r).
+/// does not turn (mu_up = mu). The curved mode's share ([`SurfaceCurvature::umbilic_share`]) is
+/// 0 there: wave 8's area factor (narrowing by the mean curvature 1 / (2 r) in it), no narrowing
+/// in K; in full on the sphere; (2/3)^[`UMBILIC_SHARE_POWER`] where k1 = 2 k2, blended linearly.
 #[test]
 fn upstream_beam_on_a_cylinder_turns_only_around_it() {
     let (r, sigma_t) = (3.0, 2.62);
@@ -320,13 +322,35 @@ fn upstream_beam_on_a_cylinder_turns_only_around_it() {
         sigma_t,
         1.0,
     );
-    // The same turn as the sphere's, half its narrowing (the mean curvature is 1 / (2 r)).
-    assert!((around.irradiance - sphere.irradiance).abs() < 1e-12);
-    assert!((around.curvature - 0.5 * sphere.curvature).abs() < 1e-12);
+    assert_eq!(cylinder.umbilic_share(), 0.0);
+    assert_eq!(SurfaceCurvature::umbilic(1.0 / r).umbilic_share(), 1.0);
+    assert_eq!(SurfaceCurvature::default().umbilic_share(), 1.0);
+    // The sphere's: the whole turn as the irradiance factor, the narrowing c in K.
+    assert!((sphere.irradiance - sphere.mu_up).abs() < 1e-12);
     assert!((sphere.curvature - c).abs() < 1e-12);
+    // The cylinder's: the area factor, as upstream_beam_with(.., false) (share 0).
+    let area = |t: DVec3| upstream_beam_with(mu, cylinder, t, sigma_t, 1.0, false);
+    assert_eq!(around, area(DVec3::X));
+    let area_factor = mu + c * (1.0 - mu * mu) - 2.0 * 0.5 * c * mu * mu;
+    assert!((around.irradiance - area_factor).abs() < 1e-12);
+    assert!(around.irradiance < around.mu_up);
     let along = upstream_beam(mu, cylinder, DVec3::Y, sigma_t, 1.0);
-    assert_eq!((along.mu_up, along.irradiance), (mu, mu));
-    assert!((along.curvature - 0.5 * c).abs() < 1e-12);
+    assert_eq!(along, area(DVec3::Y));
+    assert_eq!(along.mu_up, mu);
+    // k1 = 2 / r, k2 = 1 / r: 1 - 1 / 3 to the power.
+    let oblate = SurfaceCurvature {
+        mean: 1.5 / r,
+        anisotropy: DVec3::X * (0.5 / r).sqrt(),
+    };
+    let share = (2.0f64 / 3.0).powi(UMBILIC_SHARE_POWER);
+    assert!((oblate.umbilic_share() - share).abs() < 1e-12);
+    let (full, planar) = (
+        upstream_beam(mu, oblate, DVec3::Y, sigma_t, 1.0),
+        upstream_beam_with(mu, oblate, DVec3::Y, sigma_t, 1.0, false),
+    );
+    let want = share * full.mu_up + (1.0 - share) * planar.irradiance;
+    assert!((full.irradiance - want).abs() < 1e-12);
+    assert!((full.curvature - share * 1.5 / (r * sigma_t)).abs() < 1e-12);
 }
 
 /// Wave 8's area factor (`upstream_beam_with(.., false)`, the default): the sphere's lit power is
@@ -368,7 +392,7 @@ fn lateral_correction_matches_its_closed_form() {
     };
     let (beta, c, g) = (1.5, 0.1, 0.01);
     for mu in [0.6, 0.8, 0.95] {
-        let got = lateral_correction(o, mu, c, g, |m| (m * m, beta));
+        let got = lateral_correction(o, mu, c, (g, g), |m| (m * m, beta));
         let m = mu.min(1.0 - LATERAL_STEP);
         let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
         let want = o.d() * g * (2.0 - 6.0 * m * m) / denom;
@@ -377,13 +401,16 @@ fn lateral_correction_matches_its_closed_form() {
             "mu {mu}: {got} vs {want}"
         );
     }
-    let faded = lateral_correction(o, 0.25, c, g, |m| (m * m, beta));
+    let faded = lateral_correction(o, 0.25, c, (g, g), |m| (m * m, beta));
     let full = o.d() * g * (2.0 - 6.0 * 0.0625)
         / (o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta));
     assert!((faded - 0.5 * full).abs() < 1e-6 * full.abs());
-    assert_eq!(lateral_correction(o, 0.0, c, g, |m| (m * m, beta)), 0.0);
     assert_eq!(
-        lateral_correction(o, 0.5, c, g, |m| if m < 0.5 {
+        lateral_correction(o, 0.0, c, (g, g), |m| (m * m, beta)),
+        0.0
+    );
+    assert_eq!(
+        lateral_correction(o, 0.5, c, (g, g), |m| if m < 0.5 {
             (0.0, 0.0)
         } else {
             (m, beta)
@@ -391,9 +418,51 @@ fn lateral_correction_matches_its_closed_form() {
         0.0
     );
     assert_eq!(
-        lateral_correction(o, 0.5, c, f64::NAN, |m| (m * m, beta)),
+        lateral_correction(o, 0.5, c, (f64::NAN, f64::NAN), |m| (m * m, beta)),
         0.0
     );
+}
+
+/// [`lateral_correction`] on a cylinder of radius 10 mm (k1 = 1/10 across the axis e1, k2 = 0):
+/// |grad mu|^2 = |S l_t|^2 is k1^2 (1 - mu^2) for a beam whose tangent crosses the axis and 0 for
+/// one along it, while Lap(mu) = -(k1^2 + k2^2) mu either way. With K = mu^2, beta constant:
+/// lat = (2 r (1 - mu^2) - 4 mu^2) / beta, r = g_t / g = 2 across, 0 along (a sphere's mean, r = 1,
+/// gives 2 - 6 mu^2 for both). [`SurfaceCurvature::squared_along`] gives those g_t.
+#[test]
+fn lateral_correction_follows_the_beam_across_an_anisotropic_surface() {
+    let o = Optics {
+        sigma_s: 0.7,
+        sigma_a: 0.0014,
+        diffusion: DiffusionCoefficient::Classical,
+    };
+    let (beta, c, mu, radius) = (1.5, 0.05, 0.7, 10.0);
+    let cylinder = SurfaceCurvature {
+        mean: 0.5 / radius,
+        anisotropy: DVec3::X * (0.5 / radius).sqrt(),
+    };
+    let g = cylinder.squared();
+    assert!((g - 0.5 / (radius * radius)).abs() < 1e-12, "{g}");
+    let (across, along) = (
+        cylinder.squared_along(DVec3::X),
+        cylinder.squared_along(DVec3::Z),
+    );
+    assert!((across - 1.0 / (radius * radius)).abs() < 1e-12, "{across}");
+    assert!(along.abs() < 1e-12, "{along}");
+    let sphere = SurfaceCurvature::umbilic(1.0 / radius);
+    let g_sphere = sphere.squared();
+    assert!((sphere.squared_along(DVec3::Y) - g_sphere).abs() < 1e-15);
+    let denom = o.sigma_a - o.d() * beta * beta * (1.0 + 2.0 * c * o.sigma_t() / beta);
+    let closed = |r: f64| o.d() * g * (2.0 * r * (1.0 - mu * mu) - 4.0 * mu * mu) / denom;
+    for (g_t, r) in [(across, 2.0), (along, 0.0), (g, 1.0)] {
+        let got = lateral_correction(o, mu, c, (g, g_t), |m| (m * m, beta));
+        let want = closed(r);
+        assert!(
+            want != 0.0 && (got - want).abs() < 1e-6 * want.abs(),
+            "r {r}: {got} vs {want}"
+        );
+    }
+    // Across and along differ in sign here (2 (1 - 0.49) 2 = 2.04 > 1.96; 0 < 1.96).
+    assert!(closed(2.0) * closed(0.0) < 0.0);
 }
 
 /// [`lateral_correction`]'s guard ([`LATERAL_GUARD_FROM`]): in full where the unclamped
@@ -421,7 +490,7 @@ fn lateral_correction_is_guarded_where_the_curvature_reaches_the_clamp() {
         diffusion: DiffusionCoefficient::Classical,
     };
     let g_sphere = 0.01; // 1 / R^2, R = 10 mm
-    let lateral = |o: Optics, g: f64| lateral_correction(o, mu, c, g, |m| (m * m, beta));
+    let lateral = |o: Optics, g: f64| lateral_correction(o, mu, c, (g, g), |m| (m * m, beta));
     let full = lateral(milk, g_sphere);
     let want = closed(milk, g_sphere);
     assert!(
