@@ -972,12 +972,6 @@ fn a_warm_frame_with_the_bounce_source_solves_first_as_the_frame_without_it() {
             p.multigrid.as_ref().expect("multigrid"),
             s.multigrid.as_ref().expect("multigrid"),
         );
-        println!(
-            "frame {k}: first solve {} / {} work units (without / with the source), second {:?}",
-            p1.work_units,
-            s1.work_units,
-            s.bounce.as_ref().map(|b| b.work_units)
-        );
         assert_eq!(s1.warm, k > 0, "frame {k}");
         assert_eq!(
             (s1.cycles.len(), s1.work_units, s1.warm_order),
