@@ -761,6 +761,36 @@ fn the_bounce_source_adds_the_f64_node_sources_and_carries_light_inside() {
     gpu.finish();
 }
 
+/// A marble object of `graph` without single scattering, with the bounce `mode` (its `links`
+/// set unless off).
+fn marble_object(
+    gpu: &GpuTest,
+    graph: &QuadGraph,
+    links: &BounceLinks,
+    mode: translucent::frame::BounceMode,
+) -> TranslucentObject {
+    let field = marble();
+    let mut object = TranslucentObject::new(
+        &gpu.ctx,
+        std::sync::Arc::new(graph.clone()),
+        &field,
+        &scene(),
+        &ObjectParams {
+            single_scattering: None,
+            diffusion: field.diffusion(),
+            bounce: mode,
+            ..ObjectParams::default()
+        },
+    )
+    .expect("object");
+    if mode != translucent::frame::BounceMode::Off {
+        object
+            .set_bounce(&gpu.ctx, Some(links), &field)
+            .expect("bounce");
+    }
+    object
+}
+
 /// `--bounce source`'s second solve converged relative to its start (the bounce's share of q,
 /// [`translucent::frame::QuadGraphMethod::set_bounce_tolerance`]) against the full second solve
 /// (relative tolerance 0: the solve's own tolerance) on the torus: (0) the frame reports both
@@ -782,24 +812,7 @@ fn the_cheap_bounce_solve_converges_on_its_increment_and_keeps_the_full_solves_e
     });
     let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
     let object = |mode: BounceMode, tolerance: f32| {
-        let mut object = TranslucentObject::new(
-            &gpu.ctx,
-            std::sync::Arc::new(torus.clone()),
-            &field,
-            &scene(),
-            &ObjectParams {
-                single_scattering: None,
-                diffusion: field.diffusion(),
-                bounce: mode,
-                ..ObjectParams::default()
-            },
-        )
-        .expect("object");
-        if mode != BounceMode::Off {
-            object
-                .set_bounce(&gpu.ctx, Some(&links), &field)
-                .expect("bounce");
-        }
+        let mut object = marble_object(&gpu, &torus, &links, mode);
         object.set_bounce_tolerance(tolerance).expect("tolerance");
         let (captured, _) = render_once(&gpu.ctx, &mut object, 32, 32);
         assert!(captured
@@ -921,31 +934,13 @@ fn the_cheap_bounce_solve_converges_on_its_increment_and_keeps_the_full_solves_e
 fn a_warm_frame_with_the_bounce_source_solves_first_as_the_frame_without_it() {
     use translucent::frame::BounceMode;
     let gpu = GpuTest::new();
-    let field = marble();
     let torus = bake(&Shape::Torus {
         major: 8.0,
         minor: 3.0,
     });
     let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
     let frames = |mode: BounceMode| -> Vec<CompletedSolve> {
-        let mut object = TranslucentObject::new(
-            &gpu.ctx,
-            std::sync::Arc::new(torus.clone()),
-            &field,
-            &scene(),
-            &ObjectParams {
-                single_scattering: None,
-                diffusion: field.diffusion(),
-                bounce: mode,
-                ..ObjectParams::default()
-            },
-        )
-        .expect("object");
-        if mode != BounceMode::Off {
-            object
-                .set_bounce(&gpu.ctx, Some(&links), &field)
-                .expect("bounce");
-        }
+        let mut object = marble_object(&gpu, &torus, &links, mode);
         let mut solves = Vec::new();
         for k in 0..4 {
             let angle = (3.0 * f64::from(k)).to_radians();
