@@ -170,25 +170,20 @@ fn hash01(a: u64, b: u64) -> f64 {
 }
 
 /// `weights`' `max` heaviest links (ties by index), sorted by index. Each dropped link's weight
-/// goes to the kept link nearest to it (facing the same way), so the row keeps its total and where its light comes
+/// goes to the kept link nearest to it, so the row keeps its total and where its light comes
 /// from (a coarser quadrature of the same integral). Rescaling the kept links to the total
 /// instead made the cut's choice, which jumps from vertex to vertex, a speckle (wave 13,
 /// benches/RESULTS.md "Speckle of the bounce in the torus's hole").
-fn keep_heaviest(mut weights: Vec<(u32, f64)>, max: usize, mesh: &TriMesh) -> Vec<(u32, f64)> {
+fn keep_heaviest(mut weights: Vec<(u32, f64)>, max: usize, positions: &[DVec3]) -> Vec<(u32, f64)> {
     weights.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     if weights.len() > max && max > 0 {
         for (y, w) in weights.split_off(max) {
-            let (p, n) = (mesh.positions[y as usize], mesh.normals[y as usize]);
-            // Nearest among the kept links that face the same way (a sharp edge's other face
-            // group, at the same position, has other light); any kept link if none does.
-            let near = |k: &(u32, f64)| {
-                let facing = mesh.normals[k.0 as usize].dot(n) >= crate::mesh::SHARP_EDGE_COS;
-                (!facing, mesh.positions[k.0 as usize].distance_squared(p))
-            };
-            if let Some(k) = weights.iter_mut().min_by(|a, b| {
-                let (a, b) = (near(a), near(b));
-                a.0.cmp(&b.0).then(a.1.total_cmp(&b.1))
-            }) {
+            let p = positions[y as usize];
+            let near = |k: &(u32, f64)| positions[k.0 as usize].distance_squared(p);
+            if let Some(k) = weights
+                .iter_mut()
+                .min_by(|a, b| near(a).total_cmp(&near(b)))
+            {
                 k.1 += w;
             }
         }
@@ -293,7 +288,7 @@ impl BounceLinks {
                         }
                     }
                 }
-                let links = keep_heaviest(weights, params.max_links as usize, mesh)
+                let links = keep_heaviest(weights, params.max_links as usize, &mesh.positions)
                     .into_iter()
                     .map(|(y, w)| (y, w as f32))
                     .collect();
