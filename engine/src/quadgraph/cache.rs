@@ -34,7 +34,7 @@ use crate::mesh::{Solid, TriMesh};
 use crate::tet::TetMesh;
 
 /// Bump whenever the layout or the meaning of a field changes: old files then read as stale.
-pub const FORMAT_VERSION: u32 = 15;
+pub const FORMAT_VERSION: u32 = 14;
 const MAGIC: &[u8; 8] = b"TQGRAPH\0";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
