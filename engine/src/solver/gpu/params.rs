@@ -145,10 +145,18 @@ impl GpuSolveParams {
                 ..Transport::default()
             }
         };
+        // The beam's shape as the frame gathers it (the report's energy reads the same
+        // sources: with the curved default the transmitted input differs per channel).
+        let beam = |t: Transport| Transport {
+            continuation: self.continuation,
+            upstream_beam: self.upstream_beam,
+            curved_particular: self.curved_particular,
+            ..t
+        };
         Transport {
             surface: self.surface,
             own_visibility: self.own_visibility,
-            ..base
+            ..if self.collimated { beam(base) } else { base }
         }
     }
 }
