@@ -557,18 +557,10 @@ fn gpu_upstream_beam_matches_the_cpu_reference() {
     gpu.finish();
 }
 
-/// The curved particular solution (`Transport::curved_particular`, `render --upstream-beam
-/// curved`: irradiance factor mu_up, the narrowing in K, the lateral terms by finite differences
-/// in n.l) on the GPU against the f64 CPU's same formulas, the 3 mm marble sphere and the
-/// milk | skin1 split front-lit (c = H / sigma_t' up to 0.2, the clamp, in milk red). Bounded as
-/// [`UPSTREAM_GPU_VS_CPU`]; it must differ from wave 8's area factor by more than
-/// [`CURVED_DIFFERS`] (a GPU ignoring the option fails).
-const CURVED_DIFFERS: f64 = 0.01;
-
-#[test]
-fn gpu_curved_particular_matches_the_cpu_reference() {
+/// The curved particular solution's runs on `shape`, front-lit: the GPU's, the f64 CPU's with
+/// the same formulas, and the CPU's with wave 8's area factor (`curved_particular` false).
+fn curved_particular_runs(gpu: &GpuTest, shape: &Shape) -> Vec<BeamRun> {
     use translucent::solver::transport::Source;
-    let gpu = GpuTest::new();
     let transport = |curved_particular: bool| Transport {
         source: Source::SecondCollision,
         upstream_beam: true,
@@ -585,9 +577,21 @@ fn gpu_curved_particular_matches_the_cpu_reference() {
         curved_particular: true,
         ..Default::default()
     };
-    for (name, v, want, area) in
-        beam_variant_runs(&gpu, "dir:0.5,-1,-0.5:4,4,4", transport, &params)
-    {
+    beam_variant_runs_on(gpu, shape, "dir:0.5,-1,-0.5:4,4,4", transport, &params)
+}
+
+/// The curved particular solution (`Transport::curved_particular`, `render --upstream-beam
+/// curved`: irradiance factor mu_up, the narrowing in K, the lateral terms by finite differences
+/// in n.l) on the GPU against the f64 CPU's same formulas, the 3 mm marble sphere and the
+/// milk | skin1 split front-lit (c = H / sigma_t' up to 0.2, the clamp, in milk red). Bounded as
+/// [`UPSTREAM_GPU_VS_CPU`]; it must differ from wave 8's area factor by more than
+/// [`CURVED_DIFFERS`] (a GPU ignoring the option fails).
+const CURVED_DIFFERS: f64 = 0.01;
+
+#[test]
+fn gpu_curved_particular_matches_the_cpu_reference() {
+    let gpu = GpuTest::new();
+    for (name, v, want, area) in curved_particular_runs(&gpu, &Shape::Sphere { radius: 3.0 }) {
         let err = rel_rms(&v, &want);
         let apart = rel_rms(&v, &area);
         println!("curved particular, {name}: GPU vs CPU {err:.2e}, vs the area factor {apart:.3}");
@@ -608,31 +612,12 @@ fn gpu_curved_particular_matches_the_cpu_reference() {
 /// an upstream-beam difference this test does not cover.
 #[test]
 fn gpu_curved_particular_on_a_torus_matches_the_cpu_reference() {
-    use translucent::solver::transport::Source;
     let gpu = GpuTest::new();
-    let transport = |curved_particular: bool| Transport {
-        source: Source::SecondCollision,
-        upstream_beam: true,
-        curved_particular,
-        ..Transport::gpu_collimated()
-    };
-    let params = GpuSolveParams {
-        iterations: vec![4000],
-        tolerance: 1e-6,
-        exit: ExitQuery::Moments,
-        collimated: true,
-        second_collision: true,
-        upstream_beam: true,
-        curved_particular: true,
-        ..Default::default()
-    };
     let torus = Shape::Torus {
         major: 4.0,
         minor: 2.0,
     };
-    for (name, v, want, area) in
-        beam_variant_runs_on(&gpu, &torus, "dir:0.5,-1,-0.5:4,4,4", transport, &params)
-    {
+    for (name, v, want, area) in curved_particular_runs(&gpu, &torus) {
         let err = rel_rms(&v, &want);
         let apart = rel_rms(&v, &area);
         println!("curved particular on a torus, {name}: GPU vs CPU {err:.2e}, vs the area factor {apart:.3}");
