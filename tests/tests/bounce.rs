@@ -656,24 +656,7 @@ fn the_bounce_source_adds_the_f64_node_sources_and_carries_light_inside() {
     });
     let links = BounceLinks::build(&torus.surface, &BounceParams::default()).expect("links");
     let object = |mode: BounceMode| {
-        let mut object = TranslucentObject::new(
-            &gpu.ctx,
-            std::sync::Arc::new(torus.clone()),
-            &field,
-            &scene(),
-            &ObjectParams {
-                single_scattering: None,
-                diffusion: field.diffusion(),
-                bounce: mode,
-                ..ObjectParams::default()
-            },
-        )
-        .expect("object");
-        if mode != BounceMode::Off {
-            object
-                .set_bounce(&gpu.ctx, Some(&links), &field)
-                .expect("bounce");
-        }
+        let mut object = marble_object(&gpu, &torus, &links, mode);
         let (captured, report) = render_once(&gpu.ctx, &mut object, 32, 32);
         assert!(captured
             .image
